@@ -1,0 +1,105 @@
+"""The ``ringsim`` command line (see CONTRACT.md for the commands and exit statuses).
+
+Exit status: 0 success; 2 bad input (one line on stderr naming the file and the key, no
+traceback, no output written); 1 anything else.  ``--debug`` shows tracebacks.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import traceback
+from pathlib import Path
+
+from ringsim.errors import InputError
+
+EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports usage errors as bad input (status 2) in one line."""
+
+    def error(self, message):
+        raise InputError("<command line>", self.prog, message)
+
+
+def _cmd_epsilon(args) -> int:
+    from ringsim.plots import paper_curves, plot_epsilon_curves
+
+    curves = paper_curves()
+    if args.plot and Path(args.plot).suffix.lower() != ".png":
+        raise InputError(args.plot, "--plot", "the figure must be a .png file")
+    speeds_cm_s = (0.01, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0)
+    header = f"{'curve':<62}" + "".join(f"{v:>8g}" for v in speeds_cm_s)
+    print("coefficient of restitution at impact speeds [cm/s]")
+    print(header)
+    panel = None
+    for curve in curves:
+        if curve.panel != panel:
+            panel = curve.panel
+            print(f"[{panel}]")
+        idx = [int(abs(curve.v - v * 0.01).argmin()) for v in speeds_cm_s]
+        print(f"  {curve.label:<60}" + "".join(f"{curve.epsilon[i]:8.4f}" for i in idx))
+    if args.json:
+        payload = {
+            "units": {"v": "m/s", "epsilon": "dimensionless"},
+            "curves": [{"panel": c.panel, "label": c.label, "v": c.v.tolist(),
+                        "epsilon": [float(e) for e in c.epsilon]} for c in curves],
+        }
+        Path(args.json).write_text(json.dumps(payload, indent=1))
+    if args.plot:
+        path = plot_epsilon_curves(curves, args.plot)
+        print(f"wrote {path}")
+    return EXIT_OK
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="ringsim", description="Collisional N-body simulations of a "
+                     "planetary-ring patch with size- and mass-dependent restitution.")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks")
+    from ringsim import __version__
+
+    parser.add_argument("--version", action="version", version=f"ringsim {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    p = sub.add_parser("epsilon", help="epsilon(v) curves of the restitution laws "
+                       "(Dilley 1993 Figs. 1 and 5)")
+    p.add_argument("--plot", metavar="PNG", help="write the figure to this PNG file")
+    p.add_argument("--json", metavar="OUT.json", help="write the curves as JSON")
+    p.set_defaults(func=_cmd_epsilon)
+    for name, register in _EXTRA_COMMANDS:
+        register(sub.add_parser(name, **_EXTRA_HELP.get(name, {})))
+    return parser
+
+
+# Commands registered by other modules' entry points (filled in below).
+_EXTRA_COMMANDS: list = []
+_EXTRA_HELP: dict = {}
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        return int(args.func(args) or 0)
+    except InputError as exc:
+        if debug:
+            traceback.print_exc()
+        print(f"ringsim: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("ringsim: interrupted", file=sys.stderr)
+        return EXIT_FAILURE
+    except Exception as exc:  # noqa: BLE001 - the command line's last resort, status 1
+        if debug:
+            traceback.print_exc()
+        print(f"ringsim: error: {type(exc).__name__}: {exc} (rerun with --debug for a "
+              "traceback)", file=sys.stderr)
+        return EXIT_FAILURE
+
+
+if __name__ == "__main__":
+    sys.exit(main())
