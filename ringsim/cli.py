@@ -54,6 +54,20 @@ def _cmd_epsilon(args) -> int:
     return EXIT_OK
 
 
+def _cmd_run(args) -> int:
+    from ringsim.run import run
+    from ringsim.scenario import load_scenario
+
+    scenario = load_scenario(args.scenario)
+    path = run(scenario, output=args.output, force=args.force, resume=args.resume,
+               progress=not args.no_progress)
+    from ringsim.io import open_run
+
+    status = open_run(path).attrs.get("status")
+    print(f"{scenario.name}: {status}; run file {path}")
+    return EXIT_OK if status == "finished" else EXIT_FAILURE
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="ringsim", description="Collisional N-body simulations of a "
                      "planetary-ring patch with size- and mass-dependent restitution.")
@@ -68,19 +82,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", metavar="PNG", help="write the figure to this PNG file")
     p.add_argument("--json", metavar="OUT.json", help="write the curves as JSON")
     p.set_defaults(func=_cmd_epsilon)
-    for name, register in _EXTRA_COMMANDS:
-        register(sub.add_parser(name, **_EXTRA_HELP.get(name, {})))
+
+    p = sub.add_parser("run", help="run a scenario and write its HDF5 run file")
+    p.add_argument("scenario", metavar="SCENARIO.yaml")
+    p.add_argument("-o", "--output", metavar="RUN.h5", help="run file (default: the "
+                   "scenario's output.path)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing run file")
+    p.add_argument("--resume", action="store_true", help="continue a stopped run from its "
+                   "last checkpoint")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar (batch jobs)")
+    p.set_defaults(func=_cmd_run)
     return parser
-
-
-# Commands registered by other modules' entry points (filled in below).
-_EXTRA_COMMANDS: list = []
-_EXTRA_HELP: dict = {}
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    debug = "--debug" in argv
+    debug = "--debug" in argv  # accepted anywhere on the line
+    argv = [a for a in argv if a != "--debug"]
     try:
         parser = build_parser()
         args = parser.parse_args(argv)

@@ -1,0 +1,353 @@
+"""The run loop: integrate a sheet, write its HDF5 file, keep the guards, resume.
+
+Order of work at every time-series output (every ``output.timeseries_every`` orbits):
+
+1. diagnostics of the current state and the resolver's collision statistics of the
+   interval -> one row of ``/timeseries``; the statistics are reset;
+2. guards: the vertical guard enlarges the box before any particle can reach 0.4 of the
+   half z period; ``dt: auto`` re-chooses the step as the ring heats (a fixed step that
+   breaks dt << r/v is reported); deep overlaps are counted;
+3. at every ``snapshot_every`` a snapshot, at every ``checkpoint_every`` a checkpoint.
+
+Integration runs between outputs with ``exact_finish_time=0`` so the step sequence never
+depends on where outputs or restarts fall: a run resumed from its last checkpoint is
+bit-identical to one that never stopped.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import sys
+import tempfile
+import time
+import types
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import rebound
+
+from ringsim import diagnostics, io, sheet
+from ringsim.errors import InputError
+
+
+@dataclass
+class LoopState:
+    """Counters of the run loop (saved with every checkpoint)."""
+
+    rows: int = 0          # time-series rows written
+    snapshots: int = 0     # snapshots written
+    guard_events: int = 0  # guard events written
+    dt_warned: int = 0     # 1 once a fixed-dt violation has been reported
+    overlap_warned: int = 0  # 1 once deep overlaps have been reported
+
+    def as_attributes(self) -> dict:
+        return {"rows": self.rows, "snapshots": self.snapshots,
+                "guard_events": self.guard_events, "dt_warned": self.dt_warned,
+                "overlap_warned": self.overlap_warned}
+
+
+class _StopRequest:
+    """Turns SIGTERM into a clean stop at the next output (SIGINT is REBOUND's)."""
+
+    def __init__(self):
+        self.requested = False
+        self._previous = None
+
+    def __enter__(self):
+        try:
+            self._previous = signal.signal(signal.SIGTERM, self._handler)
+        except ValueError:  # not in the main thread
+            self._previous = None
+        return self
+
+    def _handler(self, signum, frame):
+        self.requested = True
+
+    def __exit__(self, *exc):
+        if self._previous is not None:
+            signal.signal(signal.SIGTERM, self._previous)
+        return False
+
+
+def _simulation_binary(sim: rebound.Simulation) -> bytes:
+    fd, name = tempfile.mkstemp(suffix=".bin")
+    os.close(fd)
+    try:
+        sim.save_to_file(name, delete_file=True)
+        return Path(name).read_bytes()
+    finally:
+        os.unlink(name)
+
+
+def _simulation_from_binary(binary: bytes) -> rebound.Simulation:
+    fd, name = tempfile.mkstemp(suffix=".bin")
+    try:
+        os.write(fd, binary)
+        os.close(fd)
+        with warnings.catch_warnings():
+            # REBOUND reminds that function pointers are not saved; the caller re-installs
+            # the resolver.
+            warnings.filterwarnings("ignore", message="You have to reset function pointers")
+            return rebound.Simulation(name)
+    finally:
+        os.unlink(name)
+
+
+def _interval_index(t: float, every: float) -> int:
+    """Index of the last output at or before time t for outputs every ``every``."""
+    return int(math.floor(t / every + 1e-9))
+
+
+class Runner:
+    """Drives one run; ``ringsim.run`` is the usual entry point."""
+
+    def __init__(self, scenario, path: Path, progress: bool):
+        self.scenario = scenario
+        self.path = path
+        self.progress = progress
+        self.orbit = scenario.orbital_period
+        self.Omega = scenario.orbital_frequency
+        out = scenario.output
+        self.ts_every = out.timeseries_every * self.orbit
+        self.snap_every = out.snapshot_every * self.orbit
+        self.ckpt_every = out.checkpoint_every * self.orbit
+        self.t_end = scenario.integration.orbits * self.orbit
+        self.state = LoopState()
+
+    # -- set-up --------------------------------------------------------------------------------
+
+    def start_new(self) -> None:
+        built = sheet.build_sheet(self.scenario)
+        self.sim, self.geometry, self.handle = built.sim, built.geometry, built.resolver
+        self.edges = built.size_bin_edges
+        attributes = dict(self.geometry.attributes())
+        attributes["name"] = self.scenario.name
+        io.create_run_file(self.path, scenario_yaml=self.scenario.yaml_text,
+                           seed=self.scenario.seed, attributes=attributes,
+                           size_bin_edges=self.edges)
+        self._output(first=True)
+
+    def start_resume(self) -> None:
+        checkpoint = io.read_checkpoint(self.path)
+        if checkpoint is None:
+            raise InputError(str(self.path), "--resume", "the file has no checkpoint to resume")
+        run = io.open_run(self.path)
+        if run.scenario.to_dict() != self.scenario.to_dict():
+            raise InputError(str(self.path), "--resume",
+                             "the scenario differs from the one the run file was made with")
+        st = checkpoint.state
+        self.state = LoopState(int(st["rows"]), int(st["snapshots"]), int(st["guard_events"]),
+                               int(st["dt_warned"]), int(st["overlap_warned"]))
+        io.truncate_to_checkpoint(self.path, self.state.rows, self.state.snapshots,
+                                  self.state.guard_events)
+        sim = _simulation_from_binary(checkpoint.binary)
+        sim.rand_seed = int(st["rand_seed"])
+        self.sim = sim
+        self.geometry = sheet.SheetGeometry(float(st["root_size"]), int(st["N_root_x"]),
+                                            int(st["N_root_y"]), int(st["N_root_z"]),
+                                            self.Omega)
+        edges = run.timeseries.get("size_bin_edges")
+        self.edges = None if edges is None else np.asarray(edges)
+        from ringsim.resolver import install_resolver
+
+        self.handle = install_resolver(sim, self.scenario.restitution_dict(),
+                                       log_capacity=self.scenario.output.log_collisions)
+        io.set_attributes(self.path, status="running")
+
+    # -- outputs -------------------------------------------------------------------------------
+
+    def _row(self, arrays: dict) -> dict:
+        g = self.geometry
+        stats = self.handle.stats()
+        summary = diagnostics.snapshot_summary(
+            arrays["x"], arrays["y"], arrays["z"], arrays["vx"], arrays["vy"], arrays["vz"],
+            arrays["radius"], arrays["mass"], self.Omega, g.Lx, g.Ly, size_bins=self.edges)
+        count = int(stats["count"])
+        row = {
+            "t": self.sim.t,
+            "orbits": self.sim.t / self.orbit,
+            "dt": self.sim.dt,
+            "collisions": count,
+            "collisions_log_n": int(self.sim.collisions_log_n),
+            "collisions_plog": float(self.sim.collisions_plog),
+            "mean_epsilon": float(stats["mean_epsilon"]) if count else float("nan"),
+            "mean_impact_speed": float(stats["mean_vn"]) if count else float("nan"),
+            "max_vertical_amplitude": sheet.max_vertical_amplitude(arrays, self.Omega),
+            "z_half_period": 0.5 * g.z_period,
+            "overlapping_pairs": sheet.count_overlaps(arrays, g),
+        }
+        for key in io.TIMESERIES_UNITS:
+            if key not in row and key in summary:
+                if key.startswith("size_bin_") and self.edges is None:
+                    continue
+                row[key] = summary[key]
+        return row
+
+    def _guard_event(self, message: str, show: bool = True) -> None:
+        """Record a guard's action in the file; show it on screen unless ``show`` is False."""
+        io.append_guard_event(self.path, self.sim.t, self.sim.t / self.orbit, message)
+        self.state.guard_events += 1
+        if show:
+            from tqdm import tqdm
+
+            tqdm.write(f"ringsim: {message}", file=sys.stderr)
+
+    def _guards(self, arrays: dict, overlapping_pairs: int) -> None:
+        g = self.geometry
+        if overlapping_pairs and not self.state.overlap_warned:
+            self.state.overlap_warned = 1
+            self._guard_event(f"WARNING: {overlapping_pairs} pairs overlap by more than "
+                              f"{sheet.OVERLAP_REPORT_FRACTION:.0%} of the smaller radius "
+                              "(collisions missed or particles sinking into each other); "
+                              "counts per output are in /timeseries/overlapping_pairs")
+        # vertical: never let a particle's oscillation reach the periodic z boundary
+        amplitude = sheet.max_vertical_amplitude(arrays, self.Omega)
+        limit = sheet.VERTICAL_GUARD_FRACTION * 0.5 * g.z_period
+        if amplitude >= limit:
+            needed = amplitude / (sheet.VERTICAL_GUARD_FRACTION * 0.5)
+            n_root_z = max(2 * g.n_root_z, math.ceil(1.5 * needed / g.root_size))
+            new_sim, new_geometry = sheet.enlarged_copy(self.sim, g, n_root_z)
+            self.handle.reinstall(new_sim)
+            self.sim, self.geometry = new_sim, new_geometry
+            self._guard_event(f"vertical guard: largest vertical amplitude {amplitude:.4g} m "
+                              f"reached 0.4 of the half z period; box enlarged from "
+                              f"{g.n_root_z} to {n_root_z} root boxes in z "
+                              f"(period {new_geometry.z_period:.4g} m)")
+        # time step
+        integ = self.scenario.integration
+        if integ.dt == "auto":
+            dt = sheet.auto_dt(arrays, self.Omega, integ.dt_safety, current=self.sim.dt)
+            if dt != self.sim.dt:
+                self._guard_event(f"dt auto: {self.sim.dt:.6g} s -> {dt:.6g} s "
+                                  f"({dt / self.orbit:.3g} orbit)", show=False)
+                self.sim.dt = dt
+        elif not self.state.dt_warned:
+            ratio = sheet.dt_violation(arrays, self.Omega, self.sim.dt, integ.dt_safety)
+            if ratio > 1.0:
+                self.state.dt_warned = 1
+                self._guard_event(f"WARNING: fixed dt {self.sim.dt:.4g} s lets particles move "
+                                  f"{ratio:.3g} x {integ.dt_safety} of the smallest radius per "
+                                  "step; end-of-step collision detection may miss collisions "
+                                  "(use dt: auto or collision_detection: line)")
+
+    def _output(self, first: bool = False) -> None:
+        arrays = sheet.particle_arrays(self.sim)
+        row = self._row(arrays)
+        io.append_timeseries(self.path, row)
+        self.state.rows += 1
+        self.handle.reset_stats()
+        if not first:
+            self._guards(arrays, row["overlapping_pairs"])
+            arrays = sheet.particle_arrays(self.sim)
+        t = self.sim.t
+        if first or _interval_index(t, self.snap_every) >= self.state.snapshots:
+            io.write_snapshot(self.path, self.state.snapshots, t, arrays)
+            self.state.snapshots += 1
+        if first or _interval_index(t, self.ckpt_every) > _interval_index(
+                t - self.ts_every, self.ckpt_every):
+            self.checkpoint()
+
+    def checkpoint(self) -> None:
+        state = self.state.as_attributes()
+        state.update(self.geometry.attributes())
+        state["rand_seed"] = int(self.sim.rand_seed)
+        state["t"] = float(self.sim.t)
+        io.write_checkpoint(self.path, _simulation_binary(self.sim), state)
+
+    # -- the loop ------------------------------------------------------------------------------
+
+    def loop(self) -> str:
+        bar = _progress_bar(self.scenario, self.sim.t / self.orbit) if self.progress else None
+        wall0, coll0 = time.perf_counter(), int(self.sim.collisions_log_n)
+        status = "finished"
+        try:
+            with _StopRequest() as stop:
+                while self.sim.t < self.t_end * (1 - 1e-12):
+                    t_next = min(self.state.rows * self.ts_every, self.t_end)
+                    t_next = max(t_next, self.sim.t)
+                    self.sim.integrate(t_next, exact_finish_time=0)
+                    self._output()
+                    if bar is not None:
+                        bar.update(min(self.sim.t / self.orbit, bar.total) - bar.n)
+                        elapsed = time.perf_counter() - wall0
+                        rate = (int(self.sim.collisions_log_n) - coll0) / max(elapsed, 1e-9)
+                        bar.set_postfix_str(f"{rate:,.0f} coll/s, dt={self.sim.dt:.3g} s")
+                    if stop.requested:
+                        status = "stopped"
+                        break
+        except KeyboardInterrupt:
+            status = "stopped"
+        finally:
+            if bar is not None:
+                bar.close()
+        if status == "stopped":
+            self.checkpoint()
+        io.set_attributes(self.path, status=status)
+        return status
+
+
+def _progress_bar(scenario, done_orbits: float):
+    from tqdm import tqdm
+
+    return tqdm(total=scenario.integration.orbits, initial=done_orbits, unit="orbit",
+                mininterval=0.5, desc=scenario.name, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
+                "{n:.2f}/{total:g} orbits [{elapsed}<{remaining}{postfix}]")
+
+
+def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
+        resume: bool = False, progress: bool = True) -> Path:
+    """Run a scenario and write its HDF5 run file; returns the file's path.
+
+    Parameters
+    ----------
+    scenario : Scenario (``ringsim.load_scenario``)
+    output : path, optional
+        Run file; default the scenario's ``output.path``.
+    force : bool
+        Overwrite an existing file.
+    resume : bool
+        Continue the file's run from its last checkpoint (bit-identical to an uninterrupted
+        run).
+    progress : bool
+        Show a progress bar.
+
+    Raises
+    ------
+    InputError
+        The file exists (without ``force``), or there is nothing to resume.
+    """
+    path = Path(output if output is not None else scenario.output.path)
+    runner = Runner(scenario, path, progress)
+    if resume:
+        if not path.exists():
+            raise InputError(str(path), "--resume", "no run file to resume")
+        runner.start_resume()
+    else:
+        if path.exists() and not force:
+            raise InputError(str(path), "output", "file exists; use --force to overwrite "
+                             "or --resume to continue it")
+        runner.start_new()
+    status = runner.loop()
+    if status == "stopped":
+        print(f"ringsim: stopped at orbit {runner.sim.t / runner.orbit:.3f}; checkpoint "
+              f"written to {path}; continue with --resume")
+    return path
+
+
+class _CallableModule(types.ModuleType):
+    """``ringsim.run`` is both this module and the function :func:`run`.
+
+    Importing the submodule ``ringsim.run`` binds the module to the package attribute
+    ``ringsim.run``; making the module callable keeps ``ringsim.run(scenario, ...)`` (the
+    contract's API) working whatever was imported first.
+    """
+
+    def __call__(self, *args, **kwargs):
+        return run(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule

@@ -1,0 +1,210 @@
+"""`ringsim run`: reproducibility, bit-exact resume, guards, bad input and the bundled scenarios."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+import yaml
+
+import ringsim
+from ringsim.cli import main
+from ringsim.scenario import load_scenario, scenario_from_dict, with_overrides
+
+SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
+
+
+def small_scenario(**overrides):
+    """A 150-particle sheet of 1-2 m particles, Dilley kappa = 0.1, 0.6 orbit."""
+    base = {
+        "name": "small",
+        "seed": 7,
+        "planet": {"Omega": 2.0e-4},
+        "particles": {"density": 900.0, "size_distribution": {
+            "kind": "powerlaw", "q": 3.0, "r_min": 1.0, "r_max": 2.0}},
+        "sheet": {"optical_depth": 0.25, "n_particles": 150, "aspect": 1.0, "gravity": False},
+        "restitution": {"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.1},
+        "integration": {"orbits": 0.6, "dt": "auto", "collision_detection": "tree"},
+        "output": {"path": "runs/small.h5", "timeseries_every": 0.05, "snapshot_every": 0.2},
+    }
+    sc = scenario_from_dict(base, source="<test>")
+    return with_overrides(sc, overrides) if overrides else sc
+
+
+def datasets(path):
+    """Every dataset of a run file as bytes, but the checkpoint (REBOUND's binary stores
+    wall-clock timings)."""
+    out = {}
+    with h5py.File(path, "r") as f:
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset) and name != "checkpoint":
+                data = obj[...]
+                out[name] = repr(data.tolist()) if data.dtype.kind == "O" else data.tobytes()
+        f.visititems(visit)
+    return out
+
+
+def test_same_scenario_twice_gives_identical_files(tmp_path):
+    sc = small_scenario()
+    a = ringsim.run(sc, output=tmp_path / "a.h5", progress=False)
+    b = ringsim.run(sc, output=tmp_path / "b.h5", progress=False)
+    da, db = datasets(a), datasets(b)
+    assert da.keys() == db.keys()
+    for name in da:
+        assert da[name] == db[name], f"dataset {name} differs between identical runs"
+    run = ringsim.open_run(a)
+    assert run.timeseries["collisions"].sum() > 0, "collisions happened"
+    assert run.n_snapshots == 4  # t = 0, 0.2, 0.4, 0.6 orbits
+    with h5py.File(a, "r") as f:
+        assert f.attrs["units"] == "SI" and f.attrs["seed"] == 7
+        assert "name: small" in f.attrs["scenario_yaml"]
+        for name, ds in f["timeseries"].items():
+            assert "units" in ds.attrs, f"/timeseries/{name} has no units"
+        for field in ("x", "vx", "radius", "mass"):
+            assert f["snapshots/000000"][field].attrs["units"] in ("m", "m/s", "kg")
+
+
+def test_different_seed_gives_different_run(tmp_path):
+    a = ringsim.run(small_scenario(**{"integration.orbits": 0.1}), output=tmp_path / "a.h5",
+                    progress=False)
+    b = ringsim.run(small_scenario(**{"integration.orbits": 0.1, "seed": 8}),
+                    output=tmp_path / "b.h5", progress=False)
+    assert ringsim.open_run(a).snapshot(-1)["x"].tobytes() != \
+        ringsim.open_run(b).snapshot(-1)["x"].tobytes()
+
+
+def test_sigkill_then_resume_is_bit_identical(tmp_path):
+    sc = small_scenario(**{"integration.orbits": 1.2, "output.snapshot_every": 0.2,
+                           "sheet.n_particles": 300})
+    scenario_file = tmp_path / "s.yaml"
+    scenario_file.write_text(sc.to_yaml())
+    reference = ringsim.run(load_scenario(scenario_file), output=tmp_path / "ref.h5",
+                            progress=False)
+
+    killed = tmp_path / "killed.h5"
+    env = dict(os.environ, HDF5_USE_FILE_LOCKING="FALSE")
+    proc = subprocess.Popen([sys.executable, "-m", "ringsim.cli", "run", str(scenario_file),
+                             "-o", str(killed), "--no-progress"], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.time() + 120
+    checkpoint_rows = 0
+    while time.time() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+        try:
+            with h5py.File(killed, "r", locking=False) as f:
+                if "checkpoint" in f:
+                    checkpoint_rows = int(f["checkpoint"].attrs["rows"])
+        except (OSError, KeyError):
+            continue
+        if checkpoint_rows >= 6:  # past the 0.2-orbit checkpoint, before the end
+            break
+    assert proc.poll() is None, "the run finished before it could be killed"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert 6 <= checkpoint_rows < 24
+
+    assert main(["run", str(scenario_file), "-o", str(killed), "--resume",
+                 "--no-progress"]) == 0
+    ref, res = ringsim.open_run(reference), ringsim.open_run(killed)
+    assert res.n_snapshots == ref.n_snapshots
+    for i in range(ref.n_snapshots):
+        a, b = ref.snapshot(i), res.snapshot(i)
+        for field in ("x", "y", "z", "vx", "vy", "vz"):
+            assert np.array_equal(a[field], b[field]), f"snapshot {i} {field} differs"
+    for name, series in ref.timeseries.items():
+        assert np.array_equal(series, res.timeseries[name], equal_nan=True), name
+
+
+def test_hot_ring_never_wraps_in_z(tmp_path):
+    """Nearly elastic collisions heat the ring; the vertical guard must enlarge the box."""
+    sc = small_scenario(**{"restitution": {"model": "constant", "epsilon": 0.95},
+                           "sheet.initial_dispersion": 20.0, "sheet.z_box": 30.0,
+                           "integration.orbits": 1.0, "sheet.n_particles": 200})
+    path = ringsim.run(sc, output=tmp_path / "hot.h5", progress=False)
+    run = ringsim.open_run(path)
+    ts = run.timeseries
+    assert any("vertical guard" in m for _, m in run.guard_events), "the guard acted"
+    assert ts["z_half_period"][-1] > ts["z_half_period"][0], "the box was enlarged"
+    # at every output every particle's vertical amplitude was inside the (old) box
+    assert np.all(ts["max_vertical_amplitude"] < ts["z_half_period"]), "no particle wrapped"
+    for i in range(run.n_snapshots):
+        z = run.snapshot(i)["z"]
+        assert np.all(np.abs(z) < 0.5 * ts["z_half_period"].max())
+
+
+def test_fixed_dt_violation_is_reported(tmp_path):
+    sc = small_scenario(**{"integration.dt": 1.0e-3, "sheet.initial_dispersion": 50.0,
+                           "integration.orbits": 0.1})
+    run = ringsim.open_run(ringsim.run(sc, output=tmp_path / "w.h5", progress=False))
+    assert any("WARNING: fixed dt" in m for _, m in run.guard_events)
+
+
+def test_refuses_to_overwrite_without_force(tmp_path, capsys):
+    scenario_file = tmp_path / "s.yaml"
+    scenario_file.write_text(small_scenario(**{"integration.orbits": 0.05}).to_yaml())
+    out = tmp_path / "out.h5"
+    out.write_bytes(b"precious")
+    assert main(["run", str(scenario_file), "-o", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(out) in err[0] and "--force" in err[0]
+    assert out.read_bytes() == b"precious"
+    assert main(["run", str(scenario_file), "-o", str(out), "--no-progress", "--force"]) == 0
+    assert h5py.is_hdf5(out)
+
+
+def _broken(mutate):
+    """YAML text of the small scenario with one thing broken by ``mutate(dict)``."""
+    d = small_scenario().to_dict()
+    mutate(d)
+    return yaml.safe_dump(d)
+
+
+@pytest.mark.parametrize("text, key", [
+    (_broken(lambda d: d.pop("name")), "name"),
+    (_broken(lambda d: d.update(colour="red")), "colour"),
+    (_broken(lambda d: d["particles"].update(size_distribution={"kind": "monodisperse",
+                                                                "radius": -1.0})),
+     "particles.size_distribution.radius"),
+    (_broken(lambda d: d["particles"]["size_distribution"].update(r_min=5.0, r_max=1.0)),
+     "particles.size_distribution.r_m"),
+    (_broken(lambda d: d["sheet"].update(optical_depth=0.0)), "sheet.optical_depth"),
+    (_broken(lambda d: d["restitution"].update(kappa="abc")), "restitution.kappa"),
+    ("name: x\nseed: [1\n", "<yaml>"),
+], ids=["missing-name", "unknown-key", "negative-radius", "rmin>rmax", "tau=0",
+        "kappa-not-number", "bad-yaml"])
+def test_bad_scenarios_exit_2_with_one_line(tmp_path, capsys, text, key):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text)
+    out = tmp_path / "never.h5"
+    assert main(["run", str(bad), "-o", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and str(bad) in lines[0] and key in lines[0], lines
+    assert not out.exists(), "no output file for bad input"
+
+
+def test_missing_scenario_file_exits_2(tmp_path, capsys):
+    assert main(["run", str(tmp_path / "nope.yaml"), "--no-progress"]) == 2
+    assert "nope.yaml" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("scenario_file", sorted(SCENARIOS.glob("*.yaml")),
+                         ids=lambda p: p.name)
+def test_bundled_scenarios_smoke(tmp_path, scenario_file):
+    """Every bundled scenario runs at tiny size (60 particles, 0.05 orbit)."""
+    try:
+        sc = load_scenario(scenario_file)
+    except ringsim.ScenarioError:
+        pytest.skip("not a scenario (a sweep file)")
+    tiny = with_overrides(sc, {"sheet.n_particles": 60, "integration.orbits": 0.05,
+                               "output.timeseries_every": 0.025,
+                               "output.snapshot_every": 0.05})
+    run = ringsim.open_run(ringsim.run(tiny, output=tmp_path / "t.h5", progress=False))
+    assert run.n_snapshots == 2
+    assert np.all(np.isfinite(run.timeseries["velocity_dispersion"]))
