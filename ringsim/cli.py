@@ -68,6 +68,58 @@ def _cmd_run(args) -> int:
     return EXIT_OK if status == "finished" else EXIT_FAILURE
 
 
+def _open_runs(paths: list[str]):
+    from ringsim.io import open_run
+
+    runs = []
+    for path in paths:
+        if not Path(path).is_file():
+            raise InputError(path, "RUN.h5", "no such file")
+        try:
+            runs.append(open_run(path))
+        except (OSError, KeyError) as exc:
+            raise InputError(path, "RUN.h5", f"not a ringsim run file ({exc})") from exc
+    return runs
+
+
+def _write_json(path: str, payload) -> None:
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    Path(path).write_text(json.dumps(payload, indent=2, allow_nan=True) + "\n")
+
+
+def _cmd_analyze(args) -> int:
+    from ringsim.compare import equilibrium, equilibrium_table
+
+    (run,) = _open_runs([args.run])
+    eq = equilibrium(run)
+    print(equilibrium_table(eq))
+    if args.json:
+        _write_json(args.json, eq)
+    if args.plots:
+        from ringsim.plots import plot_run
+
+        for path in plot_run(run, eq, args.plots):
+            print(f"wrote {path}")
+    return EXIT_OK
+
+
+def _cmd_compare(args) -> int:
+    from ringsim.compare import comparison, comparison_table, equilibrium
+
+    runs = _open_runs(args.runs)
+    equilibria = [equilibrium(run) for run in runs]
+    comp = comparison(equilibria)
+    print(comparison_table(comp))
+    if args.json:
+        _write_json(args.json, comp)
+    if args.plots:
+        from ringsim.plots import plot_comparison
+
+        for path in plot_comparison(runs, equilibria, args.plots):
+            print(f"wrote {path}")
+    return EXIT_OK
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="ringsim", description="Collisional N-body simulations of a "
                      "planetary-ring patch with size- and mass-dependent restitution.")
@@ -92,6 +144,18 @@ def build_parser() -> argparse.ArgumentParser:
                    "last checkpoint")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (batch jobs)")
     p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("analyze", help="equilibrium table of one run")
+    p.add_argument("run", metavar="RUN.h5")
+    p.add_argument("--json", metavar="OUT.json", help="write the equilibrium as JSON")
+    p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
+    p.set_defaults(func=_cmd_analyze)
+
+    p = sub.add_parser("compare", help="side-by-side equilibria with ratios")
+    p.add_argument("runs", metavar="RUN.h5", nargs="+")
+    p.add_argument("--json", metavar="OUT.json", help="write the comparison as JSON")
+    p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
+    p.set_defaults(func=_cmd_compare)
     return parser
 
 

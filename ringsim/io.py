@@ -50,7 +50,7 @@ TIMESERIES_UNITS = {
     "optical_depth": "dimensionless",
     "collisions": "count",
     "collisions_log_n": "count",
-    "collisions_plog": "kg m/s",
+    "collisions_plog": "kg m^2/s",
     "mean_epsilon": "dimensionless",
     "mean_impact_speed": "m/s",
     "translational_viscosity": "m^2/s",
@@ -60,6 +60,14 @@ TIMESERIES_UNITS = {
     "size_bin_velocity_dispersion": "m/s",
     "size_bin_thickness": "m",
     "size_bin_n": "count",
+    "one_minus_epsilon_histogram": "count",
+    "impact_speed_histogram": "count",
+}
+
+#: Bin edges stored beside the histogram time series: name -> (edges dataset, units).
+HISTOGRAM_EDGES = {
+    "one_minus_epsilon_histogram": ("one_minus_epsilon_bin_edges", "dimensionless"),
+    "impact_speed_histogram": ("impact_speed_bin_edges", "m/s"),
 }
 
 
@@ -73,7 +81,8 @@ def _utc_now() -> str:
 
 
 def create_run_file(path: str | Path, *, scenario_yaml: str, seed: int,
-                    attributes: Mapping[str, object], size_bin_edges: np.ndarray | None) -> Path:
+                    attributes: Mapping[str, object], size_bin_edges: np.ndarray | None,
+                    histogram_edges: Mapping[str, np.ndarray]) -> Path:
     """Create a new, empty run file (overwriting ``path``).
 
     Parameters
@@ -87,6 +96,8 @@ def create_run_file(path: str | Path, *, scenario_yaml: str, seed: int,
         ...).  Numbers only or strings.
     size_bin_edges : array [m] or None
         Edges of the radius bins of the per-size-bin time series.
+    histogram_edges : mapping
+        Bin edges of each histogram time series (keys of :data:`HISTOGRAM_EDGES`).
     """
     import rebound
 
@@ -108,6 +119,9 @@ def create_run_file(path: str | Path, *, scenario_yaml: str, seed: int,
         if size_bin_edges is not None:
             edges = ts.create_dataset("size_bin_edges", data=np.asarray(size_bin_edges, float))
             edges.attrs["units"] = "m"
+        for name, edges in histogram_edges.items():
+            dataset, units = HISTOGRAM_EDGES[name]
+            ts.create_dataset(dataset, data=np.asarray(edges, float)).attrs["units"] = units
         f.create_group("snapshots")
         guards = f.create_group("guards")
         for name, dtype in (("t", "f8"), ("orbits", "f8")):

@@ -134,3 +134,138 @@ def plot_epsilon_curves(curves: list[Curve], path: str | Path) -> Path:
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+# --- run and comparison figures ----------------------------------------------------------------
+
+def _save(fig, path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return path
+
+
+def _timeseries_axes(plt, runs, equilibria, title: str):
+    fig, (ax_c, ax_h) = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
+    for run, eq in zip(runs, equilibria, strict=True):
+        ts = run.timeseries
+        r_omega = eq["mean_radius"] * run.scenario.orbital_frequency
+        (line,) = ax_c.plot(ts["orbits"], ts["velocity_dispersion"] / r_omega, label=eq["name"])
+        ax_h.plot(ts["orbits"], ts["thickness"] / eq["mean_radius"], color=line.get_color(),
+                  label=eq["name"])
+        start = eq["equilibrium_from_orbit"]["mean"]
+        for ax, key, scale in ((ax_c, "velocity_dispersion", r_omega),
+                               (ax_h, "thickness", eq["mean_radius"])):
+            ax.axvspan(start, ts["orbits"][-1], color=line.get_color(), alpha=0.08)
+            m = eq[key]["mean"] / scale
+            ax.axhline(m, color=line.get_color(), linestyle="--", linewidth=0.8)
+    ax_c.set_ylabel("velocity dispersion c / (<r> Ω)")
+    ax_h.set_ylabel("thickness H / <r>  (rms z)")
+    ax_h.set_xlabel("time [orbits]")
+    ax_c.set_title(title + "  (shaded: equilibrium window; dashed: its mean)", fontsize=10)
+    for ax in (ax_c, ax_h):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    return fig
+
+
+def _size_bin_figure(plt, equilibria):
+    fig, (ax_c, ax_h) = plt.subplots(1, 2, figsize=(11, 4.5))
+    for eq in equilibria:
+        bins = eq["per_size_bin"]
+        if not bins:
+            continue
+        r_mid = np.array([np.sqrt(b["r_low"] * b["r_high"]) for b in bins])
+        for ax, key, scale in ((ax_c, "velocity_dispersion", 1e3), (ax_h, "thickness", 1.0)):
+            mean = np.array([b[key]["mean"] for b in bins]) * scale
+            err = np.array([b[key]["stderr"] for b in bins]) * scale
+            ax.errorbar(r_mid, mean, yerr=err, marker="o", capsize=3, label=eq["name"])
+    ax_c.set_ylabel("velocity dispersion c [mm/s]")
+    ax_h.set_ylabel("thickness H (rms z) [m]")
+    for ax in (ax_c, ax_h):
+        ax.set_xscale("log")
+        ax.set_xlabel("particle radius [m]")
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=8)
+    fig.suptitle("Equilibrium per size bin (error bars: standard errors)")
+    return fig
+
+
+def _epsilon_histogram_figure(plt, runs, equilibria):
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    for run, eq in zip(runs, equilibria, strict=True):
+        ts = run.timeseries
+        if "one_minus_epsilon_histogram" not in ts:
+            continue
+        orbits = ts["orbits"]
+        window = orbits >= eq["equilibrium_from_orbit"]["mean"]
+        counts = ts["one_minus_epsilon_histogram"][window].sum(axis=0)
+        edges = ts["one_minus_epsilon_bin_edges"]
+        if counts.sum() == 0:
+            continue
+        # bins of 1 - eps, reversed so that epsilon increases along the axis
+        ax.stairs(counts[::-1] / counts.sum(), (1.0 - edges)[::-1], label=eq["name"])
+    ax.set_xlabel("applied coefficient of restitution ε")
+    ax.set_ylabel("fraction of collisions in the equilibrium window")
+    ax.set_title("Distribution of ε (bins logarithmic in 1 - ε; left bin: 1 - ε < 1e-4)",
+                 fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return fig
+
+
+def _snapshot_figure(plt, run, name: str):
+    from matplotlib.collections import EllipseCollection
+
+    snap = run.snapshot(-1)
+    Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
+    fig, (ax_xy, ax_xz) = plt.subplots(2, 1, figsize=(8, 10),
+                                       gridspec_kw={"height_ratios": [Ly, max(Ly / 3, 1.0)]})
+    d = 2 * snap["radius"]
+    for ax, horizontal, vertical in ((ax_xy, "x", "y"), (ax_xz, "x", "z")):
+        coll = EllipseCollection(d, d, np.zeros_like(d), units="xy",
+                                 offsets=np.column_stack([snap[horizontal], snap[vertical]]),
+                                 offset_transform=ax.transData, facecolors="tab:blue",
+                                 edgecolors="k", linewidths=0.2, alpha=0.7)
+        ax.add_collection(coll)
+        ax.set_aspect("equal")
+        ax.set_xlim(-Lx / 2, Lx / 2)
+        ax.set_xlabel("x (radial) [m]")
+        ax.set_ylabel(f"{vertical} ({'azimuthal' if vertical == 'y' else 'vertical'}) [m]")
+    ax_xy.set_ylim(-Ly / 2, Ly / 2)
+    zmax = max(float(np.max(np.abs(snap["z"]) + snap["radius"])), 3 * float(d.max()))
+    ax_xz.set_ylim(-zmax, zmax)
+    ax_xy.set_title(f"{name}: last snapshot at {snap['t'] / run.scenario.orbital_period:.3g} "
+                    "orbits, drawn to scale", fontsize=10)
+    return fig
+
+
+def plot_run(run, eq: dict, directory: str | Path) -> list[Path]:
+    """Figures of one run (``ringsim analyze --plots DIR``); returns the PNG paths."""
+    plt = _pyplot()
+    directory = Path(directory)
+    paths = [_save(_timeseries_axes(plt, [run], [eq], eq["name"]),
+                   directory / "timeseries.png")]
+    if eq["per_size_bin"]:
+        paths.append(_save(_size_bin_figure(plt, [eq]), directory / "size_bins.png"))
+    paths.append(_save(_epsilon_histogram_figure(plt, [run], [eq]),
+                       directory / "epsilon_histogram.png"))
+    paths.append(_save(_snapshot_figure(plt, run, eq["name"]), directory / "snapshot.png"))
+    return paths
+
+
+def plot_comparison(runs, equilibria: list[dict], directory: str | Path) -> list[Path]:
+    """Overlay figures of several runs (``ringsim compare --plots DIR``)."""
+    plt = _pyplot()
+    directory = Path(directory)
+    names = " vs ".join(eq["name"] for eq in equilibria)
+    paths = [_save(_timeseries_axes(plt, runs, equilibria, names),
+                   directory / "compare_timeseries.png")]
+    if any(eq["per_size_bin"] for eq in equilibria):
+        paths.append(_save(_size_bin_figure(plt, equilibria), directory / "compare_size_bins.png"))
+    paths.append(_save(_epsilon_histogram_figure(plt, runs, equilibria),
+                       directory / "compare_epsilon_histogram.png"))
+    return paths

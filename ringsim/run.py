@@ -97,6 +97,23 @@ def _simulation_from_binary(binary: bytes) -> rebound.Simulation:
         os.unlink(name)
 
 
+def _histogram_edges() -> dict[str, np.ndarray]:
+    """Edges of the stored histograms: the resolver's bins plus an underflow bin from 0
+    (and for speeds an overflow bin to infinity)."""
+    from ringsim.resolver import ONE_MINUS_EPSILON_BIN_EDGES, VN_BIN_EDGES
+
+    return {"one_minus_epsilon_histogram": np.concatenate([[0.0], ONE_MINUS_EPSILON_BIN_EDGES]),
+            "impact_speed_histogram": np.concatenate([[0.0], VN_BIN_EDGES, [np.inf]])}
+
+
+def _with_outer_bins(histogram: dict) -> np.ndarray:
+    """Counts with the underflow first (and the overflow last when the edges end below inf)."""
+    counts = [np.array([histogram["underflow"]]), np.asarray(histogram["counts"])]
+    if histogram["units"] == "m/s":
+        counts.append(np.array([histogram["overflow"]]))
+    return np.concatenate(counts).astype(np.int64)
+
+
 def _interval_index(t: float, every: float) -> int:
     """Index of the last output at or before time t for outputs every ``every``."""
     return int(math.floor(t / every + 1e-9))
@@ -128,7 +145,7 @@ class Runner:
         attributes["name"] = self.scenario.name
         io.create_run_file(self.path, scenario_yaml=self.scenario.yaml_text,
                            seed=self.scenario.seed, attributes=attributes,
-                           size_bin_edges=self.edges)
+                           size_bin_edges=self.edges, histogram_edges=_histogram_edges())
         self._output(first=True)
 
     def start_resume(self) -> None:
@@ -179,6 +196,9 @@ class Runner:
             "max_vertical_amplitude": sheet.max_vertical_amplitude(arrays, self.Omega),
             "z_half_period": 0.5 * g.z_period,
             "overlapping_pairs": sheet.count_overlaps(arrays, g),
+            "one_minus_epsilon_histogram": _with_outer_bins(stats["histograms"]
+                                                            ["one_minus_epsilon"]),
+            "impact_speed_histogram": _with_outer_bins(stats["histograms"]["v_n"]),
         }
         for key in io.TIMESERIES_UNITS:
             if key not in row and key in summary:

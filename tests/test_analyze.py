@@ -1,0 +1,88 @@
+"""`ringsim analyze` and `ringsim compare`: contract JSON keys, numbers that match the run."""
+
+import json
+
+import numpy as np
+import pytest
+
+import ringsim
+from ringsim.cli import main
+from ringsim.scenario import scenario_from_dict, with_overrides
+
+CONTRACT_KEYS = {"name", "velocity_dispersion", "velocity_dispersion_rOmega", "thickness",
+                 "thickness_r", "filling_factor", "collision_frequency", "mean_epsilon",
+                 "equilibrium_from_orbit", "per_size_bin"}
+
+
+@pytest.fixture(scope="module")
+def two_runs(tmp_path_factory):
+    base = scenario_from_dict({
+        "name": "k0", "seed": 3, "planet": {"Omega": 2.0e-4},
+        "particles": {"density": 900.0, "size_distribution": {
+            "kind": "powerlaw", "q": 3.0, "r_min": 1.0, "r_max": 3.0}},
+        "sheet": {"optical_depth": 0.3, "n_particles": 200},
+        "restitution": {"model": "constant", "epsilon": 0.5},
+        "integration": {"orbits": 2.0},
+        "output": {"timeseries_every": 0.02, "snapshot_every": 1.0},
+    }, source="<test>")
+    other = with_overrides(base, {"name": "k1", "restitution.epsilon": 0.3})
+    d = tmp_path_factory.mktemp("runs")
+    return [ringsim.run(sc, output=d / f"{sc.name}.h5", progress=False) for sc in (base, other)]
+
+
+def _is_number(v):
+    return set(v) == {"mean", "stderr"}
+
+
+def test_analyze_json_has_contract_keys(two_runs, tmp_path, capsys):
+    out = tmp_path / "eq.json"
+    assert main(["analyze", str(two_runs[0]), "--json", str(out), "--plots",
+                 str(tmp_path / "plots")]) == 0
+    eq = json.loads(out.read_text())
+    assert CONTRACT_KEYS <= set(eq)
+    for key in CONTRACT_KEYS - {"name", "per_size_bin"}:
+        assert _is_number(eq[key]), key
+    assert len(eq["per_size_bin"]) >= 2
+    for b in eq["per_size_bin"]:
+        assert {"r_low", "r_high", "velocity_dispersion", "thickness", "n"} <= set(b)
+    assert sum(b["n"] for b in eq["per_size_bin"]) == 200
+    for name in ("timeseries.png", "size_bins.png", "epsilon_histogram.png", "snapshot.png"):
+        assert (tmp_path / "plots" / name).stat().st_size > 5000
+    assert "velocity dispersion" in capsys.readouterr().out
+
+
+def test_equilibrium_numbers_match_the_run(two_runs):
+    run = ringsim.open_run(two_runs[0])
+    eq = ringsim.equilibrium(run)
+    ts = run.timeseries
+    window = ts["orbits"] >= eq["equilibrium_from_orbit"]["mean"]
+    c = ts["velocity_dispersion"][window]
+    assert abs(eq["velocity_dispersion"]["mean"] - c.mean()) < 1e-12 * c.mean()
+    assert eq["velocity_dispersion"]["stderr"] >= c.std() / np.sqrt(c.size) * 0.99, \
+        "autocorrelated stderr is not below the naive one"
+    r_mean = run.snapshot(0)["radius"].mean()
+    assert abs(eq["velocity_dispersion_rOmega"]["mean"]
+               - c.mean() / (r_mean * 2.0e-4)) < 1e-9
+    assert eq["mean_epsilon"]["mean"] == pytest.approx(0.5, abs=1e-12), "constant eps"
+    assert eq["collision_frequency"]["mean"] > 0
+
+
+def test_compare_ratios(two_runs, tmp_path, capsys):
+    out = tmp_path / "cmp.json"
+    assert main(["compare", *map(str, two_runs), "--json", str(out), "--plots",
+                 str(tmp_path / "p")]) == 0
+    comp = json.loads(out.read_text())
+    a, b = comp["runs"]
+    r = comp["ratios"][0]["velocity_dispersion"]
+    assert r["mean"] == pytest.approx(b["velocity_dispersion"]["mean"]
+                                      / a["velocity_dispersion"]["mean"], rel=1e-12)
+    assert r["stderr"] > 0
+    assert comp["ratios"][0]["mean_epsilon"]["mean"] == pytest.approx(0.6, rel=1e-9)
+    assert (tmp_path / "p" / "compare_timeseries.png").exists()
+    assert "ratio k1 / k0" in capsys.readouterr().out
+
+
+def test_analyze_missing_file_is_bad_input(tmp_path, capsys):
+    assert main(["analyze", str(tmp_path / "none.h5")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "none.h5" in err[0]
