@@ -120,6 +120,18 @@ def _cmd_compare(args) -> int:
     return EXIT_OK
 
 
+def _cmd_sweep(args) -> int:
+    from ringsim.sweep import sweep_command
+
+    return sweep_command(args)
+
+
+def _cmd_fit(args) -> int:
+    from ringsim.fit import fit_command
+
+    return fit_command(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="ringsim", description="Collisional N-body simulations of a "
                      "planetary-ring patch with size- and mass-dependent restitution.")
@@ -156,6 +168,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="OUT.json", help="write the comparison as JSON")
     p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
     p.set_defaults(func=_cmd_compare)
+
+    p = sub.add_parser("sweep", help="run a grid of scenarios (local processes or Dask)")
+    p.add_argument("sweep", metavar="SWEEP.yaml")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local worker processes (default: number of CPUs)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address "
+                   "(e.g. tcp://127.0.0.1:8786); needs the 'dask' extra")
+    p.add_argument("--out", metavar="DIR", help="output directory (default: "
+                   "runs/<sweep file name>)")
+    p.set_defaults(func=_cmd_sweep)
+
+    p = sub.add_parser("fit", help="fit restitution laws to measured epsilon(v, R, M)")
+    p.add_argument("data", metavar="DATA.csv")
+    p.add_argument("--model", default="dilley", help="dilley, bridges, constant, andrews, "
+                   "tabor or all (default: dilley)")
+    p.add_argument("--json", metavar="OUT.json", help="write the fit as JSON")
+    p.add_argument("--plot", metavar="PNG", help="plot data and fitted curves")
+    p.add_argument("--write-restitution", metavar="OUT.yaml",
+                   help="write the best fit as a scenario 'restitution' section")
+    p.set_defaults(func=_cmd_fit)
     return parser
 
 
