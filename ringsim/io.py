@@ -22,7 +22,7 @@ checkpoint is complete.
 from __future__ import annotations
 
 import datetime as _dt
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -134,30 +134,34 @@ def create_run_file(path: str | Path, *, scenario_yaml: str, seed: int,
     return path
 
 
-def _append(group: h5py.Group, name: str, value: np.ndarray, units: str) -> None:
-    """Append one row to a resizable dataset, creating it on first use."""
-    value = np.asarray(value)
+def _append_rows(group: h5py.Group, name: str, values: np.ndarray, units: str) -> None:
+    """Append rows (first axis) to a resizable dataset, creating it on first use."""
+    values = np.asarray(values)
+    row_shape = values.shape[1:]
     if name not in group:
-        ds = group.create_dataset(name, shape=(0,) + value.shape, maxshape=(None,) + value.shape,
-                                  dtype=value.dtype if value.dtype.kind in "iu" else "f8",
-                                  chunks=(max(1, 4096 // max(1, value.size)),) + value.shape)
+        size = int(np.prod(row_shape)) if row_shape else 1
+        ds = group.create_dataset(name, shape=(0,) + row_shape, maxshape=(None,) + row_shape,
+                                  dtype=values.dtype if values.dtype.kind in "iu" else "f8",
+                                  chunks=(max(1, 4096 // max(1, size)),) + row_shape)
         ds.attrs["units"] = units
     ds = group[name]
     n = ds.shape[0]
-    ds.resize(n + 1, axis=0)
-    ds[n] = value
+    ds.resize(n + values.shape[0], axis=0)
+    ds[n:] = values
 
 
-def append_timeseries(path: str | Path, row: Mapping[str, object]) -> int:
-    """Append one time-series row; returns the new number of rows.
+def append_timeseries(path: str | Path, rows: Sequence[Mapping[str, object]]) -> int:
+    """Append time-series rows (all with the same keys); returns the new number of rows.
 
-    Every key of ``row`` must have a unit in :data:`TIMESERIES_UNITS`.
+    Every key must have a unit in :data:`TIMESERIES_UNITS`.  The file is flushed and
+    closed before returning.
     """
     with h5py.File(path, "a") as f:
         ts = f["timeseries"]
-        for name, value in row.items():
-            _append(ts, name, np.asarray(value), units_of(name))
-        n = ts["t"].shape[0]
+        if rows:
+            for name in rows[0]:
+                _append_rows(ts, name, np.array([row[name] for row in rows]), units_of(name))
+        n = ts["t"].shape[0] if "t" in ts else 0
         f.flush()
     return n
 

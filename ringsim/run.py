@@ -73,6 +73,11 @@ class _StopRequest:
         return False
 
 
+#: Time-series rows are written at most this often [s of wall time] (and at every checkpoint
+#: and at the end), so the HDF5 cost stays small against the integration.
+WRITE_INTERVAL = 2.0
+
+
 def _simulation_binary(sim: rebound.Simulation) -> bytes:
     fd, name = tempfile.mkstemp(suffix=".bin")
     os.close(fd)
@@ -134,6 +139,8 @@ class Runner:
         self.ckpt_every = out.checkpoint_every * self.orbit
         self.t_end = scenario.integration.orbits * self.orbit
         self.state = LoopState()
+        self.pending_rows: list[dict] = []
+        self.last_write = time.perf_counter()
 
     # -- set-up --------------------------------------------------------------------------------
 
@@ -257,8 +264,10 @@ class Runner:
     def _output(self, first: bool = False) -> None:
         arrays = sheet.particle_arrays(self.sim)
         row = self._row(arrays)
-        io.append_timeseries(self.path, row)
+        self.pending_rows.append(row)
         self.state.rows += 1
+        if first or time.perf_counter() - self.last_write > WRITE_INTERVAL:
+            self.write_rows()
         self.handle.reset_stats()
         if not first:
             self._guards(arrays, row["overlapping_pairs"])
@@ -271,7 +280,14 @@ class Runner:
                 t - self.ts_every, self.ckpt_every):
             self.checkpoint()
 
+    def write_rows(self) -> None:
+        """Write the time-series rows gathered since the last write."""
+        io.append_timeseries(self.path, self.pending_rows)
+        self.pending_rows = []
+        self.last_write = time.perf_counter()
+
     def checkpoint(self) -> None:
+        self.write_rows()
         state = self.state.as_attributes()
         state.update(self.geometry.attributes())
         state["rand_seed"] = int(self.sim.rand_seed)
@@ -306,6 +322,7 @@ class Runner:
                 bar.close()
         if status == "stopped":
             self.checkpoint()
+        self.write_rows()
         io.set_attributes(self.path, status=status)
         return status
 
