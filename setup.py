@@ -20,6 +20,7 @@ setup(
             "ringsim._resolver",
             sources=["ringsim/csrc/rs_resolver.c"],
             include_dirs=[REBOUND_INCLUDE],
+            libraries=["m"],
             extra_compile_args=["-O3", "-std=c99", "-fno-fast-math", "-ffp-contract=off"],
         )
     ]

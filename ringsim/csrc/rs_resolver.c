@@ -1,0 +1,647 @@
+/**
+ * @file    rs_resolver.c
+ * @brief   Hard-sphere collision resolver for REBOUND with size-, mass- and
+ *          speed-dependent coefficients of restitution (ringsim, issue 3).
+ *
+ * Effect          inelastic normal impulse between two colliding spheres
+ * Implementation  ringsim developers
+ * Compiled for    REBOUND 5.2.2 (struct reb_simulation as in its rebound.h)
+ * Papers          Dilley, J. P. 1993, Icarus 105, 225-234 (eqs 3.2, 3.4, 4.3, 4.10,
+ *                 5.9, 5.14-5.16); Bridges, F. G., Hatzes, A. & Lin, D. N. C. 1984,
+ *                 Nature 309, 333-335.
+ *
+ * Physics
+ * -------
+ * For a pair (1, 2) with separation dr = x1 + gb - x2 and relative velocity
+ * dv = v1 + gb_v - v2 (gb is REBOUND's ghost-box offset of particle 1; in the
+ * shearing sheet gb.vy carries the shear velocity across the box) the normal impact
+ * speed is v = -dv.dr/|dr| > 0.  The pair receives the normal impulse
+ *
+ *     J = max((1 + eps) v, v_min) M_bar   along dr/|dr|,
+ *
+ * so that the normal relative velocity after the collision is -eps v (eq. 1.1 of the
+ * paper) and total momentum is conserved exactly (to round-off).  The kinetic energy
+ * lost is (1 - eps^2) M_bar v^2 / 2.  Reduced radius and mass of the pair:
+ *
+ *     R_bar = R1 R2 / (R1 + R2)                   (3.4)
+ *     M_bar = M1 M2 / (M1 + M2)                   (3.2)
+ *
+ * Restitution laws (u = v / v_c):
+ *
+ *   dilley    xi  = xi0 (R_bar/0.025 m)^-0.2 (M_bar/0.060 kg)^-kappa (v/0.01 m/s)^p
+ *                                                  (5.14)-(5.16)
+ *             eps = exp(-pi xi / sqrt(1 - xi^2)) for xi < 1, else 0      (5.9)
+ *   bridges   eps = min(1, u^-exponent)            (Bridges et al. 1984)
+ *   constant  eps = epsilon
+ *   andrews   eps^2 = [-2 + sqrt(30 u^2 - 5)] / (3 u^2) for u > 1, else 1   (4.3)
+ *   tabor     eps = u^-(1-2q) ((1 - q eps^2)/(1 - q))^q for u > 1, else 1  (4.10)
+ *             (implicit; solved by Newton's method on ln eps safeguarded by
+ *             bisection, converged to |d eps| <= 1e-15 eps, well inside 1e-13)
+ *
+ * Parameters (struct rs_resolver, one per simulation, reached through sim->extras)
+ * -------------------------------------------------------------------------------
+ * Name          C type    Model            Meaning                          Unit
+ * model         int32_t   all              RS_MODEL_* (dilley=0, bridges=1,  -
+ *                                          constant=2, andrews=3, tabor=4)
+ * param[0]      double    dilley           xi0, damping ratio at reference   -
+ * param[1]      double    dilley           p, speed exponent                 -
+ * param[2]      double    dilley           kappa, reduced-mass exponent      -
+ * param[0]      double    bridges          v_c, elastic below this speed     m/s
+ * param[1]      double    bridges          exponent of the power law         -
+ * param[0]      double    constant         epsilon                           -
+ * param[0]      double    andrews          v_c, speed of first yield         m/s
+ * param[0]      double    tabor            v_c, speed where eps = 1          m/s
+ * param[1]      double    tabor            q, hardness exponent, 0<q<1/2     -
+ * log_capacity  int64_t   all              ring-buffer length of the log     -
+ * log_every     int64_t   all              log every n-th collision          -
+ * REBOUND's own field used: minimum_collision_velocity [1/s], see below.
+ *
+ * Statistics (struct rs_stats, read by ringsim/resolver.py without callbacks)
+ * -------------------------------------------------------------------------
+ * count, n_floored (impulse raised by minimum_collision_velocity), sum of eps and of
+ * v [m/s]; histogram of v [m/s] in RS_VN_NBINS log bins from 1e-7 to 1e2 m/s
+ * (10 per decade) plus under/overflow; histogram of the dissipation 1 - eps in
+ * RS_EPS_NBINS log bins from 1e-4 to 1 (10 per decade; 1 - eps < 1e-4, including
+ * eps = 1, goes to the underflow; eps = 0 to the last bin); a ring buffer of sampled
+ * collisions (t [s], v [m/s], R_bar [m], M_bar [kg], eps).  The eps recorded is that
+ * of the law, also when minimum_collision_velocity raises the impulse.
+ *
+ * REBOUND bookkeeping, as its reb_collision_resolve_hardsphere does
+ * -------------------------------------------------------------------
+ * minimum_collision_velocity w: the separation speed after the impulse is at least
+ *     v_min = min(R_min w (1 - (|dr| - R_max)/R_min), R_max w)
+ *           = min(w (R1 + R2 - |dr|), w R_max),
+ * i.e. w [1/s] times the overlap depth, at most w times the larger radius.
+ * collisions_plog grows by -|dx| (vy_old - vy_new) m of the particle on the outer
+ * (larger x) side (dx at the contact in the line modes), and collisions_log_n by one,
+ * per resolved collision.
+ *
+ * Collision search modes
+ * ----------------------
+ * tree, direct: REBOUND reports pairs overlapping at the end of a step.  The resolver
+ *   re-checks overlap (|dr| < R1 + R2) and approach (dv.dr < 0) and does nothing
+ *   otherwise: each pair is reported twice, (i, j) and (j, i, -gb), and the second
+ *   report finds it receding.  Normal speeds below the round-off of the velocities
+ *   (64 DBL_EPSILON times the summed |components|) count as not approaching, so that
+ *   eps = 0 collisions are not resolved twice.
+ * line, linetree: REBOUND reports pairs whose straight paths over the last step came
+ *   within R1 + R2.  The resolver finds the first contact on the relative path
+ *   dr(s) = dr - s dv (s = time before the end of the step, 0 < s <= dt_last_done),
+ *   applies the impulse along the normal at contact and moves both particles by
+ *   s x (their velocity change), i.e. as if they had moved on from the contact with
+ *   their new velocities.  Pairs overlapping since before the step are resolved at the
+ *   end as in tree mode.  A pair resolved once is ignored for the rest of the step (a
+ *   per-simulation set of pairs, cleared when steps_done changes).
+ *
+ * Validity limits
+ * ---------------
+ * - tree/direct find collisions only as overlaps at the end of a step; this is accurate
+ *   only if dt << R / v_rel for all pairs.  Faster pairs tunnel through each other or
+ *   sink deep into contact.
+ * - line/linetree take paths as straight lines with the end-of-step velocities: valid
+ *   for Omega dt << 1.  Several contacts of one particle within a step are resolved
+ *   one after another in REBOUND's shuffled order, each on its own straight path.
+ * - Head-on normal impulse only: no tangential friction, no spin, no adhesion.
+ * - eps depends on the normal speed only through the laws above; the Dilley law is a
+ *   fit to 2.5-20 cm ice spheres at 0.01-5 cm/s and its size/mass scaling is a model.
+ * - Returns 0 (keep both particles) always.  If sim->extras does not point to a
+ *   resolver created here, the integration is stopped with REB_STATUS_GENERIC_ERROR.
+ *
+ * No global mutable state: every parameter and statistic lives in the per-simulation
+ * struct, so simulations with different laws can run side by side in one process.
+ */
+#include <float.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include "rebound.h"
+
+#define RS_MAGIC 0x564c4f5345525352ULL  /* "RSRESOLV" in little-endian bytes */
+
+enum RS_MODEL {
+    RS_MODEL_DILLEY = 0,
+    RS_MODEL_BRIDGES = 1,
+    RS_MODEL_CONSTANT = 2,
+    RS_MODEL_ANDREWS = 3,
+    RS_MODEL_TABOR = 4,
+};
+
+/* Reference scales of the Dilley law (eqs 5.14, 5.16 and the speed unit of 5.8). */
+#define RS_DILLEY_R_REF 0.025   /* [m] */
+#define RS_DILLEY_M_REF 0.060   /* [kg] */
+#define RS_DILLEY_V_REF 0.01    /* [m/s] */
+#define RS_DILLEY_RADIUS_EXPONENT 0.2
+#define RS_PI 3.14159265358979323846   /* M_PI is not part of C99 */
+
+/* Histogram layout (documented in ringsim/resolver.py as well). */
+#define RS_VN_NBINS 90          /* log10 v from -7 to 2, 10 bins per decade */
+#define RS_VN_LOG10_MIN (-7.0)
+#define RS_EPS_NBINS 40         /* log10(1 - eps) from -4 to 0, 10 bins per decade */
+#define RS_EPS_LOG10_MIN (-4.0)
+#define RS_BINS_PER_DECADE 10.0
+
+/* Round-off floor of the approach test, in units of the summed |velocity components|. */
+#define RS_ROUNDOFF_SPEED (64.0 * DBL_EPSILON)
+
+struct rs_log_entry {
+    double t;           /* [s] simulation time of the collision */
+    double v_n;         /* [m/s] normal impact speed */
+    double R_bar;       /* [m] reduced radius */
+    double M_bar;       /* [kg] reduced mass */
+    double epsilon;     /* coefficient of restitution of the law */
+};
+
+struct rs_stats {
+    int64_t count;                          /* resolved collisions */
+    int64_t n_floored;                      /* of which the minimum velocity raised J */
+    double sum_epsilon;
+    double sum_vn;                          /* [m/s] */
+    int64_t vn_underflow;
+    int64_t vn_overflow;
+    int64_t vn_hist[RS_VN_NBINS];
+    int64_t eps_underflow;                  /* 1 - eps < 1e-4 */
+    int64_t eps_hist[RS_EPS_NBINS];
+    int64_t log_written;                    /* entries written to the ring buffer */
+};
+
+/* Pairs resolved in the current step of the swept-path modes (open-addressing set). */
+struct rs_pair_memory {
+    const struct reb_simulation* sim;
+    uint64_t step;              /* sim->steps_done when the pairs were resolved */
+    int64_t n;
+    int64_t capacity;           /* power of two, or 0 */
+    uint64_t* keys;
+};
+
+struct rs_resolver {
+    uint64_t magic;
+    int32_t model;
+    int32_t reserved;
+    double param[3];
+    int64_t log_capacity;
+    int64_t log_every;
+    struct rs_log_entry* log;
+    struct rs_stats stats;
+    struct rs_pair_memory memory;
+};
+
+/* ---------------------------------------------------------------------------------- */
+/* Layout checks for the Python side.                                                */
+
+size_t rs_simulation_struct_size(void){
+    return sizeof(struct reb_simulation);
+}
+
+size_t rs_resolver_struct_size(void){
+    return sizeof(struct rs_resolver);
+}
+
+size_t rs_log_entry_size(void){
+    return sizeof(struct rs_log_entry);
+}
+
+int rs_histogram_bins(int which){
+    return which == 0 ? RS_VN_NBINS : RS_EPS_NBINS;
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* Restitution laws.  Arithmetic order matches ringsim/resolver.py's Python twin.     */
+
+static double rs_dilley_epsilon(double v, double R_bar, double M_bar,
+                                double xi0, double p, double kappa){
+    const double xi = xi0 * pow(R_bar / RS_DILLEY_R_REF, -RS_DILLEY_RADIUS_EXPONENT)
+                      * pow(M_bar / RS_DILLEY_M_REF, -kappa) * pow(v / RS_DILLEY_V_REF, p);
+    if (!(xi < 1.0)){
+        return 0.0;     /* critically damped or overdamped: no rebound */
+    }
+    return exp(-RS_PI * xi / sqrt(1.0 - xi * xi));
+}
+
+static double rs_bridges_epsilon(double v, double v_c, double exponent){
+    const double u = v / v_c;
+    return u > 1.0 ? pow(u, -exponent) : 1.0;
+}
+
+static double rs_andrews_epsilon(double v, double v_c){
+    const double u = v / v_c;
+    if (!(u > 1.0)){
+        return 1.0;     /* elastic below the first-yield speed */
+    }
+    const double u2 = u * u;
+    return sqrt((-2.0 + sqrt(30.0 * u2 - 5.0)) / (3.0 * u2));
+}
+
+/* Root of g(e) = ln e - ln A - q ln((1 - q e^2)/(1 - q)), A = u^-(1-2q).  g is
+ * increasing and changes sign on [A, min(1, A (1-q)^-q)]. */
+static double rs_tabor_epsilon(double v, double v_c, double q){
+    const double u = v / v_c;
+    if (!(u > 1.0)){
+        return 1.0;
+    }
+    const double amplitude = pow(u, -(1.0 - 2.0 * q));
+    const double log_amplitude = log(amplitude);
+    double lo = amplitude;
+    double hi = amplitude * pow(1.0 - q, -q);
+    if (hi > 1.0){
+        hi = 1.0;
+    }
+    double eps = 0.5 * (lo + hi);
+    for (int iteration = 0; iteration < 200; iteration++){
+        const double g = log(eps) - log_amplitude - q * log((1.0 - q * eps * eps) / (1.0 - q));
+        if (g < 0.0){
+            lo = eps;
+        }else if (g > 0.0){
+            hi = eps;
+        }else{
+            break;
+        }
+        const double dg = 1.0 / eps + 2.0 * q * q * eps / (1.0 - q * eps * eps);
+        const double newton = eps - g / dg;
+        const double next = (newton > lo && newton < hi) ? newton : 0.5 * (lo + hi);
+        const double step = fabs(next - eps);
+        eps = next;
+        if (step <= 1e-15 * eps || !(hi - lo > 1e-15 * eps)){
+            break;
+        }
+    }
+    return eps;
+}
+
+static double rs_law_epsilon(const struct rs_resolver* res, double v, double R_bar,
+                             double M_bar){
+    switch (res->model){
+        case RS_MODEL_DILLEY:
+            return rs_dilley_epsilon(v, R_bar, M_bar, res->param[0], res->param[1],
+                                     res->param[2]);
+        case RS_MODEL_BRIDGES:
+            return rs_bridges_epsilon(v, res->param[0], res->param[1]);
+        case RS_MODEL_CONSTANT:
+            return res->param[0];
+        case RS_MODEL_ANDREWS:
+            return rs_andrews_epsilon(v, res->param[0]);
+        case RS_MODEL_TABOR:
+            return rs_tabor_epsilon(v, res->param[0], res->param[1]);
+        default:
+            return 1.0;
+    }
+}
+
+/* Vectorised evaluation of the law for checks from Python: out[i] = eps(v[i], ...). */
+void rs_epsilon_array(const struct rs_resolver* res, int64_t n, const double* v,
+                      const double* R_bar, const double* M_bar, double* out){
+    for (int64_t i = 0; i < n; i++){
+        out[i] = rs_law_epsilon(res, fabs(v[i]), R_bar[i], M_bar[i]);
+    }
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* Creation, statistics, destruction.                                                 */
+
+static int rs_parameters_valid(int32_t model, const double* param){
+    for (int i = 0; i < 3; i++){
+        if (!isfinite(param[i])){
+            return 0;
+        }
+    }
+    switch (model){
+        case RS_MODEL_DILLEY:
+            return param[0] > 0.0 && param[1] > 0.0;
+        case RS_MODEL_BRIDGES:
+            return param[0] > 0.0 && param[1] > 0.0;
+        case RS_MODEL_CONSTANT:
+            return param[0] >= 0.0 && param[0] <= 1.0;
+        case RS_MODEL_ANDREWS:
+            return param[0] > 0.0;
+        case RS_MODEL_TABOR:
+            return param[0] > 0.0 && param[1] > 0.0 && param[1] < 0.5;
+        default:
+            return 0;
+    }
+}
+
+/* Returns a new resolver, or NULL for invalid parameters or failed allocation. */
+struct rs_resolver* rs_resolver_create(int32_t model, double param0, double param1,
+                                       double param2, int64_t log_capacity,
+                                       int64_t log_every){
+    const double param[3] = {param0, param1, param2};
+    if (!rs_parameters_valid(model, param) || log_capacity < 0 || log_every < 1){
+        return NULL;
+    }
+    struct rs_resolver* res = calloc(1, sizeof(struct rs_resolver));
+    if (res == NULL){
+        return NULL;
+    }
+    if (log_capacity > 0){
+        res->log = calloc((size_t)log_capacity, sizeof(struct rs_log_entry));
+        if (res->log == NULL){
+            free(res);
+            return NULL;
+        }
+    }
+    res->magic = RS_MAGIC;
+    res->model = model;
+    memcpy(res->param, param, sizeof(param));
+    res->log_capacity = log_capacity;
+    res->log_every = log_every;
+    return res;
+}
+
+void rs_resolver_reset_stats(struct rs_resolver* res){
+    memset(&res->stats, 0, sizeof(struct rs_stats));
+}
+
+void rs_resolver_free(struct rs_resolver* res){
+    if (res == NULL){
+        return;
+    }
+    res->magic = 0;     /* a stale sim->extras now fails the magic check */
+    free(res->memory.keys);
+    free(res->log);
+    free(res);
+}
+
+static struct rs_resolver* rs_resolver_of(const struct reb_simulation* r){
+    struct rs_resolver* res = (struct rs_resolver*)r->extras;
+    if (res == NULL || res->magic != RS_MAGIC){
+        return NULL;
+    }
+    return res;
+}
+
+/* A coefficient_of_restitution callback for REBOUND's own hard-sphere resolver that
+ * returns this simulation's constant epsilon (1 for other laws).  Used in tests to
+ * give the built-in resolver the same eps. */
+double rs_constant_epsilon_cor(const struct reb_simulation* const r, double v){
+    (void)v;
+    const struct rs_resolver* res = rs_resolver_of(r);
+    if (res == NULL || res->model != RS_MODEL_CONSTANT){
+        return 1.0;
+    }
+    return res->param[0];
+}
+
+static void rs_record(struct rs_resolver* res, double t, double v_n, double R_bar,
+                      double M_bar, double eps, int floored){
+    struct rs_stats* s = &res->stats;
+    const int64_t index = s->count;
+    s->count++;
+    s->n_floored += floored;
+    s->sum_epsilon += eps;
+    s->sum_vn += v_n;
+
+    if (v_n > 0.0){
+        const double bin = floor((log10(v_n) - RS_VN_LOG10_MIN) * RS_BINS_PER_DECADE);
+        if (bin < 0.0){
+            s->vn_underflow++;
+        }else if (bin >= RS_VN_NBINS){
+            s->vn_overflow++;
+        }else{
+            s->vn_hist[(int)bin]++;
+        }
+    }else{
+        s->vn_underflow++;
+    }
+
+    const double dissipation = 1.0 - eps;
+    if (!(dissipation >= 1e-4)){
+        s->eps_underflow++;
+    }else{
+        double bin = floor((log10(dissipation) - RS_EPS_LOG10_MIN) * RS_BINS_PER_DECADE);
+        if (bin >= RS_EPS_NBINS){
+            bin = RS_EPS_NBINS - 1;     /* eps = 0 sits on the upper edge */
+        }
+        if (bin < 0.0){
+            bin = 0.0;                  /* 1 - eps = 1e-4 up to round-off of log10 */
+        }
+        s->eps_hist[(int)bin]++;
+    }
+
+    if (res->log_capacity > 0 && index % res->log_every == 0){
+        struct rs_log_entry* e = &res->log[s->log_written % res->log_capacity];
+        e->t = t;
+        e->v_n = v_n;
+        e->R_bar = R_bar;
+        e->M_bar = M_bar;
+        e->epsilon = eps;
+        s->log_written++;
+    }
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* Pairs resolved in the current step (swept-path modes only).                        */
+
+static uint64_t rs_pair_key(size_t i, size_t j){
+    const uint64_t lo = (uint64_t)(i < j ? i : j);
+    const uint64_t hi = (uint64_t)(i < j ? j : i);
+    return ((hi << 32) | lo) + 1;   /* 0 marks an empty slot */
+}
+
+static size_t rs_pair_slot(const struct rs_pair_memory* m, uint64_t key){
+    /* Fibonacci hashing into a power-of-two table, linear probing. */
+    size_t slot = (size_t)((key * 0x9E3779B97F4A7C15ULL) >> 32) & (size_t)(m->capacity - 1);
+    while (m->keys[slot] != 0 && m->keys[slot] != key){
+        slot = (slot + 1) & (size_t)(m->capacity - 1);
+    }
+    return slot;
+}
+
+/* Forget the pairs of earlier steps or of another simulation. */
+static void rs_pair_memory_sync(struct rs_pair_memory* m, const struct reb_simulation* r){
+    if (m->sim != r || m->step != r->steps_done){
+        if (m->n > 0){
+            memset(m->keys, 0, (size_t)m->capacity * sizeof(uint64_t));
+        }
+        m->n = 0;
+        m->sim = r;
+        m->step = r->steps_done;
+    }
+}
+
+static int rs_pair_memory_contains(const struct rs_pair_memory* m, uint64_t key){
+    return m->capacity > 0 && m->keys[rs_pair_slot(m, key)] == key;
+}
+
+/* Returns 0 if memory ran out. */
+static int rs_pair_memory_insert(struct rs_pair_memory* m, uint64_t key){
+    if (2 * (m->n + 1) > m->capacity){
+        const int64_t capacity = m->capacity ? 2 * m->capacity : 64;
+        uint64_t* keys = calloc((size_t)capacity, sizeof(uint64_t));
+        if (keys == NULL){
+            return 0;
+        }
+        uint64_t* old = m->keys;
+        const int64_t old_capacity = m->capacity;
+        m->keys = keys;
+        m->capacity = capacity;
+        for (int64_t k = 0; k < old_capacity; k++){
+            if (old[k] != 0){
+                m->keys[rs_pair_slot(m, old[k])] = old[k];
+            }
+        }
+        free(old);
+    }
+    m->keys[rs_pair_slot(m, key)] = key;
+    m->n++;
+    return 1;
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* The resolver.                                                                      */
+
+/* Contact found: dx, dy, dz and distance are the separation at the contact (end of the
+ * step, or back_time earlier on the straight relative path), dv the relative velocity.
+ * Applies the impulse; for back_time > 0 moves both particles to where the new
+ * velocities take them in the rest of the step.  Returns 1 if resolved. */
+static int rs_apply_impulse(struct reb_simulation* const r, struct rs_resolver* const res,
+                            struct reb_particle* const p1, struct reb_particle* const p2,
+                            const struct reb_vec6d gb, double dx, double dy, double dz,
+                            double distance, double dvx, double dvy, double dvz,
+                            double back_time){
+    const double v_n = (dvx * dx + dvy * dy + dvz * dz) / distance;   /* < 0: approaching */
+    const double speed_scale = fabs(p1->vx) + fabs(p1->vy) + fabs(p1->vz)
+                               + fabs(gb.vx) + fabs(gb.vy) + fabs(gb.vz)
+                               + fabs(p2->vx) + fabs(p2->vy) + fabs(p2->vz);
+    if (!(-v_n > RS_ROUNDOFF_SPEED * speed_scale)){
+        return 0;   /* receding, or a normal speed below round-off */
+    }
+    const double m1 = p1->m;
+    const double m2 = p2->m;
+    const double total_mass = m1 + m2;
+    if (!(total_mass > 0.0)){
+        return 0;   /* two massless particles: no momentum to exchange */
+    }
+    const double R_bar = p1->r * p2->r / (p1->r + p2->r);
+    const double M_bar = m1 * m2 / total_mass;
+    const double impact_speed = -v_n;
+    const double eps = rs_law_epsilon(res, impact_speed, R_bar, M_bar);
+
+    /* Separation speed after the collision, raised to REBOUND's minimum if needed. */
+    double separation_change = (1.0 + eps) * impact_speed;
+    const double r_min = (p1->r > p2->r) ? p2->r : p1->r;
+    const double r_max = (p1->r < p2->r) ? p2->r : p1->r;
+    double v_floor = r_min * r->minimum_collision_velocity;
+    v_floor *= 1.0 - (distance - r_max) / r_min;
+    if (v_floor > r_max * r->minimum_collision_velocity){
+        v_floor = r_max * r->minimum_collision_velocity;
+    }
+    int floored = 0;
+    if (separation_change < v_floor){
+        separation_change = v_floor;
+        floored = 1;
+    }
+
+    const double old_vy_outer = dx > 0.0 ? p1->vy : p2->vy;
+    const double jx = separation_change * (dx / distance);
+    const double jy = separation_change * (dy / distance);
+    const double jz = separation_change * (dz / distance);
+    const double share2 = m1 / total_mass;
+    const double share1 = m2 / total_mass;
+    p2->vx -= share2 * jx;
+    p2->vy -= share2 * jy;
+    p2->vz -= share2 * jz;
+    p1->vx += share1 * jx;
+    p1->vy += share1 * jy;
+    p1->vz += share1 * jz;
+    if (back_time > 0.0){
+        /* The new velocities act for the back_time left after the contact. */
+        p2->x -= back_time * (share2 * jx);
+        p2->y -= back_time * (share2 * jy);
+        p2->z -= back_time * (share2 * jz);
+        p1->x += back_time * (share1 * jx);
+        p1->y += back_time * (share1 * jy);
+        p1->z += back_time * (share1 * jz);
+    }
+
+    /* y-momentum flux through x (REBOUND's ring-simulation bookkeeping). */
+    if (dx > 0.0){
+        r->collisions_plog += -fabs(dx) * (old_vy_outer - p1->vy) * m1;
+    }else{
+        r->collisions_plog += -fabs(dx) * (old_vy_outer - p2->vy) * m2;
+    }
+    r->collisions_log_n++;
+
+    rs_record(res, r->t, impact_speed, R_bar, M_bar, eps, floored);
+    return 1;
+}
+
+int rs_resolve(struct reb_simulation* const r, struct reb_collision c){
+    struct rs_resolver* const res = rs_resolver_of(r);
+    if (res == NULL){
+        r->status = REB_STATUS_GENERIC_ERROR;   /* installed without its parameters */
+        return 0;
+    }
+    struct reb_particle* const p1 = &r->particles[c.p1];
+    struct reb_particle* const p2 = &r->particles[c.p2];
+    const struct reb_vec6d gb = c.gb;
+
+    const double dx = p1->x + gb.x - p2->x;
+    const double dy = p1->y + gb.y - p2->y;
+    const double dz = p1->z + gb.z - p2->z;
+    const double sum_radii = p1->r + p2->r;
+    const double distance2 = dx * dx + dy * dy + dz * dz;
+    const double dvx = p1->vx + gb.vx - p2->vx;
+    const double dvy = p1->vy + gb.vy - p2->vy;
+    const double dvz = p1->vz + gb.vz - p2->vz;
+    const int overlapping = distance2 < sum_radii * sum_radii;
+
+    if (r->collision != REB_COLLISION_LINE && r->collision != REB_COLLISION_LINETREE){
+        /* Overlap at the end of the step (tree and direct search). */
+        if (!overlapping){
+            return 0;
+        }
+        rs_apply_impulse(r, res, p1, p2, gb, dx, dy, dz, sqrt(distance2), dvx, dvy, dvz,
+                         0.0);
+        return 0;
+    }
+
+    /* Swept paths: the contact on the straight relative path dr(s) = dr - s dv, s the
+     * time before the end of the step, is where the pair first touched. */
+    struct rs_pair_memory* const memory = &res->memory;
+    rs_pair_memory_sync(memory, r);
+    const uint64_t key = rs_pair_key(c.p1, c.p2);
+    if (rs_pair_memory_contains(memory, key)){
+        return 0;   /* resolved earlier in this step: the report is of the old path */
+    }
+    const double a = dvx * dvx + dvy * dvy + dvz * dvz;
+    const double b = dx * dvx + dy * dvy + dz * dvz;
+    const double gap = distance2 - sum_radii * sum_radii;
+    const double discriminant = b * b - a * gap;
+    double back_time = 0.0;
+    if (a > 0.0 && discriminant >= 0.0){
+        back_time = (b + sqrt(discriminant)) / a;
+    }
+    int resolved;
+    if (back_time > 0.0 && back_time <= r->dt_last_done){
+        const double cx = dx - back_time * dvx;
+        const double cy = dy - back_time * dvy;
+        const double cz = dz - back_time * dvz;
+        const double contact = sqrt(cx * cx + cy * cy + cz * cz);
+        resolved = rs_apply_impulse(r, res, p1, p2, gb, cx, cy, cz, contact, dvx, dvy, dvz,
+                                    back_time);
+    }else if (overlapping){
+        /* Touching since before this step: resolve at the end, as in tree mode. */
+        resolved = rs_apply_impulse(r, res, p1, p2, gb, dx, dy, dz, sqrt(distance2), dvx,
+                                    dvy, dvz, 0.0);
+    }else{
+        return 0;   /* paths never touched in this step */
+    }
+    if (resolved && !rs_pair_memory_insert(memory, key)){
+        r->status = REB_STATUS_GENERIC_ERROR;   /* out of memory */
+    }
+    return 0;
+}
+
+/* Resolve a list of collisions in order, as REBOUND's collision loop would (without
+ * its shuffle); returns how many were resolved.  Lets benchmarks time the resolver
+ * without a Python call per collision. */
+int64_t rs_resolve_batch(struct reb_simulation* const r, const struct reb_collision* collisions,
+                         int64_t n){
+    const int64_t before = rs_resolver_of(r) ? rs_resolver_of(r)->stats.count : 0;
+    for (int64_t i = 0; i < n; i++){
+        rs_resolve(r, collisions[i]);
+    }
+    const struct rs_resolver* res = rs_resolver_of(r);
+    return res ? res->stats.count - before : 0;
+}
