@@ -247,12 +247,13 @@ class Runner:
         # time step
         integ = self.scenario.integration
         if integ.dt == "auto":
-            dt = sheet.auto_dt(arrays, self.Omega, integ.dt_safety, current=self.sim.dt)
+            dt = sheet.auto_dt(arrays, self.Omega, integ.dt_safety, current=self.sim.dt,
+                               detection=integ.collision_detection)
             if dt != self.sim.dt:
                 self._guard_event(f"dt auto: {self.sim.dt:.6g} s -> {dt:.6g} s "
                                   f"({dt / self.orbit:.3g} orbit)", show=False)
                 self.sim.dt = dt
-        elif not self.state.dt_warned:
+        elif not self.state.dt_warned and integ.collision_detection == "tree":
             ratio = sheet.dt_violation(arrays, self.Omega, self.sim.dt, integ.dt_safety)
             if ratio > 1.0:
                 self.state.dt_warned = 1

@@ -328,9 +328,13 @@ def relative_speed_bound(arrays: dict[str, np.ndarray], Omega: float) -> float:
 
 
 def auto_dt(arrays: dict[str, np.ndarray], Omega: float, safety: float,
-            current: float | None = None) -> float:
-    """Time step [s] for end-of-step overlap detection: dt << r/v.
+            current: float | None = None, detection: str = "tree") -> float:
+    """Time step [s] of ``dt: auto``.
 
+    Line detection (swept paths, contact-time resolution) finds every crossing whatever
+    the step, so its step is bounded by the orbit only: 1e-3 orbit.
+
+    Tree detection finds collisions only as overlaps at step ends: dt << r/v.
     The largest relative displacement per step, relative_speed_bound * dt, is kept below
     ``safety`` times the smallest radius, and dt <= 1e-3 orbit.  The result is rounded down
     to a power of two times 1e-3 orbit so that it changes rarely and reproducibly; it shrinks
@@ -346,6 +350,8 @@ def auto_dt(arrays: dict[str, np.ndarray], Omega: float, safety: float,
         The step in use.
     """
     dt_max = DT_MAX_ORBITS * 2.0 * math.pi / Omega
+    if detection == "line":
+        return dt_max
     v_rel = relative_speed_bound(arrays, Omega)
     if v_rel <= 0:
         return dt_max
@@ -366,7 +372,8 @@ def choose_dt(sim: rebound.Simulation, integration, geometry: SheetGeometry,
               radii: np.ndarray) -> float:
     """The scenario's time step [s]: ``dt: auto`` or a fixed step in orbits."""
     if integration.dt == "auto":
-        return auto_dt(particle_arrays(sim), geometry.Omega, integration.dt_safety)
+        return auto_dt(particle_arrays(sim), geometry.Omega, integration.dt_safety,
+                       detection=integration.collision_detection)
     return float(integration.dt) * geometry.orbit
 
 
