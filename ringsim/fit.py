@@ -1,0 +1,690 @@
+"""`ringsim fit`: fit coefficient-of-restitution laws to measured epsilon(v, R, M).
+
+Data (CSV, header names carry units; lines starting with ``#`` are comments):
+
+==============================  =========================================================
+column                          meaning
+==============================  =========================================================
+``v_m_s``                       normal impact speed [m/s], > 0
+``R_bar_m``                     reduced radius of the pair [m], > 0; or
+``R1_m``, ``R2_m``              the two radii [m] (``inf``: a flat wall), reduced by
+                                ``restitution.reduced_radius``
+``M_bar_kg``                    reduced mass [kg], > 0; or
+``M1_kg``, ``M2_kg``            the two masses [kg] (``inf``: a massive brick)
+``epsilon``                     measured coefficient of restitution, in [0, 1]
+``sigma``                       optional 1-sigma error of epsilon, > 0
+==============================  =========================================================
+
+Radius and mass columns are needed by the Dilley law only.  Models and their parameters
+(SI, as a scenario's ``restitution`` section names them): dilley {xi0, p, kappa}, bridges
+{v_c [m/s], exponent}, constant {epsilon}, andrews {v_c [m/s]}, tabor {v_c [m/s], q}.
+
+The fit is weighted least squares (``scipy.optimize.least_squares``, trust-region
+reflective with bounds xi0 > 0, p > 0, v_c > 0, 0 < q < 1/2, 0 <= epsilon <= 1),
+started from the paper's values and from a linearised fit of the data, and for the
+critical-speed laws from a grid of v_c across the measured speeds; the best start wins.
+Standard errors come from the covariance (J^T J)^-1 of the weighted residuals' Jacobian at
+the optimum.  Without a ``sigma`` column every point has unit weight and the covariance is
+scaled by the reduced chi^2 (the JSON says which in ``sigma_source``).
+
+AIC (lower is better): chi^2 + 2k with measured sigmas; n ln(RSS/n) + 2k with unit
+weights (Gaussian errors of unknown, common variance), k = number of free parameters.
+
+The mass exponent kappa is only identifiable if the reduced mass varies: when every point
+has the same M_bar (the experiments of Hatzes et al. 1988, a sphere on a pendulum against a
+brick), (M_bar / 60 g)^-kappa is a constant absorbed by xi0, so kappa is fixed at 0 and
+reported as fixed.
+"""
+
+from __future__ import annotations
+
+import csv
+import difflib
+import json
+import math
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ringsim import restitution as rs
+from ringsim.errors import InputError
+
+__all__ = [
+    "FIT_MODELS",
+    "RestitutionData",
+    "fit_command",
+    "fit_model",
+    "fit_models",
+    "fit_table",
+    "plot_fits",
+    "read_data",
+    "restitution_yaml",
+]
+
+#: The models `ringsim fit` knows, in the order ``--model all`` fits them.
+FIT_MODELS = ("dilley", "bridges", "constant", "andrews", "tabor")
+
+_COLUMNS = ("v_m_s", "R_bar_m", "R1_m", "R2_m", "M_bar_kg", "M1_kg", "M2_kg", "epsilon",
+            "sigma")
+_HEADER_HELP = ("v_m_s, epsilon; R_bar_m or R1_m and R2_m; M_bar_kg or M1_kg and M2_kg; "
+                "optional sigma")
+_TOLERANCE = 1e-13  # ftol, xtol and gtol of least_squares
+_MAX_EVALUATIONS = 5000
+#: Starts (of lowest initial cost) from which the optimizer runs.
+_OPTIMIZED_STARTS = 3
+#: A singular value of the Jacobian below this fraction of the largest marks parameters the
+#: data cannot separate.
+_RANK_TOLERANCE = 1e-10
+
+
+# --- data ---------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class RestitutionData:
+    """Measured coefficients of restitution.
+
+    Attributes
+    ----------
+    v : array [m/s]
+        Normal impact speed.
+    R_bar : array [m] or None
+        Reduced radius of each pair (None if the file gives no radii).
+    M_bar : array [kg] or None
+        Reduced mass of each pair (None if the file gives no masses).
+    epsilon : array [dimensionless]
+        Measured coefficient of restitution.
+    sigma : array [dimensionless] or None
+        1-sigma error of epsilon; None: unknown (unit weights).
+    source : str
+        The file (for messages and the JSON).
+    """
+
+    v: np.ndarray
+    R_bar: np.ndarray | None
+    M_bar: np.ndarray | None
+    epsilon: np.ndarray
+    sigma: np.ndarray | None = None
+    source: str = "<data>"
+
+    def __len__(self) -> int:
+        return int(self.v.size)
+
+    @property
+    def has_sizes(self) -> bool:
+        return self.R_bar is not None and self.M_bar is not None
+
+
+def _parse_cell(path: str, column: str, line: int, text: str, allow_inf: bool) -> float:
+    """One CSV cell as a float, or InputError naming the file, column and line."""
+    text = text.strip()
+    if not text:
+        raise InputError(path, column, f"line {line}: empty value")
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(path, column, f"line {line}: {text!r} is not a number") from None
+    if math.isnan(value) or (math.isinf(value) and not (allow_inf and value > 0)):
+        allowed = "a finite number or inf" if allow_inf else "a finite number"
+        raise InputError(path, column, f"line {line}: {text!r} is not {allowed}")
+    return value
+
+
+def _check_range(path: str, column: str, lines: np.ndarray, values: np.ndarray,
+                 bad: np.ndarray, what: str) -> None:
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise InputError(path, column, f"line {lines[i]}: {values[i]:g} is out of range "
+                         f"({what})")
+
+
+def _read_rows(path: str) -> tuple[list[str], list[tuple[int, list[str]]]]:
+    """Header and (line number, cells) of the data rows; comments and blank lines skipped."""
+    try:
+        text = Path(path).read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(path, "<file>", f"not UTF-8 text ({exc.reason})") from None
+    except OSError as exc:
+        raise InputError(path, "<file>", f"cannot read: {exc.strerror or exc}") from None
+    header: list[str] | None = None
+    rows: list[tuple[int, list[str]]] = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        if not line.strip() or line.lstrip().startswith("#"):
+            continue
+        cells = next(csv.reader([line]))
+        if header is None:
+            header = [c.strip() for c in cells]
+            continue
+        rows.append((number, cells))
+    if header is None:
+        raise InputError(path, "<header>", f"the file has no header line (columns: "
+                         f"{_HEADER_HELP})")
+    return header, rows
+
+
+def _check_header(path: str, header: list[str], need_sizes: bool) -> None:
+    seen = set()
+    for name in header:
+        if name not in _COLUMNS:
+            close = difflib.get_close_matches(name, _COLUMNS, n=1, cutoff=0.6)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            raise InputError(path, name or "<header>", f"unknown column {name!r} ({hint}"
+                             f"columns: {_HEADER_HELP})")
+        if name in seen:
+            raise InputError(path, name, "the column appears twice")
+        seen.add(name)
+    for name in ("v_m_s", "epsilon"):
+        if name not in seen:
+            raise InputError(path, name, f"missing column (columns: {_HEADER_HELP})")
+    for bar, pair, what in (("R_bar_m", ("R1_m", "R2_m"), "radius"),
+                            ("M_bar_kg", ("M1_kg", "M2_kg"), "mass")):
+        given = [name for name in pair if name in seen]
+        if bar in seen and given:
+            raise InputError(path, given[0], f"give either {bar} or {pair[0]} and {pair[1]}, "
+                             "not both")
+        if len(given) == 1:
+            missing = pair[1] if given[0] == pair[0] else pair[0]
+            raise InputError(path, missing, f"missing column ({given[0]} needs {missing}; "
+                             f"use inf for a wall or brick)")
+        if need_sizes and bar not in seen and not given:
+            raise InputError(path, bar, f"missing column: the dilley model needs the reduced "
+                             f"{what} ({bar}, or {pair[0]} and {pair[1]})")
+
+
+def read_data(path: str | Path, need_sizes: bool = True) -> RestitutionData:
+    """Read and check a CSV of measured coefficients of restitution (see the module doc).
+
+    Parameters
+    ----------
+    path : CSV file
+    need_sizes : bool
+        Require radius and mass columns (the Dilley law uses them).
+
+    Raises
+    ------
+    InputError
+        Naming the file and the column (and the line) of the first problem: missing or
+        unknown columns, non-numeric values, epsilon outside [0, 1], sizes, masses, speeds
+        or sigmas that are not positive.
+    """
+    path = str(path)
+    header, rows = _read_rows(path)
+    _check_header(path, header, need_sizes)
+    if not rows:
+        raise InputError(path, "<rows>", "the file has a header but no data rows")
+    columns: dict[str, list[float]] = {name: [] for name in header}
+    lines = []
+    for number, cells in rows:
+        if len(cells) != len(header):
+            raise InputError(path, "<rows>", f"line {number}: {len(cells)} values for "
+                             f"{len(header)} columns")
+        for name, cell in zip(header, cells, strict=True):
+            allow_inf = name in ("R1_m", "R2_m", "M1_kg", "M2_kg")
+            columns[name].append(_parse_cell(path, name, number, cell, allow_inf))
+        lines.append(number)
+    lines_arr = np.array(lines)
+    arrays = {name: np.array(values, dtype=float) for name, values in columns.items()}
+
+    v = arrays["v_m_s"]
+    _check_range(path, "v_m_s", lines_arr, v, ~(v > 0), "an impact speed > 0 m/s")
+    eps = arrays["epsilon"]
+    _check_range(path, "epsilon", lines_arr, eps, (eps < 0) | (eps > 1), "0 <= epsilon <= 1")
+    sigma = arrays.get("sigma")
+    if sigma is not None:
+        _check_range(path, "sigma", lines_arr, sigma, ~(sigma > 0), "sigma > 0")
+
+    def reduced(bar: str, first: str, second: str, unit: str, reduce: Callable):
+        if bar in arrays:
+            x = arrays[bar]
+            _check_range(path, bar, lines_arr, x, ~(x > 0), f"> 0 {unit}")
+            return x
+        if first not in arrays:
+            return None
+        a, b = arrays[first], arrays[second]
+        _check_range(path, first, lines_arr, a, ~(a > 0), f"> 0 {unit}, or inf")
+        _check_range(path, second, lines_arr, b, ~(b > 0), f"> 0 {unit}, or inf")
+        _check_range(path, second, lines_arr, b, np.isinf(a) & np.isinf(b),
+                     f"{first} and {second} cannot both be inf")
+        return np.asarray(reduce(a, b), dtype=float)
+
+    R_bar = reduced("R_bar_m", "R1_m", "R2_m", "m", rs.reduced_radius)
+    M_bar = reduced("M_bar_kg", "M1_kg", "M2_kg", "kg", rs.reduced_mass)
+    return RestitutionData(v=v, R_bar=R_bar, M_bar=M_bar, epsilon=eps, sigma=sigma,
+                           source=path)
+
+
+# --- models -------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class _Parameter:
+    """A fitted parameter: bounds, unit, and whether it is fitted as its logarithm."""
+
+    name: str
+    unit: str
+    lower: float
+    upper: float
+    log: bool = False
+
+
+_PARAMETERS: dict[str, tuple[_Parameter, ...]] = {
+    "dilley": (_Parameter("xi0", "dimensionless", 1e-12, 1e6, log=True),
+               _Parameter("p", "dimensionless", 1e-9, 20.0),
+               _Parameter("kappa", "dimensionless", -20.0, 20.0)),
+    "bridges": (_Parameter("v_c", "m/s", 1e-15, 1e6, log=True),
+                _Parameter("exponent", "dimensionless", 1e-9, 20.0)),
+    "constant": (_Parameter("epsilon", "dimensionless", 0.0, 1.0),),
+    "andrews": (_Parameter("v_c", "m/s", 1e-15, 1e6, log=True),),
+    "tabor": (_Parameter("v_c", "m/s", 1e-15, 1e6, log=True),
+              _Parameter("q", "dimensionless", 1e-6, 0.5 - 1e-6)),
+}
+
+#: Values of Dilley (1993): eq. (5.11) and the Tabor curve c of Fig. 1a (0.0809 cm/s,
+#: q = 0.371, also used for Andrews), and Bridges et al. (1984).
+_PAPER_START: dict[str, dict[str, float]] = {
+    "dilley": {"xi0": rs.DILLEY_XI0, "p": rs.DILLEY_P, "kappa": 0.0},
+    "bridges": {"v_c": rs.BRIDGES_V_C, "exponent": rs.BRIDGES_EXPONENT},
+    "constant": {"epsilon": 0.5},
+    "andrews": {"v_c": 0.0809e-2},
+    "tabor": {"v_c": 0.0809e-2, "q": 0.371},
+}
+
+
+def _evaluate(model: str, values: Mapping[str, float], data: RestitutionData) -> np.ndarray:
+    """epsilon of the model at the data's speeds (and sizes, masses)."""
+    if model == "dilley":
+        return np.asarray(rs.dilley_epsilon(data.v, data.R_bar, data.M_bar, **values))
+    if model == "bridges":
+        return np.asarray(rs.bridges_epsilon(data.v, **values))
+    if model == "constant":
+        return np.full(data.v.shape, values["epsilon"])
+    if model == "andrews":
+        return np.asarray(rs.andrews_epsilon(data.v, **values))
+    return np.asarray(rs.tabor_epsilon(data.v, **values))
+
+
+def _weights(data: RestitutionData) -> np.ndarray:
+    return 1.0 / data.sigma if data.sigma is not None else np.ones_like(data.v)
+
+
+def _linearised_starts(model: str, data: RestitutionData, fixed: Mapping[str, float]
+                       ) -> list[dict[str, float]]:
+    """Starts from straight-line fits: ln xi (dilley) or ln epsilon (bridges) vs ln v."""
+    inside = (data.epsilon > 0) & (data.epsilon < 1)
+    if np.count_nonzero(inside) < 3:
+        return []
+    v = data.v[inside]
+    if model == "dilley":
+        xi = np.asarray(rs.xi_from_epsilon(data.epsilon[inside]))
+        target = np.log(xi) + rs.RADIUS_EXPONENT * np.log(data.R_bar[inside] / rs.R_REF)
+        columns = [np.ones_like(v), np.log(v / rs.V_REF)]
+        if "kappa" not in fixed:
+            columns.append(-np.log(data.M_bar[inside] / rs.M_REF))
+        coef, *_ = np.linalg.lstsq(np.column_stack(columns), target, rcond=None)
+        start = {"xi0": float(np.exp(coef[0])), "p": float(coef[1])}
+        start["kappa"] = float(coef[2]) if "kappa" not in fixed else fixed["kappa"]
+        return [start]
+    if model == "bridges":
+        slope, intercept = np.polyfit(np.log(v), np.log(data.epsilon[inside]), 1)
+        if slope >= 0:
+            return []
+        exponent = -slope
+        return [{"v_c": float(np.exp(intercept / exponent)), "exponent": float(exponent)}]
+    if model == "constant":
+        w = _weights(data) ** 2
+        return [{"epsilon": float(np.sum(w * data.epsilon) / np.sum(w))}]
+    return []
+
+
+def _starts(model: str, data: RestitutionData, fixed: Mapping[str, float]
+            ) -> list[dict[str, float]]:
+    """Start values: the paper's, linearised fits, and a grid of v_c over the speeds."""
+    paper = {k: v for k, v in _PAPER_START[model].items() if k not in fixed}
+    starts = [{**paper, **fixed}] + _linearised_starts(model, data, fixed)
+    if model in ("andrews", "tabor", "bridges"):
+        v_grid = np.geomspace(data.v.min() / 3.0, data.v.max(), 8)
+        shapes = {"andrews": [{}], "bridges": [{"exponent": 0.234}],
+                  "tabor": [{"q": 0.2}, {"q": 0.371}, {"q": 0.45}]}[model]
+        starts += [{"v_c": float(v_c), **shape} for v_c in v_grid for shape in shapes]
+    return starts
+
+
+def _to_internal(params: Sequence[_Parameter], values: Mapping[str, float]) -> np.ndarray:
+    x = []
+    for par in params:
+        value = min(max(values[par.name], par.lower), par.upper)
+        lo, hi = (math.log(par.lower), math.log(par.upper)) if par.log else (par.lower,
+                                                                           par.upper)
+        internal = math.log(value) if par.log else value
+        margin = 1e-9 * (hi - lo)  # least_squares starts strictly inside the bounds
+        x.append(min(max(internal, lo + margin), hi - margin))
+    return np.array(x)
+
+
+def _to_values(params: Sequence[_Parameter], x: np.ndarray) -> dict[str, float]:
+    return {par.name: float(math.exp(xi) if par.log else xi)
+            for par, xi in zip(params, x, strict=True)}
+
+
+def _covariance(jacobian: np.ndarray) -> np.ndarray | None:
+    """(J^T J)^-1 by SVD; None if J is rank deficient (parameters not separable)."""
+    if jacobian.size == 0:
+        return np.zeros((0, 0))
+    _, s, vt = np.linalg.svd(jacobian, full_matrices=False)
+    if s[-1] <= _RANK_TOLERANCE * s[0] or not np.all(np.isfinite(s)):
+        return None
+    return (vt.T / s**2) @ vt
+
+
+def _identifiability_notes(data: RestitutionData) -> tuple[dict[str, float], list[str]]:
+    """Parameters fixed because the data cannot constrain them, and notes about the data."""
+    fixed: dict[str, float] = {}
+    notes: list[str] = []
+    if np.unique(data.M_bar).size == 1:
+        fixed["kappa"] = 0.0
+        notes.append(f"kappa fixed at 0: every point has the same reduced mass "
+                     f"({data.M_bar[0]:.6g} kg), so (M_bar/60 g)^-kappa is a constant "
+                     "absorbed by xi0")
+    elif np.unique(data.R_bar).size > 1:
+        ln_r, ln_m = np.log(data.R_bar), np.log(data.M_bar)
+        slope, intercept = np.polyfit(ln_r, ln_m, 1)
+        if np.max(np.abs(ln_m - (slope * ln_r + intercept))) < 1e-9:
+            notes.append(f"M_bar varies only as R_bar^{slope:.3g}: kappa is separated from "
+                         "the size dependence only through the fixed Hertz exponent "
+                         "R_bar^-0.2")
+    return fixed, notes
+
+
+def fit_model(data: RestitutionData, model: str) -> dict:
+    """Fit one restitution law by weighted least squares.
+
+    Parameters
+    ----------
+    data : RestitutionData
+    model : str
+        dilley, bridges, constant, andrews or tabor.
+
+    Returns
+    -------
+    dict
+        ``{"model", "parameters": {name: {"value", "stderr", "fixed"}}, "chi2",
+        "reduced_chi2", "aic", "n_points"}`` as in CONTRACT.md, plus ``n_free_parameters``,
+        ``sigma_source``, ``aic_definition``, ``units`` (of each parameter), ``note``,
+        ``success`` and ``message`` of the optimizer.  Parameters are SI (v_c in m/s);
+        stderr is None for a fixed parameter or when the data cannot separate the
+        parameters.
+    """
+    from scipy.optimize import least_squares
+
+    if model not in _PARAMETERS:
+        raise ValueError(f"unknown model {model!r} (one of {', '.join(FIT_MODELS)})")
+    if model == "dilley" and not data.has_sizes:
+        raise InputError(data.source, "R_bar_m", "the dilley model needs reduced radii and "
+                         "masses (R_bar_m and M_bar_kg, or R1_m, R2_m, M1_kg, M2_kg)")
+    fixed, notes = _identifiability_notes(data) if model == "dilley" else ({}, [])
+    free = tuple(p for p in _PARAMETERS[model] if p.name not in fixed)
+    n, k = len(data), len(free)
+    if n <= k:
+        raise InputError(data.source, "<rows>", f"{n} data rows; the {model} model needs "
+                         f"more than its {k} free parameters")
+    weights = _weights(data)
+
+    def residuals(x: np.ndarray) -> np.ndarray:
+        values = {**_to_values(free, x), **fixed}
+        return (_evaluate(model, values, data) - data.epsilon) * weights
+
+    lower = np.array([math.log(p.lower) if p.log else p.lower for p in free])
+    upper = np.array([math.log(p.upper) if p.log else p.upper for p in free])
+    # the optimizer runs from the few starts of lowest cost
+    starts = [_to_internal(free, start) for start in _starts(model, data, fixed)]
+    costs = [float(np.sum(residuals(x) ** 2)) for x in starts]
+    order = np.argsort(costs, kind="stable")[:_OPTIMIZED_STARTS]
+    best = None
+    for x0 in (starts[i] for i in order):
+        result = least_squares(residuals, x0, jac="3-point",
+                               bounds=(lower, upper), method="trf", x_scale="jac",
+                               ftol=_TOLERANCE, xtol=_TOLERANCE, gtol=_TOLERANCE,
+                               max_nfev=_MAX_EVALUATIONS)
+        if best is None or (result.success, -result.cost) > (best.success, -best.cost):
+            best = result
+
+    values = {**_to_values(free, best.x), **fixed}
+    chi2 = float(np.sum(best.fun**2))
+    dof = n - k
+    reduced_chi2 = chi2 / dof
+    covariance = _covariance(best.jac)
+    if covariance is not None and data.sigma is None:
+        covariance = covariance * reduced_chi2
+    if covariance is None:
+        notes.append("the data cannot separate the parameters (singular Jacobian): no "
+                     "standard errors")
+    # d(value)/d(internal) = value for parameters fitted as logarithms
+    scale = np.array([values[p.name] if p.log else 1.0 for p in free])
+    parameters: dict[str, dict] = {}
+    for par in _PARAMETERS[model]:
+        if par.name in fixed:
+            parameters[par.name] = {"value": fixed[par.name], "stderr": None, "fixed": True}
+            continue
+        i = free.index(par)
+        stderr = (None if covariance is None
+                  else float(scale[i] * math.sqrt(max(covariance[i, i], 0.0))))
+        parameters[par.name] = {"value": values[par.name], "stderr": stderr, "fixed": False}
+        bound_lo, bound_hi = lower[i], upper[i]
+        if min(best.x[i] - bound_lo, bound_hi - best.x[i]) <= 1e-8 * (bound_hi - bound_lo):
+            notes.append(f"{par.name} is at a bound of its allowed range; its standard error "
+                         "is not meaningful")
+    if data.sigma is not None:
+        aic = chi2 + 2.0 * k
+        aic_definition = "chi2 + 2k"
+        sigma_source = "sigma column"
+    else:
+        rss_per_point = max(chi2 / n, np.finfo(float).tiny)
+        aic = n * math.log(rss_per_point) + 2.0 * k
+        aic_definition = "n ln(RSS/n) + 2k (unit weights)"
+        sigma_source = "none: unit weights, covariance scaled by the reduced chi2"
+    return {
+        "model": model,
+        "parameters": parameters,
+        "chi2": chi2,
+        "reduced_chi2": reduced_chi2,
+        "aic": float(aic),
+        "n_points": n,
+        "n_free_parameters": k,
+        "sigma_source": sigma_source,
+        "aic_definition": aic_definition,
+        "units": {p.name: p.unit for p in _PARAMETERS[model]},
+        "note": "; ".join(notes),
+        "success": bool(best.success),
+        "message": str(best.message),
+        "data": data.source,
+    }
+
+
+def fit_models(data: RestitutionData, models: Sequence[str] = FIT_MODELS) -> list[dict]:
+    """`fit_model` for each model, sorted by AIC (best first)."""
+    return sorted((fit_model(data, m) for m in models), key=lambda r: r["aic"])
+
+
+# --- output -------------------------------------------------------------------------------------
+
+def _format_parameter(name: str, entry: dict, unit: str) -> str:
+    unit_text = "" if unit == "dimensionless" else f" {unit}"
+    if entry.get("fixed"):
+        return f"{name} = {entry['value']:.6g} (fixed)"
+    if entry["stderr"] is None:
+        return f"{name} = {entry['value']:.6g}{unit_text}"
+    return f"{name} = {entry['value']:.6g} ± {entry['stderr']:.2g}{unit_text}"
+
+
+def fit_table(results: Sequence[dict]) -> str:
+    """A plain-text table of fits (as `fit_models` returns them, best first)."""
+    first = results[0]
+    lines = [f"fit of {first['data']}: {first['n_points']} points; errors: "
+             f"{first['sigma_source']}; AIC = {first['aic_definition']}",
+             f"{'model':<10}{'k':>3}{'chi2':>13}{'red. chi2':>12}{'AIC':>13}   parameters"]
+    for r in results:
+        params = ", ".join(_format_parameter(name, entry, r["units"][name])
+                           for name, entry in r["parameters"].items())
+        flag = "" if r["success"] else "  [optimizer did not converge]"
+        lines.append(f"{r['model']:<10}{r['n_free_parameters']:>3}{r['chi2']:>13.5g}"
+                     f"{r['reduced_chi2']:>12.4g}{r['aic']:>13.5g}   {params}{flag}")
+    for r in results:
+        if r["note"]:
+            lines.append(f"note ({r['model']}): {r['note']}")
+    return "\n".join(lines)
+
+
+def _values(result: dict) -> dict[str, float]:
+    return {name: entry["value"] for name, entry in result["parameters"].items()}
+
+
+def restitution_yaml(result: dict) -> str:
+    """A scenario's ``restitution:`` section (YAML text) with a fit's parameters (SI)."""
+    import yaml
+
+    section = {"model": result["model"], **_values(result)}
+    header = (f"# Restitution law fitted by `ringsim fit` to {result['data']}: model "
+              f"{result['model']}, AIC {result['aic']:.6g}, reduced chi2 "
+              f"{result['reduced_chi2']:.4g}.\n# SI units (v_c in m/s); paste into a "
+              "scenario file.\n")
+    return header + yaml.safe_dump({"restitution": section}, sort_keys=False)
+
+
+def _check_restitution_yaml(text: str, path: str) -> None:
+    """The section must be accepted by a scenario (its validation is the scenario's)."""
+    import yaml
+
+    from ringsim.scenario import ScenarioError, scenario_from_dict
+
+    probe = {"name": "fit-check", "seed": 0, "planet": {"Omega": 2.0e-4},
+             "particles": {"size_distribution": {"kind": "monodisperse", "radius": 1.0}},
+             "restitution": yaml.safe_load(text)["restitution"]}
+    try:
+        scenario_from_dict(probe, source=path)
+    except ScenarioError as exc:
+        raise RuntimeError(f"the fitted restitution section is not a valid scenario "
+                           f"section: {exc}") from None
+
+
+def _groups(data: RestitutionData) -> list[tuple[float | None, float | None, np.ndarray]]:
+    """(R_bar [m], M_bar [kg], mask) of each distinct size-mass pair of the data."""
+    if not data.has_sizes:
+        return [(None, None, np.ones(len(data), dtype=bool))]
+    pairs = np.column_stack([data.R_bar, data.M_bar])
+    unique = np.unique(pairs, axis=0)
+    return [(float(r), float(m), (data.R_bar == r) & (data.M_bar == m)) for r, m in unique]
+
+
+#: Most panels of a fit figure; data with more size-mass groups share one panel.
+MAX_PANELS = 16
+
+
+def plot_fits(data: RestitutionData, results: Sequence[dict], path: str | Path) -> Path:
+    """Data (with error bars if sigma is known) against impact speed and each fitted curve,
+    one panel per (R_bar, M_bar) group of the data; writes a PNG.
+
+    Parameters
+    ----------
+    data : RestitutionData
+    results : fits (`fit_model` dicts), drawn in order
+    path : PNG file
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    groups = _groups(data)
+    shared = len(groups) > MAX_PANELS
+    panels = ([(float(np.median(data.R_bar)), float(np.median(data.M_bar)),
+                np.ones(len(data), dtype=bool))] if shared else groups)
+    ncols = min(len(panels), 4)
+    nrows = math.ceil(len(panels) / ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(4.2 * ncols + 0.8, 3.6 * nrows + 0.6),
+                             squeeze=False, sharey=True)
+    v_curve = np.geomspace(data.v.min() / 1.5, data.v.max() * 1.5, 300)
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for ax, (r_bar, m_bar, mask) in zip(axes.flat, panels, strict=False):
+        err = data.sigma[mask] if data.sigma is not None else None
+        ax.errorbar(data.v[mask], data.epsilon[mask], yerr=err, fmt="o", ms=3, color="k",
+                    ecolor="0.6", elinewidth=0.8, label="data", zorder=3)
+        for i, result in enumerate(results):
+            curve_data = RestitutionData(
+                v=v_curve, epsilon=np.zeros_like(v_curve),
+                R_bar=None if r_bar is None else np.full_like(v_curve, r_bar),
+                M_bar=None if m_bar is None else np.full_like(v_curve, m_bar))
+            if result["model"] == "dilley" and r_bar is None:
+                continue
+            ax.plot(v_curve, _evaluate(result["model"], _values(result), curve_data),
+                    color=colours[(i + 1) % len(colours)],
+                    label=f"{result['model']} (AIC {result['aic']:.4g})")
+        ax.set_xscale("log")
+        ax.set_ylim(-0.02, 1.05)
+        ax.set_xlabel("normal impact speed v [m/s]")
+        ax.set_ylabel("coefficient of restitution ε")
+        if r_bar is not None:
+            title = f"R̄ = {r_bar:.4g} m, M̄ = {m_bar:.4g} kg"
+            ax.set_title(("curves at the median: " if shared else "") + title, fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+    for ax in list(axes.flat)[len(panels):]:
+        ax.set_visible(False)
+    axes.flat[0].legend(fontsize=7, loc="lower left")
+    fig.suptitle(f"Restitution fits to {Path(data.source).name}")
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+# --- command line -------------------------------------------------------------------------------
+
+def _requested_models(text: str) -> tuple[str, ...]:
+    if text == "all":
+        return FIT_MODELS
+    if text not in FIT_MODELS:
+        close = difflib.get_close_matches(text, FIT_MODELS + ("all",), n=1, cutoff=0.6)
+        hint = f"did you mean {close[0]!r}? " if close else ""
+        raise InputError("<command line>", "--model", f"unknown model {text!r} ({hint}one of "
+                         f"{', '.join(FIT_MODELS)} or all)")
+    return (text,)
+
+
+def fit_command(args) -> int:
+    """``ringsim fit DATA.csv [--model M] [--json OUT.json] [--plot PNG]
+    [--write-restitution OUT.yaml]``: fit, print a table, write the requested files.
+
+    Returns 0 on success, 1 if an optimizer did not converge (InputError for bad input
+    propagates: exit status 2, nothing written).
+    """
+    models = _requested_models(args.model)
+    if args.plot and Path(args.plot).suffix.lower() != ".png":
+        raise InputError(args.plot, "--plot", "the figure must be a .png file")
+    data = read_data(args.data, need_sizes="dilley" in models)
+    results = fit_models(data, models)
+    print(fit_table(results))
+    best = results[0]
+    yaml_text = restitution_yaml(best) if args.write_restitution else None
+    if yaml_text is not None:
+        _check_restitution_yaml(yaml_text, args.write_restitution)
+    if args.json:
+        payload = results if args.model == "all" else best
+        out = Path(args.json)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(payload, indent=2) + "\n")
+        print(f"wrote {out}")
+    if args.plot:
+        print(f"wrote {plot_fits(data, results, args.plot)}")
+    if yaml_text is not None:
+        out = Path(args.write_restitution)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(yaml_text)
+        print(f"wrote {out} (restitution: {best['model']})")
+    failed = [r["model"] for r in results if not r["success"]]
+    if failed:
+        print(f"ringsim fit: the optimizer did not converge for {', '.join(failed)}",
+              file=sys.stderr)
+        return 1
+    return 0

@@ -1,0 +1,662 @@
+"""`ringsim sweep`: run every point of a sweep file's grid and tabulate their equilibria.
+
+A sweep file names a base scenario and a grid of dotted scenario keys
+(``ringsim.scenario.load_sweep``).  Every grid point becomes one run file in the output
+directory (default ``runs/<sweep file stem>/``), named from the point's parameters
+(``restitution.kappa=0.1_seed=2.h5``), so that a sweep started again finds its own files:
+
+* a file whose status is ``finished`` is reused, not rerun;
+* a file left ``running`` (the sweep crashed) or ``stopped`` (SIGTERM, Ctrl-C) is continued
+  from its last checkpoint (``ringsim.run(resume=True)``, bit-identical to an uninterrupted
+  run);
+* a file made by a different scenario is never touched: the sweep refuses to start (bad
+  input, exit status 2) and says which key differs.
+
+Points run in local worker processes (``concurrent.futures.ProcessPoolExecutor``) or, with
+``--scheduler ADDRESS``, on a Dask cluster (``dask.distributed.Client``; the output
+directory must then be on a file system the Dask workers share, and the workers need the
+same ringsim).  Each worker runs its point and computes its equilibrium
+(``ringsim.compare.equilibrium``).  When all points are done the sweep writes
+``summary.csv`` and ``summary.h5``: one row per point with its parameters, its run file, its
+status and every equilibrium quantity's mean and standard error (units in the CSV column
+names, ``units`` attributes in the HDF5 file).  A point that fails is reported and marked
+``failed`` in the summary; the other points still run, and the sweep exits with status 1.
+
+Two sweeps must not write into the same directory at the same time.
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime as _dt
+import hashlib
+import math
+import os
+import re
+import sys
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ringsim.errors import InputError
+
+__all__ = [
+    "EQUILIBRIUM_COLUMNS",
+    "PointResult",
+    "PointTask",
+    "SweepResult",
+    "plan_sweep",
+    "point_file_name",
+    "run_point",
+    "run_sweep",
+    "summary_rows",
+    "sweep_command",
+    "write_summary",
+]
+
+#: Equilibrium quantities of the summary: (key of ``compare.equilibrium``, column stem with
+#: the unit in its name, unit).  Each gives the columns ``<stem>_mean`` and ``<stem>_stderr``.
+EQUILIBRIUM_COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("velocity_dispersion", "velocity_dispersion_m_s", "m/s"),
+    ("velocity_dispersion_rOmega", "velocity_dispersion_rOmega", "mean radius x Omega"),
+    ("thickness", "thickness_m", "m"),
+    ("thickness_r", "thickness_r", "mean radii"),
+    ("filling_factor", "filling_factor", "dimensionless"),
+    ("collision_frequency", "collision_frequency_per_orbit", "1/orbit (per particle)"),
+    ("mean_epsilon", "mean_epsilon", "dimensionless"),
+    ("translational_viscosity", "translational_viscosity_m2_s", "m^2/s"),
+    ("collisional_viscosity", "collisional_viscosity_m2_s", "m^2/s"),
+    ("equilibrium_from_orbit", "equilibrium_from_orbit", "orbits"),
+)
+
+#: Further numbers of each point's equilibrium: (key, column, unit).
+_RUN_COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("orbits", "orbits", "orbits"),
+    ("n_particles", "n_particles", "count"),
+    ("mean_radius", "mean_radius_m", "m"),
+    ("optical_depth", "optical_depth", "dimensionless"),
+)
+
+#: Units of the scenario keys a grid may vary (list indices written as N), for summary.h5.
+_PARAMETER_UNITS: dict[str, str] = {
+    "name": "text", "seed": "integer", "description": "text",
+    "planet.Omega": "1/s", "planet.GM": "m^3/s^2", "planet.a": "m",
+    "particles.density": "kg/m^3",
+    "particles.size_distribution.kind": "text",
+    "particles.size_distribution.radius": "m",
+    "particles.size_distribution.q": "dimensionless",
+    "particles.size_distribution.r_min": "m",
+    "particles.size_distribution.r_max": "m",
+    "particles.size_distribution.components.N.radius": "m",
+    "particles.size_distribution.components.N.number_fraction": "dimensionless",
+    "sheet.optical_depth": "dimensionless", "sheet.n_particles": "count",
+    "sheet.aspect": "dimensionless", "sheet.gravity": "boolean", "sheet.softening": "m",
+    "sheet.opening_angle": "rad", "sheet.initial_dispersion": "mean radius x Omega",
+    "sheet.z_box": "mean radii",
+    "restitution.model": "text", "restitution.xi0": "dimensionless",
+    "restitution.p": "dimensionless", "restitution.kappa": "dimensionless",
+    "restitution.v_c": "m/s", "restitution.exponent": "dimensionless",
+    "restitution.epsilon": "dimensionless", "restitution.q": "dimensionless",
+    "integration.orbits": "orbits", "integration.dt": "orbits",
+    "integration.dt_safety": "dimensionless", "integration.collision_detection": "text",
+    "output.path": "text", "output.timeseries_every": "orbits",
+    "output.snapshot_every": "orbits", "output.checkpoint_every": "orbits",
+    "output.log_collisions": "count",
+}
+
+#: Longest file-name stem made from parameters before it is shortened and hashed.
+_MAX_STEM = 150
+_UNSAFE = re.compile(r"[^A-Za-z0-9.+-]")
+_UNSAFE_KEY = re.compile(r"[^A-Za-z0-9._-]")
+_RESUMABLE = ("running", "stopped")
+
+
+# --- naming -----------------------------------------------------------------------------------
+
+def _value_text(value: Any) -> str:
+    """The spelling of a grid value in a file name (floats round-trip exactly)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, (int, str)):
+        return str(value)
+    return repr(value)
+
+
+def point_file_name(params: Mapping[str, Any]) -> str:
+    """The run file name of a grid point, e.g. ``restitution.kappa=0.1_seed=2.h5``.
+
+    Keys and values are joined as ``key=value`` with ``_``.  Characters outside
+    ``A-Za-z0-9.+-`` in a value (outside ``A-Za-z0-9._-`` in a key) are replaced by ``-``;
+    when that loses information, or the name is longer than 150 characters, a hash of the
+    exact parameters is appended, so different points always get different names.
+
+    Parameters
+    ----------
+    params : mapping
+        Dotted scenario key -> value, in grid order.
+    """
+    parts = []
+    lossless = True
+    for key, value in params.items():
+        text = _value_text(value)
+        safe_key = _UNSAFE_KEY.sub("-", str(key))
+        safe_value = _UNSAFE.sub("-", text)
+        lossless = lossless and safe_key == str(key) and safe_value == text and bool(text)
+        parts.append(f"{safe_key}={safe_value}")
+    stem = "_".join(parts)
+    if not lossless or len(stem) > _MAX_STEM:
+        exact = repr([(str(k), type(v).__name__, _value_text(v)) for k, v in params.items()])
+        digest = hashlib.sha1(exact.encode("utf-8")).hexdigest()[:10]
+        stem = f"{stem[:_MAX_STEM]}_{digest}"
+    return stem + ".h5"
+
+
+def _parameter_units(key: str) -> str:
+    return _PARAMETER_UNITS.get(re.sub(r"\.\d+\.", ".N.", key),
+                                "as in the scenario file (docs/scenario.md)")
+
+
+# --- planning ---------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class PointTask:
+    """One grid point to process (picklable: sent to worker processes or Dask workers).
+
+    Attributes
+    ----------
+    index : int
+        Position in the grid (``Sweep.parameter_sets`` order).
+    params : dict
+        Dotted key -> value of this point.
+    scenario : Scenario
+        The base scenario with the point's values (and its name made unique).
+    path : str
+        Absolute path of the point's run file.
+    action : str
+        ``run`` (new file), ``restart`` (overwrite a file that has no checkpoint yet),
+        ``resume`` (continue from the checkpoint) or ``reuse`` (already finished).
+    """
+
+    index: int
+    params: dict
+    scenario: Any
+    path: str
+    action: str
+
+
+@dataclass
+class PointResult:
+    """What became of one grid point.
+
+    Attributes
+    ----------
+    index : int
+    params : dict
+    file : str
+        Run file name (relative to the sweep's output directory).
+    status : str
+        ``finished``, ``stopped`` (interrupted; continue by starting the sweep again) or
+        ``failed``.
+    action : str
+        As in `PointTask`.
+    wall_time : float [s]
+        Time the worker spent on the point (run and analysis).
+    equilibrium : dict or None
+        ``compare.equilibrium`` of the run file; None unless finished.
+    error : str
+        Why the point failed ("" otherwise).
+    """
+
+    index: int
+    params: dict
+    file: str
+    status: str
+    action: str
+    wall_time: float = 0.0
+    equilibrium: dict | None = None
+    error: str = ""
+
+
+def _first_difference(a: Any, b: Any, prefix: str = "") -> str | None:
+    """The first dotted key whose values differ between two nested mappings, with both."""
+    if isinstance(a, Mapping) and isinstance(b, Mapping):
+        for key in list(a) + [k for k in b if k not in a]:
+            here = f"{prefix}.{key}" if prefix else str(key)
+            if key not in a or key not in b:
+                return f"{here} present in only one of them"
+            found = _first_difference(a[key], b[key], here)
+            if found:
+                return found
+        return None
+    if a != b:
+        return f"{prefix or '<scenario>'}: {a!r} in the file, {b!r} in the sweep"
+    return None
+
+
+def _existing_action(path: Path, scenario) -> str:
+    """How to treat an existing run file of a point: reuse, resume or restart.
+
+    Raises InputError if the file is not a ringsim run file or was made by another scenario.
+    """
+    import h5py
+
+    from ringsim.scenario import ScenarioError, scenario_from_text
+
+    advice = "delete it or choose another --out"
+    try:
+        with h5py.File(path, "r") as f:
+            status = f.attrs.get("status")
+            text = f.attrs.get("scenario_yaml")
+            has_checkpoint = "checkpoint" in f
+    except OSError as exc:
+        raise InputError(str(path), "run file", f"exists but cannot be read as HDF5 ({exc}); "
+                         f"{advice}") from None
+    status = status.decode() if isinstance(status, bytes) else status
+    text = text.decode() if isinstance(text, bytes) else text
+    if not isinstance(text, str):
+        raise InputError(str(path), "scenario_yaml", f"exists but is not a ringsim run file; "
+                         f"{advice}")
+    try:
+        made_by = scenario_from_text(text, source=str(path)).to_dict()
+    except ScenarioError as exc:
+        raise InputError(str(path), "scenario_yaml", f"the embedded scenario is invalid "
+                         f"({exc.problem}); {advice}") from None
+    difference = _first_difference(made_by, scenario.to_dict())
+    if difference:
+        raise InputError(str(path), "scenario", f"the existing run file was made by a "
+                         f"different scenario ({difference}); {advice}")
+    if status == "finished":
+        return "reuse"
+    if status in _RESUMABLE:
+        return "resume" if has_checkpoint else "restart"
+    raise InputError(str(path), "status", f"unknown run status {status!r}; {advice}")
+
+
+def _point_scenario(base, params: Mapping[str, Any], stem: str):
+    """The point's scenario, named ``<base name>_<file stem>`` unless the grid sets the name."""
+    from ringsim.scenario import with_overrides
+
+    scenario = with_overrides(base, params)
+    if "name" in params:
+        return scenario
+    return with_overrides(scenario, {"name": f"{base.name}_{stem}"})
+
+
+def plan_sweep(sweep, out: str | os.PathLike) -> list[PointTask]:
+    """The tasks of a sweep: one per grid point with its run file and what to do with it.
+
+    Nothing is written.  Raises InputError when two points would share a run file or an
+    existing file cannot be reused or resumed (see `_existing_action`).
+
+    Parameters
+    ----------
+    sweep : ringsim.scenario.Sweep
+    out : output directory
+    """
+    out = Path(out).absolute()
+    tasks: list[PointTask] = []
+    seen: dict[str, dict] = {}
+    for index, (params, _scenario) in enumerate(sweep.points()):
+        name = point_file_name(params)
+        if name in seen:
+            raise InputError(sweep.source, "grid", f"points {seen[name]} and {params} are the "
+                             f"same run ({name}); remove the repeated value")
+        seen[name] = params
+        scenario = _point_scenario(sweep.base, params, name[:-len(".h5")])
+        path = out / name
+        action = _existing_action(path, scenario) if path.exists() else "run"
+        tasks.append(PointTask(index=index, params=dict(params), scenario=scenario,
+                               path=str(path), action=action))
+    return tasks
+
+
+# --- one point (runs in a worker) -------------------------------------------------------------
+
+def run_point(task: PointTask) -> PointResult:
+    """Run (or resume, or reuse) one grid point and compute its equilibrium.
+
+    This is the function sent to worker processes and Dask workers.  Errors propagate to
+    the caller, which marks the point failed.
+    """
+    from ringsim.compare import equilibrium
+    from ringsim.io import open_run
+    from ringsim.run import run
+
+    start = time.perf_counter()
+    if task.action in ("run", "restart"):
+        run(task.scenario, output=task.path, force=task.action == "restart", progress=False)
+    elif task.action == "resume":
+        run(task.scenario, output=task.path, resume=True, progress=False)
+    result = PointResult(index=task.index, params=task.params, file=Path(task.path).name,
+                         status="failed", action=task.action)
+    run_file = open_run(task.path)
+    status = run_file.attrs.get("status")
+    if status == "finished":
+        result.equilibrium = equilibrium(run_file)
+        result.status = "finished"
+    elif status == "stopped":
+        result.status = "stopped"
+        result.error = "stopped before the end; start the sweep again to continue it"
+    else:
+        result.error = f"the run file's status is {status!r} after the run"
+    result.wall_time = time.perf_counter() - start
+    return result
+
+
+def _failed(task: PointTask, exc: BaseException) -> PointResult:
+    message = " ".join(f"{type(exc).__name__}: {exc}".split())
+    return PointResult(index=task.index, params=task.params, file=Path(task.path).name,
+                       status="failed", action=task.action, error=message)
+
+
+# --- executors --------------------------------------------------------------------------------
+
+def _run_local(tasks: Sequence[PointTask], workers: int,
+               report: Callable[[PointResult], None]) -> None:
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        futures = {pool.submit(run_point, task): task for task in tasks}
+        for future in as_completed(futures):
+            task = futures[future]
+            try:
+                result = future.result()
+            except Exception as exc:  # noqa: BLE001 - any failure of one point is reported
+                result = _failed(task, exc)
+            report(result)
+
+
+def _dask_client(address: str):
+    """A connected ``dask.distributed.Client``; InputError if Dask is missing or the
+    scheduler cannot be reached."""
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise InputError("<command line>", "--scheduler", "Dask is not installed: "
+                         "pip install ringsim[dask]") from None
+    try:
+        return Client(address)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise InputError("<command line>", "--scheduler",
+                         f"cannot connect to the Dask scheduler {address!r} ({exc})") from None
+
+
+def _run_dask(client, tasks: Sequence[PointTask],
+              report: Callable[[PointResult], None]) -> None:
+    from dask.distributed import as_completed
+
+    futures = client.map(run_point, list(tasks), pure=False)
+    by_future = dict(zip(futures, tasks, strict=True))
+    for future in as_completed(futures):
+        task = by_future[future]
+        try:
+            result = future.result()
+        except Exception as exc:  # noqa: BLE001 - any failure of one point is reported
+            result = _failed(task, exc)
+        report(result)
+
+
+# --- the sweep --------------------------------------------------------------------------------
+
+@dataclass
+class SweepResult:
+    """The outcome of `run_sweep`.
+
+    Attributes
+    ----------
+    out : Path
+        Output directory.
+    results : list of PointResult
+        In grid order.
+    summary_csv, summary_h5 : Path
+    wall_time : float [s]
+    """
+
+    out: Path
+    results: list[PointResult]
+    summary_csv: Path
+    summary_h5: Path
+    wall_time: float
+    keys: tuple[str, ...] = field(default=())
+
+    @property
+    def n_failed(self) -> int:
+        """Points not finished (failed or stopped)."""
+        return sum(r.status != "finished" for r in self.results)
+
+
+def default_output_dir(sweep_path: str | os.PathLike) -> Path:
+    """``runs/<sweep file stem>`` (relative to the working directory)."""
+    return Path("runs") / Path(sweep_path).stem
+
+
+def run_sweep(sweep_path: str | os.PathLike, out: str | os.PathLike | None = None,
+              workers: int | None = None, scheduler: str | None = None,
+              echo: Callable[[str], None] | None = print) -> SweepResult:
+    """Run every grid point of a sweep file and write ``summary.csv`` and ``summary.h5``.
+
+    Parameters
+    ----------
+    sweep_path : sweep YAML file
+    out : output directory (default ``runs/<sweep file stem>``)
+    workers : int, optional
+        Local worker processes (default ``os.cpu_count()``); ignored with ``scheduler``.
+    scheduler : str, optional
+        Address of a Dask scheduler (``tcp://host:8786``); needs ``pip install ringsim[dask]``.
+    echo : callable or None
+        Receives the progress lines (default ``print``).
+
+    Raises
+    ------
+    InputError
+        Invalid sweep file or option, Dask missing, or an existing run file that cannot be
+        reused; nothing is written then.
+    """
+    from ringsim.scenario import load_sweep
+
+    say = echo if echo is not None else (lambda line: None)
+    if workers is not None and workers < 1:
+        raise InputError("<command line>", "--workers", f"{workers} is not a positive number "
+                         "of worker processes")
+    sweep = load_sweep(sweep_path)
+    out_dir = Path(out) if out is not None else default_output_dir(sweep_path)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise InputError(str(out_dir), "--out", "exists and is not a directory")
+    tasks = plan_sweep(sweep, out_dir)
+    client = _dask_client(scheduler) if scheduler else None
+
+    todo = [t for t in tasks if t.action != "reuse"]
+    counts = {a: sum(t.action == a for t in tasks) for a in ("run", "restart", "resume", "reuse")}
+    n_workers = 1
+    if client is None:
+        n_workers = max(1, min(workers or os.cpu_count() or 1, len(tasks)))
+    if client is not None:
+        where = f"Dask scheduler {scheduler}"
+    elif todo:
+        where = f"{n_workers} worker process{'es' if n_workers > 1 else ''}"
+    else:
+        where = "analysed in this process"
+
+    say(f"sweep {sweep_path}: {len(tasks)} points -> {out_dir}/ ({counts['run']} new, "
+        f"{counts['resume']} to resume, {counts['restart']} to restart, {counts['reuse']} "
+        f"finished already; {where})")
+    out_dir.mkdir(parents=True, exist_ok=True)
+
+    results: dict[int, PointResult] = {}
+    start = time.perf_counter()
+
+    def report(result: PointResult) -> None:
+        results[result.index] = result
+        line = (f"[{len(results)}/{len(tasks)}] {result.file}: {result.status} "
+                f"({result.action}, {result.wall_time:.1f} s); sweep time "
+                f"{time.perf_counter() - start:.1f} s")
+        if result.error:
+            line += f": {result.error}"
+        say(line)
+
+    try:
+        if client is not None:
+            _run_dask(client, tasks, report)
+        elif todo:
+            _run_local(tasks, n_workers, report)
+        else:  # everything finished already: analyse in this process
+            for task in tasks:
+                try:
+                    report(run_point(task))
+                except Exception as exc:  # noqa: BLE001 - reported as a failed point
+                    report(_failed(task, exc))
+    finally:
+        if client is not None:
+            client.close()
+    ordered = [results[t.index] for t in tasks]
+    csv_path, h5_path = write_summary(out_dir, sweep, ordered)
+    wall = time.perf_counter() - start
+    n_bad = sum(r.status != "finished" for r in ordered)
+    say(f"sweep done in {wall:.1f} s: {len(ordered) - n_bad} finished, {n_bad} failed or "
+        f"stopped; summary {csv_path} and {h5_path}")
+    return SweepResult(out=out_dir, results=ordered, summary_csv=csv_path, summary_h5=h5_path,
+                       wall_time=wall, keys=sweep.keys)
+
+
+def sweep_command(args) -> int:
+    """``ringsim sweep SWEEP.yaml [--workers N] [--scheduler ADDRESS] [--out DIR]``.
+
+    Returns 0 when every point finished, 1 when any failed or stopped (InputError for bad
+    input propagates: exit status 2).
+    """
+    def echo(line: str) -> None:
+        print(line, flush=True)
+
+    result = run_sweep(args.sweep, out=args.out, workers=args.workers,
+                       scheduler=args.scheduler, echo=echo)
+    if result.n_failed:
+        failed = [r.file for r in result.results if r.status != "finished"]
+        print(f"ringsim sweep: {result.n_failed} point(s) did not finish: "
+              f"{', '.join(failed)}", file=sys.stderr)
+        return 1
+    return 0
+
+
+# --- summary ----------------------------------------------------------------------------------
+
+def _number(value: Any) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def summary_rows(keys: Sequence[str], results: Iterable[PointResult]
+                 ) -> tuple[list[str], dict[str, str], list[dict[str, Any]]]:
+    """The summary table: (columns, unit of each non-parameter column, rows).
+
+    Rows hold the grid parameters (columns named by their dotted keys), ``run_file``,
+    ``status``, ``action``, ``in_equilibrium``, ``reason``, ``<stem>_mean`` and
+    ``<stem>_stderr`` of every `EQUILIBRIUM_COLUMNS` quantity, the run's length and size,
+    ``wall_time_s`` and ``error``.  Numbers of points that did not finish are NaN.
+    """
+    units: dict[str, str] = {"run_file": "text", "status": "text", "action": "text",
+                             "in_equilibrium": "boolean", "reason": "text"}
+    for _key, stem, unit in EQUILIBRIUM_COLUMNS:
+        units[f"{stem}_mean"] = unit
+        units[f"{stem}_stderr"] = unit
+    for _key, column, unit in _RUN_COLUMNS:
+        units[column] = unit
+    units["wall_time_s"] = "s"
+    units["error"] = "text"
+    columns = list(keys) + list(units)
+    rows = []
+    for result in results:
+        eq = result.equilibrium or {}
+        row: dict[str, Any] = dict(result.params)
+        row.update(run_file=result.file, status=result.status, action=result.action,
+                   in_equilibrium=bool(eq.get("in_equilibrium", False)),
+                   reason=str(eq.get("reason", "")))
+        for key, stem, _unit in EQUILIBRIUM_COLUMNS:
+            value = eq.get(key, {})
+            row[f"{stem}_mean"] = _number(value.get("mean"))
+            row[f"{stem}_stderr"] = _number(value.get("stderr"))
+        for key, column, _unit in _RUN_COLUMNS:
+            value = eq.get(key)
+            row[column] = value if isinstance(value, int) else _number(value)
+        row["wall_time_s"] = float(result.wall_time)
+        row["error"] = result.error
+        rows.append(row)
+    return columns, units, rows
+
+
+def _csv_cell(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def _column_array(values: list[Any]):
+    """A numpy array for an HDF5 dataset: bool, int64, float64 or variable-length text."""
+    import h5py
+
+    if all(isinstance(v, (bool, np.bool_)) for v in values):
+        return np.array(values, dtype=bool)
+    if all(isinstance(v, int) and not isinstance(v, bool) for v in values):
+        return np.array(values, dtype=np.int64)
+    if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+        return np.array(values, dtype=np.float64)
+    return np.array([v if isinstance(v, str) else repr(v) for v in values],
+                    dtype=h5py.string_dtype())
+
+
+def write_summary(out_dir: str | os.PathLike, sweep, results: Sequence[PointResult]
+                  ) -> tuple[Path, Path]:
+    """Write ``summary.csv`` and ``summary.h5`` into ``out_dir``; returns their paths.
+
+    ``summary.h5``: root attributes ``sweep_yaml`` (the sweep file's text), ``sweep_file``,
+    ``base_scenario_yaml``, ``grid_keys``, ``ringsim_version``, ``units`` = "SI",
+    ``created_utc``; datasets ``/parameters/<dotted key>`` and one dataset per other column
+    of `summary_rows`, each with a ``units`` attribute.  Both files are written under a
+    temporary name and renamed.
+    """
+    import h5py
+
+    from ringsim import __version__
+
+    out_dir = Path(out_dir)
+    columns, units, rows = summary_rows(sweep.keys, results)
+    csv_path, h5_path = out_dir / "summary.csv", out_dir / "summary.h5"
+
+    tmp_csv = csv_path.with_name(".summary.csv.tmp")
+    with open(tmp_csv, "w", newline="", encoding="utf-8") as f:
+        writer = csv.writer(f)
+        writer.writerow(columns)
+        for row in rows:
+            writer.writerow([_csv_cell(row[c]) for c in columns])
+    os.replace(tmp_csv, csv_path)
+
+    tmp_h5 = h5_path.with_name(".summary.h5.tmp")
+    with h5py.File(tmp_h5, "w") as f:
+        f.attrs["sweep_yaml"] = sweep.source_text or ""
+        f.attrs["sweep_file"] = str(sweep.source)
+        f.attrs["base_scenario_yaml"] = sweep.base.yaml_text
+        f.attrs["grid_keys"] = np.array(list(sweep.keys), dtype=h5py.string_dtype())
+        f.attrs["ringsim_version"] = __version__
+        f.attrs["units"] = "SI"
+        f.attrs["created_utc"] = _dt.datetime.now(_dt.timezone.utc).isoformat(
+            timespec="seconds")
+        f.attrs["n_points"] = len(rows)
+        f.attrs["n_failed"] = sum(row["status"] != "finished" for row in rows)
+        params = f.create_group("parameters")
+        for key in sweep.keys:
+            ds = params.create_dataset(key, data=_column_array([row[key] for row in rows]))
+            ds.attrs["units"] = _parameter_units(key)
+        for column, unit in units.items():
+            ds = f.create_dataset(column, data=_column_array([row[column] for row in rows]))
+            ds.attrs["units"] = unit
+    os.replace(tmp_h5, h5_path)
+    return csv_path, h5_path
