@@ -51,25 +51,34 @@ class LoopState:
 
 
 class _StopRequest:
-    """Turns SIGTERM into a clean stop at the next output (SIGINT is REBOUND's)."""
+    """Turns SIGINT (Ctrl-C) and SIGTERM into a clean stop at the next output.
+
+    While REBOUND integrates, its own SIGINT handler stops the integration after the
+    current step and the Python wrapper raises KeyboardInterrupt (caught by the loop);
+    while ringsim's Python code runs (diagnostics, HDF5 writes), these handlers only set a
+    flag, so a signal never interrupts a half-written file.
+    """
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self):
         self.requested = False
-        self._previous = None
+        self._previous: dict = {}
 
     def __enter__(self):
-        try:
-            self._previous = signal.signal(signal.SIGTERM, self._handler)
-        except ValueError:  # not in the main thread
-            self._previous = None
+        for sig in self.SIGNALS:
+            try:
+                self._previous[sig] = signal.signal(sig, self._handler)
+            except ValueError:  # not in the main thread: leave signals alone
+                break
         return self
 
     def _handler(self, signum, frame):
         self.requested = True
 
     def __exit__(self, *exc):
-        if self._previous is not None:
-            signal.signal(signal.SIGTERM, self._previous)
+        for sig, previous in self._previous.items():
+            signal.signal(sig, previous)
         return False
 
 
@@ -306,7 +315,12 @@ class Runner:
                 while self.sim.t < self.t_end * (1 - 1e-12):
                     t_next = min(self.state.rows * self.ts_every, self.t_end)
                     t_next = max(t_next, self.sim.t)
-                    self.sim.integrate(t_next, exact_finish_time=0)
+                    try:
+                        self.sim.integrate(t_next, exact_finish_time=0)
+                    except KeyboardInterrupt:
+                        # REBOUND stopped after a complete step: checkpoint here
+                        status = "stopped"
+                        break
                     self._output()
                     if bar is not None:
                         bar.update(min(self.sim.t / self.orbit, bar.total) - bar.n)
@@ -316,8 +330,6 @@ class Runner:
                     if stop.requested:
                         status = "stopped"
                         break
-        except KeyboardInterrupt:
-            status = "stopped"
         finally:
             if bar is not None:
                 bar.close()

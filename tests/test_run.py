@@ -208,3 +208,43 @@ def test_bundled_scenarios_smoke(tmp_path, scenario_file):
     run = ringsim.open_run(ringsim.run(tiny, output=tmp_path / "t.h5", progress=False))
     assert run.n_snapshots == 2
     assert np.all(np.isfinite(run.timeseries["velocity_dispersion"]))
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_interrupt_stops_cleanly_and_resumes(tmp_path, sig):
+    """Ctrl-C (or SIGTERM) stops with a checkpoint; --resume ends on the same states."""
+    sc = small_scenario(**{"integration.orbits": 1.0, "sheet.n_particles": 300})
+    scenario_file = tmp_path / "s.yaml"
+    scenario_file.write_text(sc.to_yaml())
+    reference = ringsim.run(load_scenario(scenario_file), output=tmp_path / "ref.h5",
+                            progress=False)
+    out = tmp_path / "int.h5"
+    proc = subprocess.Popen([sys.executable, "-m", "ringsim.cli", "run", str(scenario_file),
+                             "-o", str(out), "--no-progress"],
+                            env=dict(os.environ, HDF5_USE_FILE_LOCKING="FALSE"),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+        try:
+            with h5py.File(out, "r", locking=False) as f:
+                if "checkpoint" in f and int(f["checkpoint"].attrs["rows"]) >= 1 \
+                        and f["timeseries/t"].shape[0] >= 4:
+                    break
+        except (OSError, KeyError):
+            continue
+    assert proc.poll() is None, "the run finished before it could be interrupted"
+    proc.send_signal(sig)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 1, stderr
+    assert "--resume" in stdout and "Traceback" not in stderr
+    stopped = ringsim.open_run(out)
+    assert stopped.attrs["status"] == "stopped"
+    assert stopped.timeseries["orbits"][-1] < 1.0
+    assert main(["run", str(scenario_file), "-o", str(out), "--resume", "--no-progress"]) == 0
+    ref, res = ringsim.open_run(reference), ringsim.open_run(out)
+    assert res.attrs["status"] == "finished"
+    for field in ("x", "y", "z", "vx", "vy", "vz"):
+        assert np.array_equal(ref.snapshot(-1)[field], res.snapshot(-1)[field]), field
+    for name in ("t", "velocity_dispersion", "thickness", "collisions_log_n"):
+        assert np.array_equal(ref.timeseries[name], res.timeseries[name]), name
