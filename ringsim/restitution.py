@@ -125,14 +125,7 @@ def reduced_radius(R1: ArrayLike, R2: ArrayLike) -> FloatArray | float:
     -------
     R_bar : array [m]
     """
-    r1 = _array("R1", R1, allow_inf=True)
-    r2 = _array("R2", R2, allow_inf=True)
-    if np.any(np.isinf(r1) & np.isinf(r2)):
-        raise ValueError("R1 and R2 must not both be infinite")
-    with np.errstate(invalid="ignore", divide="ignore"):
-        finite = r1 * r2 / (r1 + r2)
-    out = np.where(np.isinf(r2), r1, np.where(np.isinf(r1), r2, finite))
-    return _result(out)
+    return _result(_reduced("R1", R1, "R2", R2))
 
 
 def reduced_mass(M1: ArrayLike, M2: ArrayLike) -> FloatArray | float:
@@ -147,14 +140,18 @@ def reduced_mass(M1: ArrayLike, M2: ArrayLike) -> FloatArray | float:
     -------
     M_bar : array [kg]
     """
-    m1 = _array("M1", M1, allow_inf=True)
-    m2 = _array("M2", M2, allow_inf=True)
-    if np.any(np.isinf(m1) & np.isinf(m2)):
-        raise ValueError("M1 and M2 must not both be infinite")
+    return _result(_reduced("M1", M1, "M2", M2))
+
+
+def _reduced(name1: str, a: ArrayLike, name2: str, b: ArrayLike) -> FloatArray:
+    """a b / (a + b), where an infinite partner gives the other value (both: ValueError)."""
+    x = _array(name1, a, allow_inf=True)
+    y = _array(name2, b, allow_inf=True)
+    if np.any(np.isinf(x) & np.isinf(y)):
+        raise ValueError(f"{name1} and {name2} must not both be infinite")
     with np.errstate(invalid="ignore", divide="ignore"):
-        finite = m1 * m2 / (m1 + m2)
-    out = np.where(np.isinf(m2), m1, np.where(np.isinf(m1), m2, finite))
-    return _result(out)
+        finite = x * y / (x + y)
+    return np.where(np.isinf(y), x, np.where(np.isinf(x), y, finite))
 
 
 # --- viscous dissipation: Dilley (1993) section 5 --------------------------------------------
