@@ -89,7 +89,7 @@ def test_sigkill_then_resume_is_bit_identical(tmp_path):
     killed = tmp_path / "killed.h5"
     env = dict(os.environ, HDF5_USE_FILE_LOCKING="FALSE")
     proc = subprocess.Popen([sys.executable, "-m", "ringsim.cli", "run", str(scenario_file),
-                             "-o", str(killed), "--no-progress"], env=env,
+                             "-o", str(killed), "--no-progress"], env=env, cwd=tmp_path,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     deadline = time.time() + 120
     checkpoint_rows = 0
@@ -103,7 +103,7 @@ def test_sigkill_then_resume_is_bit_identical(tmp_path):
             continue
         if checkpoint_rows >= 6:  # past the 0.2-orbit checkpoint, before the end
             break
-    assert proc.poll() is None, "the run finished before it could be killed"
+    assert proc.poll() is None, f"the run ended before it could be killed: {proc.stderr.read()}"
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     assert 6 <= checkpoint_rows < 24
@@ -221,7 +221,7 @@ def test_interrupt_stops_cleanly_and_resumes(tmp_path, sig):
     out = tmp_path / "int.h5"
     proc = subprocess.Popen([sys.executable, "-m", "ringsim.cli", "run", str(scenario_file),
                              "-o", str(out), "--no-progress"],
-                            env=dict(os.environ, HDF5_USE_FILE_LOCKING="FALSE"),
+                            env=dict(os.environ, HDF5_USE_FILE_LOCKING="FALSE"), cwd=tmp_path,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 120
     while time.time() < deadline and proc.poll() is None:
