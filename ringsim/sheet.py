@@ -76,13 +76,18 @@ class SheetGeometry:
 
 # --- size bins ------------------------------------------------------------------------------
 
-def size_bin_edges(size_distribution, radii: np.ndarray, n_bins: int = 6) -> np.ndarray | None:
-    """Log-spaced radius bin edges [m] for per-size diagnostics; None if monodisperse."""
-    lo, hi = float(radii.min()), float(radii.max())
+def size_bin_edges(size_distribution, n_bins: int = 6) -> np.ndarray | None:
+    """Radius bin edges [m] for per-size diagnostics; None for a single radius.
+
+    Fixed by the scenario (not by the radii drawn), so runs with different seeds share
+    their bins: log-spaced over [r_min, r_max] for a power law (the top edge nudged up so
+    that r_max falls inside), one bin per component for a mixture.
+    """
+    lo, hi = size_distribution.smallest_radius, size_distribution.largest_radius
     if hi <= lo * (1 + 1e-12):
         return None
     if size_distribution.kind == "mixture":
-        distinct = np.unique(radii)
+        distinct = np.unique([c.radius for c in size_distribution.components])
         mids = np.sqrt(distinct[1:] * distinct[:-1])
         return np.concatenate([[lo * 0.999], mids, [hi * 1.001]])
     return np.geomspace(lo, hi * (1 + 1e-9), n_bins + 1)
@@ -286,7 +291,7 @@ def build_sheet(scenario) -> Sheet:
     sim.minimum_collision_velocity = minimum_collision_velocity(radii, Omega)
     handle = install_resolver(sim, scenario.restitution_dict(),
                               log_capacity=scenario.output.log_collisions)
-    edges = size_bin_edges(particles.size_distribution, radii)
+    edges = size_bin_edges(particles.size_distribution)
     sim.dt = choose_dt(sim, scenario.integration, geometry, radii)
     return Sheet(sim, geometry, radii, masses, edges, handle)
 

@@ -61,6 +61,8 @@ def test_size_distribution_drawn_with_the_seed():
     assert a.radii.min() >= 0.5 and a.radii.max() <= 5.0
     c = sheet.build_sheet(with_overrides(scenario_from_dict(BASE), {"seed": 12}))
     assert not np.array_equal(a.radii, c.radii)
+    np.testing.assert_array_equal(a.size_bin_edges, c.size_bin_edges)
+    assert a.size_bin_edges[0] == 0.5 and 5.0 < a.size_bin_edges[-1] < 5.0 * (1 + 1e-8)
 
 
 def test_gravity_sets_tree_gravity_and_two_ghost_rings():
