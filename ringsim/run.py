@@ -169,9 +169,16 @@ class Runner:
         if checkpoint is None:
             raise InputError(str(self.path), "--resume", "the file has no checkpoint to resume")
         run = io.open_run(self.path)
-        if run.scenario.to_dict() != self.scenario.to_dict():
+        old, new = run.scenario.to_dict(), self.scenario.to_dict()
+        old_orbits = old["integration"].pop("orbits")
+        new_orbits = new["integration"].pop("orbits")
+        if old != new:
             raise InputError(str(self.path), "--resume",
-                             "the scenario differs from the one the run file was made with")
+                             "the scenario differs from the one the run file was made with "
+                             "(only integration.orbits may grow)")
+        if new_orbits < old_orbits:
+            raise InputError(str(self.path), "integration.orbits",
+                             f"{new_orbits:g} is shorter than the run file's {old_orbits:g}")
         st = checkpoint.state
         self.state = LoopState(int(st["rows"]), int(st["snapshots"]), int(st["guard_events"]),
                                int(st["dt_warned"]), int(st["overlap_warned"]))
@@ -190,6 +197,11 @@ class Runner:
         self.handle = install_resolver(sim, self.scenario.restitution_dict(),
                                        log_capacity=self.scenario.output.log_collisions)
         io.set_attributes(self.path, status="running")
+        if new_orbits > old_orbits:
+            # a longer run of the same scenario: continue it, and let the file say so
+            io.set_attributes(self.path, scenario_yaml=self.scenario.yaml_text)
+            self._guard_event(f"run extended from {old_orbits:g} to {new_orbits:g} orbits",
+                              show=False)
 
     # -- outputs -------------------------------------------------------------------------------
 
@@ -333,9 +345,8 @@ class Runner:
         finally:
             if bar is not None:
                 bar.close()
-        if status == "stopped":
-            self.checkpoint()
-        self.write_rows()
+        # a final checkpoint: a stopped run resumes from here, a finished one can be extended
+        self.checkpoint()
         io.set_attributes(self.path, status=status)
         return status
 

@@ -248,3 +248,24 @@ def test_interrupt_stops_cleanly_and_resumes(tmp_path, sig):
         assert np.array_equal(ref.snapshot(-1)[field], res.snapshot(-1)[field]), field
     for name in ("t", "velocity_dispersion", "thickness", "collisions_log_n"):
         assert np.array_equal(ref.timeseries[name], res.timeseries[name]), name
+
+
+def test_extending_a_finished_run_equals_a_longer_run(tmp_path):
+    """--resume with a larger integration.orbits continues a finished run bit-exactly."""
+    short = small_scenario(**{"integration.orbits": 0.4})
+    long = small_scenario(**{"integration.orbits": 0.8})
+    direct = ringsim.open_run(ringsim.run(long, output=tmp_path / "direct.h5", progress=False))
+    path = ringsim.run(short, output=tmp_path / "ext.h5", progress=False)
+    ringsim.run(long, output=path, resume=True, progress=False)
+    extended = ringsim.open_run(path)
+    assert extended.scenario == long and extended.attrs["status"] == "finished"
+    assert any("extended from 0.4 to 0.8 orbits" in m for _, m in extended.guard_events)
+    for field in ("x", "y", "z", "vx", "vy", "vz"):
+        assert np.array_equal(direct.snapshot(-1)[field], extended.snapshot(-1)[field])
+    for name, series in direct.timeseries.items():
+        assert np.array_equal(series, extended.timeseries[name], equal_nan=True), name
+    with pytest.raises(ringsim.InputError, match="integration.orbits"):
+        ringsim.run(short, output=path, resume=True, progress=False)
+    other = small_scenario(**{"integration.orbits": 0.8, "restitution.kappa": 0.0})
+    with pytest.raises(ringsim.InputError, match="only integration.orbits may grow"):
+        ringsim.run(other, output=path, resume=True, progress=False)
