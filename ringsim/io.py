@@ -3,7 +3,8 @@
 Layout (CONTRACT.md "Run file"):
 
 * ``/`` attributes ``ringsim_version``, ``rebound_version``, ``scenario_yaml``, ``units`` =
-  "SI", ``seed``, ``created_utc``, plus ``status`` ("running", "finished", "stopped") and
+  "SI", ``seed``, ``created_utc``, plus ``status`` ("running", "finished", "stopped"),
+  ``wall_time_s`` (wall-clock time of the run up to its last checkpoint, all sessions) and
   the box geometry of the sheet (``Lx``, ``Ly``, ``Omega``, ...).
 * ``/timeseries/NAME`` resizable 1-D datasets (2-D ``(n, n_bins)`` for per-size-bin
   arrays), each with a ``units`` attribute.

@@ -150,6 +150,8 @@ class Runner:
         self.state = LoopState()
         self.pending_rows: list[dict] = []
         self.last_write = time.perf_counter()
+        self.wall_start = time.perf_counter()
+        self.wall_before = 0.0  # wall time [s] of earlier sessions of this run
 
     # -- set-up --------------------------------------------------------------------------------
 
@@ -197,6 +199,7 @@ class Runner:
         self.handle = install_resolver(sim, self.scenario.restitution_dict(),
                                        log_capacity=self.scenario.output.log_collisions)
         io.set_attributes(self.path, status="running")
+        self.wall_before = float(run.attrs.get("wall_time_s", 0.0))
         if new_orbits > old_orbits:
             # a longer run of the same scenario: continue it, and let the file say so
             io.set_attributes(self.path, scenario_yaml=self.scenario.yaml_text)
@@ -315,6 +318,8 @@ class Runner:
         state["rand_seed"] = int(self.sim.rand_seed)
         state["t"] = float(self.sim.t)
         io.write_checkpoint(self.path, _simulation_binary(self.sim), state)
+        io.set_attributes(self.path, wall_time_s=self.wall_before + time.perf_counter()
+                          - self.wall_start)
 
     # -- the loop ------------------------------------------------------------------------------
 
