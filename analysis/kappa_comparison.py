@@ -1,0 +1,229 @@
+"""The mission's comparison: ring equilibria with mass exponent kappa = 0 against kappa = 0.1.
+
+Runs (or reuses finished runs of) ``scenarios/kappa0.yaml`` and ``scenarios/kappa0.1.yaml``
+with several seeds, plus a monodisperse variant of both, and writes
+``analysis/kappa_comparison.md`` with the equilibrium table, per-size-bin results, the
+dilute kinetic estimate beside each, the ratios kappa = 0.1 / kappa = 0 with uncertainties,
+and figures in ``analysis/figures/``.
+
+    python analysis/kappa_comparison.py [--seeds 1 2 3] [--particles N] [--orbits T]
+                                        [--runs runs/kappa] [--workers 2]
+
+Seeds are combined by averaging each seed's equilibrium mean; the uncertainty is the larger
+of the propagated per-run standard errors and the seed-to-seed scatter / sqrt(n_seeds).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+import ringsim
+from ringsim.compare import TABLE_ROWS, equilibrium, ratio
+from ringsim.io import open_run
+from ringsim.scenario import load_scenario, with_overrides
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENARIOS = {"kappa = 0": ROOT / "scenarios" / "kappa0.yaml",
+             "kappa = 0.1": ROOT / "scenarios" / "kappa0.1.yaml"}
+REPORT = ROOT / "analysis" / "kappa_comparison.md"
+FIGURES = ROOT / "analysis" / "figures"
+
+
+def variants(args) -> dict[str, dict]:
+    """Size-distribution variants: scenario overrides by name."""
+    common = {}
+    if args.particles:
+        common["sheet.n_particles"] = args.particles
+    if args.orbits:
+        common["integration.orbits"] = args.orbits
+    if args.detection:
+        common["integration.collision_detection"] = args.detection
+    mono = dict(common)
+    mono["particles.size_distribution"] = {"kind": "monodisperse", "radius": args.mono_radius}
+    return {"powerlaw": common, "monodisperse": mono}
+
+
+def run_one(job: tuple[str, dict, str]) -> tuple[str, float]:
+    """Run one scenario; returns (path, wall time [s]).
+
+    A finished file of the same scenario is reused; a stopped one, or a shorter run of the
+    same scenario, is continued with ``--resume`` (bit-identical to running it whole).
+    """
+    scenario_path, overrides, output = job
+    out = Path(output)
+    sc = with_overrides(load_scenario(scenario_path), overrides)
+    t0 = time.perf_counter()
+    if out.exists():
+        try:
+            existing = open_run(out)
+        except (OSError, KeyError):
+            existing = None
+        if existing is not None and existing.attrs.get("status") == "finished" \
+                and existing.scenario == sc:
+            return output, 0.0
+        try:
+            ringsim.run(sc, output=out, resume=True, progress=False)
+            return output, time.perf_counter() - t0
+        except ringsim.InputError:
+            pass  # not a continuation of this scenario: start again
+    ringsim.run(sc, output=out, force=True, progress=False)
+    return output, time.perf_counter() - t0
+
+
+def combine(values: list[dict]) -> dict:
+    """Average of several runs' {"mean", "stderr"}; see the module docstring."""
+    means = np.array([v["mean"] for v in values], dtype=float)
+    errs = np.array([v["stderr"] for v in values], dtype=float)
+    ok = np.isfinite(means)
+    if not ok.any():
+        return {"mean": math.nan, "stderr": math.nan}
+    means, errs = means[ok], errs[ok]
+    n = means.size
+    propagated = math.sqrt(float(np.nansum(errs**2))) / n
+    scatter = float(np.std(means, ddof=1)) / math.sqrt(n) if n > 1 else 0.0
+    return {"mean": float(means.mean()), "stderr": max(propagated, scatter)}
+
+
+def fmt(v: dict, scale: float = 1.0, digits: int = 3) -> str:
+    if not math.isfinite(v["mean"]):
+        return "n/a"
+    return f"{v['mean'] * scale:.{digits}g} ± {v['stderr'] * scale:.2g}"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    parser.add_argument("--particles", type=int, default=None)
+    parser.add_argument("--orbits", type=float, default=None)
+    parser.add_argument("--detection", choices=["tree", "line"], default=None)
+    parser.add_argument("--mono-radius", type=float, default=1.0,
+                        help="radius of the monodisperse variant [m]")
+    parser.add_argument("--runs", default=str(ROOT / "runs" / "kappa"))
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--report", default=str(REPORT))
+    args = parser.parse_args()
+
+    runs_dir = Path(args.runs)
+    runs_dir.mkdir(parents=True, exist_ok=True)
+    jobs, keys = [], []
+    for variant, overrides in variants(args).items():
+        for label, scenario_path in SCENARIOS.items():
+            for seed in args.seeds:
+                o = dict(overrides, seed=seed)
+                name = f"{variant}_{scenario_path.stem}_seed{seed}.h5"
+                jobs.append((str(scenario_path), o, str(runs_dir / name)))
+                keys.append((variant, label, seed))
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        results = list(pool.map(run_one, jobs))
+    wall = {key: float(open_run(path).attrs.get("wall_time_s", w))
+            for key, (path, w) in zip(keys, results, strict=True)}
+    print(f"runs done in {time.perf_counter() - t0:.0f} s")
+
+    eqs, runs = {}, {}
+    for key, (path, _) in zip(keys, results, strict=True):
+        runs[key] = open_run(path)
+        eqs[key] = equilibrium(runs[key])
+    write_report(args, keys, eqs, runs, wall)
+
+
+def write_report(args, keys, eqs, runs, wall) -> None:
+    from ringsim.plots import plot_comparison
+
+    FIGURES.mkdir(parents=True, exist_ok=True)
+    lines = ["# Ring equilibria with kappa = 0 and kappa = 0.1", "",
+             "Generated by `python analysis/kappa_comparison.py "
+             + " ".join(f"--seeds {' '.join(map(str, args.seeds))}".split())
+             + (f" --particles {args.particles}" if args.particles else "")
+             + (f" --orbits {args.orbits:g}" if args.orbits else "")
+             + (f" --detection {args.detection}" if args.detection else "") + "`.", ""]
+    variants_seen = list(dict.fromkeys(k[0] for k in keys))
+    labels = list(SCENARIOS)
+    summary_sentences = []
+    for variant in variants_seen:
+        first = runs[next(k for k in keys if k[0] == variant)]
+        sc = first.scenario
+        sd = sc.particles.size_distribution
+        lines += [f"## {variant} particles", "",
+                  f"Scenario: {sd.to_dict()}, density {sc.particles.density:g} kg/m^3, "
+                  f"tau = {sc.sheet.optical_depth:g}, {sc.sheet.n_particles} particles, "
+                  f"Omega = {sc.orbital_frequency:g} 1/s, {sc.integration.orbits:g} orbits, "
+                  f"dt {sc.integration.dt}, collision detection "
+                  f"{sc.integration.collision_detection}, seeds {args.seeds}.", ""]
+        combined = {}
+        for label in labels:
+            members = [k for k in keys if k[0] == variant and k[1] == label]
+            combined[label] = {key: combine([eqs[k][key] for k in members])
+                               for key in TABLE_ROWS}
+            combined[label]["in_eq"] = all(eqs[k]["in_equilibrium"] for k in members)
+            combined[label]["wall"] = sum(wall[k] for k in members)
+            combined[label]["from"] = max(eqs[k]["equilibrium_from_orbit"]["mean"]
+                                          for k in members)
+            combined[label]["kinetic"] = eqs[members[0]]["kinetic_estimate"]
+            combined[label]["bins"] = [eqs[k]["per_size_bin"] for k in members]
+        header = "| quantity | " + " | ".join(labels) + " | ratio 0.1 / 0 |"
+        lines += [header, "|---|" + "---|" * (len(labels) + 1)]
+        for key, (label_text, unit, scale) in TABLE_ROWS.items():
+            r = ratio(combined[labels[1]][key], combined[labels[0]][key])
+            lines.append(f"| {label_text}{f' [{unit}]' if unit else ''} | "
+                         + " | ".join(fmt(combined[lab][key], scale) for lab in labels)
+                         + f" | {fmt(r)} |")
+        kin = []
+        for lab in labels:
+            k = combined[lab]["kinetic"]
+            kin.append(f"{k['velocity_dispersion_rOmega']:.3g}" if k["status"] == "equilibrium"
+                       else k["status"])
+        lines.append("| dilute kinetic estimate c / (<r> Omega) | " + " | ".join(kin) + " | |")
+        lines.append("| all runs in equilibrium | " + " | ".join(
+            str(combined[lab]["in_eq"]) for lab in labels) + " | |")
+        lines.append("| equilibrium window from orbit (latest seed) | " + " | ".join(
+            f"{combined[lab]['from']:.3g}" for lab in labels) + " | |")
+        lines.append("| wall time of the runs, all seeds [s] | " + " | ".join(
+            f"{combined[lab]['wall']:.0f}" for lab in labels) + " | |")
+        lines.append("")
+        bins0 = combined[labels[0]]["bins"][0]
+        if bins0:
+            lines += ["Per size bin (seed-averaged):", "",
+                      "| r [m] | " + " | ".join(f"c [mm/s] {lab}" for lab in labels)
+                      + " | " + " | ".join(f"H [m] {lab}" for lab in labels) + " |",
+                      "|---|" + "---|" * (2 * len(labels))]
+            for b in range(len(bins0)):
+                cells = []
+                for quantity, scale in (("velocity_dispersion", 1e3), ("thickness", 1.0)):
+                    for lab in labels:
+                        cells.append(fmt(combine([bins[b][quantity]
+                                                  for bins in combined[lab]["bins"]]), scale))
+                lines.append(f"| {bins0[b]['r_low']:.3g}-{bins0[b]['r_high']:.3g} | "
+                             + " | ".join(cells) + " |")
+            lines.append("")
+        pair = [k for k in keys if k[0] == variant and k[2] == args.seeds[0]]
+        figs = plot_comparison([runs[k] for k in pair], [eqs[k] for k in pair],
+                               FIGURES / variant)
+        for fig in figs:
+            lines.append(f"![{fig.stem}](figures/{variant}/{fig.name})")
+        lines.append("")
+        c0, c1 = (combined[lab]["velocity_dispersion_rOmega"] for lab in labels)
+        h0, h1 = (combined[lab]["thickness_r"] for lab in labels)
+        e0, e1 = (combined[lab]["mean_epsilon"] for lab in labels)
+        rc = ratio(c1, c0)
+        rh = ratio(h1, h0)
+        summary_sentences.append(
+            f"- **{variant}**: with kappa = 0.1 the velocity dispersion is "
+            f"{c1['mean']:.3g} <r>Omega against {c0['mean']:.3g} with kappa = 0 (ratio "
+            f"{fmt(rc)}), the ring is {rh['mean']:.3g} times as thick (H = "
+            f"{h1['mean']:.3g} against {h0['mean']:.3g} mean radii) and the mean applied "
+            f"epsilon is {e1['mean']:.3f} against {e0['mean']:.3f}.")
+    lines[4:4] = ["## What changes between kappa = 0 and kappa = 0.1", "", *summary_sentences,
+                  ""]
+    Path(args.report).write_text("\n".join(lines) + "\n")
+    print(f"wrote {args.report}")
+
+
+if __name__ == "__main__":
+    main()
