@@ -58,6 +58,7 @@ TIMESERIES_UNITS = {
     "max_vertical_amplitude": "m",
     "z_half_period": "m",
     "overlapping_pairs": "count",
+    "multi_encounters": "count",
     "size_bin_velocity_dispersion": "m/s",
     "size_bin_thickness": "m",
     "size_bin_n": "count",

@@ -16,6 +16,10 @@ Collision search: with REBOUND's ``tree`` or ``direct`` search a pair is resolve
 overlaps and approaches at the end of the step; with ``line`` or ``linetree`` at its first
 contact on the straight relative path within the step, after which both particles move on
 with their new velocities for the rest of the step (see the header of the C file).
+``install_resolver(..., detector="sheet")`` replaces REBOUND's search by ringsim's own
+swept-sphere search for shearing sheets (``ringsim/csrc/rs_sheet_detect.c``): cells in
+the shear frame, searches widened by the speeds relative to the shear flow only, contacts
+resolved as in ``linetree`` mode.  Its cost per particle-step does not grow with the box.
 
 Lifetime: the handle owns the C memory of parameters and statistics and frees it when
 closed or garbage-collected.  ``install_resolver`` stores the handle in the simulation
@@ -41,6 +45,12 @@ Statistics (``ResolverHandle.stats``):
   ``M_bar`` [kg], ``epsilon``) of every ``log_every``-th collision, the most recent
   ``log_capacity`` of them, oldest first.  ``epsilon`` is the law's value, also when
   the minimum collision velocity raised the impulse.
+* ``multi_encounters``: resolved collisions in which one of the two particles had already
+  been deflected earlier in the same step (by a partner carrying at least 10% of that
+  pair's mass, ``MULTI_ENCOUNTER_MASS_SHARE``: a boulder struck by a few grains keeps its
+  path).  With swept-path detection each contact is resolved on the straight path of the
+  velocities at the end of the step, so this count divided by ``count`` measures how often
+  that approximation is stretched; ``dt: auto`` keeps it near or below 1%.
 """
 
 from __future__ import annotations
@@ -69,6 +79,9 @@ __all__ = [
     "collision_records",
     "constant_epsilon_callback_address",
     "install_resolver",
+    "multi_encounter_fraction",
+    "multi_encounter_rate",
+    "predicted_contacts",
 ]
 
 #: Integer codes of the restitution laws in the C struct (enum RS_MODEL).
@@ -116,6 +129,7 @@ class _Stats(ctypes.Structure):
         ("eps_underflow", ctypes.c_int64),
         ("eps_hist", ctypes.c_int64 * _N_EPS_BINS),
         ("log_written", ctypes.c_int64),
+        ("multi_encounters", ctypes.c_int64),
     ]
 
 
@@ -134,6 +148,10 @@ class _Resolver(ctypes.Structure):
         ("memory_n", ctypes.c_int64),
         ("memory_capacity", ctypes.c_int64),
         ("memory_keys", ctypes.c_void_p),
+        ("memory_n_stamps", ctypes.c_int64),
+        ("memory_last_step", ctypes.c_void_p),
+        ("detector", ctypes.c_void_p),
+        ("detector_free", ctypes.c_void_p),
     ]
 
 
@@ -183,6 +201,13 @@ def _load_library() -> ctypes.CDLL:
     lib.rs_epsilon_array.restype = None
     lib.rs_epsilon_array.argtypes = [ctypes.c_void_p, ctypes.c_int64, double_p, double_p,
                                      double_p, double_p]
+    if hasattr(lib, "rs_sheet_step"):     # rs_sheet_detect.c compiled in
+        int64_p = ctypes.POINTER(ctypes.c_int64)
+        lib.rs_sheet_detect_pairs.restype = ctypes.c_int64
+        lib.rs_sheet_detect_pairs.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p,
+                                              double_p]
+        lib.rs_sheet_detector_counters.restype = ctypes.c_int
+        lib.rs_sheet_detector_counters.argtypes = [ctypes.c_void_p, int64_p, double_p]
 
     librebound = rebound.clibrebound
     librebound.reb_simulation_struct_size.restype = size_t
@@ -205,6 +230,18 @@ def _load_library() -> ctypes.CDLL:
 _LIB = _load_library()
 _RESOLVE_ADDRESS = ctypes.cast(_LIB.rs_resolve, ctypes.c_void_p).value
 _CONSTANT_COR_ADDRESS = ctypes.cast(_LIB.rs_constant_epsilon_cor, ctypes.c_void_p).value
+#: The sheet detector's step function (None if ringsim._resolver was built without
+#: rs_sheet_detect.c).
+_SHEET_STEP_ADDRESS = (ctypes.cast(_LIB.rs_sheet_step, ctypes.c_void_p).value
+                       if hasattr(_LIB, "rs_sheet_step") else None)
+#: Type of REBOUND's post_timestep_modifications pointer.
+_POST_TIMESTEP = ctypes.CFUNCTYPE(None, ctypes.POINTER(rebound.Simulation))
+#: Collision searches: REBOUND's own (sim.collision as set) or ringsim's sheet detector.
+DETECTORS = ("rebound", "sheet")
+#: Error codes of the sheet detector (RS_DETECT_* in rs_sheet_detect.c).
+DETECTOR_ERRORS = {0: "none", 1: "out of memory",
+                   2: "boundary is neither 'shear' nor 'periodic'",
+                   3: "time step too long (1.5 Omega dt >= 0.5) or non-finite particle state"}
 
 
 def _validated(restitution: Mapping[str, Any]) -> tuple[str, dict[str, float]]:
@@ -221,10 +258,17 @@ def _free_resolver(address: int) -> None:
     _LIB.rs_resolver_free(address)
 
 
+def _function_address(pointer: Any) -> int | None:
+    """Address of a ctypes function pointer (None if NULL)."""
+    return ctypes.cast(pointer, ctypes.c_void_p).value
+
+
 def _detach(sim: rebound.Simulation, handle: ResolverHandle) -> None:
     """Remove ``handle``'s resolver from ``sim`` if it is still installed there."""
     if sim.extras == handle._address:
         sim.extras = None
+        if _function_address(sim._post_timestep_modifications) == _SHEET_STEP_ADDRESS:
+            sim._post_timestep_modifications = _POST_TIMESTEP()
     if getattr(sim, "_extras_ref", None) is handle:
         sim._extras_ref = None
 
@@ -245,10 +289,23 @@ class ResolverHandle:
         Number of sampled collisions kept (ring buffer); 0 disables the log.
     log_every : int
         Sampling stride: every ``log_every``-th resolved collision is logged.
+    detector : "rebound" or "sheet"
+        Collision search.  "rebound": REBOUND's own, as set in ``sim.collision`` (``tree``
+        and ``direct`` report overlaps at step ends, ``line`` and ``linetree`` swept paths).
+        "sheet": ringsim's swept-sphere search for shear-periodic (or periodic) boxes
+        (``rs_sheet_detect.c``): :meth:`reinstall` sets ``sim.collision = "none"`` and
+        runs the search and the contact-time resolution as REBOUND's
+        ``post_timestep_modifications``, once per step, before REBOUND wraps the particles.
     """
 
     def __init__(self, restitution: Mapping[str, Any], *, log_capacity: int = 0,
-                 log_every: int = 1):
+                 log_every: int = 1, detector: str = "rebound"):
+        if detector not in DETECTORS:
+            raise ValueError(f"detector: must be one of {DETECTORS}, got {detector!r}")
+        if detector == "sheet" and _SHEET_STEP_ADDRESS is None:
+            raise ImportError("ringsim._resolver was built without rs_sheet_detect.c; add it "
+                              "to setup.py's sources and rebuild "
+                              "(`python setup.py build_ext --inplace`)")
         model, params = _validated(restitution)
         if isinstance(log_capacity, bool) or not isinstance(log_capacity, (int, np.integer)) \
                 or log_capacity < 0:
@@ -266,10 +323,13 @@ class ResolverHandle:
         self.parameters = dict(params)
         self.log_capacity = int(log_capacity)
         self.log_every = int(log_every)
+        self.detector = detector
         self._address: int | None = address
         self._struct = _Resolver.from_address(address)
         # Function pointers into the loaded library; kept here so they live with the handle.
         self._resolve_fp = COLRFF(_RESOLVE_ADDRESS)
+        self._sheet_step_fp = (_POST_TIMESTEP(_SHEET_STEP_ADDRESS) if _SHEET_STEP_ADDRESS
+                               else _POST_TIMESTEP())
         self._sim: rebound.Simulation | None = None
         self._finalizer = weakref.finalize(self, _free_resolver, address)
 
@@ -304,12 +364,23 @@ class ResolverHandle:
         if extras not in (None, address) and not isinstance(previous, ResolverHandle):
             raise ValueError("sim.extras is already used by another library (REBOUNDx?); "
                              "ringsim's resolver needs it to find its parameters")
+        if self.detector == "sheet":
+            if sim.boundary not in ("shear", "periodic"):
+                raise ValueError(f"detector 'sheet' needs boundary 'shear' or 'periodic', "
+                                 f"the simulation has {sim.boundary!r}")
+            post = _function_address(sim._post_timestep_modifications)
+            if post not in (None, _SHEET_STEP_ADDRESS):
+                raise ValueError("sim.post_timestep_modifications is already set; detector "
+                                 "'sheet' runs there")
         if isinstance(previous, ResolverHandle) and previous is not self:
             previous._sim = None    # the old resolver's statistics stay readable
         if self._sim is not None and self._sim is not sim:
             _detach(self._sim, self)
         sim.extras = address
         sim._collision_resolve = self._resolve_fp
+        if self.detector == "sheet":
+            sim.collision = "none"
+            sim._post_timestep_modifications = self._sheet_step_fp
         sim._extras_ref = self
         self._sim = sim
         return self
@@ -381,7 +452,61 @@ class ResolverHandle:
             "log": self._read_log(int(s.log_written)),
             "log_written": int(s.log_written),
             "log_every": self.log_every,
+            "multi_encounters": int(s.multi_encounters),
         }
+
+    def detector_stats(self) -> dict[str, Any]:
+        """Counters of the sheet detector since the handle was created.
+
+        Returns
+        -------
+        dict with ``steps`` (searches run), ``candidates`` (pairs whose straight paths
+        were tested), ``reports`` (pairs passed to the resolver), ``cells`` and
+        ``cell_size`` [m] of the last search's grid, and ``error`` (text; "none" if the
+        last search succeeded).  All zero before the first search or for
+        ``detector="rebound"``.
+        """
+        counters = (ctypes.c_int64 * 5)()
+        cell_size = ctypes.c_double()
+        if _SHEET_STEP_ADDRESS is None:
+            return {"steps": 0, "candidates": 0, "reports": 0, "cells": 0, "cell_size": 0.0,
+                    "error": "none"}
+        _LIB.rs_sheet_detector_counters(self.address, counters, ctypes.byref(cell_size))
+        return {"steps": int(counters[0]), "candidates": int(counters[1]),
+                "reports": int(counters[2]), "cells": int(counters[3]),
+                "cell_size": float(cell_size.value),
+                "error": DETECTOR_ERRORS.get(int(counters[4]), f"code {int(counters[4])}")}
+
+    def detect_pairs(self) -> tuple[np.ndarray, np.ndarray]:
+        """Run the sheet detector's search on the simulation's current state (no resolution).
+
+        For tests: the pairs whose straight paths over the last step (``dt_last_done``,
+        current velocities) came within the sum of their radii.
+
+        Returns
+        -------
+        pairs : int array (n, 2)
+            Particle indices (p1 < p2).
+        offsets : array (n, 6) [m, m, m, m/s, m/s, m/s]
+            Ghost-box offset of p1 (x, y, z, vx, vy, vz), as in ``struct reb_collision``.
+        """
+        if self._sim is None:
+            raise ValueError("the resolver is not installed in a simulation")
+        if _SHEET_STEP_ADDRESS is None:
+            raise ImportError("ringsim._resolver was built without rs_sheet_detect.c")
+        sim_address = ctypes.addressof(self._sim)
+        capacity = 0
+        while True:
+            pairs = np.zeros((max(capacity, 1), 2), dtype=np.int64)
+            offsets = np.zeros((max(capacity, 1), 6))
+            found = _LIB.rs_sheet_detect_pairs(
+                sim_address, capacity, pairs.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)),
+                offsets.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+            if found < 0:
+                raise ValueError("sheet detector: " + DETECTOR_ERRORS.get(-found - 1, "error"))
+            if found <= capacity:
+                return pairs[:found].copy(), offsets[:found].copy()
+            capacity = int(found)
 
     def _read_log(self, written: int) -> np.ndarray:
         capacity = self.log_capacity
@@ -466,7 +591,8 @@ def collision_records(pairs: Any, ghosts: Any = None) -> np.ndarray:
 
 
 def install_resolver(sim: rebound.Simulation, restitution: Mapping[str, Any], *,
-                     log_capacity: int = 0, log_every: int = 1) -> ResolverHandle:
+                     log_capacity: int = 0, log_every: int = 1,
+                     detector: str = "rebound") -> ResolverHandle:
     """Put ringsim's C collision resolver with the given restitution law into ``sim``.
 
     Parameters
@@ -482,6 +608,9 @@ def install_resolver(sim: rebound.Simulation, restitution: Mapping[str, Any], *,
         Number of sampled collisions kept in C (0: no log).
     log_every : int
         Log every ``log_every``-th collision.
+    detector : "rebound" or "sheet"
+        "rebound" keeps the simulation's REBOUND collision search; "sheet" replaces it by
+        ringsim's swept-sphere search for shearing sheets (see :class:`ResolverHandle`).
 
     Returns
     -------
@@ -489,8 +618,159 @@ def install_resolver(sim: rebound.Simulation, restitution: Mapping[str, Any], *,
         Stored in the simulation as well (``sim._extras_ref``), so it lives as long as
         ``sim``; keep it to read the statistics.
     """
-    handle = ResolverHandle(restitution, log_capacity=log_capacity, log_every=log_every)
+    handle = ResolverHandle(restitution, log_capacity=log_capacity, log_every=log_every,
+                            detector=detector)
     return handle.reinstall(sim)
+
+
+#: Largest fraction of collisions in which a partner has a second contact in the same step
+#: that ``dt: auto`` accepts in line mode (``ringsim.sheet.auto_dt``).
+MULTI_ENCOUNTER_TARGET = 0.01
+#: Window of the contact prediction of ``dt: auto`` in line mode [steps of 1e-3 orbit].
+MULTI_ENCOUNTER_WINDOW_STEPS = 16
+#: A collision deflects a particle when its partner carries at least this share of the
+#: pair's mass (its velocity then changes by at least this share of the relative-velocity
+#: change); RS_DEFLECTING_MASS_SHARE in rs_resolver.c.
+MULTI_ENCOUNTER_MASS_SHARE = 0.1
+
+
+def predicted_contacts(x: Any, y: Any, z: Any, vx: Any, vy: Any, vz: Any, radius: Any,
+                       mass: Any, Omega: float,
+                       window: float) -> tuple[np.ndarray, np.ndarray]:
+    """Contacts each particle would make within ``window`` on straight paths.
+
+    Every pair that does not overlap now, approaches, and whose straight relative path
+    reaches contact within ``window`` counts once for each of its two particles; it also
+    counts as a deflection of a particle whose partner carries at least
+    :data:`MULTI_ENCOUNTER_MASS_SHARE` of the pair's mass.  Positions are taken as they
+    are (no periodic images: pairs straddling the box edges are missed, a fraction of
+    about the search radius over the box size).
+
+    Parameters
+    ----------
+    x, y, z : arrays [m]
+    vx, vy, vz : arrays [m/s]
+        Velocities in the frame of the sheet (shear flow vy = -1.5 Omega x included).
+    radius : array [m]
+    mass : array [kg]
+    Omega : float [1/s]
+        Orbital frequency; the search is widened by speeds relative to the shear flow.
+    window : float [s]
+
+    Returns
+    -------
+    contacts, deflections : int arrays [count per particle]
+    """
+    from scipy.spatial import cKDTree
+
+    pos = np.column_stack([x, y, z]).astype(float)
+    vel = np.column_stack([vx, vy, vz]).astype(float)
+    radius = np.asarray(radius, dtype=float)
+    mass = np.asarray(mass, dtype=float)
+    contacts = np.zeros(radius.size, dtype=np.int64)
+    deflections = np.zeros(radius.size, dtype=np.int64)
+    if radius.size < 2:
+        return contacts, deflections
+    random_speed = np.sqrt(vel[:, 0] ** 2 + (vel[:, 1] + 1.5 * Omega * pos[:, 0]) ** 2
+                           + vel[:, 2] ** 2)
+    shear_drift = 1.5 * abs(Omega) * window
+    if not shear_drift < 0.5:
+        raise ValueError(f"window: 1.5 Omega window = {shear_drift:.3g} must be < 0.5")
+    search = 2.0 * float(np.max(radius + window * random_speed)) / (1.0 - shear_drift)
+    pairs = cKDTree(pos).query_pairs(search, output_type="ndarray")
+    if pairs.size == 0:
+        return contacts, deflections
+    i, j = pairs[:, 0], pairs[:, 1]
+    d = pos[j] - pos[i]
+    u = vel[j] - vel[i]
+    a = np.einsum("ij,ij->i", u, u)
+    b = np.einsum("ij,ij->i", d, u)
+    c = np.einsum("ij,ij->i", d, d) - (radius[i] + radius[j]) ** 2
+    discriminant = b * b - a * c
+    hit = (c > 0.0) & (b < 0.0) & (discriminant >= 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t_contact = np.where(hit, (-b - np.sqrt(np.where(hit, discriminant, 0.0))) / a, np.inf)
+    hit &= t_contact <= window
+    i, j = i[hit], j[hit]
+    np.add.at(contacts, i, 1)
+    np.add.at(contacts, j, 1)
+    total = mass[i] + mass[j]
+    np.add.at(deflections, i[mass[j] >= MULTI_ENCOUNTER_MASS_SHARE * total], 1)
+    np.add.at(deflections, j[mass[i] >= MULTI_ENCOUNTER_MASS_SHARE * total], 1)
+    return contacts, deflections
+
+
+def multi_encounter_fraction(contacts: Any, deflections: Any, radius: Any = None) -> float:
+    """Predicted fraction of collisions in which a partner was deflected earlier in the step.
+
+    A particle of contact rate lambda, lambda_s of them deflecting (Poisson), collides in a
+    window W with probability ~ lambda W and has then on average lambda_s W other
+    deflections in the same window, half of them before.  Summed over both partners of a
+    collision, the fraction of collisions preceded within the window by a deflection of a
+    partner is sum(lambda_s lambda) W / sum(lambda): the resolver's statistic
+    ``multi_encounters / count`` for steps of length W.  The rates are pooled over
+    particles of similar size (bins of 0.1 in log10 radius) - the mean counts of a bin
+    estimate its rates - so that the estimate rests on all contacts of a snapshot, not on
+    the few coincidences of one window.  0 without contacts.
+
+    Parameters
+    ----------
+    contacts, deflections : int arrays [count per particle in one window]
+        From :func:`predicted_contacts`.
+    radius : array [m], optional
+        Radii for pooling; all particles in one pool if omitted.
+    """
+    k = np.asarray(contacts, dtype=float)
+    s = np.asarray(deflections, dtype=float)
+    total = float(k.sum())
+    if not total > 0:
+        return 0.0
+    if radius is None:
+        groups = np.zeros(k.size, dtype=np.int64)
+    else:
+        log_r = np.log10(np.asarray(radius, dtype=float))
+        groups = np.floor((log_r - log_r.min()) / 0.1).astype(np.int64)
+    n = np.bincount(groups).astype(float)
+    used = n > 0
+    k_mean = np.bincount(groups, weights=k)[used] / n[used]
+    s_mean = np.bincount(groups, weights=s)[used] / n[used]
+    return float(np.sum(n[used] * s_mean * k_mean) / total)
+
+
+def multi_encounter_rate(arrays: Mapping[str, Any], Omega: float, max_window: float) -> float:
+    """Predicted ``multi_encounters / count`` per unit step length [1/s].
+
+    The fraction for a step dt is about this rate times dt (for fractions << 1).  Contacts
+    are predicted on straight paths over a window W and pooled by size
+    (:func:`multi_encounter_fraction`); the rate is that fraction over W.  W is
+    ``max_window`` unless the fastest particle (speed w_max relative to the shear flow)
+    would then reach beyond max(3 r_max, 1/8 of the smaller horizontal extent of the
+    particles), which bounds the search.  The estimate is lowered to its 2-sigma lower
+    bound, (1 - 2 / sqrt(S)) for S predicted deflections (0 for S <= 4): a shorter step
+    needs evidence, not the chance coincidences of a snapshot of a dilute ring.
+
+    Parameters
+    ----------
+    arrays : mapping of particle arrays x, y, z [m], vx, vy, vz [m/s], radius [m], mass [kg]
+    Omega : float [1/s]
+    max_window : float [s]
+    """
+    x, y, z = (np.asarray(arrays[k], dtype=float) for k in ("x", "y", "z"))
+    vx, vy, vz = (np.asarray(arrays[k], dtype=float) for k in ("vx", "vy", "vz"))
+    radius = np.asarray(arrays["radius"], dtype=float)
+    if radius.size < 2:
+        return 0.0
+    w_max = float(np.sqrt(np.max(vx**2 + (vy + 1.5 * Omega * x) ** 2 + vz**2)))
+    r_max = float(radius.max())
+    reach = max(3.0 * r_max, 0.125 * min(float(np.ptp(x)), float(np.ptp(y))))
+    window = max_window if w_max <= 0 else min(max_window, (reach - r_max) / w_max)
+    contacts, deflections = predicted_contacts(x, y, z, vx, vy, vz, radius, arrays["mass"],
+                                               Omega, window)
+    evidence = float(np.sum(deflections))
+    if evidence <= 4.0:
+        return 0.0
+    fraction = multi_encounter_fraction(contacts, deflections, radius)
+    return fraction * (1.0 - 2.0 / math.sqrt(evidence)) / window
 
 
 def constant_epsilon_callback_address() -> int:

@@ -196,8 +196,10 @@ class Runner:
         self.edges = None if edges is None else np.asarray(edges)
         from ringsim.resolver import install_resolver
 
-        self.handle = install_resolver(sim, self.scenario.restitution_dict(),
-                                       log_capacity=self.scenario.output.log_collisions)
+        self.handle = install_resolver(
+            sim, self.scenario.restitution_dict(),
+            log_capacity=self.scenario.output.log_collisions,
+            detector=sheet.detector_for(self.scenario.integration.collision_detection))
         io.set_attributes(self.path, status="running")
         self.wall_before = float(run.attrs.get("wall_time_s", 0.0))
         if new_orbits > old_orbits:
@@ -226,7 +228,8 @@ class Runner:
             "mean_impact_speed": float(stats["mean_vn"]) if count else float("nan"),
             "max_vertical_amplitude": sheet.max_vertical_amplitude(arrays, self.Omega),
             "z_half_period": 0.5 * g.z_period,
-            "overlapping_pairs": sheet.count_overlaps(arrays, g),
+            "overlapping_pairs": sheet.count_overlaps(arrays, g, self.sim.t),
+            "multi_encounters": int(stats["multi_encounters"]),
             "one_minus_epsilon_histogram": _with_outer_bins(stats["histograms"]
                                                             ["one_minus_epsilon"]),
             "impact_speed_histogram": _with_outer_bins(stats["histograms"]["v_n"]),

@@ -290,10 +290,21 @@ def build_sheet(scenario) -> Sheet:
     add_particles(sim, state, radii, masses)
     sim.minimum_collision_velocity = minimum_collision_velocity(radii, Omega)
     handle = install_resolver(sim, scenario.restitution_dict(),
-                              log_capacity=scenario.output.log_collisions)
+                              log_capacity=scenario.output.log_collisions,
+                              detector=detector_for(scenario.integration.collision_detection))
     edges = size_bin_edges(particles.size_distribution)
     sim.dt = choose_dt(sim, scenario.integration, geometry, radii)
     return Sheet(sim, geometry, radii, masses, edges, handle)
+
+
+def detector_for(detection: str) -> str:
+    """The resolver's collision search for a scenario's ``collision_detection``.
+
+    ``line`` uses ringsim's swept-sphere search for shearing sheets
+    (``rs_sheet_detect.c``), whose cost per particle-step does not grow with the box as
+    that of REBOUND's ``linetree`` does; ``tree`` uses REBOUND's tree search.
+    """
+    return "sheet" if detection == "line" else "rebound"
 
 
 def initial_z_half_height(sheet_cfg, r_mean: float, dispersion: float, Omega: float) -> float:
@@ -336,31 +347,55 @@ def auto_dt(arrays: dict[str, np.ndarray], Omega: float, safety: float,
             current: float | None = None, detection: str = "tree") -> float:
     """Time step [s] of ``dt: auto``.
 
-    Line detection (swept paths, contact-time resolution) finds every crossing whatever
-    the step, so its step is bounded by the orbit only: 1e-3 orbit.
+    Line detection (swept paths, contact-time resolution) finds every crossing whatever the
+    speeds, so c/r does not bound its step.  Two things do: the orbit (dt <= 1e-3 orbit, the
+    straight paths of a step must stay close to the epicycles) and multiple encounters (a
+    particle that meets two partners in one step has its second contact found on a path it
+    no longer follows).  The fraction of collisions in which a partner was deflected earlier
+    in the same step (``multi_encounters / count`` of the resolver's statistics) is predicted
+    from the current state (``resolver.multi_encounter_rate``): straight paths over a
+    window of up to ``resolver.MULTI_ENCOUNTER_WINDOW_STEPS`` x 1e-3 orbit give each
+    particle its contacts and deflections (contacts with a partner of at least 10% of the
+    pair's mass); pooled over particles of similar size they give rates lambda and
+    lambda_s, and dt sum(lambda_s lambda) / sum(lambda) estimates that fraction for a step
+    dt.  The step keeps it below ``resolver.MULTI_ENCOUNTER_TARGET``
+    (1%).  Hot dilute rings get 1e-3 orbit; dense, cold ones a shorter step.
 
     Tree detection finds collisions only as overlaps at step ends: dt << r/v.
     The largest relative displacement per step, relative_speed_bound * dt, is kept below
-    ``safety`` times the smallest radius, and dt <= 1e-3 orbit.  The result is rounded down
-    to a power of two times 1e-3 orbit so that it changes rarely and reproducibly; it shrinks
-    as soon as the bound requires, but grows again only once the bound leaves a margin of
-    1.5 (so that a fluctuating maximum speed does not make it flip back and forth).
+    ``safety`` times the smallest radius, and dt <= 1e-3 orbit.
+
+    Both: the result is rounded down to a power of two times 1e-3 orbit so that it changes
+    rarely and reproducibly; it shrinks as soon as the bound requires, but grows again only
+    once the bound leaves a margin of 1.5 (so that a fluctuating estimate does not make it
+    flip back and forth).
 
     Parameters
     ----------
     arrays : particle arrays (SI)
     Omega : float [1/s]
-    safety : float [dimensionless], fraction of the smallest radius
+    safety : float [dimensionless], fraction of the smallest radius (tree detection)
     current : float [s], optional
         The step in use.
+    detection : "tree" or "line"
     """
     dt_max = DT_MAX_ORBITS * 2.0 * math.pi / Omega
     if detection == "line":
-        return dt_max
-    v_rel = relative_speed_bound(arrays, Omega)
-    if v_rel <= 0:
-        return dt_max
-    bound = safety * float(arrays["radius"].min()) / v_rel
+        from ringsim.resolver import (
+            MULTI_ENCOUNTER_TARGET,
+            MULTI_ENCOUNTER_WINDOW_STEPS,
+            multi_encounter_rate,
+        )
+
+        rate = multi_encounter_rate(arrays, Omega, MULTI_ENCOUNTER_WINDOW_STEPS * dt_max)
+        if rate <= 0.0:
+            return dt_max
+        bound = MULTI_ENCOUNTER_TARGET / rate
+    else:
+        v_rel = relative_speed_bound(arrays, Omega)
+        if v_rel <= 0:
+            return dt_max
+        bound = safety * float(arrays["radius"].min()) / v_rel
 
     def quantized(dt: float) -> float:
         if dt >= dt_max:
@@ -407,32 +442,52 @@ def vertical_guard_ok(arrays: dict[str, np.ndarray], geometry: SheetGeometry) ->
             < VERTICAL_GUARD_FRACTION * 0.5 * geometry.z_period)
 
 
-def count_overlaps(arrays: dict[str, np.ndarray], geometry: SheetGeometry,
+def count_overlaps(arrays: dict[str, np.ndarray], geometry: SheetGeometry, t: float = 0.0,
                    fraction: float = OVERLAP_REPORT_FRACTION) -> int:
     """Pairs overlapping by more than ``fraction`` of the smaller radius.
 
-    Periodic in x and y (the shear offset across the radial boundary is ignored, so pairs
-    straddling it may be missed).
+    Shear-periodic like the sheet: periodic in y; across the radial boundary a particle's
+    image at x +- Lx is shifted in y by -+ 1.5 Omega Lx t (the shear flow carries the
+    neighbouring boxes along), so pairs straddling that boundary are counted correctly.
+
+    Parameters
+    ----------
+    arrays : particle arrays (SI)
+    geometry : SheetGeometry
+    t : float [s]
+        Time of the state (sets the shear offset of the radial images).
+    fraction : float [dimensionless]
     """
     from scipy.spatial import cKDTree
 
     r = arrays["radius"]
-    if r.size < 2:
+    n = r.size
+    if n < 2:
         return 0
     Lx, Ly = geometry.Lx, geometry.Ly
-    pos = np.column_stack([(arrays["x"] + 0.5 * Lx) % Lx, (arrays["y"] + 0.5 * Ly) % Ly,
-                           arrays["z"] - arrays["z"].min()])
-    tree = cKDTree(pos, boxsize=[Lx, Ly, 1e300])
-    pairs = tree.query_pairs(2.0 * float(r.max()), output_type="ndarray")
+    reach = 2.0 * float(r.max())
+    x, y, z = arrays["x"], arrays["y"], arrays["z"]
+    shift = 1.5 * geometry.Omega * Lx * t
+    # originals, then images of particles near the radial edges (index map back to them)
+    near_high = np.flatnonzero(x > 0.5 * Lx - reach)
+    near_low = np.flatnonzero(x < -0.5 * Lx + reach)
+    index = np.concatenate([np.arange(n), near_high, near_low])
+    px = np.concatenate([x, x[near_high] - Lx, x[near_low] + Lx])
+    py = np.concatenate([y, y[near_high] + shift, y[near_low] - shift])
+    pz = z[index]
+    pos = np.column_stack([px - px.min(), np.mod(py + 0.5 * Ly, Ly), pz - pz.min()])
+    tree = cKDTree(pos, boxsize=[1e300, Ly, 1e300])
+    pairs = tree.query_pairs(reach, output_type="ndarray")
     if pairs.size == 0:
         return 0
-    d = pos[pairs[:, 0]] - pos[pairs[:, 1]]
-    d[:, 0] -= Lx * np.round(d[:, 0] / Lx)
+    i, j = index[pairs[:, 0]], index[pairs[:, 1]]
+    keep = i < j  # each physical pair once (an image pair duplicates an original pair)
+    d = pos[pairs[keep, 0]] - pos[pairs[keep, 1]]
     d[:, 1] -= Ly * np.round(d[:, 1] / Ly)
     dist = np.sqrt(np.sum(d * d, axis=1))
-    ri, rj = r[pairs[:, 0]], r[pairs[:, 1]]
-    depth = ri + rj - dist
-    return int(np.count_nonzero(depth > fraction * np.minimum(ri, rj)))
+    ri, rj = r[i[keep]], r[j[keep]]
+    deep = ri + rj - dist > fraction * np.minimum(ri, rj)
+    return int(np.unique(np.column_stack([i[keep][deep], j[keep][deep]]), axis=0).shape[0])
 
 
 def enlarged_copy(sim: rebound.Simulation, geometry: SheetGeometry,
@@ -448,7 +503,7 @@ def enlarged_copy(sim: rebound.Simulation, geometry: SheetGeometry,
     new = rebound.Simulation()
     configure_simulation(new, new_geometry, gravity=sim.gravity == "tree",
                          softening=sim.softening, opening_angle=math.sqrt(sim.opening_angle2),
-                         detection="line" if sim.collision == "linetree" else "tree",
+                         detection="tree" if sim.collision == "tree" else "line",
                          rand_seed=0)
     arrays = particle_arrays(sim)
     add_particles(new, arrays, arrays["radius"], arrays["mass"])

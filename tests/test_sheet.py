@@ -91,7 +91,23 @@ def test_auto_dt_bound(speed):
     assert dt <= 1e-3 * 2 * math.pi / Omega * (1 + 1e-15)
     assert sheet.relative_speed_bound(arrays, Omega) * dt <= 0.1 * 0.5 * (1 + 1e-12)
     assert sheet.dt_violation(arrays, Omega, dt, 0.1) <= 1 + 1e-12
-    assert sheet.auto_dt(arrays, Omega, 0.1, detection="line") == 1e-3 * 2 * math.pi / Omega
+
+
+def test_auto_dt_line_mode_is_bounded_by_the_orbit_and_encounters():
+    """Line mode ignores r/v: a dilute hot ring gets 1e-3 orbit, a crowded one less."""
+    Omega = 2e-4
+    dt_max = 1e-3 * 2 * math.pi / Omega
+    rng = np.random.default_rng(3)
+    n = 200
+    dilute = {"x": rng.uniform(-500, 500, n), "y": rng.uniform(-500, 500, n),
+              "z": rng.normal(0, 50, n), "vx": rng.normal(0, 0.01, n),
+              "vy": rng.normal(0, 0.01, n), "vz": rng.normal(0, 0.01, n),
+              "radius": np.full(n, 0.5), "mass": np.full(n, 470.0)}
+    dilute["vy"] = dilute["vy"] - 1.5 * Omega * dilute["x"]
+    assert sheet.auto_dt(dilute, Omega, 0.1, detection="line") == dt_max
+    crowded = _arrays(1e-3)
+    dt = sheet.auto_dt(crowded, Omega, 0.1, detection="line")
+    assert dt < dt_max and math.log2(dt_max / dt) == int(math.log2(dt_max / dt))
 
 
 def test_auto_dt_grows_only_with_margin():
@@ -115,3 +131,22 @@ def test_enlarged_copy_keeps_the_state(built):
     assert new.collisions_log_n == sim.collisions_log_n
     assert geometry.z_period == 3 * built.geometry.z_period
     assert new.N_root_z == 3 * built.geometry.n_root_z
+
+
+@pytest.mark.parametrize("t_orbits", [0.0, 0.37, 5.2])
+def test_overlaps_across_the_shearing_boundary(t_orbits):
+    """A pair straddling the radial boundary overlaps only at the sheared image position."""
+    g = sheet.SheetGeometry(100.0, 1, 1, 4, 2.0e-4)
+    t = t_orbits * g.orbit
+    shift = 1.5 * g.Omega * g.Lx * t
+    y_image = (10.0 + shift + 50.0) % 100.0 - 50.0  # image of the particle at x = 49.5
+    arrays = {"x": np.array([49.5, -49.6]), "y": np.array([10.0, y_image + 0.3]),
+              "z": np.zeros(2), "vx": np.zeros(2), "vy": np.zeros(2), "vz": np.zeros(2),
+              "radius": np.array([0.5, 0.5]), "mass": np.ones(2)}
+    assert sheet.count_overlaps(arrays, g, t) == 1
+    arrays["y"][1] = y_image + 3.0
+    assert sheet.count_overlaps(arrays, g, t) == 0
+    if t_orbits:
+        # without the shear offset the ghost lands elsewhere
+        arrays["y"][1] = 10.3
+        assert sheet.count_overlaps(arrays, g, t) == 0

@@ -63,8 +63,9 @@
  * (10 per decade) plus under/overflow; histogram of the dissipation 1 - eps in
  * RS_EPS_NBINS log bins from 1e-4 to 1 (10 per decade; 1 - eps < 1e-4, including
  * eps = 1, goes to the underflow; eps = 0 to the last bin); a ring buffer of sampled
- * collisions (t [s], v [m/s], R_bar [m], M_bar [kg], eps).  The eps recorded is that
- * of the law, also when minimum_collision_velocity raises the impulse.
+ * collisions (t [s], v [m/s], R_bar [m], M_bar [kg], eps); multi_encounters (see below).
+ * The eps recorded is that of the law, also when minimum_collision_velocity raises the
+ * impulse.
  *
  * REBOUND bookkeeping, as its reb_collision_resolve_hardsphere does
  * -------------------------------------------------------------------
@@ -92,15 +93,25 @@
  *   their new velocities.  Pairs overlapping since before the step are resolved at the
  *   end as in tree mode.  A pair resolved once is ignored for the rest of the step (a
  *   per-simulation set of pairs, cleared when steps_done changes).
+ * sheet (rs_sheet_detect.c): ringsim's own swept-sphere search for shearing sheets reports
+ *   the same pairs as REBOUND's line search, each once, and resolves them here exactly as
+ *   in the line modes (rs_resolve_pair with swept = 1).
+ *
+ * multi_encounters counts resolved collisions in which one partner had already been
+ * deflected earlier in the same step, a particle counting as deflected by a partner that
+ * carries at least RS_DEFLECTING_MASS_SHARE = 0.1 of the pair's mass.  In the swept-path
+ * modes such a second contact is found on a straight path the particle no longer follows;
+ * ringsim's dt: auto keeps the fraction near 1%.
  *
  * Validity limits
  * ---------------
  * - tree/direct find collisions only as overlaps at the end of a step; this is accurate
  *   only if dt << R / v_rel for all pairs.  Faster pairs tunnel through each other or
  *   sink deep into contact.
- * - line/linetree take paths as straight lines with the end-of-step velocities: valid
- *   for Omega dt << 1.  Several contacts of one particle within a step are resolved
- *   one after another in REBOUND's shuffled order, each on its own straight path.
+ * - line/linetree/sheet take paths as straight lines with the end-of-step velocities:
+ *   valid for Omega dt << 1.  Several contacts of one particle within a step are resolved
+ *   one after another in REBOUND's shuffled order, each on its own straight path
+ *   (multi_encounters measures how often).
  * - Head-on normal impulse only: no tangential friction, no spin, no adhesion.
  * - eps depends on the normal speed only through the laws above; the Dilley law is a
  *   fit to 2.5-20 cm ice spheres at 0.01-5 cm/s and its size/mass scaling is a model.
@@ -117,6 +128,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "rebound.h"
+#include "rs_resolver.h"
 
 #define RS_MAGIC 0x564c4f5345525352ULL  /* "RSRESOLV" in little-endian bytes */
 
@@ -135,57 +147,17 @@ enum RS_MODEL {
 #define RS_DILLEY_RADIUS_EXPONENT 0.2
 #define RS_PI 3.14159265358979323846   /* M_PI is not part of C99 */
 
-/* Histogram layout (documented in ringsim/resolver.py as well). */
-#define RS_VN_NBINS 90          /* log10 v from -7 to 2, 10 bins per decade */
+/* Histogram layout (RS_VN_NBINS and RS_EPS_NBINS are in rs_resolver.h). */
 #define RS_VN_LOG10_MIN (-7.0)
-#define RS_EPS_NBINS 40         /* log10(1 - eps) from -4 to 0, 10 bins per decade */
 #define RS_EPS_LOG10_MIN (-4.0)
 #define RS_BINS_PER_DECADE 10.0
 
+/* A collision deflects a particle (for multi_encounters) when the partner carries at least
+ * this share of the pair's mass (also MULTI_ENCOUNTER_MASS_SHARE in ringsim/resolver.py). */
+#define RS_DEFLECTING_MASS_SHARE 0.1
+
 /* Round-off floor of the approach test, in units of the summed |velocity components|. */
 #define RS_ROUNDOFF_SPEED (64.0 * DBL_EPSILON)
-
-struct rs_log_entry {
-    double t;           /* [s] simulation time of the collision */
-    double v_n;         /* [m/s] normal impact speed */
-    double R_bar;       /* [m] reduced radius */
-    double M_bar;       /* [kg] reduced mass */
-    double epsilon;     /* coefficient of restitution of the law */
-};
-
-struct rs_stats {
-    int64_t count;                          /* resolved collisions */
-    int64_t n_floored;                      /* of which the minimum velocity raised J */
-    double sum_epsilon;
-    double sum_vn;                          /* [m/s] */
-    int64_t vn_underflow;
-    int64_t vn_overflow;
-    int64_t vn_hist[RS_VN_NBINS];
-    int64_t eps_underflow;                  /* 1 - eps < 1e-4 */
-    int64_t eps_hist[RS_EPS_NBINS];
-    int64_t log_written;                    /* entries written to the ring buffer */
-};
-
-/* Pairs resolved in the current step of the swept-path modes (open-addressing set). */
-struct rs_pair_memory {
-    const struct reb_simulation* sim;
-    uint64_t step;              /* sim->steps_done when the pairs were resolved */
-    int64_t n;
-    int64_t capacity;           /* power of two, or 0 */
-    uint64_t* keys;
-};
-
-struct rs_resolver {
-    uint64_t magic;
-    int32_t model;
-    int32_t reserved;
-    double param[3];
-    int64_t log_capacity;
-    int64_t log_every;
-    struct rs_log_entry* log;
-    struct rs_stats stats;
-    struct rs_pair_memory memory;
-};
 
 /* ---------------------------------------------------------------------------------- */
 /* Layout checks for the Python side.                                                */
@@ -357,12 +329,16 @@ void rs_resolver_free(struct rs_resolver* res){
         return;
     }
     res->magic = 0;     /* a stale sim->extras now fails the magic check */
+    if (res->detector_free != NULL){
+        res->detector_free(res->detector);     /* rs_sheet_detect.c's work space */
+    }
     free(res->memory.keys);
+    free(res->memory.last_step);
     free(res->log);
     free(res);
 }
 
-static struct rs_resolver* rs_resolver_of(const struct reb_simulation* r){
+struct rs_resolver* rs_resolver_of(const struct reb_simulation* r){
     struct rs_resolver* res = (struct rs_resolver*)r->extras;
     if (res == NULL || res->magic != RS_MAGIC){
         return NULL;
@@ -447,8 +423,11 @@ static size_t rs_pair_slot(const struct rs_pair_memory* m, uint64_t key){
     return slot;
 }
 
-/* Forget the pairs of earlier steps or of another simulation. */
+/* Forget the pairs of earlier steps, and everything of another simulation. */
 static void rs_pair_memory_sync(struct rs_pair_memory* m, const struct reb_simulation* r){
+    if (m->sim != r && m->n_stamps > 0){
+        memset(m->last_step, 0, (size_t)m->n_stamps * sizeof(uint64_t));
+    }
     if (m->sim != r || m->step != r->steps_done){
         if (m->n > 0){
             memset(m->keys, 0, (size_t)m->capacity * sizeof(uint64_t));
@@ -457,6 +436,38 @@ static void rs_pair_memory_sync(struct rs_pair_memory* m, const struct reb_simul
         m->sim = r;
         m->step = r->steps_done;
     }
+}
+
+/* Records that particles i and j collided in this step; returns 1 if either had already
+ * been deflected earlier in the same step, 0 if not, -1 if memory ran out.  A particle
+ * counts as deflected when its partner carried at least RS_DEFLECTING_MASS_SHARE of the
+ * pair's mass (its velocity changed by that share of the pair's relative-velocity change):
+ * a 5 m boulder struck by several 0.5 m grains in one step keeps its straight path. */
+static int rs_pair_memory_stamp(struct rs_pair_memory* m, const struct reb_simulation* r,
+                                size_t i, size_t j, int i_deflected, int j_deflected){
+    const size_t needed = (i > j ? i : j) + 1;
+    if ((size_t)m->n_stamps < needed){
+        size_t n = m->n_stamps ? (size_t)m->n_stamps : 64;
+        while (n < needed || n < r->N){
+            n *= 2;
+        }
+        uint64_t* grown = realloc(m->last_step, n * sizeof(uint64_t));
+        if (grown == NULL){
+            return -1;
+        }
+        memset(grown + m->n_stamps, 0, (n - (size_t)m->n_stamps) * sizeof(uint64_t));
+        m->last_step = grown;
+        m->n_stamps = (int64_t)n;
+    }
+    const uint64_t stamp = r->steps_done + 1;   /* 0 means never */
+    const int repeated = m->last_step[i] == stamp || m->last_step[j] == stamp;
+    if (i_deflected){
+        m->last_step[i] = stamp;
+    }
+    if (j_deflected){
+        m->last_step[j] = stamp;
+    }
+    return repeated;
 }
 
 static int rs_pair_memory_contains(const struct rs_pair_memory* m, uint64_t key){
@@ -566,12 +577,8 @@ static int rs_apply_impulse(struct reb_simulation* const r, struct rs_resolver* 
     return 1;
 }
 
-int rs_resolve(struct reb_simulation* const r, struct reb_collision c){
-    struct rs_resolver* const res = rs_resolver_of(r);
-    if (res == NULL){
-        r->status = REB_STATUS_GENERIC_ERROR;   /* installed without its parameters */
-        return 0;
-    }
+int rs_resolve_pair(struct reb_simulation* const r, struct rs_resolver* const res,
+                    struct reb_collision c, int swept){
     struct reb_particle* const p1 = &r->particles[c.p1];
     struct reb_particle* const p2 = &r->particles[c.p2];
     const struct reb_vec6d gb = c.gb;
@@ -585,51 +592,71 @@ int rs_resolve(struct reb_simulation* const r, struct reb_collision c){
     const double dvy = p1->vy + gb.vy - p2->vy;
     const double dvz = p1->vz + gb.vz - p2->vz;
     const int overlapping = distance2 < sum_radii * sum_radii;
-
-    if (r->collision != REB_COLLISION_LINE && r->collision != REB_COLLISION_LINETREE){
-        /* Overlap at the end of the step (tree and direct search). */
-        if (!overlapping){
-            return 0;
-        }
-        rs_apply_impulse(r, res, p1, p2, gb, dx, dy, dz, sqrt(distance2), dvx, dvy, dvz,
-                         0.0);
-        return 0;
-    }
-
-    /* Swept paths: the contact on the straight relative path dr(s) = dr - s dv, s the
-     * time before the end of the step, is where the pair first touched. */
     struct rs_pair_memory* const memory = &res->memory;
     rs_pair_memory_sync(memory, r);
-    const uint64_t key = rs_pair_key(c.p1, c.p2);
-    if (rs_pair_memory_contains(memory, key)){
-        return 0;   /* resolved earlier in this step: the report is of the old path */
-    }
-    const double a = dvx * dvx + dvy * dvy + dvz * dvz;
-    const double b = dx * dvx + dy * dvy + dz * dvz;
-    const double gap = distance2 - sum_radii * sum_radii;
-    const double discriminant = b * b - a * gap;
-    double back_time = 0.0;
-    if (a > 0.0 && discriminant >= 0.0){
-        back_time = (b + sqrt(discriminant)) / a;
-    }
-    int resolved;
-    if (back_time > 0.0 && back_time <= r->dt_last_done){
-        const double cx = dx - back_time * dvx;
-        const double cy = dy - back_time * dvy;
-        const double cz = dz - back_time * dvz;
-        const double contact = sqrt(cx * cx + cy * cy + cz * cz);
-        resolved = rs_apply_impulse(r, res, p1, p2, gb, cx, cy, cz, contact, dvx, dvy, dvz,
-                                    back_time);
-    }else if (overlapping){
-        /* Touching since before this step: resolve at the end, as in tree mode. */
-        resolved = rs_apply_impulse(r, res, p1, p2, gb, dx, dy, dz, sqrt(distance2), dvx,
-                                    dvy, dvz, 0.0);
+
+    int resolved = 0;
+    uint64_t key = 0;
+    if (!swept){
+        /* Overlap at the end of the step (tree and direct search). */
+        if (overlapping){
+            resolved = rs_apply_impulse(r, res, p1, p2, gb, dx, dy, dz, sqrt(distance2), dvx,
+                                        dvy, dvz, 0.0);
+        }
     }else{
-        return 0;   /* paths never touched in this step */
+        /* Swept paths: the contact on the straight relative path dr(s) = dr - s dv, s the
+         * time before the end of the step, is where the pair first touched. */
+        key = rs_pair_key(c.p1, c.p2);
+        if (rs_pair_memory_contains(memory, key)){
+            return 0;   /* resolved earlier in this step: the report is of the old path */
+        }
+        const double a = dvx * dvx + dvy * dvy + dvz * dvz;
+        const double b = dx * dvx + dy * dvy + dz * dvz;
+        const double gap = distance2 - sum_radii * sum_radii;
+        const double discriminant = b * b - a * gap;
+        double back_time = 0.0;
+        if (a > 0.0 && discriminant >= 0.0){
+            back_time = (b + sqrt(discriminant)) / a;
+        }
+        if (back_time > 0.0 && back_time <= r->dt_last_done){
+            const double cx = dx - back_time * dvx;
+            const double cy = dy - back_time * dvy;
+            const double cz = dz - back_time * dvz;
+            const double contact = sqrt(cx * cx + cy * cy + cz * cz);
+            resolved = rs_apply_impulse(r, res, p1, p2, gb, cx, cy, cz, contact, dvx, dvy,
+                                        dvz, back_time);
+        }else if (overlapping){
+            /* Touching since before this step: resolve at the end, as in tree mode. */
+            resolved = rs_apply_impulse(r, res, p1, p2, gb, dx, dy, dz, sqrt(distance2),
+                                        dvx, dvy, dvz, 0.0);
+        }
     }
-    if (resolved && !rs_pair_memory_insert(memory, key)){
+    if (!resolved){
+        return 0;
+    }
+    const double total_mass = p1->m + p2->m;
+    const int repeated = rs_pair_memory_stamp(
+        memory, r, c.p1, c.p2, p2->m >= RS_DEFLECTING_MASS_SHARE * total_mass,
+        p1->m >= RS_DEFLECTING_MASS_SHARE * total_mass);
+    if (repeated < 0 || (swept && !rs_pair_memory_insert(memory, key))){
         r->status = REB_STATUS_GENERIC_ERROR;   /* out of memory */
+        return 1;
     }
+    res->stats.multi_encounters += repeated;
+    return 1;
+}
+
+/* REBOUND's collision_resolve callback: tree and direct search report overlaps at the
+ * end of the step, line and linetree swept paths. */
+int rs_resolve(struct reb_simulation* const r, struct reb_collision c){
+    struct rs_resolver* const res = rs_resolver_of(r);
+    if (res == NULL){
+        r->status = REB_STATUS_GENERIC_ERROR;   /* installed without its parameters */
+        return 0;
+    }
+    const int swept = r->collision == REB_COLLISION_LINE
+                      || r->collision == REB_COLLISION_LINETREE;
+    rs_resolve_pair(r, res, c, swept);
     return 0;
 }
 

@@ -1,0 +1,82 @@
+/**
+ * @file    rs_resolver.h
+ * @brief   Shared declarations of ringsim's collision resolver (rs_resolver.c) and its
+ *          shearing-sheet swept-sphere detector (rs_sheet_detect.c).
+ *
+ * Both files are compiled into one extension, ringsim._resolver.  The structs below are
+ * mirrored field by field by ctypes in ringsim/resolver.py, which checks their sizes at
+ * import: change both together.
+ */
+#ifndef RS_RESOLVER_H
+#define RS_RESOLVER_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include "rebound.h"
+
+/* Histogram layout (documented in ringsim/resolver.py as well). */
+#define RS_VN_NBINS 90          /* log10 v from -7 to 2, 10 bins per decade */
+#define RS_EPS_NBINS 40         /* log10(1 - eps) from -4 to 0, 10 bins per decade */
+
+struct rs_log_entry {
+    double t;           /* [s] simulation time of the collision */
+    double v_n;         /* [m/s] normal impact speed */
+    double R_bar;       /* [m] reduced radius */
+    double M_bar;       /* [kg] reduced mass */
+    double epsilon;     /* coefficient of restitution of the law */
+};
+
+struct rs_stats {
+    int64_t count;                          /* resolved collisions */
+    int64_t n_floored;                      /* of which the minimum velocity raised J */
+    double sum_epsilon;
+    double sum_vn;                          /* [m/s] */
+    int64_t vn_underflow;
+    int64_t vn_overflow;
+    int64_t vn_hist[RS_VN_NBINS];
+    int64_t eps_underflow;                  /* 1 - eps < 1e-4 */
+    int64_t eps_hist[RS_EPS_NBINS];
+    int64_t log_written;                    /* entries written to the ring buffer */
+    int64_t multi_encounters;               /* collisions in which a partner had already
+                                               been deflected earlier in the same step */
+};
+
+/* Pairs resolved in the current step of the swept-path modes (open-addressing set), and
+ * per particle the step of its last collision (for multi_encounters). */
+struct rs_pair_memory {
+    const struct reb_simulation* sim;
+    uint64_t step;              /* sim->steps_done when the pairs were resolved */
+    int64_t n;
+    int64_t capacity;           /* power of two, or 0 */
+    uint64_t* keys;
+    int64_t n_stamps;           /* length of last_step */
+    uint64_t* last_step;        /* steps_done + 1 of each particle's last deflection */
+};
+
+struct rs_sheet_detector;       /* rs_sheet_detect.c */
+
+struct rs_resolver {
+    uint64_t magic;
+    int32_t model;
+    int32_t reserved;
+    double param[3];
+    int64_t log_capacity;
+    int64_t log_every;
+    struct rs_log_entry* log;
+    struct rs_stats stats;
+    struct rs_pair_memory memory;
+    struct rs_sheet_detector* detector;     /* NULL unless the sheet detector is used */
+    void (*detector_free)(struct rs_sheet_detector*);   /* set with detector */
+};
+
+/* The resolver installed in r (through r->extras), or NULL. */
+struct rs_resolver* rs_resolver_of(const struct reb_simulation* r);
+
+/* Resolve one reported pair.  swept = 1: the pair's straight paths over the last step
+ * came within R1 + R2 (resolved at first contact); swept = 0: it overlaps at the end of
+ * the step (resolved there).  Returns 1 if an impulse was applied. */
+int rs_resolve_pair(struct reb_simulation* r, struct rs_resolver* res, struct reb_collision c,
+                    int swept);
+
+
+#endif /* RS_RESOLVER_H */
