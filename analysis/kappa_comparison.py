@@ -46,6 +46,8 @@ def variants(args) -> dict[str, dict]:
         common["integration.collision_detection"] = args.detection
     mono = dict(common)
     mono["particles.size_distribution"] = {"kind": "monodisperse", "radius": args.mono_radius}
+    if args.mono_particles:
+        mono["sheet.n_particles"] = args.mono_particles
     return {"powerlaw": common, "monodisperse": mono}
 
 
@@ -139,6 +141,8 @@ def main() -> None:
     parser.add_argument("--detection", choices=["tree", "line"], default=None)
     parser.add_argument("--mono-radius", type=float, default=1.0,
                         help="radius of the monodisperse variant [m]")
+    parser.add_argument("--mono-particles", type=int, default=None,
+                        help="particles of the monodisperse variant (default: as the scenario)")
     parser.add_argument("--runs", default=str(ROOT / "runs" / "kappa"))
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--report", default=str(REPORT))
@@ -177,7 +181,9 @@ def write_report(args, keys, eqs, runs, wall) -> None:
              + " ".join(f"--seeds {' '.join(map(str, args.seeds))}".split())
              + (f" --particles {args.particles}" if args.particles else "")
              + (f" --orbits {args.orbits:g}" if args.orbits else "")
-             + (f" --detection {args.detection}" if args.detection else "") + "`.", ""]
+             + (f" --detection {args.detection}" if args.detection else "")
+             + (f" --mono-particles {args.mono_particles}" if args.mono_particles else "")
+             + "`.", ""]
     variants_seen = list(dict.fromkeys(k[0] for k in keys))
     labels = list(SCENARIOS)
     summary_sentences = []
