@@ -42,6 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from ringsim import diagnostics, sheet
+from ringsim.report import replace_section
 from ringsim.resolver import (
     MULTI_ENCOUNTER_TARGET,
     MULTI_ENCOUNTER_WINDOW_STEPS,
@@ -750,20 +751,6 @@ def _method_text(replicas: int) -> list[str]:
     ]
 
 
-def write_section(text: str) -> None:
-    """Replace (or append) this section of docs/validation.md, leaving others untouched."""
-    DOC.parent.mkdir(parents=True, exist_ok=True)
-    old = DOC.read_text() if DOC.exists() else "# Validation\n\n"
-    if HEADING in old:
-        head, rest = old.split(HEADING, 1)
-        following = rest.find("\n## ")
-        tail = rest[following + 1:] if following >= 0 else ""
-        new = head + text.rstrip() + "\n" + ("\n" + tail if tail else "")
-    else:
-        new = old.rstrip() + "\n\n" + text.rstrip() + "\n"
-    DOC.write_text(new)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("stage", choices=["run", "report", "all"])
@@ -782,7 +769,7 @@ def main() -> None:
         figures(runs, summary)
         SUMMARY.parent.mkdir(parents=True, exist_ok=True)
         SUMMARY.write_text(json.dumps(summary, indent=1, allow_nan=True))
-        write_section(markdown(summary, args.replicas))
+        replace_section(DOC, HEADING, markdown(summary, args.replicas), "Validation")
         print(f"wrote {DOC}, {SUMMARY} and {FIGURES}")
 
 

@@ -41,6 +41,7 @@ import ringsim
 from ringsim import sheet
 from ringsim.compare import equilibrium
 from ringsim.io import open_run
+from ringsim.report import replace_section
 from ringsim.resolver import install_resolver
 from ringsim.scenario import load_scenario, scenario_from_dict, with_overrides
 
@@ -278,19 +279,6 @@ def markdown(tte: dict | None, rows: list[dict] | None, args) -> str:
     return "\n".join(lines)
 
 
-def write_section(text: str) -> None:
-    """Replace (or append) this section of docs/performance.md, other sections untouched."""
-    old = DOC.read_text() if DOC.exists() else "# Performance\n"
-    if HEADING in old:
-        head, rest = old.split(HEADING, 1)
-        following = rest.find("\n## ")
-        tail = rest[following + 1:] if following >= 0 else ""
-        new = head + text.rstrip() + "\n" + ("\n" + tail if tail else "")
-    else:
-        new = old.rstrip() + "\n\n" + text.rstrip() + "\n"
-    DOC.write_text(new)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("parts", nargs="*", metavar="{time-to-equilibrium,scaling}",
@@ -315,7 +303,7 @@ def main() -> None:
         text = markdown(saved["time_to_equilibrium"], saved["scaling"], args)
         print(text)
         if args.write_doc:
-            write_section(text)
+            replace_section(DOC, HEADING, text, "Performance")
         return
     tte = time_to_equilibrium(args) if "time-to-equilibrium" in args.parts else None
     if tte is not None:
@@ -327,7 +315,7 @@ def main() -> None:
     text = markdown(tte, rows, args)
     print(text)
     if args.write_doc:
-        write_section(text)
+        replace_section(DOC, HEADING, text, "Performance")
 
 
 if __name__ == "__main__":

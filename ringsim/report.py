@@ -1,0 +1,28 @@
+"""Markdown reports: replace one ``## section`` of a document, leaving the others untouched.
+
+Used by the scripts in ``analysis/`` and ``benchmarks/`` that write their measured figures
+into ``docs/*.md``, where several scripts share one file.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def replace_section(path: str | Path, heading: str, text: str, title: str) -> None:
+    """Put ``text`` (which starts with ``heading``) in place of that section of ``path``.
+
+    The section runs from its heading line to the next ``## `` heading or the end.  A
+    missing section is appended; a missing file is created with ``# title``.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    old = path.read_text() if path.exists() else f"# {title}\n"
+    if heading in old:
+        head, rest = old.split(heading, 1)
+        following = rest.find("\n## ")
+        tail = rest[following + 1:] if following >= 0 else ""
+        new = head + text.rstrip() + "\n" + ("\n" + tail if tail else "")
+    else:
+        new = old.rstrip() + "\n\n" + text.rstrip() + "\n"
+    path.write_text(new)
