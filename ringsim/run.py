@@ -85,6 +85,8 @@ class _StopRequest:
 #: Time-series rows are written at most this often [s of wall time] (and at every checkpoint
 #: and at the end), so the HDF5 cost stays small against the integration.
 WRITE_INTERVAL = 2.0
+#: In line mode ``dt: auto`` is re-estimated at every this many time-series outputs.
+LINE_DT_EVERY = 10
 
 
 def _simulation_binary(sim: rebound.Simulation) -> bytes:
@@ -273,14 +275,19 @@ class Runner:
                               f"(period {new_geometry.z_period:.4g} m)")
         # time step
         integ = self.scenario.integration
-        if integ.dt == "auto":
+        # tree mode's bound follows the fastest particle and is checked at every output; line
+        # mode's (multiple encounters) changes slowly and costs a contact prediction, so it is
+        # re-estimated every LINE_DT_EVERY outputs
+        due = integ.collision_detection == "tree" or self.state.rows % LINE_DT_EVERY == 1
+        if integ.dt == "auto" and due:
             dt = sheet.auto_dt(arrays, self.Omega, integ.dt_safety, current=self.sim.dt,
                                detection=integ.collision_detection)
             if dt != self.sim.dt:
                 self._guard_event(f"dt auto: {self.sim.dt:.6g} s -> {dt:.6g} s "
                                   f"({dt / self.orbit:.3g} orbit)", show=False)
                 self.sim.dt = dt
-        elif not self.state.dt_warned and integ.collision_detection == "tree":
+        elif integ.dt != "auto" and not self.state.dt_warned \
+                and integ.collision_detection == "tree":
             ratio = sheet.dt_violation(arrays, self.Omega, self.sim.dt, integ.dt_safety)
             if ratio > 1.0:
                 self.state.dt_warned = 1
