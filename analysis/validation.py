@@ -403,7 +403,7 @@ def _equilibrium_note(table: list[dict]) -> str:
     if not flagged:
         return "Every run is in equilibrium by `ringsim.compare.equilibrium`'s test.\n\n"
     taus = ", ".join(f"{t['tau']:g}" for t in flagged)
-    only_short = all("drifting" not in t["reason"] and "transient" not in t["reason"]
+    only_short = all("drifting" not in t["reason"] and "may not be over" not in t["reason"]
                      for t in flagged)
     if only_short:
         return (f"The runs at τ = {taus} are flagged 'not in equilibrium' by "
@@ -539,6 +539,11 @@ def case1(sizes: Sizes, workdir: Path, figures: Path) -> CaseResult:
 
 
 # --- case 2: the GT78 threshold --------------------------------------------------------------
+
+def _percent(c: Comparison) -> str:
+    """'+2.1% (+3.6σ)': a value row's relative difference from its reference."""
+    return f"{100 * (c.ringsim / c.ref_value - 1):+.1f}% ({c.sigma:+.1f}σ)"
+
 
 def growth_rate(run, skip_orbits: float = 3.0, end_orbits: float = math.inf,
                 batches: int = 5) -> tuple[float, float]:
@@ -739,7 +744,11 @@ def case2(sizes: Sizes, workdir: Path, figures: Path) -> CaseResult:
     published = next(c for c in rows if c.quantity.startswith("ε_cr from the runs ("))
     model = next(c for c in rows if c.quantity.startswith("ε_cr from the runs vs"))
     stress = next(c for c in rows if c.quantity.startswith("σ_xy/σ_xx"))
+    yy = next(c for c in rows if c.quantity.startswith("σ_yy/σ_xx"))
+    zz = next(c for c in rows if c.quantity.startswith("σ_zz/σ_xx"))
     freq_row = next(c for c in rows if c.quantity.startswith("collisions per particle"))
+    worst_pct = math.ceil(max(abs(100 * (c.ringsim / c.ref_value - 1))
+                              for c in (stress, yy, zz, freq_row)))
     kurt = ", ".join(f"{k}: {m:+.2f} ± {e:.2f}" for k, (m, e) in kurtosis.items())
     if published.agrees and model.agrees:
         verdict = "agrees with both within their uncertainties."
@@ -759,8 +768,7 @@ def case2(sizes: Sizes, workdir: Path, figures: Path) -> CaseResult:
             f"{100 * (freq_row.ringsim / freq_row.ref_value - 1):+.0f}%, so the shear "
             "heats less per unit of random energy than GT78 assume and the thermal balance "
             "needs less dissipation, i.e. a larger ε. We take this as the reason for the "
-            "per-cent offset; it is an argument, not a proof, and the published value is "
-            "given to two digits only.")
+            "per-cent offset; it is an argument, not a proof.")
     discussion = (
         f"Below the threshold (ε = {eps_low:g}) the ring cools at "
         f"{g_low[0]:.3f} per orbit and settles to c = "
@@ -769,11 +777,13 @@ def case2(sizes: Sizes, workdir: Path, figures: Path) -> CaseResult:
         f"size; above it (ε = {eps_high:g}) c grows by a factor {heat_factor:.1f} in "
         f"{sizes.case2_orbits:g} orbits with no sign of saturation. The bisection brackets "
         f"ε_cr in [{lo:.4f}, {hi:.4f}]; the zero of the growth rate, ε_cr = {root:.3f} ± "
-        f"{root_err:.3f}, {verdict} Near the threshold (ε = {nearest:g}, c ≈ {c_near:.0f} "
-        "rΩ) the collision frequency and the shape of the velocity ellipsoid are GT78's "
-        "(table). The published 0.63 is stated to two digits (taken as ±0.005). The growth "
-        "rates' errors come from batch means: near ε_cr, ln c² drifts like a random walk "
-        "and one run's rate scatters by more than its residuals suggest.")
+        f"{root_err:.3f}, {verdict} The second moments near the threshold (ε = "
+        f"{nearest:g}, c ≈ {c_near:.0f} rΩ) are within {worst_pct:.0f}% of GT78's: "
+        f"σ_yy/σ_xx {_percent(yy)}, σ_zz/σ_xx {_percent(zz)}, σ_xy/σ_xx "
+        f"{_percent(stress)}, impacts per orbit {_percent(freq_row)}. The published 0.63 "
+        "is taken as ±0.005 (two digits). The growth rates' errors come from batch means: "
+        "near ε_cr, ln c² drifts like a random walk and one run's rate scatters by more "
+        "than its residuals suggest.")
     return CaseResult(2, "Goldreich & Tremaine (1978) thermal-balance threshold", setup,
                       rows, discussion, figure=figure.name,
                       extra={"bracket": [lo, hi], "root": root, "root_err": root_err,
