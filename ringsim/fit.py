@@ -631,12 +631,9 @@ def plot_fits(data: RestitutionData, results: Sequence[dict], path: str | Path) 
         ax.set_visible(False)
     axes.flat[0].legend(fontsize=7, loc="lower left")
     fig.suptitle(f"Restitution fits to {Path(data.source).name}")
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    from ringsim.plots import save_figure
+
+    return save_figure(fig, path)
 
 
 # --- command line -------------------------------------------------------------------------------

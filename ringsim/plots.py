@@ -128,22 +128,19 @@ def plot_epsilon_curves(curves: list[Curve], path: str | Path) -> Path:
     for ax in list(axes.flat)[len(panels):]:
         ax.set_visible(False)
     fig.suptitle("Coefficient of restitution of icy spheres (Dilley 1993, Icarus 105, 225)")
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=120)
 
 
 # --- run and comparison figures ----------------------------------------------------------------
 
-def _save(fig, path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
+    """Lay out ``fig``, write it as a PNG (creating the folder) and close it."""
     import matplotlib.pyplot as plt
 
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return path
 
@@ -247,13 +244,13 @@ def plot_run(run, eq: dict, directory: str | Path) -> list[Path]:
     """Figures of one run (``ringsim analyze --plots DIR``); returns the PNG paths."""
     plt = _pyplot()
     directory = Path(directory)
-    paths = [_save(_timeseries_axes(plt, [run], [eq], eq["name"]),
+    paths = [save_figure(_timeseries_axes(plt, [run], [eq], eq["name"]),
                    directory / "timeseries.png")]
     if eq["per_size_bin"]:
-        paths.append(_save(_size_bin_figure(plt, [eq]), directory / "size_bins.png"))
-    paths.append(_save(_epsilon_histogram_figure(plt, [run], [eq]),
+        paths.append(save_figure(_size_bin_figure(plt, [eq]), directory / "size_bins.png"))
+    paths.append(save_figure(_epsilon_histogram_figure(plt, [run], [eq]),
                        directory / "epsilon_histogram.png"))
-    paths.append(_save(_snapshot_figure(plt, run, eq["name"]), directory / "snapshot.png"))
+    paths.append(save_figure(_snapshot_figure(plt, run, eq["name"]), directory / "snapshot.png"))
     return paths
 
 
@@ -262,10 +259,11 @@ def plot_comparison(runs, equilibria: list[dict], directory: str | Path) -> list
     plt = _pyplot()
     directory = Path(directory)
     names = " vs ".join(eq["name"] for eq in equilibria)
-    paths = [_save(_timeseries_axes(plt, runs, equilibria, names),
+    paths = [save_figure(_timeseries_axes(plt, runs, equilibria, names),
                    directory / "compare_timeseries.png")]
     if any(eq["per_size_bin"] for eq in equilibria):
-        paths.append(_save(_size_bin_figure(plt, equilibria), directory / "compare_size_bins.png"))
-    paths.append(_save(_epsilon_histogram_figure(plt, runs, equilibria),
+        paths.append(save_figure(_size_bin_figure(plt, equilibria),
+                                 directory / "compare_size_bins.png"))
+    paths.append(save_figure(_epsilon_histogram_figure(plt, runs, equilibria),
                        directory / "compare_epsilon_histogram.png"))
     return paths
