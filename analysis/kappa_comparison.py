@@ -24,9 +24,10 @@ from pathlib import Path
 import numpy as np
 
 import ringsim
-from ringsim.compare import TABLE_ROWS, equilibrium, ratio
-from ringsim.io import open_run
-from ringsim.scenario import load_scenario, with_overrides
+from ringsim.analysis.compare import ratio
+from ringsim.analysis.equilibrium import TABLE_ROWS, equilibrium
+from ringsim.config.scenario import load_scenario, with_overrides
+from ringsim.store.runfile import open_run
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIOS = {"kappa = 0": ROOT / "scenarios" / "kappa0.yaml",
@@ -144,7 +145,7 @@ def scaling_prediction(sc) -> tuple[float, float]:
     Returns the values for pairs of the smallest particles and for pairs of mean-sized
     particles (equal for a monodisperse ring).
     """
-    from ringsim.restitution import M_REF
+    from ringsim.physics.restitution import M_REF
 
     sd = sc.particles.size_distribution
     p = sc.restitution_dict().get("p", 0.65)

@@ -41,15 +41,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ringsim import diagnostics, sheet
-from ringsim.report import replace_section
-from ringsim.resolver import (
+from ringsim.analysis import snapshot
+from ringsim.config.scenario import scenario_from_dict, with_overrides
+from ringsim.engine import sheet, timestep
+from ringsim.engine.resolver import install_resolver
+from ringsim.engine.timestep import (
     MULTI_ENCOUNTER_TARGET,
     MULTI_ENCOUNTER_WINDOW_STEPS,
-    install_resolver,
     multi_encounter_rate,
 )
-from ringsim.scenario import scenario_from_dict, with_overrides
+from ringsim.report import replace_section
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "validation.md"
@@ -151,7 +152,7 @@ def simulate(sc, orbits: float, detection: str, dt_orbits: float | str,
         sim.rand_seed = int(shuffle_seed)
     sim, geometry = _vertical_guard(sim, geometry, handle)
     if dt_orbits == "auto":
-        sim.dt = sheet.auto_dt(sheet.particle_arrays(sim), Omega, sc.integration.dt_safety,
+        sim.dt = timestep.auto_dt(sheet.particle_arrays(sim), Omega, sc.integration.dt_safety,
                                detection=detection)
     t0 = sim.t
     rows: list[dict] = []
@@ -162,7 +163,7 @@ def simulate(sc, orbits: float, detection: str, dt_orbits: float | str,
         arrays = sheet.particle_arrays(sim)
         stats = handle.stats()
         handle.reset_stats()
-        summary = diagnostics.snapshot_summary(
+        summary = snapshot.snapshot_summary(
             arrays["x"], arrays["y"], arrays["z"], arrays["vx"], arrays["vy"], arrays["vz"],
             arrays["radius"], arrays["mass"], Omega, geometry.Lx, geometry.Ly,
             size_bins=built.size_bin_edges)
@@ -182,7 +183,7 @@ def simulate(sc, orbits: float, detection: str, dt_orbits: float | str,
             break
         sim, geometry = _vertical_guard(sim, geometry, handle)
         if dt_orbits == "auto":
-            sim.dt = sheet.auto_dt(arrays, Omega, sc.integration.dt_safety, current=sim.dt,
+            sim.dt = timestep.auto_dt(arrays, Omega, sc.integration.dt_safety, current=sim.dt,
                                    detection=detection)
         k += 1
         steps_before = sim.steps_done

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ringsim import restitution as rs
+from ringsim.physics import restitution as rs
 
 SEED = 1988
 RADII_M = (0.025, 0.05, 0.10, 0.20)      # [m] radius of curvature at the impact point

@@ -48,13 +48,15 @@ from pathlib import Path
 import numpy as np
 
 import ringsim
-from ringsim import diagnostics, sheet
-from ringsim import restitution as rs
-from ringsim.compare import equilibrium
+from ringsim.analysis import snapshot, timeseries
+from ringsim.analysis.equilibrium import equilibrium
+from ringsim.config.scenario import load_scenario, scenario_from_dict, with_overrides
+from ringsim.engine import sheet
 from ringsim.errors import InputError
-from ringsim.io import open_run
+from ringsim.physics import kinetic
+from ringsim.physics import restitution as rs
 from ringsim.report import replace_section
-from ringsim.scenario import load_scenario, scenario_from_dict, with_overrides
+from ringsim.store.runfile import open_run
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "validation.md"
@@ -369,8 +371,8 @@ def energy_balance(run, eq: dict) -> dict:
     dplog = np.diff(ts["collisions_plog"], prepend=np.nan)
     heating = (2.25 * Omega**2 * sigma * ts["translational_viscosity"]
                + 1.5 * Omega * dplog / (area * dt))
-    h = diagnostics.autocorrelated_mean(heating[start:])
-    d = diagnostics.autocorrelated_mean(dissipation[start:])
+    h = timeseries.autocorrelated_mean(heating[start:])
+    d = timeseries.autocorrelated_mean(dissipation[start:])
     ratio = h[0] / d[0]
     return {"heating": h[:2], "dissipation": d[:2], "ratio": ratio,
             "ratio_err": abs(ratio) * math.hypot(h[1] / h[0], d[1] / d[0])}
@@ -379,7 +381,7 @@ def energy_balance(run, eq: dict) -> dict:
 def histogram_estimator_check(n: int = 400, orbits: float = 4.0, tau: float = 1.0) -> dict:
     """sum v_n^2 from the binned estimator against the exact sum over the resolver's log
     (a short constant-eps run driven directly, with every collision logged)."""
-    from ringsim.resolver import VN_BIN_EDGES
+    from ringsim.engine.native import VN_BIN_EDGES
 
     sc = sheet_scenario("hist-check", size_distribution=MONODISPERSE_1M,
                         restitution={"model": "constant", "epsilon": 0.5}, tau=tau, n=n,
@@ -435,11 +437,11 @@ def case1(sizes: Sizes, workdir: Path, figures: Path) -> CaseResult:
                       eq["in_equilibrium"], "reason": eq["reason"],
                       "collision_frequency": value(eq["collision_frequency"]),
                       "balance": balance, "kinetic_status": kinetic["status"],
-                      "eps_cr": diagnostics.critical_epsilon(tau)})
+                      "eps_cr": kinetic.critical_epsilon(tau)})
         rows.append(Comparison(
             f"c/(rΩ), τ = {tau:g}", *c,
             reference=f"dilute GT78 estimate: {kinetic['status']} (ε = 0.5 < ε_cr = "
-                      f"{diagnostics.critical_epsilon(tau):.3f}); finite-size floor c ~ "
+                      f"{kinetic.critical_epsilon(tau):.3f}); finite-size floor c ~ "
                       "rΩ: 0.5 ≤ c/(rΩ) ≤ 5",
             source="ringsim.diagnostics (GT78 model); physics argument, see text",
             kind="range", ref_low=0.5, ref_high=5.0))
@@ -505,7 +507,7 @@ def case1(sizes: Sizes, workdir: Path, figures: Path) -> CaseResult:
         "factor against τ for constant ε, but no page, table or figure of those papers "
         "could be read for this validation, so no number from them is quoted here. "
         "What can be compared:\n\n"
-        "* *The dilute-limit estimate* (`diagnostics.kinetic_dispersion_estimate`, "
+        "* *The dilute-limit estimate* (`kinetic.kinetic_dispersion_estimate`, "
         "Goldreich & Tremaine 1978 re-derived): ε = 0.5 is below ε_cr(τ) at every τ "
         f"(ε_cr = {table[0]['eps_cr']:.3f} at τ = {table[0]['tau']:g}, "
         f"{table[-1]['eps_cr']:.3f} at τ = {table[-1]['tau']:g}), so a dilute ring has no "
@@ -574,7 +576,7 @@ def excess_kurtosis(run, skip_orbits: float = 3.0) -> dict:
         s = run.snapshot(i)
         if s["t"] * Omega / TWO_PI < skip_orbits:
             continue
-        w = diagnostics.peculiar_velocity(s["x"], s["vx"], s["vy"], s["vz"], Omega)
+        w = snapshot.peculiar_velocity(s["x"], s["vx"], s["vy"], s["vz"], Omega)
         for k, comp in zip("xyz", w, strict=True):
             d = comp - comp.mean()
             samples[k].append(float(np.mean(d**4) / np.mean(d**2) ** 2 - 3.0))
@@ -598,7 +600,7 @@ def _tensor_shape(run, skip_orbits: float = 3.0) -> dict:
     out = {}
     for key in ("sigma_xy", "sigma_yy", "sigma_zz"):
         ratio = ts[key][keep] / xx
-        out[key] = diagnostics.autocorrelated_mean(ratio)[:2]
+        out[key] = timeseries.autocorrelated_mean(ratio)[:2]
     return out
 
 
@@ -653,12 +655,12 @@ def case2(sizes: Sizes, workdir: Path, figures: Path) -> CaseResult:
     near_run = runs[nearest][0]
     shape = _tensor_shape(near_run)
     kurtosis = excess_kurtosis(near_run)
-    gt = diagnostics.gt78_steady_state(tau)
+    gt = kinetic.gt78_steady_state(tau)
     ts_n = near_run.timeseries
     keep = ts_n["orbits"] >= 3.0
     freq = 2.0 * ts_n["collisions"][keep] / sizes.case2_n / np.diff(ts_n["orbits"])[keep[1:]]
-    freq_mean = diagnostics.autocorrelated_mean(freq)[:2]
-    c_near = diagnostics.autocorrelated_mean(ts_n["velocity_dispersion"][keep])[0] \
+    freq_mean = timeseries.autocorrelated_mean(freq)[:2]
+    c_near = timeseries.autocorrelated_mean(ts_n["velocity_dispersion"][keep])[0] \
         / OMEGA_LAB
 
     rows = [
@@ -807,10 +809,10 @@ def case3(sizes: Sizes, workdir: Path, figures: Path) -> CaseResult:
         h = value(eq["thickness_r"])
         ff = value(eq["filling_factor"])
         eps_mean = value(eq["mean_epsilon"])
-        eps_cr = diagnostics.critical_epsilon(tau)
-        kinetic = eq["kinetic_estimate"]
+        eps_cr = kinetic.critical_epsilon(tau)
+        kinetic_est = eq["kinetic_estimate"]
         table.append({"tau": tau, "c": c, "h": h, "ff": ff, "eps": eps_mean,
-                      "eps_cr": eps_cr, "kinetic_c": kinetic["velocity_dispersion_rOmega"],
+                      "eps_cr": eps_cr, "kinetic_c": kinetic_est["velocity_dispersion_rOmega"],
                       "in_equilibrium": eq["in_equilibrium"], "reason": eq["reason"],
                       "collision_frequency": value(eq["collision_frequency"])})
         rows.append(Comparison(f"c/(rΩ), τ = {tau:g}", *c, reference="a few: 1–5",
@@ -992,7 +994,7 @@ def case5_scenario(sizes: Sizes):
     tau, n_example = rebound_example_geometry()
     n = sizes.case5_n or n_example
     sc = load_scenario(ROOT / "scenarios" / "bridges.yaml")
-    return with_overrides(sc, {"name": "case5-rebound-example", "sheet.optical_depth": tau,
+    return with_overrides(sc, {"name": "case5-rebound-example", "snapshot.optical_depth": tau,
                                "sheet.n_particles": n,
                                "integration.orbits": sizes.case5_orbits,
                                "output.snapshot_every": 0.5})
@@ -1044,7 +1046,7 @@ def run_with_builtin_resolver(scenario, snapshot_every: float) -> _BuiltinRun:
         if k:
             sim.integrate(max(k * every, sim.t), exact_finish_time=0)
         arrays = sheet.particle_arrays(sim)
-        s = diagnostics.snapshot_summary(arrays["x"], arrays["y"], arrays["z"], arrays["vx"],
+        s = snapshot.snapshot_summary(arrays["x"], arrays["y"], arrays["z"], arrays["vx"],
                                          arrays["vy"], arrays["vz"], arrays["radius"],
                                          arrays["mass"], geometry.Omega, geometry.Lx,
                                          geometry.Ly)
@@ -1087,7 +1089,7 @@ def window_statistics(ts: dict, n_particles: int, radius: np.ndarray, mass: np.n
         "ν_trans [m²/s]": np.asarray(ts["translational_viscosity"]),
         "ν_col [m²/s]": 2.0 * dplog / (3.0 * Omega * sigma * area * dt),
     }
-    return {k: diagnostics.autocorrelated_mean(v[keep])[:2] for k, v in series.items()}
+    return {k: timeseries.autocorrelated_mean(v[keep])[:2] for k, v in series.items()}
 
 
 def lockstep_divergence(scenario, steps: int = 200) -> np.ndarray:
@@ -1185,7 +1187,7 @@ def case5(sizes: Sizes, workdir: Path, figures: Path) -> CaseResult:
         f"{law_match * 100:.2f}%), "
         "minimum_collision_velocity = 10⁻³ r_min Ω, surface density 400 kg/m² in a "
         f"200 m × 200 m box, i.e. τ = {tau:.4f} and N ≈ {n_example}. Run through "
-        "`scenarios/bridges.yaml` with only `sheet.optical_depth`, `sheet.n_particles` "
+        "`scenarios/bridges.yaml` with only `snapshot.optical_depth`, `sheet.n_particles` "
         f"(= {n}), `integration.orbits` (= {sizes.case5_orbits:g}) and "
         "`output.snapshot_every` overridden. The reference run builds the identical "
         "sheet (same seed: same radii, positions, velocities, box and REBOUND collision "
@@ -1312,7 +1314,7 @@ def head_on_epsilon(R1: float, R2: float, v: float, law: dict) -> float:
     plain REBOUND simulation: -(separation speed after) / (approach speed before)."""
     import rebound
 
-    from ringsim.resolver import install_resolver
+    from ringsim.engine.resolver import install_resolver
 
     sim = rebound.Simulation()
     sim.integrator = "leapfrog"

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ringsim import diagnostics
+from ringsim.analysis import snapshot
 
 PERFORMANCE_MD = Path(__file__).resolve().parent.parent / "docs" / "performance.md"
 SECTION = "## Diagnostics"
@@ -50,7 +50,7 @@ def synthetic_snapshot(n: int, seed: int = 1) -> dict[str, object]:
     vy = -1.5 * Omega * x + rng.normal(0.0, 1e-3, n)
     vz = rng.normal(0.0, 1.4e-3, n)
     return dict(x=x, y=y, z=z, vx=vx, vy=vy, vz=vz, radius=radius, mass=mass, Omega=Omega,
-                Lx=side, Ly=side, size_bins=diagnostics.log_size_bins(r_min, r_max, 8))
+                Lx=side, Ly=side, size_bins=snapshot.log_size_bins(r_min, r_max, 8))
 
 
 def append_row(row: str, path: Path = PERFORMANCE_MD) -> None:
@@ -83,12 +83,12 @@ def main() -> None:
 
     snap = synthetic_snapshot(args.n)
     t0 = time.perf_counter()
-    summary = diagnostics.snapshot_summary(**snap)
+    summary = snapshot.snapshot_summary(**snap)
     first = time.perf_counter() - t0
     times = []
     for _ in range(args.repeat):
         t0 = time.perf_counter()
-        diagnostics.snapshot_summary(**snap)
+        snapshot.snapshot_summary(**snap)
         times.append(time.perf_counter() - t0)
     best = min(times) if times else first
     print(f"snapshot_summary, {args.n} particles: first call {first:.3f} s, "

@@ -38,12 +38,12 @@ import numpy as np
 import rebound
 
 import ringsim
-from ringsim import sheet
-from ringsim.compare import equilibrium
-from ringsim.io import open_run
+from ringsim.analysis.equilibrium import equilibrium
+from ringsim.config.scenario import load_scenario, scenario_from_dict, with_overrides
+from ringsim.engine import sheet, timestep
+from ringsim.engine.resolver import install_resolver
 from ringsim.report import replace_section
-from ringsim.resolver import install_resolver
-from ringsim.scenario import load_scenario, scenario_from_dict, with_overrides
+from ringsim.store.runfile import open_run
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "performance.md"
@@ -82,7 +82,7 @@ def tree_probe(sc, snapshot: dict, t: float, steps: int) -> tuple[float, float]:
         sim.t = t
         sim.minimum_collision_velocity = built.sim.minimum_collision_velocity
         built.resolver.reinstall(sim)
-    dt = sheet.auto_dt(arrays, sc.orbital_frequency, sc.integration.dt_safety,
+    dt = timestep.auto_dt(arrays, sc.orbital_frequency, sc.integration.dt_safety,
                        detection="tree")
     sim.dt = dt
     if steps <= 0:

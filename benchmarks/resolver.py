@@ -32,12 +32,12 @@ import numpy as np
 import rebound
 from rebound.simulation import CORFF
 
-from ringsim.resolver import (
-    PythonReferenceResolver,
+from ringsim.engine.resolver import (
     collision_records,
     constant_epsilon_callback_address,
     install_resolver,
 )
+from ringsim.testing import PythonReferenceResolver
 
 OMEGA = 2e-4                    # [1/s] orbital frequency
 ORBIT = 2.0 * math.pi / OMEGA   # [s]

@@ -17,9 +17,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from ringsim.run import run as ringsim_run
-from ringsim.scenario import scenario_from_dict
-from ringsim.sheet import build_sheet
+from ringsim.config.scenario import scenario_from_dict
+from ringsim.engine.runner import run as ringsim_run
+from ringsim.engine.sheet import build_sheet
 
 
 def scenario(n_particles: int, orbits: float, detection: str = "tree", dt="1.0e-3"):

@@ -55,13 +55,13 @@ def _cmd_epsilon(args) -> int:
 
 
 def _cmd_run(args) -> int:
-    from ringsim.run import run
-    from ringsim.scenario import load_scenario
+    from ringsim.config.scenario import load_scenario
+    from ringsim.engine.runner import run
 
     scenario = load_scenario(args.scenario)
     path = run(scenario, output=args.output, force=args.force, resume=args.resume,
                progress=not args.no_progress)
-    from ringsim.io import open_run
+    from ringsim.store.runfile import open_run
 
     status = open_run(path).attrs.get("status")
     print(f"{scenario.name}: {status}; run file {path}")
@@ -69,7 +69,7 @@ def _cmd_run(args) -> int:
 
 
 def _open_runs(paths: list[str]):
-    from ringsim.io import open_run
+    from ringsim.store.runfile import open_run
 
     runs = []
     for path in paths:
@@ -88,7 +88,7 @@ def _write_json(path: str, payload) -> None:
 
 
 def _cmd_analyze(args) -> int:
-    from ringsim.compare import equilibrium, equilibrium_table
+    from ringsim.analysis.equilibrium import equilibrium, equilibrium_table
 
     (run,) = _open_runs([args.run])
     eq = equilibrium(run)
@@ -104,7 +104,8 @@ def _cmd_analyze(args) -> int:
 
 
 def _cmd_compare(args) -> int:
-    from ringsim.compare import comparison, comparison_table, equilibrium
+    from ringsim.analysis.compare import comparison, comparison_table
+    from ringsim.analysis.equilibrium import equilibrium
 
     runs = _open_runs(args.runs)
     equilibria = [equilibrium(run) for run in runs]
@@ -127,7 +128,7 @@ def _cmd_sweep(args) -> int:
 
 
 def _cmd_fit(args) -> int:
-    from ringsim.fit import fit_command
+    from ringsim.analysis.fit import fit_command
 
     return fit_command(args)
 

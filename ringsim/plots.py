@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ringsim import restitution as rs
+from ringsim.physics import restitution as rs
 
 CM = 0.01  # [m]
 CM_S = 0.01  # [m/s]

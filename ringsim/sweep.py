@@ -27,25 +27,20 @@ Two sweeps must not write into the same directory at the same time.
 
 from __future__ import annotations
 
-import csv
-import datetime as _dt
 import hashlib
-import math
 import os
 import re
 import sys
 import time
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from ringsim.errors import InputError
+from ringsim.store.summary import write_summary
 
 __all__ = [
-    "EQUILIBRIUM_COLUMNS",
     "PointResult",
     "PointTask",
     "SweepResult",
@@ -53,60 +48,8 @@ __all__ = [
     "point_file_name",
     "run_point",
     "run_sweep",
-    "summary_rows",
     "sweep_command",
-    "write_summary",
 ]
-
-#: Equilibrium quantities of the summary: (key of ``compare.equilibrium``, column stem with
-#: the unit in its name, unit).  Each gives the columns ``<stem>_mean`` and ``<stem>_stderr``.
-EQUILIBRIUM_COLUMNS: tuple[tuple[str, str, str], ...] = (
-    ("velocity_dispersion", "velocity_dispersion_m_s", "m/s"),
-    ("velocity_dispersion_rOmega", "velocity_dispersion_rOmega", "mean radius x Omega"),
-    ("thickness", "thickness_m", "m"),
-    ("thickness_r", "thickness_r", "mean radii"),
-    ("filling_factor", "filling_factor", "dimensionless"),
-    ("collision_frequency", "collision_frequency_per_orbit", "1/orbit (per particle)"),
-    ("mean_epsilon", "mean_epsilon", "dimensionless"),
-    ("translational_viscosity", "translational_viscosity_m2_s", "m^2/s"),
-    ("collisional_viscosity", "collisional_viscosity_m2_s", "m^2/s"),
-    ("equilibrium_from_orbit", "equilibrium_from_orbit", "orbits"),
-)
-
-#: Further numbers of each point's equilibrium: (key, column, unit).
-_RUN_COLUMNS: tuple[tuple[str, str, str], ...] = (
-    ("orbits", "orbits", "orbits"),
-    ("n_particles", "n_particles", "count"),
-    ("mean_radius", "mean_radius_m", "m"),
-    ("optical_depth", "optical_depth", "dimensionless"),
-)
-
-#: Units of the scenario keys a grid may vary (list indices written as N), for summary.h5.
-_PARAMETER_UNITS: dict[str, str] = {
-    "name": "text", "seed": "integer", "description": "text",
-    "planet.Omega": "1/s", "planet.GM": "m^3/s^2", "planet.a": "m",
-    "particles.density": "kg/m^3",
-    "particles.size_distribution.kind": "text",
-    "particles.size_distribution.radius": "m",
-    "particles.size_distribution.q": "dimensionless",
-    "particles.size_distribution.r_min": "m",
-    "particles.size_distribution.r_max": "m",
-    "particles.size_distribution.components.N.radius": "m",
-    "particles.size_distribution.components.N.number_fraction": "dimensionless",
-    "sheet.optical_depth": "dimensionless", "sheet.n_particles": "count",
-    "sheet.aspect": "dimensionless", "sheet.gravity": "boolean", "sheet.softening": "m",
-    "sheet.opening_angle": "rad", "sheet.initial_dispersion": "mean radius x Omega",
-    "sheet.z_box": "mean radii",
-    "restitution.model": "text", "restitution.xi0": "dimensionless",
-    "restitution.p": "dimensionless", "restitution.kappa": "dimensionless",
-    "restitution.v_c": "m/s", "restitution.exponent": "dimensionless",
-    "restitution.epsilon": "dimensionless", "restitution.q": "dimensionless",
-    "integration.orbits": "orbits", "integration.dt": "orbits",
-    "integration.dt_safety": "dimensionless", "integration.collision_detection": "text",
-    "output.path": "text", "output.timeseries_every": "orbits",
-    "output.snapshot_every": "orbits", "output.checkpoint_every": "orbits",
-    "output.log_collisions": "count",
-}
 
 #: Longest file-name stem made from parameters before it is shortened and hashed.
 _MAX_STEM = 150
@@ -155,11 +98,6 @@ def point_file_name(params: Mapping[str, Any]) -> str:
         digest = hashlib.sha1(exact.encode("utf-8")).hexdigest()[:10]
         stem = f"{stem[:_MAX_STEM]}_{digest}"
     return stem + ".h5"
-
-
-def _parameter_units(key: str) -> str:
-    return _PARAMETER_UNITS.get(re.sub(r"\.\d+\.", ".N.", key),
-                                "as in the scenario file (docs/scenario.md)")
 
 
 # --- planning ---------------------------------------------------------------------------------
@@ -246,7 +184,8 @@ def _existing_action(path: Path, scenario) -> str:
     """
     import h5py
 
-    from ringsim.scenario import ScenarioError, scenario_from_text
+    from ringsim.config.scenario import scenario_from_text
+    from ringsim.config.schema import ScenarioError
 
     advice = "delete it or choose another --out"
     try:
@@ -280,7 +219,7 @@ def _existing_action(path: Path, scenario) -> str:
 
 def _point_scenario(base, params: Mapping[str, Any], stem: str):
     """The point's scenario, named ``<base name>_<file stem>`` unless the grid sets the name."""
-    from ringsim.scenario import with_overrides
+    from ringsim.config.scenario import with_overrides
 
     scenario = with_overrides(base, params)
     if "name" in params:
@@ -324,9 +263,9 @@ def run_point(task: PointTask) -> PointResult:
     This is the function sent to worker processes and Dask workers.  Errors propagate to
     the caller, which marks the point failed.
     """
-    from ringsim.compare import equilibrium
-    from ringsim.io import open_run
-    from ringsim.run import run
+    from ringsim.analysis.equilibrium import equilibrium
+    from ringsim.engine.runner import run
+    from ringsim.store.runfile import open_run
 
     start = time.perf_counter()
     if task.action in ("run", "restart"):
@@ -458,7 +397,7 @@ def run_sweep(sweep_path: str | os.PathLike, out: str | os.PathLike | None = Non
         Invalid sweep file or option, Dask missing, or an existing run file that cannot be
         reused; nothing is written then.
     """
-    from ringsim.scenario import load_sweep
+    from ringsim.config.sweep import load_sweep
 
     say = echo if echo is not None else (lambda line: None)
     if workers is not None and workers < 1:
@@ -543,120 +482,3 @@ def sweep_command(args) -> int:
     return 0
 
 
-# --- summary ----------------------------------------------------------------------------------
-
-def _number(value: Any) -> float:
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return math.nan
-
-
-def summary_rows(keys: Sequence[str], results: Iterable[PointResult]
-                 ) -> tuple[list[str], dict[str, str], list[dict[str, Any]]]:
-    """The summary table: (columns, unit of each non-parameter column, rows).
-
-    Rows hold the grid parameters (columns named by their dotted keys), ``run_file``,
-    ``status``, ``action``, ``in_equilibrium``, ``reason``, ``<stem>_mean`` and
-    ``<stem>_stderr`` of every `EQUILIBRIUM_COLUMNS` quantity, the run's length and size,
-    ``wall_time_s`` and ``error``.  Numbers of points that did not finish are NaN.
-    """
-    units: dict[str, str] = {"run_file": "text", "status": "text", "action": "text",
-                             "in_equilibrium": "boolean", "reason": "text"}
-    for _key, stem, unit in EQUILIBRIUM_COLUMNS:
-        units[f"{stem}_mean"] = unit
-        units[f"{stem}_stderr"] = unit
-    for _key, column, unit in _RUN_COLUMNS:
-        units[column] = unit
-    units["wall_time_s"] = "s"
-    units["error"] = "text"
-    columns = list(keys) + list(units)
-    rows = []
-    for result in results:
-        eq = result.equilibrium or {}
-        row: dict[str, Any] = dict(result.params)
-        row.update(run_file=result.file, status=result.status, action=result.action,
-                   in_equilibrium=bool(eq.get("in_equilibrium", False)),
-                   reason=str(eq.get("reason", "")))
-        for key, stem, _unit in EQUILIBRIUM_COLUMNS:
-            value = eq.get(key, {})
-            row[f"{stem}_mean"] = _number(value.get("mean"))
-            row[f"{stem}_stderr"] = _number(value.get("stderr"))
-        for key, column, _unit in _RUN_COLUMNS:
-            value = eq.get(key)
-            row[column] = value if isinstance(value, int) else _number(value)
-        row["wall_time_s"] = float(result.wall_time)
-        row["error"] = result.error
-        rows.append(row)
-    return columns, units, rows
-
-
-def _csv_cell(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        return repr(value)
-    return str(value)
-
-
-def _column_array(values: list[Any]):
-    """A numpy array for an HDF5 dataset: bool, int64, float64 or variable-length text."""
-    import h5py
-
-    if all(isinstance(v, (bool, np.bool_)) for v in values):
-        return np.array(values, dtype=bool)
-    if all(isinstance(v, int) and not isinstance(v, bool) for v in values):
-        return np.array(values, dtype=np.int64)
-    if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
-        return np.array(values, dtype=np.float64)
-    return np.array([v if isinstance(v, str) else repr(v) for v in values],
-                    dtype=h5py.string_dtype())
-
-
-def write_summary(out_dir: str | os.PathLike, sweep, results: Sequence[PointResult]
-                  ) -> tuple[Path, Path]:
-    """Write ``summary.csv`` and ``summary.h5`` into ``out_dir``; returns their paths.
-
-    ``summary.h5``: root attributes ``sweep_yaml`` (the sweep file's text), ``sweep_file``,
-    ``base_scenario_yaml``, ``grid_keys``, ``ringsim_version``, ``units`` = "SI",
-    ``created_utc``; datasets ``/parameters/<dotted key>`` and one dataset per other column
-    of `summary_rows`, each with a ``units`` attribute.  Both files are written under a
-    temporary name and renamed.
-    """
-    import h5py
-
-    from ringsim import __version__
-
-    out_dir = Path(out_dir)
-    columns, units, rows = summary_rows(sweep.keys, results)
-    csv_path, h5_path = out_dir / "summary.csv", out_dir / "summary.h5"
-
-    tmp_csv = csv_path.with_name(".summary.csv.tmp")
-    with open(tmp_csv, "w", newline="", encoding="utf-8") as f:
-        writer = csv.writer(f)
-        writer.writerow(columns)
-        for row in rows:
-            writer.writerow([_csv_cell(row[c]) for c in columns])
-    os.replace(tmp_csv, csv_path)
-
-    tmp_h5 = h5_path.with_name(".summary.h5.tmp")
-    with h5py.File(tmp_h5, "w") as f:
-        f.attrs["sweep_yaml"] = sweep.source_text or ""
-        f.attrs["sweep_file"] = str(sweep.source)
-        f.attrs["base_scenario_yaml"] = sweep.base.yaml_text
-        f.attrs["grid_keys"] = np.array(list(sweep.keys), dtype=h5py.string_dtype())
-        f.attrs["ringsim_version"] = __version__
-        f.attrs["units"] = "SI"
-        f.attrs["created_utc"] = _dt.datetime.now(_dt.timezone.utc).isoformat(
-            timespec="seconds")
-        f.attrs["n_points"] = len(rows)
-        f.attrs["n_failed"] = sum(row["status"] != "finished" for row in rows)
-        params = f.create_group("parameters")
-        for key in sweep.keys:
-            ds = params.create_dataset(key, data=_column_array([row[key] for row in rows]))
-            ds.attrs["units"] = _parameter_units(key)
-        for column, unit in units.items():
-            ds = f.create_dataset(column, data=_column_array([row[column] for row in rows]))
-            ds.attrs["units"] = unit
-    os.replace(tmp_h5, h5_path)
-    return csv_path, h5_path

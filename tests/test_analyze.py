@@ -7,7 +7,7 @@ import pytest
 
 import ringsim
 from ringsim.cli import main
-from ringsim.scenario import scenario_from_dict, with_overrides
+from ringsim.config.scenario import scenario_from_dict, with_overrides
 
 CONTRACT_KEYS = {"name", "velocity_dispersion", "velocity_dispersion_rOmega", "thickness",
                  "thickness_r", "filling_factor", "collision_frequency", "mean_epsilon",

@@ -4,8 +4,8 @@ import json
 
 import numpy as np
 
-from ringsim import restitution as rs
 from ringsim.cli import main
+from ringsim.physics import restitution as rs
 
 
 def test_epsilon_command_writes_figure_and_json(tmp_path, capsys):

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from ringsim import contact
-from ringsim import restitution as rs
+from ringsim.physics import contact
+from ringsim.physics import restitution as rs
 
 
 @pytest.mark.parametrize("k, beta, M_bar", [

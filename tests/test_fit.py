@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 import yaml
 
-from ringsim import restitution as rs
+from ringsim.analysis.fit import RestitutionData, fit_model, read_data
 from ringsim.cli import main
-from ringsim.fit import RestitutionData, fit_model, read_data
-from ringsim.scenario import scenario_from_dict
+from ringsim.config.scenario import scenario_from_dict
+from ringsim.physics import restitution as rs
 
 ROOT = Path(__file__).resolve().parent.parent
 RADII = np.array([0.025, 0.05, 0.10, 0.20])  # [m] the radii of Hatzes et al. (1988)

@@ -31,17 +31,18 @@ import numpy as np
 import pytest
 import rebound
 
-from ringsim import diagnostics, sheet
-from ringsim import restitution as rs
-from ringsim.resolver import (
+from ringsim.analysis import snapshot, timeseries
+from ringsim.config.scenario import scenario_from_dict
+from ringsim.engine import sheet, timestep
+from ringsim.engine.resolver import install_resolver
+from ringsim.engine.timestep import (
     MULTI_ENCOUNTER_TARGET,
     MULTI_ENCOUNTER_WINDOW_STEPS,
-    install_resolver,
     multi_encounter_fraction,
     multi_encounter_rate,
     predicted_contacts,
 )
-from ringsim.scenario import scenario_from_dict
+from ringsim.physics import restitution as rs
 
 OMEGA = 2e-4                       # [1/s]
 ORBIT = 2.0 * math.pi / OMEGA      # [s]
@@ -346,20 +347,20 @@ def ring_arrays(n: int, tau: float, dispersion_rOmega: float, seed: int) -> tupl
 def test_auto_dt_line_keeps_predicted_multi_encounters_below_target():
     dt_max = 1e-3 * ORBIT
     hot, _ = ring_arrays(500, 0.25, 100.0, seed=11)
-    assert sheet.auto_dt(hot, OMEGA, 0.1, detection="line") == pytest.approx(dt_max), \
+    assert timestep.auto_dt(hot, OMEGA, 0.1, detection="line") == pytest.approx(dt_max), \
         "a hot dilute ring runs at the orbit limit"
 
     _, sim, _ = integrate_sheet(cold_dense_scenario("line", 1e-3), 1.0)
     dense = sheet.particle_arrays(sim)
     rate = multi_encounter_rate(dense, OMEGA, MULTI_ENCOUNTER_WINDOW_STEPS * dt_max)
-    dt = sheet.auto_dt(dense, OMEGA, 0.1, detection="line")
+    dt = timestep.auto_dt(dense, OMEGA, 0.1, detection="line")
     assert rate * dt_max > MULTI_ENCOUNTER_TARGET, "the cooled dense ring needs a shorter step"
     assert rate * dt <= MULTI_ENCOUNTER_TARGET < rate * 2.0 * dt, "the largest such step"
     assert math.log2(dt_max / dt) == pytest.approx(round(math.log2(dt_max / dt))), \
         "a power-of-two fraction of 1e-3 orbit"
     # hysteresis: a step in use is kept while the bound has no 1.5 margin above it
-    assert sheet.auto_dt(dense, OMEGA, 0.1, current=dt, detection="line") == dt
-    assert sheet.auto_dt(dense, OMEGA, 0.1, current=dt / 2, detection="line") == dt / 2
+    assert timestep.auto_dt(dense, OMEGA, 0.1, current=dt, detection="line") == dt
+    assert timestep.auto_dt(dense, OMEGA, 0.1, current=dt / 2, detection="line") == dt / 2
 
 
 def cold_dense_scenario(detection: str, dt: float | str, n: int = 300):
@@ -391,8 +392,8 @@ def integrate_sheet(sc, orbits: float, every: float = 0.1):
         stats = handle.stats()
         handle.reset_stats()
         rate = multi_encounter_rate(a, OMEGA, MULTI_ENCOUNTER_WINDOW_STEPS * 1e-3 * ORBIT)
-        rows.append((diagnostics.velocity_dispersion(a["x"], a["vx"], a["vy"], a["vz"], OMEGA),
-                     diagnostics.thickness(a["z"]), stats["count"], stats["multi_encounters"],
+        rows.append((snapshot.velocity_dispersion(a["x"], a["vx"], a["vy"], a["vz"], OMEGA),
+                     snapshot.thickness(a["z"]), stats["count"], stats["multi_encounters"],
                      rate * sim.dt))
     return np.array(rows), sim, handle
 
@@ -413,7 +414,7 @@ def test_cold_dense_equilibrium_agrees_with_tree_reference():
     for detection, dt in (("line", 1e-3), ("tree", "auto")):
         rows, _, _ = integrate_sheet(cold_dense_scenario(detection, dt), 4.0)
         t = np.arange(1, rows.shape[0] + 1) * 0.1
-        results[detection] = [diagnostics.equilibrium(t, rows[:, k]) for k in (0, 1)]
+        results[detection] = [timeseries.equilibrium(t, rows[:, k]) for k in (0, 1)]
     for k, name in enumerate(("velocity dispersion", "thickness")):
         line, tree = results["line"][k], results["tree"][k]
         z = (line.mean - tree.mean) / math.hypot(line.stderr, tree.stderr)

@@ -27,14 +27,11 @@ import rebound
 from rebound.simulation import CORFF, CollisionS
 from rebound.vectors import Vec6d
 
-from ringsim import resolver
-from ringsim import restitution as rs
-from ringsim.resolver import (
-    LOG_DTYPE,
-    PythonReferenceResolver,
-    ResolverHandle,
-    install_resolver,
-)
+from ringsim.engine import native, resolver
+from ringsim.engine.native import LOG_DTYPE
+from ringsim.engine.resolver import ResolverHandle, install_resolver
+from ringsim.physics import restitution as rs
+from ringsim.testing import PythonReferenceResolver
 
 OMEGA = 2e-4                       # [1/s]
 ORBIT = 2.0 * math.pi / OMEGA      # [s]
@@ -162,11 +159,11 @@ NO_GHOST = (0.0,) * 6
 def test_struct_sizes_agree_with_loaded_rebound():
     rebound.clibrebound.reb_simulation_struct_size.restype = ctypes.c_size_t
     loaded = rebound.clibrebound.reb_simulation_struct_size()
-    compiled = resolver._LIB.rs_simulation_struct_size()
+    compiled = native._LIB.rs_simulation_struct_size()
     assert compiled == loaded == ctypes.sizeof(rebound.Simulation)
-    resolver.check_simulation_struct_size(compiled, loaded)
+    native.check_simulation_struct_size(compiled, loaded)
     with pytest.raises(ImportError, match="struct reb_simulation"):
-        resolver.check_simulation_struct_size(compiled, compiled + 8)
+        native.check_simulation_struct_size(compiled, compiled + 8)
 
 
 # --- C versus its Python twin, collision by collision --------------------------------------

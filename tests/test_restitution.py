@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from ringsim import restitution as rs
+from ringsim.physics import restitution as rs
 
 CM = 0.01  # [m]
 CM_S = 0.01  # [m/s]

@@ -14,7 +14,7 @@ import yaml
 
 import ringsim
 from ringsim.cli import main
-from ringsim.scenario import load_scenario, scenario_from_dict, with_overrides
+from ringsim.config.scenario import load_scenario, scenario_from_dict, with_overrides
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 

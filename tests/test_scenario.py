@@ -13,21 +13,18 @@ import pytest
 import yaml
 from scipy import integrate
 
-from ringsim import restitution as rs
-from ringsim.errors import InputError
-from ringsim.scenario import (
-    Mixture,
-    MixtureComponent,
-    Monodisperse,
-    PowerLaw,
+from ringsim.config.scenario import (
     Scenario,
-    ScenarioError,
     load_scenario,
-    load_sweep,
     scenario_from_dict,
     scenario_from_text,
     with_overrides,
 )
+from ringsim.config.schema import ScenarioError
+from ringsim.config.sweep import load_sweep
+from ringsim.errors import InputError
+from ringsim.physics import restitution as rs
+from ringsim.physics.sizes import Mixture, MixtureComponent, Monodisperse, PowerLaw
 
 SCENARIO_DIR = Path(__file__).resolve().parent.parent / "scenarios"
 BUNDLED = sorted(p for p in SCENARIO_DIR.glob("*.yaml") if not p.name.startswith("sweep-"))
@@ -524,7 +521,7 @@ def test_bundled_sweep_loads(path):
 def test_docstring_examples_run():
     import doctest
 
-    import ringsim.scenario
+    import ringsim.config.scenario
 
-    result = doctest.testmod(ringsim.scenario)
+    result = doctest.testmod(ringsim.config.scenario)
     assert result.attempted >= 3 and result.failed == 0

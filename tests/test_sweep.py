@@ -17,10 +17,11 @@ import numpy as np
 import pytest
 
 import ringsim
-from ringsim import io, sweep
+from ringsim import sweep
+from ringsim.analysis.equilibrium import equilibrium
 from ringsim.cli import main
-from ringsim.compare import equilibrium
-from ringsim.run import Runner
+from ringsim.engine.runner import Runner
+from ringsim.store import runfile, summary
 
 SCENARIO = """\
 name: tiny
@@ -102,7 +103,7 @@ def test_sweep_writes_one_run_per_point_and_a_summary(swept):
         assert run.timeseries["orbits"][-1] == pytest.approx(0.05, abs=0.011)
         eq = equilibrium(run)
         assert row["in_equilibrium"] == str(eq["in_equilibrium"]).lower()
-        for key, stem, _unit in sweep.EQUILIBRIUM_COLUMNS:
+        for key, stem, _unit in summary.EQUILIBRIUM_COLUMNS:
             for part in ("mean", "stderr"):
                 got, want = float(row[f"{stem}_{part}"]), eq[key][part]
                 assert got == want or (np.isnan(got) and np.isnan(want)), \
@@ -161,13 +162,13 @@ def test_stopped_point_is_resumed_bit_exactly(swept, tmp_path):
     name = FILES[3]
     reference = timeseries_bytes(out / name)
     # redo the point, stopping half-way (its last checkpoint then lies before the end)
-    scenario = io.open_run(out / name).scenario
+    scenario = runfile.open_run(out / name).scenario
     (out / name).unlink()
     runner = Runner(scenario, out / name, progress=False)
     runner.start_new()
     runner.t_end = 2 * runner.ts_every  # an output time, as a real stop would be
     runner.loop()
-    io.set_attributes(out / name, status="stopped")
+    runfile.set_attributes(out / name, status="stopped")
     with h5py.File(out / name, "r") as f:
         rows = int(f["checkpoint"].attrs["rows"])
     assert rows < len(reference["t"]) // 8, "the checkpoint precedes the end"

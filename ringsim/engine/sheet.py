@@ -19,11 +19,12 @@ from fractions import Fraction
 import numpy as np
 import rebound
 
-G_SI = 6.67430e-11  # [m^3 kg^-1 s^-2], CODATA 2018
+from ringsim.engine.timestep import choose_dt
+from ringsim.physics.constants import G_SI
+from ringsim.physics.sizes import size_bin_edges
+
 #: A particle's vertical amplitude may reach this fraction of the half z period.
 VERTICAL_GUARD_FRACTION = 0.4
-#: Largest allowed time step [orbits] (resolves the epicycle).
-DT_MAX_ORBITS = 1e-3
 #: Overlaps deeper than this fraction of the smaller radius are reported.
 OVERLAP_REPORT_FRACTION = 0.1
 
@@ -72,25 +73,6 @@ class SheetGeometry:
         return {"root_size": self.root_size, "N_root_x": self.n_root_x,
                 "N_root_y": self.n_root_y, "N_root_z": self.n_root_z, "Lx": self.Lx,
                 "Ly": self.Ly, "Omega": self.Omega}
-
-
-# --- size bins ------------------------------------------------------------------------------
-
-def size_bin_edges(size_distribution, n_bins: int = 6) -> np.ndarray | None:
-    """Radius bin edges [m] for per-size diagnostics; None for a single radius.
-
-    Fixed by the scenario (not by the radii drawn), so runs with different seeds share
-    their bins: log-spaced over [r_min, r_max] for a power law (the top edge nudged up so
-    that r_max falls inside), one bin per component for a mixture.
-    """
-    lo, hi = size_distribution.smallest_radius, size_distribution.largest_radius
-    if hi <= lo * (1 + 1e-12):
-        return None
-    if size_distribution.kind == "mixture":
-        distinct = np.unique([c.radius for c in size_distribution.components])
-        mids = np.sqrt(distinct[1:] * distinct[:-1])
-        return np.concatenate([[lo * 0.999], mids, [hi * 1.001]])
-    return np.geomspace(lo, hi * (1 + 1e-9), n_bins + 1)
 
 
 # --- box ---------------------------------------------------------------------------------------
@@ -262,7 +244,7 @@ def build_sheet(scenario) -> Sheet:
     The scenario's ``seed`` seeds both numpy (radii, positions, velocities) and REBOUND's
     collision shuffle (``sim.rand_seed``): the same scenario gives the same bits.
     """
-    from ringsim.resolver import install_resolver
+    from ringsim.engine.resolver import install_resolver
 
     rng = np.random.default_rng(scenario.seed)
     Omega = scenario.orbital_frequency
@@ -293,7 +275,7 @@ def build_sheet(scenario) -> Sheet:
                               log_capacity=scenario.output.log_collisions,
                               detector=detector_for(scenario.integration.collision_detection))
     edges = size_bin_edges(particles.size_distribution)
-    sim.dt = choose_dt(sim, scenario.integration, geometry, radii)
+    sim.dt = choose_dt(scenario.integration, particle_arrays(sim), Omega)
     return Sheet(sim, geometry, radii, masses, edges, handle)
 
 
@@ -329,102 +311,6 @@ def minimum_collision_velocity(radii: np.ndarray, Omega: float) -> float:
 
 
 # --- guards ------------------------------------------------------------------------------------
-
-def relative_speed_bound(arrays: dict[str, np.ndarray], Omega: float) -> float:
-    """An upper estimate of the largest relative speed of touching particles [m/s].
-
-    Twice the largest random speed relative to the shear flow, plus the shear across the
-    largest pair separation (1.5 Omega (r_i + r_j)).
-    """
-    wx = arrays["vx"]
-    wy = arrays["vy"] + 1.5 * Omega * arrays["x"]
-    wz = arrays["vz"]
-    w_max = float(np.sqrt(np.max(wx * wx + wy * wy + wz * wz))) if wx.size else 0.0
-    return 2.0 * w_max + 3.0 * Omega * float(arrays["radius"].max())
-
-
-def auto_dt(arrays: dict[str, np.ndarray], Omega: float, safety: float,
-            current: float | None = None, detection: str = "tree") -> float:
-    """Time step [s] of ``dt: auto``.
-
-    Line detection (swept paths, contact-time resolution) finds every crossing whatever the
-    speeds, so c/r does not bound its step.  Two things do: the orbit (dt <= 1e-3 orbit, the
-    straight paths of a step must stay close to the epicycles) and multiple encounters (a
-    particle that meets two partners in one step has its second contact found on a path it
-    no longer follows).  The fraction of collisions in which a partner was deflected earlier
-    in the same step (``multi_encounters / count`` of the resolver's statistics) is predicted
-    from the current state (``resolver.multi_encounter_rate``): straight paths over a
-    window of up to ``resolver.MULTI_ENCOUNTER_WINDOW_STEPS`` x 1e-3 orbit give each
-    particle its contacts and deflections (contacts with a partner of at least 10% of the
-    pair's mass); pooled over particles of similar size they give rates lambda and
-    lambda_s, and dt sum(lambda_s lambda) / sum(lambda) estimates that fraction for a step
-    dt.  The step keeps it below ``resolver.MULTI_ENCOUNTER_TARGET``
-    (1%).  Hot dilute rings get 1e-3 orbit; dense, cold ones a shorter step.
-
-    Tree detection finds collisions only as overlaps at step ends: dt << r/v.
-    The largest relative displacement per step, relative_speed_bound * dt, is kept below
-    ``safety`` times the smallest radius, and dt <= 1e-3 orbit.
-
-    Both: the result is rounded down to a power of two times 1e-3 orbit so that it changes
-    rarely and reproducibly; it shrinks as soon as the bound requires, but grows again only
-    once the bound leaves a margin of 1.5 (so that a fluctuating estimate does not make it
-    flip back and forth).
-
-    Parameters
-    ----------
-    arrays : particle arrays (SI)
-    Omega : float [1/s]
-    safety : float [dimensionless], fraction of the smallest radius (tree detection)
-    current : float [s], optional
-        The step in use.
-    detection : "tree" or "line"
-    """
-    dt_max = DT_MAX_ORBITS * 2.0 * math.pi / Omega
-    if detection == "line":
-        from ringsim.resolver import (
-            MULTI_ENCOUNTER_TARGET,
-            MULTI_ENCOUNTER_WINDOW_STEPS,
-            multi_encounter_rate,
-        )
-
-        rate = multi_encounter_rate(arrays, Omega, MULTI_ENCOUNTER_WINDOW_STEPS * dt_max)
-        if rate <= 0.0:
-            return dt_max
-        bound = MULTI_ENCOUNTER_TARGET / rate
-    else:
-        v_rel = relative_speed_bound(arrays, Omega)
-        if v_rel <= 0:
-            return dt_max
-        bound = safety * float(arrays["radius"].min()) / v_rel
-
-    def quantized(dt: float) -> float:
-        if dt >= dt_max:
-            return dt_max
-        return dt_max * 2.0 ** math.floor(math.log2(dt / dt_max))
-
-    dt = quantized(bound)
-    if current is not None and dt > current:
-        dt = max(current, quantized(bound / 1.5))
-    return dt
-
-
-def choose_dt(sim: rebound.Simulation, integration, geometry: SheetGeometry,
-              radii: np.ndarray) -> float:
-    """The scenario's time step [s]: ``dt: auto`` or a fixed step in orbits."""
-    if integration.dt == "auto":
-        return auto_dt(particle_arrays(sim), geometry.Omega, integration.dt_safety,
-                       detection=integration.collision_detection)
-    return float(integration.dt) * geometry.orbit
-
-
-def dt_violation(arrays: dict[str, np.ndarray], Omega: float, dt: float,
-                 safety: float) -> float:
-    """Largest relative displacement per step over ``safety`` times the smallest radius.
-
-    Values above 1 mean end-of-step detection may miss collisions at this dt.
-    """
-    return relative_speed_bound(arrays, Omega) * dt / (safety * float(arrays["radius"].min()))
-
 
 def max_vertical_amplitude(arrays: dict[str, np.ndarray], Omega: float) -> float:
     """Largest vertical oscillation amplitude sqrt(z^2 + (vz/Omega)^2) [m].

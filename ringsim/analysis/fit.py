@@ -49,8 +49,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ringsim import restitution as rs
 from ringsim.errors import InputError
+from ringsim.physics import restitution as rs
 
 __all__ = [
     "FIT_MODELS",
@@ -555,7 +555,8 @@ def _check_restitution_yaml(text: str, path: str) -> None:
     """The section must be accepted by a scenario (its validation is the scenario's)."""
     import yaml
 
-    from ringsim.scenario import ScenarioError, scenario_from_dict
+    from ringsim.config.scenario import scenario_from_dict
+    from ringsim.config.schema import ScenarioError
 
     probe = {"name": "fit-check", "seed": 0, "planet": {"Omega": 2.0e-4},
              "particles": {"size_distribution": {"kind": "monodisperse", "radius": 1.0}},

@@ -30,21 +30,31 @@ Example
 from __future__ import annotations
 
 import copy
-import difflib
-import itertools
 import math
-import numbers
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from os import PathLike
-from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
-import numpy as np
 import yaml
 
-from ringsim.errors import InputError
-from ringsim.restitution import MODEL_PARAMETERS
+from ringsim.config.schema import (
+    REQUIRED,
+    ScenarioError,
+    Section,
+    parse_yaml,
+    plain,
+    read_text,
+    show,
+)
+from ringsim.physics.restitution import MODEL_PARAMETERS
+from ringsim.physics.sizes import (
+    Mixture,
+    MixtureComponent,
+    Monodisperse,
+    PowerLaw,
+    SizeDistribution,
+)
 
 __all__ = [
     "Integration",
@@ -60,9 +70,7 @@ __all__ = [
     "ScenarioError",
     "Sheet",
     "SizeDistribution",
-    "Sweep",
     "load_scenario",
-    "load_sweep",
     "scenario_from_dict",
     "scenario_from_text",
     "with_overrides",
@@ -122,216 +130,6 @@ DEFAULTS: dict[str, Any] = {
     "output.log_collisions": 0,
 }
 
-_REQUIRED = object()
-
-
-# --- errors -----------------------------------------------------------------------------------
-
-class ScenarioError(InputError):
-    """A scenario or sweep file is unreadable or invalid.
-
-    Attributes
-    ----------
-    file : str
-        The file (or the ``source`` name given to `scenario_from_text`).
-    key : str
-        Dotted key of the offending value (``"particles.size_distribution.r_min"``), or
-        ``"<file>"`` (cannot read the file) or ``"<yaml>"`` (syntax error, not a mapping).
-    problem : str
-        What is wrong.
-    allowed : str
-        The allowed range or type.
-
-    ``str(error)`` is the single line ``"<file>: <key>: <problem> (<allowed>)"``.
-    """
-
-    def __init__(self, file: str, key: str, problem: str, allowed: str):
-        problem = " ".join(str(problem).split())
-        allowed = " ".join(str(allowed).split())
-        super().__init__(str(file), str(key), f"{problem} ({allowed})")
-        self.problem = problem
-        self.allowed = allowed
-
-    def __reduce__(self):
-        # Exceptions are pickled via their args; ours has four (sweeps run in processes).
-        return (type(self), (self.file, self.key, self.problem, self.allowed))
-
-
-def _show(value: Any) -> str:
-    """A short one-line rendering of a user's value for an error message."""
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def _is_real(value: Any) -> bool:
-    """True for int/float (and numpy numbers), False for bool, str, None."""
-    return (isinstance(value, numbers.Real)
-            and not isinstance(value, (bool, np.bool_)))
-
-
-def _is_integer(value: Any) -> bool:
-    return isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
-
-
-class _Section:
-    """One mapping of the scenario being validated, with its dotted-key prefix."""
-
-    def __init__(self, file: str, prefix: str, mapping: Mapping):
-        self.file = file
-        self.prefix = prefix
-        self.mapping = mapping
-
-    def key(self, name: str) -> str:
-        return f"{self.prefix}.{name}" if self.prefix else name
-
-    def error(self, name: str, problem: str, allowed: str) -> ScenarioError:
-        return ScenarioError(self.file, self.key(name), problem, allowed)
-
-    def check_keys(self, allowed: Sequence[str], context: str = "") -> None:
-        """Reject keys not in ``allowed``, suggesting the closest valid one; ``context``
-        ("the dilley model") says whose keys they are."""
-        for raw_key in self.mapping:
-            name = str(raw_key)
-            if raw_key in allowed:
-                continue
-            close = difflib.get_close_matches(name, allowed, n=1, cutoff=0.6)
-            if not close:  # case slips, e.g. "omega" for "Omega"
-                lower = {a.lower(): a for a in allowed}
-                close = [lower[name.lower()]] if name.lower() in lower else []
-            hint = f"did you mean {close[0]!r}? " if close else ""
-            raise self.error(name, f"unknown key {name!r}" + (f" for {context}" if context
-                                                                else ""),
-                             f"{hint}allowed here: {', '.join(allowed)}")
-
-    def has(self, name: str) -> bool:
-        return name in self.mapping
-
-    def get(self, name: str, default: Any, allowed: str) -> Any:
-        """The raw value, ``default`` if absent; raise if required or given empty."""
-        if name not in self.mapping:
-            if default is _REQUIRED:
-                raise self.error(name, f"missing required key {name!r}", allowed)
-            return default
-        value = self.mapping[name]
-        if value is None:
-            raise self.error(name, "no value given", allowed)
-        return value
-
-    def number(self, name: str, default: Any = _REQUIRED, *, unit: str = "",
-               gt: float | None = None, ge: float | None = None,
-               lt: float | None = None, le: float | None = None) -> float:
-        """A finite real number in the given interval (bool and strings are not numbers)."""
-        allowed = _range_text("a finite real number", unit, gt, ge, lt, le)
-        value = self.get(name, default, allowed)
-        if isinstance(value, (bool, np.bool_)):
-            raise self.error(name, f"got a boolean ({value}), not a number", allowed)
-        if isinstance(value, str):
-            raise self.error(name, f"got the string {_show(value)}, not a number"
-                             + _string_number_hint(value), allowed)
-        if not _is_real(value):
-            raise self.error(name, f"got {type(value).__name__} {_show(value)}, not a number",
-                             allowed)
-        x = float(value)
-        if not math.isfinite(x):
-            raise self.error(name, f"{x} is not finite", allowed)
-        if ((gt is not None and not x > gt) or (ge is not None and not x >= ge)
-                or (lt is not None and not x < lt) or (le is not None and not x <= le)):
-            raise self.error(name, f"{x:g}{' ' + unit if unit else ''} is out of range",
-                             allowed)
-        return x
-
-    def integer(self, name: str, default: Any = _REQUIRED, *, ge: int | None = None,
-                le: int | None = None) -> int:
-        allowed = _range_text("an integer", "", None, ge, None, le)
-        value = self.get(name, default, allowed)
-        if not _is_integer(value):
-            kind = ("a boolean" if isinstance(value, (bool, np.bool_))
-                    else f"{type(value).__name__} {_show(value)}")
-            raise self.error(name, f"got {kind}, not an integer", allowed)
-        n = int(value)
-        if (ge is not None and n < ge) or (le is not None and n > le):
-            raise self.error(name, f"{n} is out of range", allowed)
-        return n
-
-    def boolean(self, name: str, default: Any = _REQUIRED) -> bool:
-        allowed = "true or false"
-        value = self.get(name, default, allowed)
-        if not isinstance(value, (bool, np.bool_)):
-            raise self.error(name, f"got {type(value).__name__} {_show(value)}", allowed)
-        return bool(value)
-
-    def string(self, name: str, default: Any = _REQUIRED,
-               choices: Sequence[str] | None = None, what: str = "a non-empty string",
-               allow_empty: bool = False) -> str:
-        allowed = f"one of: {', '.join(choices)}" if choices else what
-        value = self.get(name, default, allowed)
-        if not isinstance(value, str):
-            raise self.error(name, f"got {type(value).__name__} {_show(value)}, not a string",
-                             allowed)
-        if choices is not None and value not in choices:
-            close = difflib.get_close_matches(value, choices, n=1, cutoff=0.6)
-            hint = f"did you mean {close[0]!r}? " if close else ""
-            raise self.error(name, f"unknown value {_show(value)}", hint + allowed)
-        if not allow_empty and not value.strip():
-            raise self.error(name, "is empty", allowed)
-        return value
-
-    def number_or_auto(self, name: str, default: Any, **limits) -> float | str:
-        """The string ``"auto"`` or a number obeying ``limits`` (see `number`)."""
-        if self.mapping.get(name, default) == "auto":
-            return "auto"
-        try:
-            return self.number(name, default, **limits)
-        except ScenarioError as exc:
-            raise self.error(name, exc.problem, f"auto, or {exc.allowed}") from None
-
-    def section(self, name: str, required: bool = False, allowed: str | None = None
-                ) -> _Section:
-        """A nested mapping (empty if absent and not required)."""
-        keys = _SECTION_KEYS.get(name)
-        if allowed is None:
-            allowed = f"a mapping with keys: {', '.join(keys)}" if keys else "a mapping"
-        value = self.get(name, _REQUIRED if required else {}, allowed)
-        if not isinstance(value, Mapping):
-            raise self.error(name, f"got {type(value).__name__} {_show(value)}, "
-                             "not a mapping", allowed)
-        return _Section(self.file, self.key(name), value)
-
-
-def _string_number_hint(text: str) -> str:
-    """Why a number-looking string was read as text, and the fix."""
-    try:
-        x = float(text)
-    except ValueError:
-        return ""
-    if not math.isfinite(x):
-        return ""
-    if "e" in text.lower() and "." not in text:
-        mantissa, _, exponent = text.lower().partition("e")
-        return (f"; YAML reads exponent notation without a decimal point as text: "
-                f"write {mantissa}.0e{exponent}")
-    return "; remove the quotes"
-
-
-def _range_text(kind: str, unit: str, gt, ge, lt, le) -> str:
-    """'a finite real number > 0 [m]', 'an integer >= 2', 'a finite real number in (0, 3]'."""
-    def fmt(x) -> str:
-        return str(x) if isinstance(x, int) else f"{x:g}"
-
-    low = (f"({fmt(gt)}", gt) if gt is not None else (f"[{fmt(ge)}", ge) if ge is not None \
-        else None
-    high = (f"{fmt(lt)})", lt) if lt is not None else (f"{fmt(le)}]", le) if le is not None \
-        else None
-    if low and high:
-        text = f"{kind} in {low[0]}, {high[0]}"
-    elif low:
-        text = f"{kind} {'>' if gt is not None else '>='} {fmt(low[1])}"
-    elif high:
-        text = f"{kind} {'<' if lt is not None else '<='} {fmt(high[1])}"
-    else:
-        text = kind
-    return f"{text} [{unit}]" if unit else text
-
 
 # --- the frozen scenario ----------------------------------------------------------------------
 
@@ -370,183 +168,6 @@ class Planet:
             return {"Omega": self.Omega}
         return {"GM": self.GM, "a": self.a}
 
-
-class SizeDistribution:
-    """Number distribution of particle radii; subclasses give `moment` and `draw_radii`."""
-
-    kind: ClassVar[str] = ""
-
-    def moment(self, k: float) -> float:
-        """Number-weighted mean of radius**k [m^k]."""
-        raise NotImplementedError
-
-    def draw_radii(self, n: int, rng: np.random.Generator) -> np.ndarray:
-        """``n`` radii [m] drawn from the distribution with the generator ``rng``."""
-        raise NotImplementedError
-
-    @property
-    def smallest_radius(self) -> float:
-        """Smallest radius the distribution can produce [m]."""
-        raise NotImplementedError
-
-    @property
-    def largest_radius(self) -> float:
-        """Largest radius the distribution can produce [m]."""
-        raise NotImplementedError
-
-    @property
-    def mean_radius(self) -> float:
-        """Number-weighted mean radius <R> [m]."""
-        return self.moment(1.0)
-
-    def to_dict(self) -> dict[str, Any]:
-        raise NotImplementedError
-
-
-@dataclass(frozen=True)
-class Monodisperse(SizeDistribution):
-    """All particles alike.
-
-    Attributes
-    ----------
-    radius : float [m]
-    """
-
-    radius: float
-    kind: ClassVar[str] = "monodisperse"
-
-    def moment(self, k: float) -> float:
-        return self.radius**k
-
-    def draw_radii(self, n: int, rng: np.random.Generator) -> np.ndarray:
-        return np.full(n, self.radius)
-
-    @property
-    def smallest_radius(self) -> float:
-        return self.radius
-
-    @property
-    def largest_radius(self) -> float:
-        return self.radius
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "radius": self.radius}
-
-
-def _integral_of_power(s: float, r_min: float, r_max: float) -> float:
-    """Integral of R**s dR from r_min to r_max [m^(s+1)], accurate near s = -1."""
-    t = s + 1.0
-    log_ratio = math.log(r_max / r_min)
-    if t == 0.0:
-        return log_ratio
-    return r_min**t * math.expm1(t * log_ratio) / t
-
-
-@dataclass(frozen=True)
-class PowerLaw(SizeDistribution):
-    """Power law dN/dR proportional to R^-q between r_min and r_max.
-
-    Attributes
-    ----------
-    q : float [dimensionless]
-        Slope; q = 3 is the classic value for Saturn's rings (equal optical depth per
-        logarithmic radius interval); any finite real is allowed.
-    r_min, r_max : float [m]
-        Radius limits, 0 < r_min <= r_max.
-    """
-
-    q: float
-    r_min: float
-    r_max: float
-    kind: ClassVar[str] = "powerlaw"
-
-    def moment(self, k: float) -> float:
-        if self.r_min == self.r_max:
-            return self.r_min**k
-        return (_integral_of_power(k - self.q, self.r_min, self.r_max)
-                / _integral_of_power(-self.q, self.r_min, self.r_max))
-
-    def draw_radii(self, n: int, rng: np.random.Generator) -> np.ndarray:
-        """Inverse-transform sampling of the truncated power law."""
-        u = rng.random(n)
-        if self.r_min == self.r_max:
-            return np.full(n, self.r_min)
-        t = 1.0 - self.q
-        log_ratio = math.log(self.r_max / self.r_min)
-        if t == 0.0:
-            radii = self.r_min * np.exp(u * log_ratio)
-        else:
-            radii = self.r_min * (1.0 + u * math.expm1(t * log_ratio)) ** (1.0 / t)
-        return np.clip(radii, self.r_min, self.r_max)
-
-    @property
-    def smallest_radius(self) -> float:
-        return self.r_min
-
-    @property
-    def largest_radius(self) -> float:
-        return self.r_max
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "q": self.q, "r_min": self.r_min, "r_max": self.r_max}
-
-
-@dataclass(frozen=True)
-class MixtureComponent:
-    """One species of a mixture.
-
-    Attributes
-    ----------
-    radius : float [m]
-    number_fraction : float [dimensionless]
-        Fraction of the particles (by number) of this radius, > 0.
-    """
-
-    radius: float
-    number_fraction: float
-
-    def to_dict(self) -> dict[str, float]:
-        return {"radius": self.radius, "number_fraction": self.number_fraction}
-
-
-@dataclass(frozen=True)
-class Mixture(SizeDistribution):
-    """A few discrete radii with given number fractions (summing to 1)."""
-
-    components: tuple[MixtureComponent, ...]
-    kind: ClassVar[str] = "mixture"
-
-    def moment(self, k: float) -> float:
-        radii = np.array([c.radius for c in self.components])
-        fractions = np.array([c.number_fraction for c in self.components])
-        return float(np.sum(fractions * radii**k) / np.sum(fractions))
-
-    def counts(self, n: int) -> np.ndarray:
-        """Particles of each component among ``n``: n * fraction rounded by largest remainder,
-        so that they sum to exactly n."""
-        fractions = np.array([c.number_fraction for c in self.components])
-        exact = n * fractions / fractions.sum()
-        counts = np.floor(exact).astype(int)
-        short = n - int(counts.sum())
-        order = np.argsort(-(exact - counts), kind="stable")
-        counts[order[:short]] += 1
-        return counts
-
-    def draw_radii(self, n: int, rng: np.random.Generator) -> np.ndarray:
-        """Exactly `counts` (n) particles of each radius, in random order."""
-        radii = np.repeat([c.radius for c in self.components], self.counts(n))
-        return rng.permutation(radii)
-
-    @property
-    def smallest_radius(self) -> float:
-        return min(c.radius for c in self.components)
-
-    @property
-    def largest_radius(self) -> float:
-        return max(c.radius for c in self.components)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "components": [c.to_dict() for c in self.components]}
 
 
 @dataclass(frozen=True)
@@ -806,19 +427,19 @@ class Scenario:
 
 # --- validation -------------------------------------------------------------------------------
 
-def _read_name(top: _Section) -> str:
+def _read_name(top: Section) -> str:
     allowed = "a non-empty string without '/', '\\' or surrounding spaces"
     name = top.string("name", what=allowed)
     if name != name.strip() or any(c in name for c in "/\\\n\r\t\0"):
-        raise top.error("name", f"{_show(name)} cannot be used in a file name", allowed)
+        raise top.error("name", f"{show(name)} cannot be used in a file name", allowed)
     return name
 
 
-def _read_planet(top: _Section) -> Planet:
+def _read_planet(top: Section) -> Planet:
     allowed = "a mapping: Omega [1/s], or GM [m^3/s^2] and a [m]"
     if not top.has("planet"):
         raise top.error("planet", "missing required key 'planet'", allowed)
-    sec = top.section("planet", required=True)
+    sec = top.section("planet", required=True, keys=_SECTION_KEYS["planet"])
     sec.check_keys(_SECTION_KEYS["planet"])
     if sec.has("Omega"):
         for other in ("GM", "a"):
@@ -834,7 +455,7 @@ def _read_planet(top: _Section) -> Planet:
     return Planet(Omega=None, GM=gm, a=a)
 
 
-def _read_size_distribution(particles: _Section) -> SizeDistribution:
+def _read_size_distribution(particles: Section) -> SizeDistribution:
     sec = particles.section("size_distribution", required=True,
                             allowed="a mapping: kind monodisperse {radius}, powerlaw "
                             "{q, r_min, r_max} or mixture {components}")
@@ -851,14 +472,14 @@ def _read_size_distribution(particles: _Section) -> SizeDistribution:
                             "0 < r_min <= r_max")
         return PowerLaw(q=q, r_min=r_min, r_max=r_max)
     allowed = "a non-empty list of {radius [m], number_fraction} mappings"
-    components = sec.get("components", _REQUIRED, allowed)
+    components = sec.get("components", REQUIRED, allowed)
     if not isinstance(components, (list, tuple)) or not components:
-        raise sec.error("components", f"got {_show(components)}", allowed)
+        raise sec.error("components", f"got {show(components)}", allowed)
     parsed = []
     for i, item in enumerate(components):
         if not isinstance(item, Mapping):
-            raise sec.error(f"components.{i}", f"got {_show(item)}, not a mapping", allowed)
-        comp = _Section(sec.file, sec.key(f"components.{i}"), item)
+            raise sec.error(f"components.{i}", f"got {show(item)}, not a mapping", allowed)
+        comp = Section(sec.file, sec.key(f"components.{i}"), item)
         comp.check_keys(("radius", "number_fraction"))
         parsed.append(MixtureComponent(radius=comp.number("radius", unit="m", gt=0.0),
                                        number_fraction=comp.number("number_fraction", gt=0.0,
@@ -870,15 +491,15 @@ def _read_size_distribution(particles: _Section) -> SizeDistribution:
     return Mixture(components=tuple(parsed))
 
 
-def _read_particles(top: _Section) -> Particles:
-    sec = top.section("particles", required=True)
+def _read_particles(top: Section) -> Particles:
+    sec = top.section("particles", required=True, keys=_SECTION_KEYS["particles"])
     sec.check_keys(_SECTION_KEYS["particles"])
     density = sec.number("density", DEFAULTS["particles.density"], unit="kg/m^3", gt=0.0)
     return Particles(density=density, size_distribution=_read_size_distribution(sec))
 
 
-def _read_sheet(top: _Section) -> Sheet:
-    sec = top.section("sheet")
+def _read_sheet(top: Section) -> Sheet:
+    sec = top.section("sheet", keys=_SECTION_KEYS["sheet"])
     sec.check_keys(_SECTION_KEYS["sheet"])
     d = DEFAULTS
     gravity = sec.boolean("gravity", d["sheet.gravity"])
@@ -919,7 +540,7 @@ _RESTITUTION_RANGES: dict[tuple[str, str], tuple[str, float | None, float | None
 }
 
 
-def _read_restitution(top: _Section) -> Restitution:
+def _read_restitution(top: Section) -> Restitution:
     sec = top.section("restitution")
     model = sec.string("model", DEFAULTS["restitution.model"], choices=tuple(MODEL_PARAMETERS))
     names = tuple(MODEL_PARAMETERS[model])
@@ -929,14 +550,14 @@ def _read_restitution(top: _Section) -> Restitution:
         default = MODEL_PARAMETERS[model][name]
         unit, gt, ge, lt, le = _RESTITUTION_RANGES.get((model, name),
                                                        ("", None, None, None, None))
-        value = sec.number(name, _REQUIRED if default is None else default, unit=unit,
+        value = sec.number(name, REQUIRED if default is None else default, unit=unit,
                            gt=gt, ge=ge, lt=lt, le=le)
         params.append((name, value))
     return Restitution(model=model, parameters=tuple(params))
 
 
-def _read_integration(top: _Section) -> Integration:
-    sec = top.section("integration")
+def _read_integration(top: Section) -> Integration:
+    sec = top.section("integration", keys=_SECTION_KEYS["integration"])
     sec.check_keys(_SECTION_KEYS["integration"])
     d = DEFAULTS
     orbits = sec.number("orbits", d["integration.orbits"], unit="orbits", gt=0.0)
@@ -955,8 +576,8 @@ def _read_integration(top: _Section) -> Integration:
     )
 
 
-def _read_output(top: _Section, name: str) -> Output:
-    sec = top.section("output")
+def _read_output(top: Section, name: str) -> Output:
+    sec = top.section("output", keys=_SECTION_KEYS["output"])
     sec.check_keys(_SECTION_KEYS["output"])
     d = DEFAULTS
     snapshot_every = sec.number("snapshot_every", d["output.snapshot_every"], unit="orbits",
@@ -972,7 +593,7 @@ def _read_output(top: _Section, name: str) -> Output:
     )
 
 
-def _check_geometry(top: _Section, particles: Particles, sheet: Sheet,
+def _check_geometry(top: Section, particles: Particles, sheet: Sheet,
                     probe: Scenario) -> None:
     """The box must be wider and (if given) taller than the largest particle."""
     r_max = particles.size_distribution.largest_radius
@@ -991,15 +612,6 @@ def _check_geometry(top: _Section, particles: Particles, sheet: Sheet,
                             f"auto, or > {2.0 * r_max / r_mean:.4g} mean radii")
 
 
-def _plain(value: Any) -> Any:
-    """A deep copy with every mapping a dict and every list/tuple a list."""
-    if isinstance(value, Mapping):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    return copy.deepcopy(value)
-
-
 def _build(data: Any, source: str, source_text: str | None) -> Scenario:
     source = str(source)
     if not isinstance(data, Mapping):
@@ -1009,7 +621,7 @@ def _build(data: Any, source: str, source_text: str | None) -> Scenario:
         raise ScenarioError(source, "<yaml>", f"the top level is {got}, not a mapping",
                             "a YAML mapping with at least the keys name, seed, planet, "
                             "particles")
-    top = _Section(source, "", data)
+    top = Section(source, "", data)
     top.check_keys(_SECTION_KEYS[""])
     name = _read_name(top)
     seed = top.integer("seed", ge=0, le=MAX_SEED)
@@ -1024,34 +636,10 @@ def _build(data: Any, source: str, source_text: str | None) -> Scenario:
     scenario = Scenario(name=name, seed=seed, description=description, planet=planet,
                         particles=particles, sheet=sheet, restitution=restitution,
                         integration=integration, output=output, source=source,
-                        source_text=source_text, _given=_plain(data))
+                        source_text=source_text, _given=plain(data))
     _check_geometry(top, particles, sheet, scenario)
     return scenario
 
-
-# --- public constructors ----------------------------------------------------------------------
-
-def _read_text(path: str | PathLike) -> str:
-    """The file's text, or ScenarioError with key "<file>"."""
-    try:
-        return Path(path).read_text(encoding="utf-8")
-    except UnicodeDecodeError as exc:
-        raise ScenarioError(str(path), "<file>", f"not UTF-8 text ({exc.reason})",
-                            "a UTF-8 YAML text file") from None
-    except OSError as exc:
-        raise ScenarioError(str(path), "<file>", f"cannot read: {exc.strerror or exc}",
-                            "an existing, readable YAML file") from None
-
-
-def _parse_yaml(text: str, source: str) -> Any:
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise ScenarioError(source, "<yaml>", f"invalid YAML{where}: {problem}",
-                            "YAML syntax: 'key: value' lines, nesting by indentation") from None
 
 
 def scenario_from_dict(d: Mapping, source: str = "<dict>") -> Scenario:
@@ -1070,12 +658,12 @@ def scenario_from_dict(d: Mapping, source: str = "<dict>") -> Scenario:
 def scenario_from_text(text: str, source: str = "<string>") -> Scenario:
     """Parse YAML text (``yaml.safe_load``) and validate it; keeps the text in
     ``source_text``."""
-    return _build(_parse_yaml(text, source), source, text)
+    return _build(parse_yaml(text, source), source, text)
 
 
 def load_scenario(path: str | PathLike) -> Scenario:
     """Read and validate a scenario file; raises `ScenarioError` naming the file and key."""
-    text = _read_text(path)
+    text = read_text(path)
     return scenario_from_text(text, source=str(path))
 
 
@@ -1099,7 +687,7 @@ def _set_dotted(given: dict, dotted: str, value: Any, source: str) -> None:
             index = part
             if not last and not isinstance(node.get(part), (dict, list)):
                 if part in node and node[part] is not None:
-                    raise ScenarioError(source, here, f"is a value ({_show(node[part])}), "
+                    raise ScenarioError(source, here, f"is a value ({show(node[part])}), "
                                         f"so {dotted!r} cannot be set", allowed)
                 node[part] = {}
         else:
@@ -1123,7 +711,7 @@ def with_overrides(sc: Scenario, overrides: Mapping[str, Any]) -> Scenario:
     overrides : mapping
         ``{"restitution.kappa": 0.1, "seed": 2}``; values in the units of the file.
     """
-    given = _plain(sc._given)
+    given = plain(sc._given)
     try:
         consistent = _build(given, sc.source, None) == sc
     except ScenarioError:
@@ -1135,85 +723,3 @@ def with_overrides(sc: Scenario, overrides: Mapping[str, Any]) -> Scenario:
     return _build(given, sc.source, None)
 
 
-# --- sweeps -----------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Sweep:
-    """A grid of scenarios: a base scenario and dotted keys -> lists of values.
-
-    Attributes
-    ----------
-    base : Scenario
-    base_path : str
-        The base scenario's file (resolved relative to the sweep file).
-    grid : tuple of (dotted key, tuple of values)
-        In file order; the last key varies fastest.
-    source : str
-        The sweep file.
-    """
-
-    base: Scenario
-    base_path: str
-    grid: tuple[tuple[str, tuple[Any, ...]], ...]
-    source: str
-    source_text: str | None = field(default=None, compare=False, repr=False)
-
-    @property
-    def keys(self) -> tuple[str, ...]:
-        return tuple(key for key, _ in self.grid)
-
-    def __len__(self) -> int:
-        return math.prod(len(values) for _, values in self.grid)
-
-    def parameter_sets(self) -> Iterator[dict[str, Any]]:
-        """The grid points as {dotted key: value}, Cartesian product, last key fastest."""
-        for combo in itertools.product(*(values for _, values in self.grid)):
-            yield dict(zip(self.keys, combo, strict=True))
-
-    def points(self) -> Iterator[tuple[dict[str, Any], Scenario]]:
-        """(parameters, scenario) for every grid point, in `parameter_sets` order."""
-        for params in self.parameter_sets():
-            try:
-                yield params, with_overrides(self.base, params)
-            except ScenarioError as exc:
-                point = ", ".join(f"{k}={v!r}" for k, v in params.items())
-                raise ScenarioError(self.source, "grid",
-                                    f"point {point}: {exc.key}: {exc.problem}",
-                                    exc.allowed) from None
-
-
-def load_sweep(path: str | PathLike) -> Sweep:
-    """Read a sweep file (``base``: scenario path relative to it; ``grid``: dotted key ->
-    list) and check every value and every grid point against the base scenario."""
-    source = str(path)
-    text = _read_text(path)
-    data = _parse_yaml(text, source)
-    if not isinstance(data, Mapping):
-        raise ScenarioError(source, "<yaml>", "the top level is not a mapping",
-                            "a YAML mapping with keys base and grid")
-    top = _Section(source, "", data)
-    top.check_keys(("base", "grid"))
-    base_name = top.string("base", what="a scenario file path, relative to the sweep file")
-    base_path = Path(source).parent / base_name
-    base = load_scenario(base_path)
-    grid_sec = top.section("grid", required=True)
-    allowed = "a non-empty list of values"
-    if not grid_sec.mapping:
-        raise top.error("grid", "is empty", "dotted scenario keys -> lists of values")
-    grid = []
-    for key, values in grid_sec.mapping.items():
-        if not isinstance(values, list) or not values:
-            raise grid_sec.error(str(key), f"got {_show(values)}", allowed)
-        for value in values:
-            try:
-                with_overrides(base, {key: value})
-            except ScenarioError as exc:
-                raise grid_sec.error(str(key), f"value {_show(value)} is invalid for "
-                                     f"{exc.file}: {exc.key}: {exc.problem}",
-                                     exc.allowed) from None
-        grid.append((str(key), tuple(values)))
-    sweep = Sweep(base=base, base_path=str(base_path), grid=tuple(grid), source=source,
-                  source_text=text)
-    for _ in sweep.points():  # combinations can clash even if each value is fine alone
-        pass
-    return sweep

@@ -289,7 +289,7 @@ class Run:
     """
 
     def __init__(self, path: str | Path):
-        from ringsim.scenario import scenario_from_text
+        from ringsim.config.scenario import scenario_from_text
 
         self.path = Path(path)
         with h5py.File(self.path, "r") as f:

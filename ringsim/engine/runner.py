@@ -30,8 +30,10 @@ from pathlib import Path
 import numpy as np
 import rebound
 
-from ringsim import diagnostics, io, sheet
+from ringsim.analysis import snapshot
+from ringsim.engine import sheet, timestep
 from ringsim.errors import InputError
+from ringsim.store import runfile
 
 
 @dataclass
@@ -116,7 +118,7 @@ def _simulation_from_binary(binary: bytes) -> rebound.Simulation:
 def _histogram_edges() -> dict[str, np.ndarray]:
     """Edges of the stored histograms: the resolver's bins plus an underflow bin from 0
     (and for speeds an overflow bin to infinity)."""
-    from ringsim.resolver import ONE_MINUS_EPSILON_BIN_EDGES, VN_BIN_EDGES
+    from ringsim.engine.native import ONE_MINUS_EPSILON_BIN_EDGES, VN_BIN_EDGES
 
     return {"one_minus_epsilon_histogram": np.concatenate([[0.0], ONE_MINUS_EPSILON_BIN_EDGES]),
             "impact_speed_histogram": np.concatenate([[0.0], VN_BIN_EDGES, [np.inf]])}
@@ -163,16 +165,16 @@ class Runner:
         self.edges = built.size_bin_edges
         attributes = dict(self.geometry.attributes())
         attributes["name"] = self.scenario.name
-        io.create_run_file(self.path, scenario_yaml=self.scenario.yaml_text,
+        runfile.create_run_file(self.path, scenario_yaml=self.scenario.yaml_text,
                            seed=self.scenario.seed, attributes=attributes,
                            size_bin_edges=self.edges, histogram_edges=_histogram_edges())
         self._output(first=True)
 
     def start_resume(self) -> None:
-        checkpoint = io.read_checkpoint(self.path)
+        checkpoint = runfile.read_checkpoint(self.path)
         if checkpoint is None:
             raise InputError(str(self.path), "--resume", "the file has no checkpoint to resume")
-        run = io.open_run(self.path)
+        run = runfile.open_run(self.path)
         old, new = run.scenario.to_dict(), self.scenario.to_dict()
         old_orbits = old["integration"].pop("orbits")
         new_orbits = new["integration"].pop("orbits")
@@ -186,7 +188,7 @@ class Runner:
         st = checkpoint.state
         self.state = LoopState(int(st["rows"]), int(st["snapshots"]), int(st["guard_events"]),
                                int(st["dt_warned"]), int(st["overlap_warned"]))
-        io.truncate_to_checkpoint(self.path, self.state.rows, self.state.snapshots,
+        runfile.truncate_to_checkpoint(self.path, self.state.rows, self.state.snapshots,
                                   self.state.guard_events)
         sim = _simulation_from_binary(checkpoint.binary)
         sim.rand_seed = int(st["rand_seed"])
@@ -196,17 +198,17 @@ class Runner:
                                             self.Omega)
         edges = run.timeseries.get("size_bin_edges")
         self.edges = None if edges is None else np.asarray(edges)
-        from ringsim.resolver import install_resolver
+        from ringsim.engine.resolver import install_resolver
 
         self.handle = install_resolver(
             sim, self.scenario.restitution_dict(),
             log_capacity=self.scenario.output.log_collisions,
             detector=sheet.detector_for(self.scenario.integration.collision_detection))
-        io.set_attributes(self.path, status="running")
+        runfile.set_attributes(self.path, status="running")
         self.wall_before = float(run.attrs.get("wall_time_s", 0.0))
         if new_orbits > old_orbits:
             # a longer run of the same scenario: continue it, and let the file say so
-            io.set_attributes(self.path, scenario_yaml=self.scenario.yaml_text)
+            runfile.set_attributes(self.path, scenario_yaml=self.scenario.yaml_text)
             self._guard_event(f"run extended from {old_orbits:g} to {new_orbits:g} orbits",
                               show=False)
 
@@ -215,7 +217,7 @@ class Runner:
     def _row(self, arrays: dict) -> dict:
         g = self.geometry
         stats = self.handle.stats()
-        summary = diagnostics.snapshot_summary(
+        summary = snapshot.snapshot_summary(
             arrays["x"], arrays["y"], arrays["z"], arrays["vx"], arrays["vy"], arrays["vz"],
             arrays["radius"], arrays["mass"], self.Omega, g.Lx, g.Ly, size_bins=self.edges)
         count = int(stats["count"])
@@ -236,7 +238,7 @@ class Runner:
                                                             ["one_minus_epsilon"]),
             "impact_speed_histogram": _with_outer_bins(stats["histograms"]["v_n"]),
         }
-        for key in io.TIMESERIES_UNITS:
+        for key in runfile.TIMESERIES_UNITS:
             if key not in row and key in summary:
                 if key.startswith("size_bin_") and self.edges is None:
                     continue
@@ -245,7 +247,7 @@ class Runner:
 
     def _guard_event(self, message: str, show: bool = True) -> None:
         """Record a guard's action in the file; show it on screen unless ``show`` is False."""
-        io.append_guard_event(self.path, self.sim.t, self.sim.t / self.orbit, message)
+        runfile.append_guard_event(self.path, self.sim.t, self.sim.t / self.orbit, message)
         self.state.guard_events += 1
         if show:
             from tqdm import tqdm
@@ -280,7 +282,7 @@ class Runner:
         # re-estimated every LINE_DT_EVERY outputs
         due = integ.collision_detection == "tree" or self.state.rows % LINE_DT_EVERY == 1
         if integ.dt == "auto" and due:
-            dt = sheet.auto_dt(arrays, self.Omega, integ.dt_safety, current=self.sim.dt,
+            dt = timestep.auto_dt(arrays, self.Omega, integ.dt_safety, current=self.sim.dt,
                                detection=integ.collision_detection)
             if dt != self.sim.dt:
                 self._guard_event(f"dt auto: {self.sim.dt:.6g} s -> {dt:.6g} s "
@@ -288,7 +290,7 @@ class Runner:
                 self.sim.dt = dt
         elif integ.dt != "auto" and not self.state.dt_warned \
                 and integ.collision_detection == "tree":
-            ratio = sheet.dt_violation(arrays, self.Omega, self.sim.dt, integ.dt_safety)
+            ratio = timestep.dt_violation(arrays, self.Omega, self.sim.dt, integ.dt_safety)
             if ratio > 1.0:
                 self.state.dt_warned = 1
                 self._guard_event(f"WARNING: fixed dt {self.sim.dt:.4g} s lets particles move "
@@ -309,7 +311,7 @@ class Runner:
             arrays = sheet.particle_arrays(self.sim)
         t = self.sim.t
         if first or _interval_index(t, self.snap_every) >= self.state.snapshots:
-            io.write_snapshot(self.path, self.state.snapshots, t, arrays)
+            runfile.write_snapshot(self.path, self.state.snapshots, t, arrays)
             self.state.snapshots += 1
         if first or _interval_index(t, self.ckpt_every) > _interval_index(
                 t - self.ts_every, self.ckpt_every):
@@ -317,7 +319,7 @@ class Runner:
 
     def write_rows(self) -> None:
         """Write the time-series rows gathered since the last write."""
-        io.append_timeseries(self.path, self.pending_rows)
+        runfile.append_timeseries(self.path, self.pending_rows)
         self.pending_rows = []
         self.last_write = time.perf_counter()
 
@@ -327,8 +329,8 @@ class Runner:
         state.update(self.geometry.attributes())
         state["rand_seed"] = int(self.sim.rand_seed)
         state["t"] = float(self.sim.t)
-        io.write_checkpoint(self.path, _simulation_binary(self.sim), state)
-        io.set_attributes(self.path, wall_time_s=self.wall_before + time.perf_counter()
+        runfile.write_checkpoint(self.path, _simulation_binary(self.sim), state)
+        runfile.set_attributes(self.path, wall_time_s=self.wall_before + time.perf_counter()
                           - self.wall_start)
 
     # -- the loop ------------------------------------------------------------------------------
@@ -362,7 +364,7 @@ class Runner:
                 bar.close()
         # a final checkpoint: a stopped run resumes from here, a finished one can be extended
         self.checkpoint()
-        io.set_attributes(self.path, status=status)
+        runfile.set_attributes(self.path, status=status)
         return status
 
 

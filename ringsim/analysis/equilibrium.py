@@ -2,18 +2,18 @@
 
 The equilibrium window is found on the velocity dispersion and the thickness (MSER-5 on
 each, the later start wins); every quantity is then averaged over that same window with a
-standard error corrected for autocorrelation (``diagnostics.equilibrium``).  A run whose
+standard error corrected for autocorrelation (``timeseries.equilibrium``).  A run whose
 window is too short or still drifts is reported as not in equilibrium, with the reason.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 import numpy as np
 
-from ringsim import diagnostics
+from ringsim.analysis import timeseries
+from ringsim.physics import kinetic
 
 #: Quantities of the equilibrium table: key -> (label, unit shown, scale from SI).
 TABLE_ROWS = {
@@ -35,7 +35,7 @@ def _value(mean: float, stderr: float) -> dict:
 
 def _window_stats(values: np.ndarray, start: int) -> dict:
     """Mean and autocorrelation-corrected stderr of values[start:] (no further truncation)."""
-    mean, stderr, _ = diagnostics.autocorrelated_mean(np.asarray(values[start:], dtype=float))
+    mean, stderr, _ = timeseries.autocorrelated_mean(np.asarray(values[start:], dtype=float))
     return _value(mean, stderr)
 
 
@@ -57,7 +57,7 @@ def equilibrium(run) -> dict:
         otherwise) plus ``in_equilibrium``, ``reason``, ``orbits``, ``n_particles``,
         ``optical_depth``, ``translational_viscosity`` and ``collisional_viscosity``
         [m^2/s], and ``kinetic_estimate`` (the dilute-ring energy balance of the
-        scenario's law, ``diagnostics.kinetic_dispersion_estimate``).
+        scenario's law, ``kinetic.kinetic_dispersion_estimate``).
     """
     ts = run.timeseries
     sc = run.scenario
@@ -71,8 +71,8 @@ def equilibrium(run) -> dict:
     Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
 
     # rows 1.. (row 0 is the initial state, before any collision)
-    c_fit = diagnostics.equilibrium(t[1:], ts["velocity_dispersion"][1:])
-    h_fit = diagnostics.equilibrium(t[1:], ts["thickness"][1:])
+    c_fit = timeseries.equilibrium(t[1:], ts["velocity_dispersion"][1:])
+    h_fit = timeseries.equilibrium(t[1:], ts["thickness"][1:])
     start = 1 + max(c_fit.start_index, h_fit.start_index)
     in_eq = bool(c_fit.in_equilibrium and h_fit.in_equilibrium)
     reasons = []
@@ -149,7 +149,7 @@ def kinetic_estimate(restitution: dict, radius: np.ndarray, mass: np.ndarray,
     optical_depth : float
     Omega : float [1/s]
     """
-    est = diagnostics.kinetic_dispersion_estimate(restitution, radius, mass, optical_depth,
+    est = kinetic.kinetic_dispersion_estimate(restitution, radius, mass, optical_depth,
                                                   Omega)
     return {key: (float(est[key]) if isinstance(est[key], (float, np.floating)) else est[key])
             for key in ("status", "reason", "velocity_dispersion", "velocity_dispersion_rOmega",
@@ -188,55 +188,3 @@ def equilibrium_table(eq: dict) -> str:
                          f"{_fmt(b['velocity_dispersion'], 1e3):<18} {_fmt(b['thickness'])}")
     return "\n".join(lines)
 
-
-def ratio(a: dict, b: dict) -> dict:
-    """a / b with first-order propagated standard error (independent a and b)."""
-    if not (b["mean"] and math.isfinite(b["mean"]) and math.isfinite(a["mean"])):
-        return _value(math.nan, math.nan)
-    r = a["mean"] / b["mean"]
-    rel = math.hypot(a["stderr"] / a["mean"] if a["mean"] else 0.0, b["stderr"] / b["mean"])
-    return _value(r, abs(r) * rel)
-
-
-def comparison(equilibria: Sequence[dict]) -> dict:
-    """Side-by-side equilibria with ratios to the first run.
-
-    Returns
-    -------
-    dict with ``runs`` (the equilibria) and ``ratios``: for each later run, each table
-    quantity divided by the first run's, ``{"mean", "stderr"}``, and the difference in
-    units of the combined standard error (``significance``).
-    """
-    base = equilibria[0]
-    ratios = []
-    for eq in equilibria[1:]:
-        entry = {"name": eq["name"], "relative_to": base["name"]}
-        for key in TABLE_ROWS:
-            r = ratio(eq[key], base[key])
-            combined = math.hypot(eq[key]["stderr"], base[key]["stderr"])
-            diff = eq[key]["mean"] - base[key]["mean"]
-            r["significance"] = float(diff / combined) if combined > 0 else math.nan
-            entry[key] = r
-        ratios.append(entry)
-    return {"runs": list(equilibria), "ratios": ratios}
-
-
-def comparison_table(comp: dict) -> str:
-    """Plain-text side-by-side table with ratios to the first run."""
-    runs = comp["runs"]
-    width = max(22, *(len(eq["name"]) + 2 for eq in runs))
-    head = f"{'quantity':<40}" + "".join(f"{eq['name']:>{width}}" for eq in runs)
-    lines = [head]
-    for key, (label, unit, scale) in TABLE_ROWS.items():
-        lines.append(f"{label + (f' [{unit}]' if unit else ''):<40}"
-                     + "".join(f"{_fmt(eq[key], scale):>{width}}" for eq in runs))
-    lines.append(f"{'in equilibrium':<40}"
-                 + "".join(f"{str(eq['in_equilibrium']):>{width}}" for eq in runs))
-    for entry in comp["ratios"]:
-        lines.append("")
-        lines.append(f"ratio {entry['name']} / {entry['relative_to']} "
-                     "(difference in combined standard errors)")
-        for key, (label, _unit, _scale) in TABLE_ROWS.items():
-            r = entry[key]
-            lines.append(f"  {label:<38} {_fmt(r):>20}   ({r['significance']:+.1f} sigma)")
-    return "\n".join(lines)

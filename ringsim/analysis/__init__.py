@@ -1,0 +1,1 @@
+"""What runs mean: snapshot diagnostics, time-series statistics, equilibria, comparisons, fits."""

@@ -1,0 +1,187 @@
+"""The compiled library (``ringsim._resolver``): loaded once, checked against REBOUND.
+
+Holds the ctypes mirror of the C structs, the integer codes and slot order of the
+restitution laws, the histogram bins and record layouts shared with C, and the addresses
+of the C functions REBOUND calls.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import importlib.util
+from typing import Any
+
+import numpy as np
+import rebound
+from rebound.simulation import CollisionS
+
+#: Integer codes of the restitution laws in the C struct (enum RS_MODEL).
+MODEL_CODES = {"dilley": 0, "bridges": 1, "constant": 2, "andrews": 3, "tabor": 4}
+#: Order in which each law's parameters fill the C struct's ``param[3]``.
+PARAMETER_ORDER = {
+    "dilley": ("xi0", "p", "kappa"),
+    "bridges": ("v_c", "exponent"),
+    "constant": ("epsilon",),
+    "andrews": ("v_c",),
+    "tabor": ("v_c", "q"),
+}
+
+#: Bin edges of the normal-impact-speed histogram [m/s].
+VN_BIN_EDGES = np.logspace(-7.0, 2.0, 91)
+#: Bin edges of the dissipation (1 - eps) histogram [dimensionless].
+ONE_MINUS_EPSILON_BIN_EDGES = np.logspace(-4.0, 0.0, 41)
+#: One sampled collision: t [s], v_n [m/s], R_bar [m], M_bar [kg], epsilon [-].
+LOG_DTYPE = np.dtype([("t", "f8"), ("v_n", "f8"), ("R_bar", "f8"), ("M_bar", "f8"),
+                      ("epsilon", "f8")])
+
+#: Memory layout of REBOUND's struct reb_collision: p1, p2, ghost-box offset gb of p1
+#: (x, y, z [m], vx, vy, vz [m/s]), root cell ri.
+COLLISION_DTYPE = np.dtype([("p1", "u8"), ("p2", "u8"), ("gb", "f8", (6,)), ("ri", "u8")])
+
+# Normal speeds below this many round-off units of the summed |velocity components| are
+# treated as not approaching (as in the C; keeps eps = 0 pairs from resolving twice).
+_ROUNDOFF_SPEED = 64.0 * np.finfo(float).eps
+# REBOUND's collision search modes that report swept-path contacts (line, linetree).
+_SWEPT_PATH_MODES = (rebound.simulation.COLLISIONS["line"],
+                     rebound.simulation.COLLISIONS["linetree"])
+_N_VN_BINS = VN_BIN_EDGES.size - 1
+_N_EPS_BINS = ONE_MINUS_EPSILON_BIN_EDGES.size - 1
+
+
+class _Stats(ctypes.Structure):
+    _fields_ = [
+        ("count", ctypes.c_int64),
+        ("n_floored", ctypes.c_int64),
+        ("sum_epsilon", ctypes.c_double),
+        ("sum_vn", ctypes.c_double),
+        ("vn_underflow", ctypes.c_int64),
+        ("vn_overflow", ctypes.c_int64),
+        ("vn_hist", ctypes.c_int64 * _N_VN_BINS),
+        ("eps_underflow", ctypes.c_int64),
+        ("eps_hist", ctypes.c_int64 * _N_EPS_BINS),
+        ("log_written", ctypes.c_int64),
+        ("multi_encounters", ctypes.c_int64),
+    ]
+
+
+class _Resolver(ctypes.Structure):
+    _fields_ = [
+        ("magic", ctypes.c_uint64),
+        ("model", ctypes.c_int32),
+        ("reserved", ctypes.c_int32),
+        ("param", ctypes.c_double * 3),
+        ("log_capacity", ctypes.c_int64),
+        ("log_every", ctypes.c_int64),
+        ("log", ctypes.c_void_p),
+        ("stats", _Stats),
+        ("memory_sim", ctypes.c_void_p),
+        ("memory_step", ctypes.c_uint64),
+        ("memory_n", ctypes.c_int64),
+        ("memory_capacity", ctypes.c_int64),
+        ("memory_keys", ctypes.c_void_p),
+        ("memory_n_stamps", ctypes.c_int64),
+        ("memory_last_step", ctypes.c_void_p),
+        ("detector", ctypes.c_void_p),
+        ("detector_free", ctypes.c_void_p),
+    ]
+
+
+def check_simulation_struct_size(compiled_size: int, loaded_size: int) -> None:
+    """Raise ImportError unless the resolver and the loaded librebound agree on the size
+    of ``struct reb_simulation`` (the resolver reads its fields by offset).
+
+    Parameters
+    ----------
+    compiled_size : int [bytes]
+        ``sizeof(struct reb_simulation)`` as ringsim._resolver was compiled.
+    loaded_size : int [bytes]
+        ``reb_simulation_struct_size()`` of the librebound REBOUND's Python package loaded.
+    """
+    if compiled_size != loaded_size:
+        raise ImportError(
+            f"ringsim._resolver was compiled against a rebound.h whose struct reb_simulation "
+            f"has {compiled_size} bytes, but the loaded REBOUND {rebound.__version__} has "
+            f"{loaded_size}: the resolver would read the wrong fields. Rebuild ringsim "
+            f"(`python setup.py build_ext --inplace`) against the installed REBOUND.")
+
+
+def _load_library() -> ctypes.CDLL:
+    """Load the compiled resolver and check it matches the running REBOUND."""
+    spec = importlib.util.find_spec("ringsim._resolver")
+    if spec is None or spec.origin is None:
+        raise ImportError("ringsim._resolver is not built; run "
+                          "`python setup.py build_ext --inplace` in the ringsim source tree")
+    lib = ctypes.CDLL(spec.origin)
+    size_t = ctypes.c_size_t
+    for name in ("rs_simulation_struct_size", "rs_resolver_struct_size", "rs_log_entry_size"):
+        getattr(lib, name).restype = size_t
+        getattr(lib, name).argtypes = []
+    lib.rs_histogram_bins.restype = ctypes.c_int
+    lib.rs_histogram_bins.argtypes = [ctypes.c_int]
+    lib.rs_resolver_create.restype = ctypes.c_void_p
+    lib.rs_resolver_create.argtypes = [ctypes.c_int32, ctypes.c_double, ctypes.c_double,
+                                       ctypes.c_double, ctypes.c_int64, ctypes.c_int64]
+    lib.rs_resolver_free.restype = None
+    lib.rs_resolver_free.argtypes = [ctypes.c_void_p]
+    lib.rs_resolver_reset_stats.restype = None
+    lib.rs_resolver_reset_stats.argtypes = [ctypes.c_void_p]
+    double_p = ctypes.POINTER(ctypes.c_double)
+    lib.rs_resolve_batch.restype = ctypes.c_int64
+    lib.rs_resolve_batch.argtypes = [ctypes.c_void_p, ctypes.POINTER(CollisionS),
+                                     ctypes.c_int64]
+    lib.rs_epsilon_array.restype = None
+    lib.rs_epsilon_array.argtypes = [ctypes.c_void_p, ctypes.c_int64, double_p, double_p,
+                                     double_p, double_p]
+    if hasattr(lib, "rs_sheet_step"):     # rs_sheet_detect.c compiled in
+        int64_p = ctypes.POINTER(ctypes.c_int64)
+        lib.rs_sheet_detect_pairs.restype = ctypes.c_int64
+        lib.rs_sheet_detect_pairs.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p,
+                                              double_p]
+        lib.rs_sheet_detector_counters.restype = ctypes.c_int
+        lib.rs_sheet_detector_counters.argtypes = [ctypes.c_void_p, int64_p, double_p]
+
+    librebound = rebound.clibrebound
+    librebound.reb_simulation_struct_size.restype = size_t
+    check_simulation_struct_size(lib.rs_simulation_struct_size(),
+                                 librebound.reb_simulation_struct_size())
+    checks = [
+        ("struct reb_collision", ctypes.sizeof(CollisionS), COLLISION_DTYPE.itemsize),
+        ("struct rs_resolver", lib.rs_resolver_struct_size(), ctypes.sizeof(_Resolver)),
+        ("struct rs_log_entry", lib.rs_log_entry_size(), LOG_DTYPE.itemsize),
+        ("speed histogram bins", lib.rs_histogram_bins(0), _N_VN_BINS),
+        ("dissipation histogram bins", lib.rs_histogram_bins(1), _N_EPS_BINS),
+    ]
+    for what, in_c, in_python in checks:
+        if in_c != in_python:
+            raise ImportError(f"ringsim._resolver is out of date: {what} is {in_c} in C but "
+                              f"{in_python} in ringsim/resolver.py; rebuild the extension")
+    return lib
+
+
+_LIB = _load_library()
+_RESOLVE_ADDRESS = ctypes.cast(_LIB.rs_resolve, ctypes.c_void_p).value
+_CONSTANT_COR_ADDRESS = ctypes.cast(_LIB.rs_constant_epsilon_cor, ctypes.c_void_p).value
+#: The sheet detector's step function (None if ringsim._resolver was built without
+#: rs_sheet_detect.c).
+_SHEET_STEP_ADDRESS = (ctypes.cast(_LIB.rs_sheet_step, ctypes.c_void_p).value
+                       if hasattr(_LIB, "rs_sheet_step") else None)
+#: Type of REBOUND's post_timestep_modifications pointer.
+_POST_TIMESTEP = ctypes.CFUNCTYPE(None, ctypes.POINTER(rebound.Simulation))
+#: Collision searches: REBOUND's own (sim.collision as set) or ringsim's sheet detector.
+DETECTORS = ("rebound", "sheet")
+#: Error codes of the sheet detector (RS_DETECT_* in rs_sheet_detect.c).
+DETECTOR_ERRORS = {0: "none", 1: "out of memory",
+                   2: "boundary is neither 'shear' nor 'periodic'",
+                   3: "time step too long (1.5 Omega dt >= 0.5) or non-finite particle state"}
+
+
+
+def _free_resolver(address: int) -> None:
+    _LIB.rs_resolver_free(address)
+
+
+def _function_address(pointer: Any) -> int | None:
+    """Address of a ctypes function pointer (None if NULL)."""
+    return ctypes.cast(pointer, ctypes.c_void_p).value
+
+

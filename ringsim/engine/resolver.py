@@ -1,0 +1,472 @@
+"""ringsim's native collision resolver for REBOUND, and its pure-Python twin.
+
+The resolver (``ringsim/csrc/rs_resolver.c``) replaces REBOUND's hard-sphere resolver.
+It applies the normal impulse of a coefficient of restitution eps(v, R_bar, M_bar) of
+Dilley (1993, Icarus 105, 225) or of one of the laws it compares with (Bridges et al.
+1984, Andrews, Tabor, a constant), keeps REBOUND's ``minimum_collision_velocity``,
+``collisions_plog`` and ``collisions_log_n`` semantics, and accumulates collision
+statistics in C.  Any REBOUND user can put it into a simulation of their own::
+
+    handle = install_resolver(sim, {"model": "dilley", "xi0": 0.16, "p": 0.65,
+                                    "kappa": 0.1})
+    sim.integrate(t_end)
+    handle.stats()["mean_epsilon"]
+
+Collision search: with REBOUND's ``tree`` or ``direct`` search a pair is resolved if it
+overlaps and approaches at the end of the step; with ``line`` or ``linetree`` at its first
+contact on the straight relative path within the step, after which both particles move on
+with their new velocities for the rest of the step (see the header of the C file).
+``install_resolver(..., detector="sheet")`` replaces REBOUND's search by ringsim's own
+swept-sphere search for shearing sheets (``ringsim/csrc/rs_sheet_detect.c``): cells in
+the shear frame, searches widened by the speeds relative to the shear flow only, contacts
+resolved as in ``linetree`` mode.  Its cost per particle-step does not grow with the box.
+
+Lifetime: the handle owns the C memory of parameters and statistics and frees it when
+closed or garbage-collected.  ``install_resolver`` stores the handle in the simulation
+(``sim._extras_ref``, the slot REBOUND reserves for this) and the handle keeps the
+simulation, so neither is collected while the other is in use.  The C struct is found
+from the simulation through ``sim.extras``, so the resolver cannot be combined with
+REBOUNDx, which uses the same pointer.
+
+REBOUND does not save function pointers in its binary files: after loading a checkpoint
+call ``handle.reinstall(new_sim)``, which keeps the parameters and the statistics.
+
+Statistics (``ResolverHandle.stats``):
+
+* ``count``, ``n_floored`` (collisions whose impulse ``minimum_collision_velocity``
+  raised), ``mean_epsilon`` and ``mean_vn`` [m/s] (NaN before the first collision);
+* ``histograms["v_n"]``: normal impact speed [m/s] in 90 logarithmic bins from 1e-7 to
+  1e2 m/s (10 per decade), with ``underflow``/``overflow`` counts;
+* ``histograms["one_minus_epsilon"]``: the dissipation 1 - eps in 40 logarithmic bins
+  from 1e-4 to 1 (10 per decade); collisions with 1 - eps < 1e-4 (eps = 1 included) are
+  the ``underflow``, eps = 0 falls in the last bin.  Bin edges hold up to round-off of
+  ``log10`` in C;
+* ``log``: a structured array (fields ``t`` [s], ``v_n`` [m/s], ``R_bar`` [m],
+  ``M_bar`` [kg], ``epsilon``) of every ``log_every``-th collision, the most recent
+  ``log_capacity`` of them, oldest first.  ``epsilon`` is the law's value, also when
+  the minimum collision velocity raised the impulse.
+* ``multi_encounters``: resolved collisions in which one of the two particles had already
+  been deflected earlier in the same step (by a partner carrying at least 10% of that
+  pair's mass, ``MULTI_ENCOUNTER_MASS_SHARE``: a boulder struck by a few grains keeps its
+  path).  With swept-path detection each contact is resolved on the straight path of the
+  velocities at the end of the step, so this count divided by ``count`` measures how often
+  that approximation is stretched; ``dt: auto`` keeps it near or below 1%.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import weakref
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import rebound
+from rebound.simulation import COLRFF, CollisionS
+
+from ringsim.engine.native import (
+    _CONSTANT_COR_ADDRESS,
+    _LIB,
+    _POST_TIMESTEP,
+    _RESOLVE_ADDRESS,
+    _SHEET_STEP_ADDRESS,
+    COLLISION_DTYPE,
+    DETECTOR_ERRORS,
+    DETECTORS,
+    LOG_DTYPE,
+    MODEL_CODES,
+    ONE_MINUS_EPSILON_BIN_EDGES,
+    PARAMETER_ORDER,
+    VN_BIN_EDGES,
+    _free_resolver,
+    _function_address,
+    _Resolver,
+)
+from ringsim.physics import restitution as rs
+
+
+def _validated(restitution: Mapping[str, Any]) -> tuple[str, dict[str, float]]:
+    """Model name and complete parameters; ValueError naming the key if invalid."""
+    if not isinstance(restitution, Mapping):
+        raise ValueError(f"restitution: expected a mapping, got {type(restitution).__name__}")
+    model, params = rs.model_parameters(restitution)
+    # The law itself checks the ranges (v_c > 0, 0 < q < 1/2, ...), naming the key.
+    rs.epsilon_for_pair({"model": model, **params}, 1e-3, 1.0, 1.0)
+    return model, params
+
+
+
+
+def _detach(sim: rebound.Simulation, handle: ResolverHandle) -> None:
+    """Remove ``handle``'s resolver from ``sim`` if it is still installed there."""
+    if sim.extras == handle._address:
+        sim.extras = None
+        if _function_address(sim._post_timestep_modifications) == _SHEET_STEP_ADDRESS:
+            sim._post_timestep_modifications = _POST_TIMESTEP()
+    if getattr(sim, "_extras_ref", None) is handle:
+        sim._extras_ref = None
+
+
+class ResolverHandle:
+    """Parameters and statistics of ringsim's C resolver in one simulation.
+
+    Create it with :func:`install_resolver`.  The handle owns the C memory; it is freed
+    by :meth:`close` or when the handle is garbage-collected.  A handle is attached to
+    one simulation at a time.
+
+    Parameters
+    ----------
+    restitution : mapping
+        As in the scenario's ``restitution`` section, e.g.
+        ``{"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.1}``.
+    log_capacity : int
+        Number of sampled collisions kept (ring buffer); 0 disables the log.
+    log_every : int
+        Sampling stride: every ``log_every``-th resolved collision is logged.
+    detector : "rebound" or "sheet"
+        Collision search.  "rebound": REBOUND's own, as set in ``sim.collision`` (``tree``
+        and ``direct`` report overlaps at step ends, ``line`` and ``linetree`` swept paths).
+        "sheet": ringsim's swept-sphere search for shear-periodic (or periodic) boxes
+        (``rs_sheet_detect.c``): :meth:`reinstall` sets ``sim.collision = "none"`` and
+        runs the search and the contact-time resolution as REBOUND's
+        ``post_timestep_modifications``, once per step, before REBOUND wraps the particles.
+    """
+
+    def __init__(self, restitution: Mapping[str, Any], *, log_capacity: int = 0,
+                 log_every: int = 1, detector: str = "rebound"):
+        if detector not in DETECTORS:
+            raise ValueError(f"detector: must be one of {DETECTORS}, got {detector!r}")
+        if detector == "sheet" and _SHEET_STEP_ADDRESS is None:
+            raise ImportError("ringsim._resolver was built without rs_sheet_detect.c; add it "
+                              "to setup.py's sources and rebuild "
+                              "(`python setup.py build_ext --inplace`)")
+        model, params = _validated(restitution)
+        if isinstance(log_capacity, bool) or not isinstance(log_capacity, (int, np.integer)) \
+                or log_capacity < 0:
+            raise ValueError(f"log_capacity: must be an integer >= 0, got {log_capacity!r}")
+        if isinstance(log_every, bool) or not isinstance(log_every, (int, np.integer)) \
+                or log_every < 1:
+            raise ValueError(f"log_every: must be an integer >= 1, got {log_every!r}")
+        values = [params[name] for name in PARAMETER_ORDER[model]]
+        values += [0.0] * (3 - len(values))
+        address = _LIB.rs_resolver_create(MODEL_CODES[model], *values, int(log_capacity),
+                                          int(log_every))
+        if not address:
+            raise MemoryError(f"could not allocate the resolver (log_capacity={log_capacity})")
+        self.model = model
+        self.parameters = dict(params)
+        self.log_capacity = int(log_capacity)
+        self.log_every = int(log_every)
+        self.detector = detector
+        self._address: int | None = address
+        self._struct = _Resolver.from_address(address)
+        # Function pointers into the loaded library; kept here so they live with the handle.
+        self._resolve_fp = COLRFF(_RESOLVE_ADDRESS)
+        self._sheet_step_fp = (_POST_TIMESTEP(_SHEET_STEP_ADDRESS) if _SHEET_STEP_ADDRESS
+                               else _POST_TIMESTEP())
+        self._sim: rebound.Simulation | None = None
+        self._finalizer = weakref.finalize(self, _free_resolver, address)
+
+    # -- attachment -----------------------------------------------------------------------
+
+    @property
+    def address(self) -> int:
+        """Address of the C struct (what ``sim.extras`` points to)."""
+        if self._address is None:
+            raise ValueError("the resolver handle is closed")
+        return self._address
+
+    @property
+    def closed(self) -> bool:
+        return self._address is None
+
+    @property
+    def simulation(self) -> rebound.Simulation | None:
+        """The simulation the resolver is installed in (None once detached)."""
+        return self._sim
+
+    def reinstall(self, sim: rebound.Simulation) -> ResolverHandle:
+        """Install this resolver, with its parameters and statistics, into ``sim``.
+
+        Use it after loading a checkpoint (REBOUND does not save function pointers).  If
+        the handle was installed in another simulation, it is removed from there; that
+        simulation stops with an error if it meets a collision later.
+        """
+        address = self.address
+        extras = sim.extras
+        previous = getattr(sim, "_extras_ref", None)
+        if extras not in (None, address) and not isinstance(previous, ResolverHandle):
+            raise ValueError("sim.extras is already used by another library (REBOUNDx?); "
+                             "ringsim's resolver needs it to find its parameters")
+        if self.detector == "sheet":
+            if sim.boundary not in ("shear", "periodic"):
+                raise ValueError(f"detector 'sheet' needs boundary 'shear' or 'periodic', "
+                                 f"the simulation has {sim.boundary!r}")
+            post = _function_address(sim._post_timestep_modifications)
+            if post not in (None, _SHEET_STEP_ADDRESS):
+                raise ValueError("sim.post_timestep_modifications is already set; detector "
+                                 "'sheet' runs there")
+        if isinstance(previous, ResolverHandle) and previous is not self:
+            previous._sim = None    # the old resolver's statistics stay readable
+        if self._sim is not None and self._sim is not sim:
+            _detach(self._sim, self)
+        sim.extras = address
+        sim._collision_resolve = self._resolve_fp
+        if self.detector == "sheet":
+            sim.collision = "none"
+            sim._post_timestep_modifications = self._sheet_step_fp
+        sim._extras_ref = self
+        self._sim = sim
+        return self
+
+    def close(self) -> None:
+        """Remove the resolver from its simulation and free the C memory."""
+        if self._address is None:
+            return
+        if self._sim is not None:
+            _detach(self._sim, self)
+            self._sim = None
+        self._finalizer()
+        self._address = None
+        self._struct = None
+
+    def __enter__(self) -> ResolverHandle:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        state = "closed" if self.closed else f"{self._struct.stats.count} collisions"
+        return f"<ResolverHandle {self.model} {self.parameters} ({state})>"
+
+    # -- statistics -----------------------------------------------------------------------
+
+    def stats(self) -> dict[str, Any]:
+        """Collision statistics accumulated in C since creation or the last reset.
+
+        Returns
+        -------
+        dict with ``count``, ``n_floored``, ``mean_epsilon``, ``mean_vn`` [m/s],
+        ``sum_epsilon``, ``sum_vn`` [m/s], ``histograms`` (``v_n`` and
+        ``one_minus_epsilon``, each with ``edges``, ``counts``, ``underflow``,
+        ``overflow``, ``units``), ``log`` (structured array, :data:`LOG_DTYPE`),
+        ``log_written`` (entries ever logged) and ``log_every``.
+        """
+        if self._struct is None:
+            raise ValueError("the resolver handle is closed")
+        s = self._struct.stats
+        count = int(s.count)
+        mean_eps = s.sum_epsilon / count if count else math.nan
+        mean_vn = s.sum_vn / count if count else math.nan
+        histograms = {
+            "v_n": {
+                "edges": VN_BIN_EDGES.copy(),
+                "counts": np.ctypeslib.as_array(s.vn_hist).copy(),
+                "underflow": int(s.vn_underflow),
+                "overflow": int(s.vn_overflow),
+                "units": "m/s",
+            },
+            "one_minus_epsilon": {
+                "edges": ONE_MINUS_EPSILON_BIN_EDGES.copy(),
+                "counts": np.ctypeslib.as_array(s.eps_hist).copy(),
+                "underflow": int(s.eps_underflow),
+                "overflow": 0,
+                "units": "1",
+            },
+        }
+        return {
+            "count": count,
+            "n_floored": int(s.n_floored),
+            "mean_epsilon": mean_eps,
+            "mean_vn": mean_vn,
+            "sum_epsilon": float(s.sum_epsilon),
+            "sum_vn": float(s.sum_vn),
+            "histograms": histograms,
+            "log": self._read_log(int(s.log_written)),
+            "log_written": int(s.log_written),
+            "log_every": self.log_every,
+            "multi_encounters": int(s.multi_encounters),
+        }
+
+    def detector_stats(self) -> dict[str, Any]:
+        """Counters of the sheet detector since the handle was created.
+
+        Returns
+        -------
+        dict with ``steps`` (searches run), ``candidates`` (pairs whose straight paths
+        were tested), ``reports`` (pairs passed to the resolver), ``cells`` and
+        ``cell_size`` [m] of the last search's grid, and ``error`` (text; "none" if the
+        last search succeeded).  All zero before the first search or for
+        ``detector="rebound"``.
+        """
+        counters = (ctypes.c_int64 * 5)()
+        cell_size = ctypes.c_double()
+        if _SHEET_STEP_ADDRESS is None:
+            return {"steps": 0, "candidates": 0, "reports": 0, "cells": 0, "cell_size": 0.0,
+                    "error": "none"}
+        _LIB.rs_sheet_detector_counters(self.address, counters, ctypes.byref(cell_size))
+        return {"steps": int(counters[0]), "candidates": int(counters[1]),
+                "reports": int(counters[2]), "cells": int(counters[3]),
+                "cell_size": float(cell_size.value),
+                "error": DETECTOR_ERRORS.get(int(counters[4]), f"code {int(counters[4])}")}
+
+    def detect_pairs(self) -> tuple[np.ndarray, np.ndarray]:
+        """Run the sheet detector's search on the simulation's current state (no resolution).
+
+        For tests: the pairs whose straight paths over the last step (``dt_last_done``,
+        current velocities) came within the sum of their radii.
+
+        Returns
+        -------
+        pairs : int array (n, 2)
+            Particle indices (p1 < p2).
+        offsets : array (n, 6) [m, m, m, m/s, m/s, m/s]
+            Ghost-box offset of p1 (x, y, z, vx, vy, vz), as in ``struct reb_collision``.
+        """
+        if self._sim is None:
+            raise ValueError("the resolver is not installed in a simulation")
+        if _SHEET_STEP_ADDRESS is None:
+            raise ImportError("ringsim._resolver was built without rs_sheet_detect.c")
+        sim_address = ctypes.addressof(self._sim)
+        capacity = 0
+        while True:
+            pairs = np.zeros((max(capacity, 1), 2), dtype=np.int64)
+            offsets = np.zeros((max(capacity, 1), 6))
+            found = _LIB.rs_sheet_detect_pairs(
+                sim_address, capacity, pairs.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)),
+                offsets.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+            if found < 0:
+                raise ValueError("sheet detector: " + DETECTOR_ERRORS.get(-found - 1, "error"))
+            if found <= capacity:
+                return pairs[:found].copy(), offsets[:found].copy()
+            capacity = int(found)
+
+    def _read_log(self, written: int) -> np.ndarray:
+        capacity = self.log_capacity
+        if capacity == 0 or written == 0:
+            return np.zeros(0, dtype=LOG_DTYPE)
+        raw = (ctypes.c_char * (capacity * LOG_DTYPE.itemsize)).from_address(self._struct.log)
+        entries = np.frombuffer(raw, dtype=LOG_DTYPE)
+        if written <= capacity:
+            return entries[:written].copy()
+        return np.roll(entries, -(written % capacity)).copy()   # oldest first
+
+    def reset_stats(self) -> None:
+        """Zero all counters, histograms and the log."""
+        _LIB.rs_resolver_reset_stats(self.address)
+
+    def resolve_batch(self, collisions: np.ndarray) -> int:
+        """Resolve a list of collisions in the attached simulation with one C call.
+
+        For benchmarks and tests: REBOUND normally calls the resolver itself.
+
+        Parameters
+        ----------
+        collisions : structured array of :data:`COLLISION_DTYPE`
+            From :func:`collision_records`, resolved in order.
+
+        Returns
+        -------
+        int
+            Number of collisions resolved (reports of receding pairs do nothing).
+        """
+        if self._sim is None:
+            raise ValueError("the resolver is not installed in a simulation")
+        if collisions.dtype != COLLISION_DTYPE or not collisions.flags.c_contiguous:
+            raise ValueError("collisions: expected a contiguous COLLISION_DTYPE array")
+        if np.any(collisions["p1"] >= self._sim.N) or np.any(collisions["p2"] >= self._sim.N):
+            raise ValueError("collisions: particle index out of range")
+        pointer = collisions.ctypes.data_as(ctypes.POINTER(CollisionS))
+        return int(_LIB.rs_resolve_batch(ctypes.addressof(self._sim), pointer,
+                                         collisions.size))
+
+    def epsilon(self, v: Any, R_bar: Any, M_bar: Any) -> np.ndarray:
+        """The law's coefficient of restitution as evaluated by the C code.
+
+        Parameters
+        ----------
+        v : array [m/s]
+            Normal impact speed (sign ignored).
+        R_bar : array [m]
+            Reduced radius of the pair.
+        M_bar : array [kg]
+            Reduced mass of the pair.
+        """
+        v_, r_, m_ = (np.ascontiguousarray(a, dtype=float)
+                      for a in np.broadcast_arrays(v, R_bar, M_bar))
+        out = np.empty(v_.shape)
+        double_p = ctypes.POINTER(ctypes.c_double)
+        _LIB.rs_epsilon_array(self.address, v_.size, v_.ctypes.data_as(double_p),
+                              r_.ctypes.data_as(double_p), m_.ctypes.data_as(double_p),
+                              out.ctypes.data_as(double_p))
+        return out
+
+
+def collision_records(pairs: Any, ghosts: Any = None) -> np.ndarray:
+    """Collisions as REBOUND reports them, for :meth:`ResolverHandle.resolve_batch`.
+
+    Parameters
+    ----------
+    pairs : int array (n, 2)
+        Particle indices (p1, p2) of each reported collision.
+    ghosts : array (n, 6) or (6,) [m, m, m, m/s, m/s, m/s], optional
+        Ghost-box offset of p1 (x, y, z, vx, vy, vz); zero if omitted.
+    """
+    pairs = np.asarray(pairs).reshape(-1, 2)
+    if np.any(pairs < 0):
+        raise ValueError("pairs: particle indices must be >= 0")
+    records = np.zeros(len(pairs), dtype=COLLISION_DTYPE)
+    records["p1"] = pairs[:, 0]
+    records["p2"] = pairs[:, 1]
+    if ghosts is not None:
+        records["gb"] = np.broadcast_to(np.asarray(ghosts, dtype=float), (len(pairs), 6))
+    return records
+
+
+def install_resolver(sim: rebound.Simulation, restitution: Mapping[str, Any], *,
+                     log_capacity: int = 0, log_every: int = 1,
+                     detector: str = "rebound") -> ResolverHandle:
+    """Put ringsim's C collision resolver with the given restitution law into ``sim``.
+
+    Parameters
+    ----------
+    sim : rebound.Simulation
+        Any REBOUND simulation with collision detection switched on.
+    restitution : mapping
+        ``{"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.1}``; models dilley
+        {xi0, p, kappa}, bridges {v_c [m/s], exponent}, constant {epsilon},
+        andrews {v_c [m/s]}, tabor {v_c [m/s], q}.  Missing optional parameters take
+        their defaults; unknown models or keys raise ValueError naming the key.
+    log_capacity : int
+        Number of sampled collisions kept in C (0: no log).
+    log_every : int
+        Log every ``log_every``-th collision.
+    detector : "rebound" or "sheet"
+        "rebound" keeps the simulation's REBOUND collision search; "sheet" replaces it by
+        ringsim's swept-sphere search for shearing sheets (see :class:`ResolverHandle`).
+
+    Returns
+    -------
+    ResolverHandle
+        Stored in the simulation as well (``sim._extras_ref``), so it lives as long as
+        ``sim``; keep it to read the statistics.
+    """
+    handle = ResolverHandle(restitution, log_capacity=log_capacity, log_every=log_every,
+                            detector=detector)
+    return handle.reinstall(sim)
+
+
+
+def constant_epsilon_callback_address() -> int:
+    """Address of a C ``coefficient_of_restitution`` returning the constant eps of the
+    ringsim resolver installed in the same simulation (1 for other laws).
+
+    For comparisons with REBOUND's built-in hard-sphere resolver::
+
+        sim._coefficient_of_restitution = CORFF(constant_epsilon_callback_address())
+    """
+    return _CONSTANT_COR_ADDRESS
+
+

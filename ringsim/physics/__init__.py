@@ -1,0 +1,1 @@
+"""Pure numpy physics: restitution laws, size distributions, kinetic theory, contact models."""

@@ -1,0 +1,1 @@
+"""Files ringsim writes and reads: the run file (HDF5) and sweep summaries."""
