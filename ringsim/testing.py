@@ -1,4 +1,18 @@
-"""The pure-Python twin of the C resolver, for tests (``sim.collision_resolve = twin``)."""
+"""The pure-Python twin of the C resolver, for tests (``sim.collision_resolve = twin``).
+
+What the twin checks, and what it does not: it re-implements, operation by operation, the
+C resolver's collision geometry (overlap and approach tests, the contact on the swept
+path, the normal impulse, REBOUND's minimum collision velocity and momentum-flux
+bookkeeping), so that a simulation resolved by either must evolve bit for bit alike.  It
+does NOT carry its own copy of the restitution laws: eps is evaluated by the C library's
+own ``rs_epsilon_array`` through a private, never-installed `ResolverHandle` with the same
+parameters.  So each law exists once in C and once in numpy
+(``ringsim.physics.restitution``, the only Python dispatch), and the tests compare those
+two (to 1e-14, and to 2 ulp for the Tabor solver), while the twin tests the impulse
+geometry independently.  Calling the numpy laws instead would tie the twin's bit-identity
+to numpy's vectorised ``exp``/``log``/``pow`` agreeing with libm to the last bit, which
+numpy does not promise.
+"""
 
 from __future__ import annotations
 
@@ -10,9 +24,8 @@ from typing import Any
 import numpy as np
 import rebound
 
-from ringsim.engine.native import LOG_DTYPE
-from ringsim.engine.resolver import _validated
-from ringsim.physics import restitution as rs
+from ringsim.engine.native import _LIB, LOG_DTYPE
+from ringsim.engine.resolver import ResolverHandle, _validated
 
 # Normal speeds below this many round-off units of the summed |velocity components| are
 # treated as not approaching (as in the C; keeps eps = 0 pairs from resolving twice).
@@ -21,63 +34,14 @@ _ROUNDOFF_SPEED = 64.0 * np.finfo(float).eps
 _SWEPT_PATH_MODES = (rebound.simulation.COLLISIONS["line"],
                      rebound.simulation.COLLISIONS["linetree"])
 
-def _dilley_epsilon(v: float, R_bar: float, M_bar: float, xi0: float, p: float,
-                    kappa: float) -> float:
-    xi = (xi0 * math.pow(R_bar / rs.R_REF, -rs.RADIUS_EXPONENT)
-          * math.pow(M_bar / rs.M_REF, -kappa) * math.pow(v / rs.V_REF, p))
-    if not xi < 1.0:
-        return 0.0
-    return math.exp(-math.pi * xi / math.sqrt(1.0 - xi * xi))
-
-
-def _bridges_epsilon(v: float, v_c: float, exponent: float) -> float:
-    u = v / v_c
-    return math.pow(u, -exponent) if u > 1.0 else 1.0
-
-
-def _andrews_epsilon(v: float, v_c: float) -> float:
-    u = v / v_c
-    if not u > 1.0:
-        return 1.0
-    u2 = u * u
-    return math.sqrt((-2.0 + math.sqrt(30.0 * u2 - 5.0)) / (3.0 * u2))
-
-
-def _tabor_epsilon(v: float, v_c: float, q: float) -> float:
-    u = v / v_c
-    if not u > 1.0:
-        return 1.0
-    amplitude = math.pow(u, -(1.0 - 2.0 * q))
-    log_amplitude = math.log(amplitude)
-    lo = amplitude
-    hi = amplitude * math.pow(1.0 - q, -q)
-    if hi > 1.0:
-        hi = 1.0
-    eps = 0.5 * (lo + hi)
-    for _ in range(200):
-        g = math.log(eps) - log_amplitude - q * math.log((1.0 - q * eps * eps) / (1.0 - q))
-        if g < 0.0:
-            lo = eps
-        elif g > 0.0:
-            hi = eps
-        else:
-            break
-        dg = 1.0 / eps + 2.0 * q * q * eps / (1.0 - q * eps * eps)
-        newton = eps - g / dg
-        nxt = newton if lo < newton < hi else 0.5 * (lo + hi)
-        step = abs(nxt - eps)
-        eps = nxt
-        if step <= 1e-15 * eps or not hi - lo > 1e-15 * eps:
-            break
-    return eps
-
 
 class PythonReferenceResolver:
     """Pure-Python twin of the C resolver, for testing: ``sim.collision_resolve = ref``.
 
-    Same physics and the same floating-point operations in the same order as
-    ``rs_resolver.c`` (Python floats and ``math`` call the same libm), so a simulation
-    resolved by either evolves identically to round-off.  It records every collision in
+    Same collision geometry and the same floating-point operations in the same order as
+    ``rs_resolver.c`` (Python floats and ``math`` call the same libm), with eps from the C
+    law (see the module docstring), so a simulation resolved by either evolves
+    identically to round-off.  It records every collision in
     :attr:`log` (tuples t [s], v_n [m/s], R_bar [m], M_bar [kg], eps).  An exception
     inside a call is appended to :attr:`errors` and the collision is left unresolved
     (returns 0; particles are never removed).
@@ -90,6 +54,9 @@ class PythonReferenceResolver:
 
     def __init__(self, restitution: Mapping[str, Any]):
         self.model, self.parameters = _validated(restitution)
+        # The law, evaluated by the C library (never installed in a simulation).
+        self._law = ResolverHandle({"model": self.model, **self.parameters})
+        self._arguments = [ctypes.c_double() for _ in range(4)]   # v, R_bar, M_bar, eps
         self.count = 0
         self.n_floored = 0
         self.sum_epsilon = 0.0
@@ -100,25 +67,20 @@ class PythonReferenceResolver:
         self._memory_step: tuple[int, int] | None = None
 
     def epsilon(self, v: float, R_bar: float, M_bar: float) -> float:
-        """The law's eps for one pair, scalar arithmetic as in C.
+        """The law's eps for one pair, evaluated by the C library (``rs_epsilon_array``).
 
         Parameters
         ----------
         v : float [m/s]
-            Normal impact speed, >= 0.
+            Normal impact speed (sign ignored).
         R_bar : float [m]
         M_bar : float [kg]
         """
-        prm = self.parameters
-        if self.model == "dilley":
-            return _dilley_epsilon(v, R_bar, M_bar, prm["xi0"], prm["p"], prm["kappa"])
-        if self.model == "bridges":
-            return _bridges_epsilon(v, prm["v_c"], prm["exponent"])
-        if self.model == "constant":
-            return prm["epsilon"]
-        if self.model == "andrews":
-            return _andrews_epsilon(v, prm["v_c"])
-        return _tabor_epsilon(v, prm["v_c"], prm["q"])
+        speed, radius, mass, out = self._arguments
+        speed.value, radius.value, mass.value = v, R_bar, M_bar
+        _LIB.rs_epsilon_array(self._law.address, 1, ctypes.byref(speed), ctypes.byref(radius),
+                              ctypes.byref(mass), ctypes.byref(out))
+        return out.value
 
     def __call__(self, sim_pointer: Any, collision: Any) -> int:
         try:

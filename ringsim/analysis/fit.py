@@ -20,8 +20,9 @@ Radius and mass columns are needed by the Dilley law only.  Models and their par
 {v_c [m/s], exponent}, constant {epsilon}, andrews {v_c [m/s]}, tabor {v_c [m/s], q}.
 
 The fit is weighted least squares (``scipy.optimize.least_squares``, trust-region
-reflective with bounds xi0 > 0, p > 0, v_c > 0, 0 < q < 1/2, 0 <= epsilon <= 1),
-started from the paper's values and from a linearised fit of the data, and for the
+reflective) within the declared ranges of ``restitution.RESTITUTION`` made finite by one
+rule (`_search_parameter`), started from the declared typical values (the paper's) and
+from a linearised fit of the data, and for the
 critical-speed laws from a grid of v_c across the measured speeds; the best start wins.
 Standard errors come from the covariance (J^T J)^-1 of the weighted residuals' Jacobian at
 the optimum.  Without a ``sigma`` column every point has unit weight and the covariance is
@@ -51,6 +52,8 @@ import numpy as np
 
 from ringsim.errors import InputError
 from ringsim.physics import restitution as rs
+from ringsim.physics.laws import Parameter
+from ringsim.physics.restitution import RESTITUTION
 
 __all__ = [
     "FIT_MODELS",
@@ -64,8 +67,8 @@ __all__ = [
     "restitution_yaml",
 ]
 
-#: The models `ringsim fit` knows, in the order ``--model all`` fits them.
-FIT_MODELS = ("dilley", "bridges", "constant", "andrews", "tabor")
+#: The models `ringsim fit` knows, in the order ``--model all`` fits them (as declared).
+FIT_MODELS = RESTITUTION.names
 
 _COLUMNS = ("v_m_s", "R_bar_m", "R1_m", "R2_m", "M_bar_kg", "M1_kg", "M2_kg", "epsilon",
             "sigma")
@@ -259,7 +262,8 @@ def read_data(path: str | Path, need_sizes: bool = True) -> RestitutionData:
 
 @dataclass(frozen=True)
 class _Parameter:
-    """A fitted parameter: bounds, unit, and whether it is fitted as its logarithm."""
+    """A fitted parameter: search bounds [unit of the parameter], unit, and whether it is
+    fitted as its logarithm (all derived from the declaration by `_search_parameter`)."""
 
     name: str
     unit: str
@@ -268,40 +272,52 @@ class _Parameter:
     log: bool = False
 
 
-_PARAMETERS: dict[str, tuple[_Parameter, ...]] = {
-    "dilley": (_Parameter("xi0", "dimensionless", 1e-12, 1e6, log=True),
-               _Parameter("p", "dimensionless", 1e-9, 20.0),
-               _Parameter("kappa", "dimensionless", -20.0, 20.0)),
-    "bridges": (_Parameter("v_c", "m/s", 1e-15, 1e6, log=True),
-                _Parameter("exponent", "dimensionless", 1e-9, 20.0)),
-    "constant": (_Parameter("epsilon", "dimensionless", 0.0, 1.0),),
-    "andrews": (_Parameter("v_c", "m/s", 1e-15, 1e6, log=True),),
-    "tabor": (_Parameter("v_c", "m/s", 1e-15, 1e6, log=True),
-              _Parameter("q", "dimensionless", 1e-6, 0.5 - 1e-6)),
-}
+#: The search rule's half-width around the typical value, in the fitted coordinate (ln x for
+#: parameters fitted as logarithms: 20 e-folds, a factor 5e8 either way).
+SEARCH_HALF_WIDTH = 20.0
+#: The search rule's inward shift of an open end, as a fraction of the search interval.
+OPEN_END_MARGIN = 1e-9
 
-#: Values of Dilley (1993): eq. (5.11) and the Tabor curve c of Fig. 1a (0.0809 cm/s,
-#: q = 0.371, also used for Andrews), and Bridges et al. (1984).
-_PAPER_START: dict[str, dict[str, float]] = {
-    "dilley": {"xi0": rs.DILLEY_XI0, "p": rs.DILLEY_P, "kappa": 0.0},
-    "bridges": {"v_c": rs.BRIDGES_V_C, "exponent": rs.BRIDGES_EXPONENT},
-    "constant": {"epsilon": 0.5},
-    "andrews": {"v_c": 0.0809e-2},
-    "tabor": {"v_c": 0.0809e-2, "q": 0.371},
-}
+
+def _search_parameter(par: Parameter) -> _Parameter:
+    """The fit's finite search interval of a declared parameter (THE SEARCH RULE).
+
+    A parameter declared in (0, inf) is fitted as its logarithm, any other as itself.  In
+    that coordinate the search interval is the declared range, with each infinite end
+    replaced by the parameter's typical value (its default, or its example if it is
+    required) -/+ `SEARCH_HALF_WIDTH`, and each open finite end moved inward by
+    `OPEN_END_MARGIN` times the interval (the optimizer's bounds are closed, the law refuses
+    an open end itself).
+    """
+    log = par.lower == 0.0 and not par.lower_closed and par.upper == math.inf
+    centre = math.log(par.typical) if log else par.typical
+    lo = -math.inf if log else par.lower
+    hi = math.inf if log else par.upper
+    lo = centre - SEARCH_HALF_WIDTH if math.isinf(lo) else lo
+    hi = centre + SEARCH_HALF_WIDTH if math.isinf(hi) else hi
+    margin = OPEN_END_MARGIN * (hi - lo)
+    if not log:
+        lo += margin if math.isfinite(par.lower) and not par.lower_closed else 0.0
+        hi -= margin if math.isfinite(par.upper) and not par.upper_closed else 0.0
+    if log:
+        lo, hi = math.exp(lo), math.exp(hi)
+    return _Parameter(par.name, par.unit, lo, hi, log=log)
+
+
+def _fit_parameters(model: str) -> tuple[_Parameter, ...]:
+    return tuple(_search_parameter(par) for par in RESTITUTION[model].parameters)
+
+
+def _typical(model: str) -> dict[str, float]:
+    """The declared typical values (defaults, or examples of required parameters)."""
+    return {par.name: par.typical for par in RESTITUTION[model].parameters}
 
 
 def _evaluate(model: str, values: Mapping[str, float], data: RestitutionData) -> np.ndarray:
-    """epsilon of the model at the data's speeds (and sizes, masses)."""
-    if model == "dilley":
-        return np.asarray(rs.dilley_epsilon(data.v, data.R_bar, data.M_bar, **values))
-    if model == "bridges":
-        return np.asarray(rs.bridges_epsilon(data.v, **values))
-    if model == "constant":
-        return np.full(data.v.shape, values["epsilon"])
-    if model == "andrews":
-        return np.asarray(rs.andrews_epsilon(data.v, **values))
-    return np.asarray(rs.tabor_epsilon(data.v, **values))
+    """epsilon of the model at the data's speeds (and sizes, masses), through the one
+    dispatch ``restitution.epsilon_for_pair``."""
+    return np.asarray(rs.epsilon_for_pair({"model": model, **values}, data.v, data.R_bar,
+                                          data.M_bar), dtype=float)
 
 
 def _weights(data: RestitutionData) -> np.ndarray:
@@ -340,12 +356,13 @@ def _linearised_starts(model: str, data: RestitutionData, fixed: Mapping[str, fl
 def _starts(model: str, data: RestitutionData, fixed: Mapping[str, float]
             ) -> list[dict[str, float]]:
     """Start values: the paper's, linearised fits, and a grid of v_c over the speeds."""
-    paper = {k: v for k, v in _PAPER_START[model].items() if k not in fixed}
+    paper = {k: v for k, v in _typical(model).items() if k not in fixed}
     starts = [{**paper, **fixed}] + _linearised_starts(model, data, fixed)
-    if model in ("andrews", "tabor", "bridges"):
+    if "v_c" in RESTITUTION[model].names:
         v_grid = np.geomspace(data.v.min() / 3.0, data.v.max(), 8)
-        shapes = {"andrews": [{}], "bridges": [{"exponent": 0.234}],
-                  "tabor": [{"q": 0.2}, {"q": 0.371}, {"q": 0.45}]}[model]
+        others = {k: v for k, v in _typical(model).items() if k != "v_c"}
+        shapes = [{**others, "q": q} for q in (0.2, others["q"], 0.45)] if "q" in others \
+            else [others]
         starts += [{"v_c": float(v_c), **shape} for v_c in v_grid for shape in shapes]
     return starts
 
@@ -417,13 +434,14 @@ def fit_model(data: RestitutionData, model: str) -> dict:
     """
     from scipy.optimize import least_squares
 
-    if model not in _PARAMETERS:
+    if model not in FIT_MODELS:
         raise ValueError(f"unknown model {model!r} (one of {', '.join(FIT_MODELS)})")
     if model == "dilley" and not data.has_sizes:
         raise InputError(data.source, "R_bar_m", "the dilley model needs reduced radii and "
                          "masses (R_bar_m and M_bar_kg, or R1_m, R2_m, M1_kg, M2_kg)")
     fixed, notes = _identifiability_notes(data) if model == "dilley" else ({}, [])
-    free = tuple(p for p in _PARAMETERS[model] if p.name not in fixed)
+    declared = _fit_parameters(model)
+    free = tuple(p for p in declared if p.name not in fixed)
     n, k = len(data), len(free)
     if n <= k:
         raise InputError(data.source, "<rows>", f"{n} data rows; the {model} model needs "
@@ -462,7 +480,7 @@ def fit_model(data: RestitutionData, model: str) -> dict:
     # d(value)/d(internal) = value for parameters fitted as logarithms
     scale = np.array([values[p.name] if p.log else 1.0 for p in free])
     parameters: dict[str, dict] = {}
-    for par in _PARAMETERS[model]:
+    for par in declared:
         if par.name in fixed:
             parameters[par.name] = {"value": fixed[par.name], "stderr": None, "fixed": True}
             continue
@@ -493,7 +511,7 @@ def fit_model(data: RestitutionData, model: str) -> dict:
         "n_free_parameters": k,
         "sigma_source": sigma_source,
         "aic_definition": aic_definition,
-        "units": {p.name: p.unit for p in _PARAMETERS[model]},
+        "units": {p.name: p.unit for p in declared},
         "note": "; ".join(notes),
         "success": bool(best.success),
         "message": str(best.message),

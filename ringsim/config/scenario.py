@@ -47,7 +47,8 @@ from ringsim.config.schema import (
     read_text,
     show,
 )
-from ringsim.physics.restitution import MODEL_PARAMETERS
+from ringsim.physics.laws import DIMENSIONLESS
+from ringsim.physics.restitution import RESTITUTION
 from ringsim.physics.sizes import (
     Mixture,
     MixtureComponent,
@@ -108,7 +109,7 @@ _SIZE_KINDS: dict[str, tuple[str, ...]] = {
 _GRAVITY_ONLY_KEYS = ("softening", "opening_angle")
 _COLLISION_DETECTIONS = ("tree", "line")
 
-#: Defaults of the optional keys (restitution defaults come from ringsim.restitution).
+#: Defaults of the optional keys (restitution defaults: ringsim.physics.restitution.RESTITUTION).
 DEFAULTS: dict[str, Any] = {
     "description": "",
     "particles.density": 900.0,
@@ -120,7 +121,6 @@ DEFAULTS: dict[str, Any] = {
     "sheet.opening_angle": 0.5,
     "sheet.initial_dispersion": 2.0,
     "sheet.z_box": "auto",
-    "restitution.model": "dilley",
     "integration.orbits": 10.0,
     "integration.dt": "auto",
     "integration.dt_safety": 0.1,
@@ -244,7 +244,7 @@ class Restitution:
     """Coefficient-of-restitution law: a model name and its parameters (defaults filled).
 
     The parameters are also attributes: ``sc.restitution.kappa``; see
-    `ringsim.restitution.MODEL_PARAMETERS` for the names of each model.
+    `ringsim.physics.restitution.RESTITUTION` for the names of each model.
 
     Attributes
     ----------
@@ -524,56 +524,60 @@ def _read_sheet(top: Section) -> Sheet:
     )
 
 
-# Allowed ranges of the restitution parameters: (unit, gt, ge, lt, le).  Parameters not
-# listed here (a model added to ringsim.restitution later) need only be finite reals.
-_RESTITUTION_RANGES: dict[tuple[str, str], tuple[str, float | None, float | None,
-                                                 float | None, float | None]] = {
-    ("dilley", "xi0"): ("", 0.0, None, None, None),
-    ("dilley", "p"): ("", None, 0.0, None, None),
-    ("dilley", "kappa"): ("", None, None, None, None),
-    ("bridges", "v_c"): ("m/s", 0.0, None, None, None),
-    ("bridges", "exponent"): ("", 0.0, None, None, None),
-    ("constant", "epsilon"): ("", None, 0.0, None, 1.0),
-    ("andrews", "v_c"): ("m/s", 0.0, None, None, None),
-    ("tabor", "v_c"): ("m/s", 0.0, None, None, None),
-    ("tabor", "q"): ("", 0.0, None, 0.5, None),
-}
-
-
 def _read_restitution(top: Section) -> Restitution:
+    """The law and its parameters, validated against the declaration `RESTITUTION`."""
     sec = top.section("restitution")
-    model = sec.string("model", DEFAULTS["restitution.model"], choices=tuple(MODEL_PARAMETERS))
-    names = tuple(MODEL_PARAMETERS[model])
-    sec.check_keys(("model",) + names, context=f"the {model} model")
+    model = sec.string("model", RESTITUTION.default, choices=RESTITUTION.names)
+    law = RESTITUTION[model]
+    sec.check_keys(("model",) + law.names, context=f"the {model} model")
     params = []
-    for name in names:
-        default = MODEL_PARAMETERS[model][name]
-        unit, gt, ge, lt, le = _RESTITUTION_RANGES.get((model, name),
-                                                       ("", None, None, None, None))
-        value = sec.number(name, REQUIRED if default is None else default, unit=unit,
-                           gt=gt, ge=ge, lt=lt, le=le)
-        params.append((name, value))
+    for par in law.parameters:
+        unit = "" if par.unit == DIMENSIONLESS else par.unit
+        value = sec.number(par.name, REQUIRED if par.required else par.default, unit=unit,
+                           **par.limits())
+        params.append((par.name, value))
     return Restitution(model=model, parameters=tuple(params))
 
 
-def _read_integration(top: Section) -> Integration:
+def _read_integration(top: Section, planet: Planet) -> Integration:
     sec = top.section("integration", keys=_SECTION_KEYS["integration"])
     sec.check_keys(_SECTION_KEYS["integration"])
     d = DEFAULTS
     orbits = sec.number("orbits", d["integration.orbits"], unit="orbits", gt=0.0)
+    detection = sec.string("collision_detection", d["integration.collision_detection"],
+                           choices=_COLLISION_DETECTIONS)
     dt = sec.number_or_auto("dt", d["integration.dt"], unit="orbits", gt=0.0,
                             le=MAX_DT_ORBITS)
     if dt != "auto" and dt > orbits:
         raise sec.error("dt", f"dt = {dt:g} orbits is longer than the run ({orbits:g} orbits)",
                         "dt <= integration.orbits")
+    if dt != "auto" and detection == "line":
+        _check_line_dt(sec, dt, planet.orbital_frequency)
     return Integration(
         orbits=orbits,
         dt=dt,
         dt_safety=sec.number("dt_safety", d["integration.dt_safety"], gt=0.0, le=1.0),
-        collision_detection=sec.string("collision_detection",
-                                       d["integration.collision_detection"],
-                                       choices=_COLLISION_DETECTIONS),
+        collision_detection=detection,
     )
+
+
+def _check_line_dt(sec: Section, dt: float, Omega: float) -> None:
+    """Line detection: the sheet detector refuses steps with 1.5 Omega dt >= its limit.
+
+    The limit belongs to the C detector (RS_MAX_SHEAR_STEP in rs_sheet_detect.c), so it is
+    asked from the engine here rather than copied; the import is lazy because config sits
+    upstream of the engine and only this check needs it.  The test mirrors the C's
+    arithmetic on the step in seconds that the run will use (engine.timestep.choose_dt).
+    """
+    from ringsim.engine.native import max_shear_step
+
+    limit = max_shear_step()
+    dt_seconds = float(dt) * 2.0 * math.pi / Omega
+    if not 1.5 * abs(Omega) * dt_seconds < limit:
+        largest = limit / (3.0 * math.pi)
+        raise sec.error("dt", f"dt = {dt:g} orbits is too long for collision_detection: line "
+                        f"(1.5 Omega dt = {1.5 * abs(Omega) * dt_seconds:.4g} >= {limit:g})",
+                        f"auto, or a step in (0, {largest:.6g}) orbits with line detection")
 
 
 def _read_output(top: Section, name: str) -> Output:
@@ -631,7 +635,7 @@ def _build(data: Any, source: str, source_text: str | None) -> Scenario:
     particles = _read_particles(top)
     sheet = _read_sheet(top)
     restitution = _read_restitution(top)
-    integration = _read_integration(top)
+    integration = _read_integration(top, planet)
     output = _read_output(top, name)
     scenario = Scenario(name=name, seed=seed, description=description, planet=planet,
                         particles=particles, sheet=sheet, restitution=restitution,

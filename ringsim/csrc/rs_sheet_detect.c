@@ -470,3 +470,9 @@ int rs_sheet_detector_counters(const struct rs_resolver* res, int64_t* out,
     *cell_size = d->cell_size_last;
     return 1;
 }
+
+/* Largest 1.5 Omega dt the detector accepts (exclusive), for ringsim's scenario validation:
+ * a fixed integration.dt in line mode must satisfy 1.5 |Omega| dt < this value. */
+double rs_sheet_max_shear_step(void){
+    return RS_MAX_SHEAR_STEP;
+}

@@ -15,16 +15,13 @@ import numpy as np
 import rebound
 from rebound.simulation import CollisionS
 
-#: Integer codes of the restitution laws in the C struct (enum RS_MODEL).
-MODEL_CODES = {"dilley": 0, "bridges": 1, "constant": 2, "andrews": 3, "tabor": 4}
-#: Order in which each law's parameters fill the C struct's ``param[3]``.
-PARAMETER_ORDER = {
-    "dilley": ("xi0", "p", "kappa"),
-    "bridges": ("v_c", "exponent"),
-    "constant": ("epsilon",),
-    "andrews": ("v_c",),
-    "tabor": ("v_c", "q"),
-}
+from ringsim.physics.restitution import RESTITUTION
+
+#: Integer codes of the restitution laws in the C struct (enum RS_MODEL), from the declaration.
+MODEL_CODES = {law.name: law.code for law in RESTITUTION}
+#: Order in which each law's parameters fill the C struct's ``param[3]`` (their slots).
+PARAMETER_ORDER = {law.name: tuple(p.name for p in sorted(law.parameters, key=lambda p: p.slot))
+                   for law in RESTITUTION}
 
 #: Bin edges of the normal-impact-speed histogram [m/s].
 VN_BIN_EDGES = np.logspace(-7.0, 2.0, 91)
@@ -133,6 +130,11 @@ def _load_library() -> ctypes.CDLL:
     lib.rs_epsilon_array.argtypes = [ctypes.c_void_p, ctypes.c_int64, double_p, double_p,
                                      double_p, double_p]
     if hasattr(lib, "rs_sheet_step"):     # rs_sheet_detect.c compiled in
+        if not hasattr(lib, "rs_sheet_max_shear_step"):
+            raise ImportError("ringsim._resolver is out of date (no rs_sheet_max_shear_step); "
+                              "rebuild the extension (`python setup.py build_ext --inplace`)")
+        lib.rs_sheet_max_shear_step.restype = ctypes.c_double
+        lib.rs_sheet_max_shear_step.argtypes = []
         int64_p = ctypes.POINTER(ctypes.c_int64)
         lib.rs_sheet_detect_pairs.restype = ctypes.c_int64
         lib.rs_sheet_detect_pairs.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p,
@@ -150,6 +152,8 @@ def _load_library() -> ctypes.CDLL:
         ("struct rs_log_entry", lib.rs_log_entry_size(), LOG_DTYPE.itemsize),
         ("speed histogram bins", lib.rs_histogram_bins(0), _N_VN_BINS),
         ("dissipation histogram bins", lib.rs_histogram_bins(1), _N_EPS_BINS),
+        ("restitution parameter slots", _Resolver.param.size // ctypes.sizeof(ctypes.c_double),
+         RESTITUTION.n_slots),
     ]
     for what, in_c, in_python in checks:
         if in_c != in_python:
@@ -174,6 +178,16 @@ DETECTOR_ERRORS = {0: "none", 1: "out of memory",
                    2: "boundary is neither 'shear' nor 'periodic'",
                    3: "time step too long (1.5 Omega dt >= 0.5) or non-finite particle state"}
 
+
+def max_shear_step() -> float:
+    """Largest 1.5 Omega dt (exclusive) the sheet detector accepts (RS_MAX_SHEAR_STEP).
+
+    Line detection refuses longer steps, so ``config.scenario`` validates a fixed
+    ``integration.dt`` with it.  Returns inf if the library was built without the detector.
+    """
+    if not hasattr(_LIB, "rs_sheet_max_shear_step"):
+        return float("inf")
+    return float(_LIB.rs_sheet_max_shear_step())
 
 
 def _free_resolver(address: int) -> None:

@@ -77,7 +77,6 @@ from ringsim.engine.native import (
     LOG_DTYPE,
     MODEL_CODES,
     ONE_MINUS_EPSILON_BIN_EDGES,
-    PARAMETER_ORDER,
     VN_BIN_EDGES,
     _free_resolver,
     _function_address,
@@ -87,15 +86,17 @@ from ringsim.physics import restitution as rs
 
 
 def _validated(restitution: Mapping[str, Any]) -> tuple[str, dict[str, float]]:
-    """Model name and complete parameters; ValueError naming the key if invalid."""
+    """Model name and complete parameters, checked against the declaration
+    (``restitution.RESTITUTION``); ValueError naming the key if invalid."""
     if not isinstance(restitution, Mapping):
         raise ValueError(f"restitution: expected a mapping, got {type(restitution).__name__}")
-    model, params = rs.model_parameters(restitution)
-    # The law itself checks the ranges (v_c > 0, 0 < q < 1/2, ...), naming the key.
-    rs.epsilon_for_pair({"model": model, **params}, 1e-3, 1.0, 1.0)
-    return model, params
+    return rs.model_parameters(restitution)
 
 
+def _packed(model: str, params: Mapping[str, float]) -> tuple[int, tuple[float, ...]]:
+    """The C model code and ``param[]`` of a validated law (slots from the declaration)."""
+    law = rs.RESTITUTION[model]
+    return MODEL_CODES[model], law.pack(params, rs.RESTITUTION.n_slots)
 
 
 def _detach(sim: rebound.Simulation, handle: ResolverHandle) -> None:
@@ -148,10 +149,8 @@ class ResolverHandle:
         if isinstance(log_every, bool) or not isinstance(log_every, (int, np.integer)) \
                 or log_every < 1:
             raise ValueError(f"log_every: must be an integer >= 1, got {log_every!r}")
-        values = [params[name] for name in PARAMETER_ORDER[model]]
-        values += [0.0] * (3 - len(values))
-        address = _LIB.rs_resolver_create(MODEL_CODES[model], *values, int(log_capacity),
-                                          int(log_every))
+        code, values = _packed(model, params)
+        address = _LIB.rs_resolver_create(code, *values, int(log_capacity), int(log_every))
         if not address:
             raise MemoryError(f"could not allocate the resolver (log_capacity={log_capacity})")
         self.model = model

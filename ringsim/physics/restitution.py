@@ -33,6 +33,8 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ringsim.physics.laws import DIMENSIONLESS, Law, LawTable, MeasuredRange, Parameter
+
 #: Reference radius of the Dilley law, the 2.5 cm sphere of Hatzes et al. (1988) [m].
 R_REF = 0.025
 #: Reference mass of the Dilley law, the 60 g ice sphere of radius 2.5 cm [kg].
@@ -47,18 +49,15 @@ RADIUS_EXPONENT = 0.2
 #: Parameters of the Dilley (1993) fit to the Hatzes et al. (1988) data (eq. 5.11).
 DILLEY_XI0 = 0.16
 DILLEY_P = 0.65
+#: Mass exponent of the Dilley law: 0 unless a scenario sets it (the paper discusses 0.1).
+DILLEY_KAPPA = 0.0
 #: Bridges et al. (1984) power law: critical speed [m/s] and exponent.
 BRIDGES_V_C = 7.7e-5
 BRIDGES_EXPONENT = 0.234
-
-#: Parameter names and defaults of each model, as in the scenario's ``restitution`` section.
-MODEL_PARAMETERS: dict[str, dict[str, float | None]] = {
-    "dilley": {"xi0": DILLEY_XI0, "p": DILLEY_P, "kappa": 0.0},
-    "bridges": {"v_c": BRIDGES_V_C, "exponent": BRIDGES_EXPONENT},
-    "constant": {"epsilon": None},
-    "andrews": {"v_c": None},
-    "tabor": {"v_c": None, "q": 0.375},
-}
+#: Hardness exponent of Tabor's case of eq. (4.10), eq. (4.8).
+TABOR_Q = 0.375
+#: Critical speed of Dilley's Fig. 1a curve c (Andrews and Tabor fits to Hatzes et al.) [m/s].
+FIG1A_V_C = 0.0809e-2
 
 FloatArray = NDArray[np.float64]
 
@@ -192,12 +191,15 @@ def xi_from_epsilon(eps: ArrayLike) -> FloatArray | float:
     return _result(xi)
 
 
-def _dilley_parameters(xi0: float, p: float, kappa: float) -> tuple[float, float, float]:
-    return (_scalar("xi0", xi0, low=0.0), _scalar("p", p, low=0.0), _scalar("kappa", kappa))
+def _parameters(model: str, **values: float) -> tuple[float, ...]:
+    """The values checked against the declaration `RESTITUTION` (ValueError naming the
+    parameter), in the order given."""
+    checked = RESTITUTION[model].checked(values)
+    return tuple(checked[name] for name in values)
 
 
 def dilley_xi(v: ArrayLike, R_bar: ArrayLike, M_bar: ArrayLike, xi0: float = DILLEY_XI0,
-              p: float = DILLEY_P, kappa: float = 0.0) -> FloatArray | float:
+              p: float = DILLEY_P, kappa: float = DILLEY_KAPPA) -> FloatArray | float:
     """Damping ratio of the viscous-dissipation model, eqs. (5.14)-(5.16).
 
     xi = xi0 (R_bar / 2.5 cm)^-0.2 (M_bar / 60 g)^-kappa (|v| / 1 cm/s)^p
@@ -217,7 +219,7 @@ def dilley_xi(v: ArrayLike, R_bar: ArrayLike, M_bar: ArrayLike, xi0: float = DIL
     kappa : float [dimensionless]
         Mass exponent, unconstrained by experiment (the paper discusses 0 and 0.1).
     """
-    xi0, p, kappa = _dilley_parameters(xi0, p, kappa)
+    xi0, p, kappa = _parameters("dilley", xi0=xi0, p=p, kappa=kappa)
     speed = _speed(v)
     r = _array("R_bar", R_bar, positive=True)
     m = _array("M_bar", M_bar, positive=True)
@@ -226,7 +228,7 @@ def dilley_xi(v: ArrayLike, R_bar: ArrayLike, M_bar: ArrayLike, xi0: float = DIL
 
 
 def dilley_epsilon(v: ArrayLike, R_bar: ArrayLike, M_bar: ArrayLike, xi0: float = DILLEY_XI0,
-                   p: float = DILLEY_P, kappa: float = 0.0) -> FloatArray | float:
+                   p: float = DILLEY_P, kappa: float = DILLEY_KAPPA) -> FloatArray | float:
     """Coefficient of restitution of the viscous-dissipation model, eq. (5.9) with (5.15).
 
     eps = exp(-pi xi / sqrt(1 - xi^2)) with xi from :func:`dilley_xi`.  Above the speed
@@ -257,7 +259,7 @@ def dilley_f(delta: ArrayLike, kappa: float) -> FloatArray | float:
     kappa : float [dimensionless]
         Mass exponent.
     """
-    kappa = _scalar("kappa", kappa)
+    kappa = RESTITUTION["dilley"]["kappa"].check(kappa)
     d = _array("delta", delta)
     if np.any(d > 1):
         raise ValueError("delta must be <= 1 (R1 is the smaller radius)")
@@ -265,7 +267,8 @@ def dilley_f(delta: ArrayLike, kappa: float) -> FloatArray | float:
 
 
 def dilley_xi_equal_density(v: ArrayLike, R1: ArrayLike, delta: ArrayLike,
-                            xi0: float = DILLEY_XI0, p: float = DILLEY_P, kappa: float = 0.0,
+                            xi0: float = DILLEY_XI0, p: float = DILLEY_P,
+                            kappa: float = DILLEY_KAPPA,
                             density: float = RHO_REF) -> FloatArray | float:
     """xi for two spheres of one density, in the paper's reformulation, eqs. (5.17)-(5.21).
 
@@ -286,7 +289,7 @@ def dilley_xi_equal_density(v: ArrayLike, R1: ArrayLike, delta: ArrayLike,
     density : float [kg/m^3]
         Material density of both spheres.
     """
-    xi0, p, kappa = _dilley_parameters(xi0, p, kappa)
+    xi0, p, kappa = _parameters("dilley", xi0=xi0, p=p, kappa=kappa)
     rho = _scalar("density", density, low=0.0)
     speed = _speed(v)
     r1 = _array("R1", R1, positive=True) / R_REF
@@ -311,8 +314,7 @@ def bridges_epsilon(v: ArrayLike, v_c: float = BRIDGES_V_C,
     exponent : float [dimensionless]
         Power-law index (0.234).
     """
-    v_c = _scalar("v_c", v_c, low=0.0)
-    exponent = _scalar("exponent", exponent, low=0.0)
+    v_c, exponent = _parameters("bridges", v_c=v_c, exponent=exponent)
     u = _speed(v) / v_c
     with np.errstate(divide="ignore"):
         eps = np.where(u > 1.0, np.power(np.maximum(u, 1.0), -exponent), 1.0)
@@ -331,19 +333,19 @@ def andrews_epsilon(v: ArrayLike, v_c: float) -> FloatArray | float:
     v_c : float [m/s]
         Critical speed of first plastic yield, eq. (4.2).
     """
-    v_c = _scalar("v_c", v_c, low=0.0)
+    (v_c,) = _parameters("andrews", v_c=v_c)
     u = np.maximum(_speed(v) / v_c, 1.0)
     u2 = u * u
     eps = np.sqrt((-2.0 + np.sqrt(30.0 * u2 - 5.0)) / (3.0 * u2))
     return _result(np.where(u > 1.0, eps, 1.0))
 
 
-def tabor_epsilon(v: ArrayLike, v_c: float, q: float = 0.375) -> FloatArray | float:
+def tabor_epsilon(v: ArrayLike, v_c: float, q: float = TABOR_Q) -> FloatArray | float:
     """Generalized Tabor (1948) model, eq. (4.10); q = 3/8 is eq. (4.8).
 
     eps = u^-(1-2q) ((1 - q eps^2) / (1 - q))^q for u = |v|/v_c > 1, eps = 1 for u <= 1.
-    The implicit equation has one root in [A, A (1-q)^-q] with A = u^-(1-2q); it is solved
-    by Newton's method on ln eps, safeguarded by bisection, to a residual below 1e-13.
+    The implicit equation is solved by the rule of :func:`_solve_tabor`, the same as the
+    C library's (numpy and C agree to 2 ulp, tests/test_parameters.py).
 
     Parameters
     ----------
@@ -354,32 +356,50 @@ def tabor_epsilon(v: ArrayLike, v_c: float, q: float = 0.375) -> FloatArray | fl
     q : float [dimensionless]
         Hardness exponent, 0 < q < 1/2.
     """
-    v_c = _scalar("v_c", v_c, low=0.0)
-    q = _scalar("q", q, low=0.0, high=0.5)
+    v_c, q = _parameters("tabor", v_c=v_c, q=q)
     u = np.maximum(_speed(v) / v_c, 1.0)
     amplitude = u ** -(1.0 - 2.0 * q)
     eps = _solve_tabor(amplitude, q)
     return _result(np.where(u > 1.0, eps, 1.0))
 
 
+#: Relative step and bracket width at which the Tabor solver stops (RS_TABOR_TOLERANCE in C).
+TABOR_TOLERANCE = 1e-15
+#: Most iterations of the Tabor solver (RS_TABOR_MAX_ITERATIONS in C).
+TABOR_MAX_ITERATIONS = 200
+
+
 def _solve_tabor(amplitude: FloatArray, q: float) -> FloatArray:
-    """Root of g(e) = ln e - ln A - q ln((1 - q e^2)/(1 - q)) on [A, A (1-q)^-q]; g' > 0."""
-    lo = np.array(amplitude, dtype=float)
-    hi = np.minimum(lo * (1.0 - q) ** -q, 1.0)
-    log_a = np.log(lo)
+    """Root e of eq. (4.10) for each A = u^-(1-2q) in ``amplitude``.
+
+    The rule, shared with ``rs_tabor_epsilon`` in ringsim/csrc/rs_resolver.c:
+    g(e) = ln e - ln A - q ln((1 - q e^2)/(1 - q)) increases with e and changes sign on the
+    bracket [lo, hi] = [A, min(1, A (1-q)^-q)]; start at its midpoint.  Each iteration:
+    evaluate g; g < 0 sets lo = e, g > 0 sets hi = e, anything else (an exact root) stops;
+    take the Newton step e - g/g' (g' = 1/e + 2 q^2 e / (1 - q e^2)) if it lies strictly
+    inside (lo, hi), else the midpoint; stop once the step is <= TABOR_TOLERANCE times the
+    new e or the bracket is no wider than that; at most TABOR_MAX_ITERATIONS iterations.
+    Every element stops on its own, as the scalar C loop does.
+    """
+    a = np.array(amplitude, dtype=float)
+    log_a = np.log(a)
+    lo = a.copy()
+    hi = np.minimum(a * (1.0 - q) ** -q, 1.0)
     eps = 0.5 * (lo + hi)
-    for _ in range(100):
+    active = np.ones(a.shape, dtype=bool)
+    for _ in range(TABOR_MAX_ITERATIONS):
+        if not np.any(active):
+            break
         g = np.log(eps) - log_a - q * np.log((1.0 - q * eps * eps) / (1.0 - q))
-        lo = np.where(g < 0, eps, lo)
-        hi = np.where(g > 0, eps, hi)
+        lo = np.where(active & (g < 0.0), eps, lo)
+        hi = np.where(active & (g > 0.0), eps, hi)
+        active &= (g < 0.0) | (g > 0.0)
         dg = 1.0 / eps + 2.0 * q * q * eps / (1.0 - q * eps * eps)
         newton = eps - g / dg
-        inside = (newton > lo) & (newton < hi)
-        new = np.where(inside, newton, 0.5 * (lo + hi))
-        if np.all(np.abs(new - eps) <= 1e-16 * np.maximum(eps, 1e-300)):
-            eps = new
-            break
-        eps = new
+        nxt = np.where((newton > lo) & (newton < hi), newton, 0.5 * (lo + hi))
+        step = np.abs(nxt - eps)
+        eps = np.where(active, nxt, eps)
+        active &= (step > TABOR_TOLERANCE * eps) & (hi - lo > TABOR_TOLERANCE * eps)
     return eps
 
 
@@ -392,65 +412,127 @@ def constant_epsilon(v: ArrayLike, epsilon: float) -> FloatArray | float:
         Normal impact speed (only its shape is used).
     epsilon : float [dimensionless], in [0, 1]
     """
-    epsilon = _scalar("epsilon", epsilon, low=0.0, high=1.0, low_open=False, high_open=False)
+    (epsilon,) = _parameters("constant", epsilon=epsilon)
     return _result(np.full(np.shape(_speed(v)), epsilon))
+
+
+# --- the declaration: every law, once ----------------------------------------------------------
+
+_D93 = "Dilley (1993)"
+_HATZES = MeasuredRange(
+    speeds=(1e-4, 5e-2), sizes=(0.025, 0.20),
+    source="Hatzes et al. (1988, MNRAS 231, 1091): ice spheres against an ice brick, contact "
+           "surfaces of radii of curvature 2.5-20 cm, about 0.01-5 cm/s, as fitted by Dilley "
+           "(1993) sect. 5 (R_bar = 2.5 cm, M_bar = 60 g is the reference pair)")
+
+#: The restitution laws a scenario's ``restitution`` section can choose, and the only
+#: declaration of their parameters (see ringsim.physics.laws).  The C library's
+#: ``struct rs_resolver`` has ``param[3]``.
+RESTITUTION = LawTable("restitution", n_slots=3, laws=[
+    Law("dilley", code=0, function=dilley_epsilon, uses_pair=True,
+        formula="ε = exp(−πξ/√(1−ξ²)) for ξ < 1, else 0; ξ = xi0 (R̄/2.5 cm)^−0.2 "
+                "(M̄/60 g)^−κ (v/1 cm/s)^p",
+        source=f"{_D93} eqs. (5.9), (5.14)-(5.16)", measured=_HATZES,
+        parameters=(
+            Parameter("xi0", DIMENSIONLESS, default=DILLEY_XI0, lower=0.0, slot=0,
+                      meaning="damping ratio ξ of the reference pair (R̄ = 2.5 cm, "
+                              "M̄ = 60 g) at v = 1 cm/s",
+                      source=f"{_D93} eq. (5.11), fit to Hatzes et al. (1988)"),
+            Parameter("p", DIMENSIONLESS, default=DILLEY_P, lower=0.0, slot=1,
+                      meaning="speed exponent: ξ ∝ v^p (p > 0: dissipation grows with "
+                              "speed)",
+                      source=f"{_D93} eq. (5.11), fit to Hatzes et al. (1988)"),
+            Parameter("kappa", DIMENSIONLESS, default=DILLEY_KAPPA, slot=2,
+                      meaning="extra mass exponent: ξ ∝ M̄^−κ",
+                      source=f"{_D93} eq. (5.16); not constrained by the data "
+                             "(the paper discusses 0 and 0.1)"),
+        )),
+    Law("bridges", code=1, function=bridges_epsilon,
+        formula="ε = min(1, (v/v_c)^−exponent)",
+        source="Bridges, Hatzes & Lin (1984), Nature 309, 333",
+        measured=MeasuredRange(
+            speeds=None, sizes=None,
+            source="not stated: frost-covered ice spheres; the speeds and sizes of "
+                   "Bridges et al. (1984) could not be checked here"),
+        parameters=(
+            Parameter("v_c", "m/s", default=BRIDGES_V_C, lower=0.0, slot=0,
+                      meaning="speed below which collisions are elastic",
+                      source="Bridges et al. (1984): 0.0077 cm/s"),
+            Parameter("exponent", DIMENSIONLESS, default=BRIDGES_EXPONENT, lower=0.0,
+                      slot=1, meaning="slope of the power law",
+                      source="Bridges et al. (1984)"),
+        )),
+    Law("constant", code=2, function=constant_epsilon,
+        formula="ε = epsilon at every speed",
+        source="–",
+        measured=MeasuredRange(speeds=None, sizes=None, source="not a measured law"),
+        parameters=(
+            Parameter("epsilon", DIMENSIONLESS, lower=0.0, upper=1.0, lower_closed=True,
+                      upper_closed=True, slot=0, example=0.5,
+                      meaning="the same ε for every collision",
+                      source="– (example 0.5: the middle of the range)"),
+        )),
+    Law("andrews", code=3, function=andrews_epsilon,
+        formula="ε² = [−2 + √(30u² − 5)]/(3u²) for u = v/v_c > 1, else 1",
+        source=f"Andrews (1930) as in {_D93} eq. (4.3)",
+        measured=MeasuredRange(
+            speeds=None, sizes=None,
+            source=f"not stated: {_D93} sect. 4 applies it above v_c and compares it with "
+                   "the Hatzes et al. (1988) data (Fig. 1a)"),
+        parameters=(
+            Parameter("v_c", "m/s", lower=0.0, slot=0, example=FIG1A_V_C,
+                      meaning="speed of first plastic yield",
+                      source=f"{_D93} eq. (4.2); example: Fig. 1a curve c"),
+        )),
+    Law("tabor", code=4, function=tabor_epsilon,
+        formula="ε = u^−(1−2q) ((1 − qε²)/(1 − q))^q for u = v/v_c > 1, else 1",
+        source=f"Tabor (1948) generalized in {_D93} eqs. (4.8), (4.10)",
+        measured=MeasuredRange(
+            speeds=None, sizes=None,
+            source=f"not stated: {_D93} sect. 4 applies it above v_c and compares it with "
+                   "the Hatzes et al. (1988) data (Fig. 1a)"),
+        parameters=(
+            Parameter("v_c", "m/s", lower=0.0, slot=0, example=FIG1A_V_C,
+                      meaning="speed at which ε = 1",
+                      source=f"{_D93} eq. (4.10); example: Fig. 1a curve c"),
+            Parameter("q", DIMENSIONLESS, default=TABOR_Q, lower=0.0, upper=0.5, slot=1,
+                      meaning="hardness exponent (3/8: Tabor's case)",
+                      source=f"{_D93} eq. (4.8)"),
+        )),
+])
 
 
 # --- dispatch by the scenario's restitution section ------------------------------------------
 
 def model_parameters(restitution: Mapping[str, object]) -> tuple[str, dict[str, float]]:
-    """Validate a ``restitution`` mapping; return (model, parameters with defaults filled).
+    """Validate a ``restitution`` mapping against `RESTITUTION`; return (model, parameters
+    with defaults filled).
 
-    Raises ValueError naming the offending key for an unknown model, an unknown or
-    missing parameter.
+    Raises ValueError naming the offending key for an unknown model, an unknown, missing or
+    out-of-range parameter.
     """
-    if "model" not in restitution:
-        raise ValueError("model: missing (one of " + ", ".join(MODEL_PARAMETERS) + ")")
-    model = restitution["model"]
-    if model not in MODEL_PARAMETERS:
-        raise ValueError(f"model: unknown restitution model {model!r} "
-                         f"(one of {', '.join(MODEL_PARAMETERS)})")
-    allowed = MODEL_PARAMETERS[model]
-    params: dict[str, float] = {}
-    for key, value in restitution.items():
-        if key == "model":
-            continue
-        if key not in allowed:
-            raise ValueError(f"{key}: not a parameter of model {model!r} "
-                             f"(allowed: {', '.join(allowed)})")
-        params[key] = _scalar(key, value)
-    for key, default in allowed.items():
-        if key not in params:
-            if default is None:
-                raise ValueError(f"{key}: required by model {model!r}")
-            params[key] = default
-    return model, params
+    law, params = RESTITUTION.resolve(restitution)
+    return law.name, params
 
 
 def epsilon_for_pair(restitution: Mapping[str, object], v: ArrayLike, R_bar: ArrayLike,
                      M_bar: ArrayLike) -> FloatArray | float:
     """Coefficient of restitution of any law, given a scenario's ``restitution`` section.
 
+    The one dispatch from a law's name to its function (`RESTITUTION`).
+
     Parameters
     ----------
     restitution : mapping
         ``{"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.1}`` and the like
-        (models dilley, bridges, constant, andrews, tabor; missing optional parameters
+        (models and parameters as declared in `RESTITUTION`; missing optional parameters
         take their defaults).
     v : array [m/s]
         Normal impact speed.
     R_bar : array [m]
-        Reduced radius of the pair (used by dilley only).
+        Reduced radius of the pair (used by laws with ``uses_pair`` only).
     M_bar : array [kg]
-        Reduced mass of the pair (used by dilley only).
+        Reduced mass of the pair (used by laws with ``uses_pair`` only).
     """
-    model, params = model_parameters(restitution)
-    if model == "dilley":
-        return dilley_epsilon(v, R_bar, M_bar, **params)
-    if model == "bridges":
-        return bridges_epsilon(v, **params)
-    if model == "constant":
-        return constant_epsilon(v, **params)
-    if model == "andrews":
-        return andrews_epsilon(v, **params)
-    return tabor_epsilon(v, **params)
+    law, params = RESTITUTION.resolve(restitution)
+    return law.evaluate(params, v, R_bar, M_bar)
