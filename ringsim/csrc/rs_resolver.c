@@ -35,11 +35,14 @@
  *   constant  eps = epsilon
  *   andrews   eps^2 = [-2 + sqrt(30 u^2 - 5)] / (3 u^2) for u > 1, else 1   (4.3)
  *   tabor     eps = u^-(1-2q) ((1 - q eps^2)/(1 - q))^q for u > 1, else 1  (4.10)
- *             (implicit; solved by Newton's method on ln eps safeguarded by
- *             bisection, converged to |d eps| <= 1e-15 eps, well inside 1e-13)
+ *             (implicit; solved by the rule stated at rs_tabor_epsilon, the same
+ *             as ringsim.physics.restitution._solve_tabor)
  *
  * Parameters (struct rs_resolver, one per simulation, reached through sim->extras)
  * -------------------------------------------------------------------------------
+ * Declared once, with units, defaults, ranges, slots and sources, in
+ * ringsim/physics/restitution.py (RESTITUTION); this table and rs_parameters_valid
+ * repeat it for C readers, and tests/test_parameters.py checks that they agree.
  * Name          C type    Model            Meaning                          Unit
  * model         int32_t   all              RS_MODEL_* (dilley=0, bridges=1,  -
  *                                          constant=2, andrews=3, tabor=4)
@@ -179,7 +182,8 @@ int rs_histogram_bins(int which){
 }
 
 /* ---------------------------------------------------------------------------------- */
-/* Restitution laws.  Arithmetic order matches ringsim/resolver.py's Python twin.     */
+/* Restitution laws (the Python twin in ringsim/testing.py calls these through            */
+/* rs_epsilon_array; ringsim/physics/restitution.py holds the numpy versions).           */
 
 static double rs_dilley_epsilon(double v, double R_bar, double M_bar,
                                 double xi0, double p, double kappa){
@@ -201,44 +205,60 @@ static double rs_andrews_epsilon(double v, double v_c){
     if (!(u > 1.0)){
         return 1.0;     /* elastic below the first-yield speed */
     }
-    const double u2 = u * u;
-    return sqrt((-2.0 + sqrt(30.0 * u2 - 5.0)) / (3.0 * u2));
+    /* eq. (4.3) divided through by u^2, in w = 1/u: finite up to u = inf (eps -> 0) */
+    const double w = 1.0 / u;
+    return sqrt((w * sqrt(30.0 - 5.0 * w * w) - 2.0 * w * w) / 3.0);
 }
 
-/* Root of g(e) = ln e - ln A - q ln((1 - q e^2)/(1 - q)), A = u^-(1-2q).  g is
- * increasing and changes sign on [A, min(1, A (1-q)^-q)]. */
+/* The Tabor solver rule, shared with ringsim.physics.restitution._solve_tabor: write
+ * e = A (1 + s), A = u^-(1-2q).  g(s) = log1p(s) - q log1p(q (1 - e^2)/(1 - q)) (eq. 4.10
+ * divided by A, in logarithms; no cancellation for large u) increases with s and changes
+ * sign on the bracket [lo, hi] = [0, min(1/A, (1-q)^-q) - 1]; start at its midpoint.  Each
+ * iteration: evaluate g; g < 0 sets lo = s, g > 0 sets hi = s, anything else (an exact
+ * root) stops.  Newton step d = -g/g' (g' = 1/(1 + s) + 2 q^2 A e / (1 - q e^2)): if
+ * |d| <= RS_TABOR_TOLERANCE (1 + s), take it and stop (converged: round-off may put s + d
+ * on the edge of the bracket); else take s + d if it lies strictly inside (lo, hi), the
+ * midpoint otherwise, and stop if the bracket is now no wider than RS_TABOR_TOLERANCE
+ * (1 + s).  At most RS_TABOR_MAX_ITERATIONS iterations; return A (1 + s). */
+#define RS_TABOR_TOLERANCE 1e-15
+#define RS_TABOR_MAX_ITERATIONS 200
+
 static double rs_tabor_epsilon(double v, double v_c, double q){
     const double u = v / v_c;
     if (!(u > 1.0)){
         return 1.0;
     }
     const double amplitude = pow(u, -(1.0 - 2.0 * q));
-    const double log_amplitude = log(amplitude);
-    double lo = amplitude;
-    double hi = amplitude * pow(1.0 - q, -q);
-    if (hi > 1.0){
-        hi = 1.0;
+    double lo = 0.0;
+    double hi = pow(1.0 - q, -q);
+    if (1.0 / amplitude < hi){     /* amplitude = 0 gives inf: the other bound holds */
+        hi = 1.0 / amplitude;
     }
-    double eps = 0.5 * (lo + hi);
-    for (int iteration = 0; iteration < 200; iteration++){
-        const double g = log(eps) - log_amplitude - q * log((1.0 - q * eps * eps) / (1.0 - q));
+    hi -= 1.0;
+    double s = 0.5 * (lo + hi);
+    for (int iteration = 0; iteration < RS_TABOR_MAX_ITERATIONS; iteration++){
+        const double e = amplitude * (1.0 + s);
+        const double g = log1p(s) - q * log1p(q * (1.0 - e * e) / (1.0 - q));
         if (g < 0.0){
-            lo = eps;
+            lo = s;
         }else if (g > 0.0){
-            hi = eps;
+            hi = s;
         }else{
             break;
         }
-        const double dg = 1.0 / eps + 2.0 * q * q * eps / (1.0 - q * eps * eps);
-        const double newton = eps - g / dg;
-        const double next = (newton > lo && newton < hi) ? newton : 0.5 * (lo + hi);
-        const double step = fabs(next - eps);
-        eps = next;
-        if (step <= 1e-15 * eps || !(hi - lo > 1e-15 * eps)){
+        const double step = -g / (1.0 / (1.0 + s)
+                                  + 2.0 * q * q * amplitude * e / (1.0 - q * e * e));
+        const double newton = s + step;
+        if (fabs(step) <= RS_TABOR_TOLERANCE * (1.0 + s)){
+            s = newton;     /* converged */
+            break;
+        }
+        s = (newton > lo && newton < hi) ? newton : 0.5 * (lo + hi);
+        if (!(hi - lo > RS_TABOR_TOLERANCE * (1.0 + s))){
             break;
         }
     }
-    return eps;
+    return amplitude * (1.0 + s);
 }
 
 static double rs_law_epsilon(const struct rs_resolver* res, double v, double R_bar,
@@ -271,6 +291,8 @@ void rs_epsilon_array(const struct rs_resolver* res, int64_t n, const double* v,
 /* ---------------------------------------------------------------------------------- */
 /* Creation, statistics, destruction.                                                 */
 
+/* A guard repeating the ranges declared in ringsim/physics/restitution.py (RESTITUTION);
+ * tests/test_parameters.py checks both accept and refuse exactly at every bound. */
 static int rs_parameters_valid(int32_t model, const double* param){
     for (int i = 0; i < 3; i++){
         if (!isfinite(param[i])){

@@ -28,6 +28,7 @@ needs q = 3/8.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 import numpy as np
@@ -335,8 +336,9 @@ def andrews_epsilon(v: ArrayLike, v_c: float) -> FloatArray | float:
     """
     (v_c,) = _parameters("andrews", v_c=v_c)
     u = np.maximum(_speed(v) / v_c, 1.0)
-    u2 = u * u
-    eps = np.sqrt((-2.0 + np.sqrt(30.0 * u2 - 5.0)) / (3.0 * u2))
+    # eq. (4.3) divided through by u^2, in w = 1/u: finite up to u = inf (eps -> 0)
+    w = 1.0 / u
+    eps = np.sqrt((w * np.sqrt(30.0 - 5.0 * w * w) - 2.0 * w * w) / 3.0)
     return _result(np.where(u > 1.0, eps, 1.0))
 
 
@@ -358,11 +360,14 @@ def tabor_epsilon(v: ArrayLike, v_c: float, q: float = TABOR_Q) -> FloatArray | 
     """
     v_c, q = _parameters("tabor", v_c=v_c, q=q)
     u = np.maximum(_speed(v) / v_c, 1.0)
-    amplitude = u ** -(1.0 - 2.0 * q)
+    # A = u^-(1-2q) by the C library's pow (libm), element by element: numpy's vectorised
+    # power may differ in the last bit, which the solver would carry into eps.
+    amplitude = np.asarray(_LIBM_POW(u, -(1.0 - 2.0 * q)), dtype=float)
     eps = _solve_tabor(amplitude, q)
     return _result(np.where(u > 1.0, eps, 1.0))
 
 
+_LIBM_POW = np.frompyfunc(math.pow, 2, 1)
 #: Relative step and bracket width at which the Tabor solver stops (RS_TABOR_TOLERANCE in C).
 TABOR_TOLERANCE = 1e-15
 #: Most iterations of the Tabor solver (RS_TABOR_MAX_ITERATIONS in C).
@@ -372,35 +377,39 @@ TABOR_MAX_ITERATIONS = 200
 def _solve_tabor(amplitude: FloatArray, q: float) -> FloatArray:
     """Root e of eq. (4.10) for each A = u^-(1-2q) in ``amplitude``.
 
-    The rule, shared with ``rs_tabor_epsilon`` in ringsim/csrc/rs_resolver.c:
-    g(e) = ln e - ln A - q ln((1 - q e^2)/(1 - q)) increases with e and changes sign on the
-    bracket [lo, hi] = [A, min(1, A (1-q)^-q)]; start at its midpoint.  Each iteration:
-    evaluate g; g < 0 sets lo = e, g > 0 sets hi = e, anything else (an exact root) stops;
-    take the Newton step e - g/g' (g' = 1/e + 2 q^2 e / (1 - q e^2)) if it lies strictly
-    inside (lo, hi), else the midpoint; stop once the step is <= TABOR_TOLERANCE times the
-    new e or the bracket is no wider than that; at most TABOR_MAX_ITERATIONS iterations.
-    Every element stops on its own, as the scalar C loop does.
+    The rule, shared with ``rs_tabor_epsilon`` in ringsim/csrc/rs_resolver.c: write
+    e = A (1 + s).  g(s) = log1p(s) - q log1p(q (1 - e^2)/(1 - q)) (eq. 4.10 divided by A,
+    in logarithms; no cancellation for large u) increases with s and changes sign on the
+    bracket [lo, hi] = [0, min(1/A, (1-q)^-q) - 1]; start at its midpoint.  Each
+    iteration: evaluate g; g < 0 sets lo = s, g > 0 sets hi = s, anything else (an exact
+    root) stops.  Newton step d = -g/g' (g' = 1/(1 + s) + 2 q^2 A e / (1 - q e^2)): if
+    |d| <= TABOR_TOLERANCE (1 + s), take it and stop (converged: round-off may put s + d
+    on the edge of the bracket); else take s + d if it lies strictly inside (lo, hi), the
+    midpoint otherwise, and stop if the bracket is now no wider than TABOR_TOLERANCE
+    (1 + s).  At most TABOR_MAX_ITERATIONS iterations; return A (1 + s).  Every element
+    stops on its own, as the scalar C loop does.
     """
     a = np.array(amplitude, dtype=float)
-    log_a = np.log(a)
-    lo = a.copy()
-    hi = np.minimum(a * (1.0 - q) ** -q, 1.0)
-    eps = 0.5 * (lo + hi)
+    lo = np.zeros(a.shape)
+    with np.errstate(divide="ignore"):   # A = 0 (u^-(1-2q) underflowed): 1/A = inf
+        hi = np.minimum(1.0 / a, (1.0 - q) ** -q) - 1.0
+    s = 0.5 * (lo + hi)
     active = np.ones(a.shape, dtype=bool)
     for _ in range(TABOR_MAX_ITERATIONS):
         if not np.any(active):
             break
-        g = np.log(eps) - log_a - q * np.log((1.0 - q * eps * eps) / (1.0 - q))
-        lo = np.where(active & (g < 0.0), eps, lo)
-        hi = np.where(active & (g > 0.0), eps, hi)
+        e = a * (1.0 + s)
+        g = np.log1p(s) - q * np.log1p(q * (1.0 - e * e) / (1.0 - q))
+        lo = np.where(active & (g < 0.0), s, lo)
+        hi = np.where(active & (g > 0.0), s, hi)
         active &= (g < 0.0) | (g > 0.0)
-        dg = 1.0 / eps + 2.0 * q * q * eps / (1.0 - q * eps * eps)
-        newton = eps - g / dg
-        nxt = np.where((newton > lo) & (newton < hi), newton, 0.5 * (lo + hi))
-        step = np.abs(nxt - eps)
-        eps = np.where(active, nxt, eps)
-        active &= (step > TABOR_TOLERANCE * eps) & (hi - lo > TABOR_TOLERANCE * eps)
-    return eps
+        step = -g / (1.0 / (1.0 + s) + 2.0 * q * q * a * e / (1.0 - q * e * e))
+        newton = s + step
+        converged = np.abs(step) <= TABOR_TOLERANCE * (1.0 + s)
+        inside = (newton > lo) & (newton < hi)
+        s = np.where(active, np.where(converged | inside, newton, 0.5 * (lo + hi)), s)
+        active &= ~converged & (hi - lo > TABOR_TOLERANCE * (1.0 + s))
+    return a * (1.0 + s)
 
 
 def constant_epsilon(v: ArrayLike, epsilon: float) -> FloatArray | float:

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from ringsim.physics.restitution import RESTITUTION
+
 #: Equilibrium quantities of the summary: (key of ``compare.equilibrium``, column stem with
 #: the unit in its name, unit).  Each gives the columns ``<stem>_mean`` and ``<stem>_stderr``.
 EQUILIBRIUM_COLUMNS: tuple[tuple[str, str, str], ...] = (
@@ -52,10 +54,9 @@ _PARAMETER_UNITS: dict[str, str] = {
     "sheet.aspect": "dimensionless", "sheet.gravity": "boolean", "sheet.softening": "m",
     "sheet.opening_angle": "rad", "sheet.initial_dispersion": "mean radius x Omega",
     "sheet.z_box": "mean radii",
-    "restitution.model": "text", "restitution.xi0": "dimensionless",
-    "restitution.p": "dimensionless", "restitution.kappa": "dimensionless",
-    "restitution.v_c": "m/s", "restitution.exponent": "dimensionless",
-    "restitution.epsilon": "dimensionless", "restitution.q": "dimensionless",
+    "restitution.model": "text",
+    # every restitution parameter, with the unit of its declaration
+    **{f"restitution.{name}": unit for name, unit in RESTITUTION.units().items()},
     "integration.orbits": "orbits", "integration.dt": "orbits",
     "integration.dt_safety": "dimensionless", "integration.collision_detection": "text",
     "output.path": "text", "output.timeseries_every": "orbits",
