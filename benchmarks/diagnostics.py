@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ringsim.analysis import snapshot
+from ringsim.physics.sizes import PowerLaw
 
 PERFORMANCE_MD = Path(__file__).resolve().parent.parent / "docs" / "performance.md"
 SECTION = "## Diagnostics"
@@ -38,9 +39,7 @@ def synthetic_snapshot(n: int, seed: int = 1) -> dict[str, object]:
     rng = np.random.default_rng(seed)
     Omega = 2.0e-4  # [1/s]
     r_min, r_max, q = 0.5, 5.0, 3.0  # [m], [m], dN/dR ~ R^-q
-    u = rng.uniform(size=n)
-    a, b = r_min ** (1 - q), r_max ** (1 - q)
-    radius = (a + u * (b - a)) ** (1 / (1 - q))
+    radius = PowerLaw(q=q, r_min=r_min, r_max=r_max).draw_radii(n, rng)
     mass = 900.0 * 4.0 / 3.0 * np.pi * radius**3
     side = float(np.sqrt(np.pi * np.sum(radius**2) / 0.5))  # tau = 0.5 in a square box
     x = rng.uniform(-side / 2, side / 2, n)

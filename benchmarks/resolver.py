@@ -37,6 +37,7 @@ from ringsim.engine.resolver import (
     constant_epsilon_callback_address,
     install_resolver,
 )
+from ringsim.physics.sizes import PowerLaw
 from ringsim.testing import PythonReferenceResolver
 
 OMEGA = 2e-4                    # [1/s] orbital frequency
@@ -50,8 +51,7 @@ def make_sheet(n: int, tau: float, seed: int, r_min: float = 0.5, r_max: float =
     """Non-overlapping shearing-sheet patch (SEI, shear boundaries, tree collisions, no
     gravity), radii [m] from dN/dR ∝ R^-q, box side from the optical depth tau."""
     rng = np.random.default_rng(seed)
-    a = 1.0 - q
-    radii = np.sort((r_min**a + rng.random(n) * (r_max**a - r_min**a)) ** (1.0 / a))[::-1]
+    radii = np.sort(PowerLaw(q=q, r_min=r_min, r_max=r_max).draw_radii(n, rng))[::-1]
     box = math.sqrt(np.sum(np.pi * radii**2) / tau)
     sim = rebound.Simulation()
     sim.OMEGA = OMEGA

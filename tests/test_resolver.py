@@ -31,6 +31,7 @@ from ringsim.engine import native, resolver
 from ringsim.engine.native import LOG_DTYPE
 from ringsim.engine.resolver import ResolverHandle, install_resolver
 from ringsim.physics import restitution as rs
+from ringsim.physics.sizes import PowerLaw
 from ringsim.testing import PythonReferenceResolver
 
 OMEGA = 2e-4                       # [1/s]
@@ -43,9 +44,8 @@ DILLEY_KAPPA01 = {"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.1}
 
 def powerlaw_radii(rng: np.random.Generator, n: int, r_min: float, r_max: float,
                    q: float) -> np.ndarray:
-    """Radii [m] drawn from dN/dR ∝ R^-q on [r_min, r_max] by inverting the CDF."""
-    a = 1.0 - q
-    return (r_min**a + rng.random(n) * (r_max**a - r_min**a)) ** (1.0 / a)
+    """Radii [m] drawn from dN/dR ∝ R^-q on [r_min, r_max] (ringsim's one sampler)."""
+    return PowerLaw(q=q, r_min=r_min, r_max=r_max).draw_radii(n, rng)
 
 
 def make_sheet(n: int = 300, seed: int = 1, tau: float = 0.25, r_min: float = 0.5,
