@@ -253,7 +253,7 @@ def choose_dt(integration, arrays: dict[str, np.ndarray], Omega: float) -> float
     if integration.dt == "auto":
         return auto_dt(arrays, Omega, integration.dt_safety,
                        detection=integration.collision_detection)
-    return float(integration.dt) * 2.0 * math.pi / Omega
+    return float(integration.dt) * (2.0 * math.pi / Omega)  # as SheetGeometry.orbit
 
 
 def dt_violation(arrays: dict[str, np.ndarray], Omega: float, dt: float,
