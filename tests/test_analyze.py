@@ -86,3 +86,17 @@ def test_analyze_missing_file_is_bad_input(tmp_path, capsys):
     assert main(["analyze", str(tmp_path / "none.h5")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "none.h5" in err[0]
+
+
+def test_run_file_written_before_the_package_split_still_opens(tmp_path, capsys):
+    """tests/data/run_format_1_0.h5 was written by ringsim at commit f41c05e (no
+    format_version attribute: format 1.0); analyze and compare must read it."""
+    from pathlib import Path
+
+    old = Path(__file__).parent / "data" / "run_format_1_0.h5"
+    out = tmp_path / "eq.json"
+    assert main(["analyze", str(old), "--json", str(out)]) == 0
+    eq = json.loads(out.read_text())
+    assert CONTRACT_KEYS <= set(eq) and eq["n_particles"] == 80
+    assert main(["compare", str(old), str(old)]) == 0
+    assert "velocity dispersion" in capsys.readouterr().out
