@@ -25,7 +25,7 @@ import numpy as np
 
 from ringsim.physics.constants import G_SI
 
-#: Numerical factor of Toomre's Q for a stellar (collisionless) disk: Q = sigma kappa / (3.36 G Sigma).
+#: Toomre's factor for a stellar (collisionless) disk: Q = sigma kappa / (3.36 G Sigma).
 TOOMRE_STELLAR = 3.36
 #: Fewer lambda_cr across the box than this: wakes cannot form properly (warn).
 WAKE_BOX_WARN = 2.0
@@ -56,7 +56,8 @@ def sphere_mass(radius, density):
     radius : array [m]
     density : array [kg/m^3]
     """
-    return 4.0 / 3.0 * np.pi * np.asarray(density, dtype=float) * np.asarray(radius, dtype=float) ** 3
+    radius = np.asarray(radius, dtype=float)
+    return 4.0 / 3.0 * np.pi * np.asarray(density, dtype=float) * radius**3
 
 
 def hill_parameter(r1, r2, density, GM: float, a: float, G: float = G_SI):

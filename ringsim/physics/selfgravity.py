@@ -237,7 +237,7 @@ class ShearPM:
         1: undo the assignment; 2: undo assignment and interpolation).
     """
 
-    def __init__(self, Lx, Ly, nx, ny, dz, G=G_SI, deconvolve=1, workers=1):
+    def __init__(self, Lx, Ly, nx, ny, dz, G=G_SI, deconvolve=0, workers=1):
         self.Lx, self.Ly, self.nx, self.ny, self.dz = Lx, Ly, int(nx), int(ny), float(dz)
         self.G = G
         self.deconvolve = deconvolve
