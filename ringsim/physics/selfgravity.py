@@ -172,40 +172,6 @@ def direct_accelerations(pos, mass, Lx, Ly, shift, softening, n_rows=4, G=G_SI,
     return acc
 
 
-def pair_forces(pos, mass, Lx, Ly, shift, softening, n_rows=4, G=G_SI, chunk=256):
-    """Pairwise converged forces and offsets, for the gravitational torque.
-
-    Returns ``sum_j F_ij^y d_ij^x`` per particle i [N m], where F_ij [N] is the force of j and
-    all its images on i and d_ij^x the radial offset of the image (the angular-momentum flux
-    of Daisaka, Tanaka & Ida 2001 needs the sum over pairs of the y-force times the
-    x-separation).  Images beyond the minimum one carry offsets up to K Lx: the sum is taken
-    over every image explicitly (no uniform-background term, which exerts no y-force).
-
-    Parameters as :func:`direct_accelerations`.
-    """
-    pos = np.asarray(pos, dtype=float)
-    mass = np.asarray(mass, dtype=float)
-    n = len(pos)
-    b2 = softening**2
-    torque = np.zeros(n)
-    for start in range(0, n, chunk):
-        sl = slice(start, start + chunk)
-        d = minimum_image(pos[sl, None, :] - pos[None, :, :], Lx, Ly, shift)
-        mm = mass[sl, None] * mass[None, :]
-        for ix in range(-n_rows, n_rows + 1):
-            n_centre = int(np.round(ix * shift / Ly))
-            row_y = -ix * shift + n_centre * Ly
-            dx = d[..., 0] - ix * Lx
-            for iy in range(-n_rows, n_rows + 1):
-                dy = d[..., 1] - (row_y + iy * Ly)
-                r2 = dx * dx + dy * dy + d[..., 2] ** 2
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    inv3 = np.where(r2 > 0.0, (r2 + b2) ** -1.5, 0.0)
-                # force on i along y is -G m_i m_j dy / r^3; the x-separation (i - j) is dx
-                torque[sl] += np.sum(-G * mm * dy * inv3 * dx, axis=1)
-    return torque
-
-
 # --- particle mesh -------------------------------------------------------------------------------
 
 def _cic(coord, n, periodic):
