@@ -263,7 +263,7 @@ def snapshot_figure(snap: dict, Lx: float, Ly: float, title: str):
     if abs(stretch - 1.0) < 0.01:
         scale = "drawn to scale"
     elif to_scale:
-        scale = f"vertical scale ×{stretch:.3g} (particles drawn to scale on each axis)"
+        scale = f"vertical scale ×{stretch:.3g} (particles: ellipses true to both axes)"
     else:
         scale = (f"vertical scale ×{stretch:.3g}; particles as markers, size not to scale")
     ax_xy.set_title(f"{title}\ntop view drawn to scale", fontsize=9)
