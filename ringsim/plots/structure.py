@@ -253,8 +253,9 @@ def snapshot_figure(snap: dict, Lx: float, Ly: float, title: str):
             offset_transform=ax_xz.transData, facecolors="tab:blue", edgecolors="k",
             linewidths=0.2, alpha=0.7))
     else:
-        ax_xz.scatter(snap["x"], z, s=np.clip(9.0 * (r / r.max()) ** 2, 0.5, None),
-                      color="tab:blue", linewidths=0)
+        # marker diameter 2-7 points, growing with the radius
+        ax_xz.scatter(snap["x"], z, s=(2.0 + 5.0 * r / r.max()) ** 2, color="tab:blue",
+                      alpha=0.6, linewidths=0)
     ax_xz.set_aspect(stretch)
     set_readable_axis(ax_xz, "x", [-Lx / 2, Lx / 2], log=False, pad=0.0)
     set_readable_axis(ax_xz, "y", [-z_extent, z_extent], log=False, pad=0.0)
