@@ -178,6 +178,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "(e.g. tcp://127.0.0.1:8786); needs the 'dask' extra")
     p.add_argument("--out", metavar="DIR", help="output directory (default: "
                    "runs/<sweep file name>)")
+    p.add_argument("--plots", metavar="DIR", help="write PNG figures of the summary (c and "
+                   "H against the swept parameter) into DIR")
     p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("fit", help="fit restitution laws to measured epsilon(v, R, M)")

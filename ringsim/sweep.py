@@ -464,7 +464,9 @@ def run_sweep(sweep_path: str | os.PathLike, out: str | os.PathLike | None = Non
 
 
 def sweep_command(args) -> int:
-    """``ringsim sweep SWEEP.yaml [--workers N] [--scheduler ADDRESS] [--out DIR]``.
+    """``ringsim sweep SWEEP.yaml [--workers N] [--scheduler ADDRESS] [--out DIR]
+    [--plots DIR]``; ``--plots`` draws ``sweep.png`` (``ringsim.plots.plot_sweep``) from
+    the summary once every point is done.
 
     Returns 0 when every point finished, 1 when any failed or stopped (InputError for bad
     input propagates: exit status 2).
@@ -472,8 +474,16 @@ def sweep_command(args) -> int:
     def echo(line: str) -> None:
         print(line, flush=True)
 
+    plots = getattr(args, "plots", None)
+    if plots is not None and Path(plots).exists() and not Path(plots).is_dir():
+        raise InputError(str(plots), "--plots", "exists and is not a directory")
     result = run_sweep(args.sweep, out=args.out, workers=args.workers,
                        scheduler=args.scheduler, echo=echo)
+    if plots is not None:
+        from ringsim.plots import plot_sweep
+
+        for path in plot_sweep(result.summary_h5, plots):
+            print(f"wrote {path}", flush=True)
     if result.n_failed:
         failed = [r.file for r in result.results if r.status != "finished"]
         print(f"ringsim sweep: {result.n_failed} point(s) did not finish: "

@@ -609,11 +609,15 @@ def plot_fits(data: RestitutionData, results: Sequence[dict], path: str | Path) 
     results : fits (`fit_model` dicts), drawn in order
     path : PNG file
     """
-    import matplotlib
+    from ringsim.plots.common import (
+        SPEED_SCALE,
+        SPEED_UNIT,
+        pyplot,
+        save_figure,
+        set_readable_axis,
+    )
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     groups = _groups(data)
     shared = len(groups) > MAX_PANELS
     panels = ([(float(np.median(data.R_bar)), float(np.median(data.M_bar)),
@@ -626,8 +630,8 @@ def plot_fits(data: RestitutionData, results: Sequence[dict], path: str | Path) 
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for ax, (r_bar, m_bar, mask) in zip(axes.flat, panels, strict=False):
         err = data.sigma[mask] if data.sigma is not None else None
-        ax.errorbar(data.v[mask], data.epsilon[mask], yerr=err, fmt="o", ms=3, color="k",
-                    ecolor="0.6", elinewidth=0.8, label="data", zorder=3)
+        ax.errorbar(data.v[mask] / SPEED_SCALE, data.epsilon[mask], yerr=err, fmt="o", ms=3,
+                    color="k", ecolor="0.6", elinewidth=0.8, label="data", zorder=3)
         for i, result in enumerate(results):
             curve_data = RestitutionData(
                 v=v_curve, epsilon=np.zeros_like(v_curve),
@@ -635,13 +639,14 @@ def plot_fits(data: RestitutionData, results: Sequence[dict], path: str | Path) 
                 M_bar=None if m_bar is None else np.full_like(v_curve, m_bar))
             if result["model"] == "dilley" and r_bar is None:
                 continue
-            ax.plot(v_curve, _evaluate(result["model"], _values(result), curve_data),
+            ax.plot(v_curve / SPEED_SCALE, _evaluate(result["model"], _values(result),
+                                                     curve_data),
                     color=colours[(i + 1) % len(colours)],
                     label=f"{result['model']} (AIC {result['aic']:.4g})")
-        ax.set_xscale("log")
+        set_readable_axis(ax, "x", v_curve / SPEED_SCALE, log=True, pad=0.0)
         ax.set_ylim(-0.02, 1.05)
-        ax.set_xlabel("normal impact speed v [m/s]")
-        ax.set_ylabel("coefficient of restitution ε")
+        ax.set_xlabel(f"normal impact speed v [{SPEED_UNIT}]")
+        ax.set_ylabel("coefficient of restitution ε [dimensionless]")
         if r_bar is not None:
             title = f"R̄ = {r_bar:.4g} m, M̄ = {m_bar:.4g} kg"
             ax.set_title(("curves at the median: " if shared else "") + title, fontsize=9)
@@ -650,8 +655,6 @@ def plot_fits(data: RestitutionData, results: Sequence[dict], path: str | Path) 
         ax.set_visible(False)
     axes.flat[0].legend(fontsize=7, loc="lower left")
     fig.suptitle(f"Restitution fits to {Path(data.source).name}")
-    from ringsim.plots import save_figure
-
     return save_figure(fig, path)
 
 

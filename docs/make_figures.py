@@ -1,0 +1,118 @@
+"""Build the figure gallery of docs/figures.md: every figure that ``ringsim analyze``,
+``compare``, ``sweep``, ``epsilon`` and ``fit`` make, from the bundled scenarios with short
+overrides (a few minutes of CPU in all).
+
+    python docs/make_figures.py [--workdir DIR [--reuse]] [--out docs/figures/gallery]
+
+Run files go to ``--workdir`` (default: a temporary directory, deleted afterwards); the
+PNGs to ``--out``.  Every figure is made by the command line itself (``ringsim.cli.main``),
+so the gallery shows exactly what a user gets.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+
+import ringsim
+from ringsim.cli import main
+from ringsim.config.scenario import load_scenario, with_overrides
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = ROOT / "scenarios"
+
+#: Gallery runs: name -> (bundled scenario, overrides).  Fewer particles and orbits than
+#: the scenarios' own, so that the gallery builds quickly; the physics is the scenario's.
+RUNS = {
+    "kappa0": ("kappa0.yaml", {"sheet.n_particles": 600, "integration.orbits": 60,
+                               "output.snapshot_every": 2.0}),
+    "kappa0.1": ("kappa0.1.yaml", {"sheet.n_particles": 600, "integration.orbits": 60,
+                                   "output.snapshot_every": 2.0}),
+    # a cold, nearly flat ring (H ~ r): constant epsilon below the critical value
+    "cold": ("constant-eps-0.5.yaml", {"name": "cold-eps0.5", "sheet.n_particles": 300,
+                                       "integration.orbits": 50,
+                                       "integration.collision_detection": "line",
+                                       "output.snapshot_every": 1.0}),
+    # a two-species mixture: per-size points at the species' radii
+    "mixture": ("quickstart.yaml", {
+        "name": "mixture", "integration.orbits": 10, "output.snapshot_every": 1.0,
+        "particles.size_distribution": {"kind": "mixture", "components": [
+            {"radius": 0.5, "number_fraction": 0.7}, {"radius": 2.0, "number_fraction": 0.3}]}}),
+}
+
+#: The gallery sweep: kappa x seed on a small kappa0 patch.
+SWEEP_BASE = ("kappa0.yaml", {"sheet.n_particles": 300, "integration.orbits": 12,
+                              "output.snapshot_every": 4.0})
+SWEEP_GRID = {"restitution.kappa": [0.0, 0.05, 0.1], "seed": [1, 2]}
+
+
+def _cli(*argv: str) -> None:
+    print("$ ringsim " + " ".join(argv), flush=True)
+    status = main(list(argv))
+    if status != 0:
+        raise SystemExit(f"ringsim {argv[0]} failed with status {status}")
+
+
+def _scenario(file: str, overrides: dict):
+    return with_overrides(load_scenario(SCENARIOS / file), overrides)
+
+
+def build(workdir: Path, out: Path, reuse: bool = False) -> list[Path]:
+    """Make every gallery run and figure; returns the PNG paths.  With ``reuse``, finished
+    run files already in ``workdir`` are kept (redraw the figures only)."""
+    out.mkdir(parents=True, exist_ok=True)
+    runs = {}
+    for key, (file, overrides) in RUNS.items():
+        path = workdir / f"{key}.h5"
+        if reuse and path.exists() and ringsim.open_run(path).attrs["status"] == "finished":
+            runs[key] = path
+            continue
+        start = time.perf_counter()
+        runs[key] = ringsim.run(_scenario(file, overrides), output=workdir / f"{key}.h5",
+                                force=True, progress=False)
+        print(f"run {key}: {time.perf_counter() - start:.1f} s", flush=True)
+    for key, path in runs.items():
+        _cli("analyze", str(path), "--plots", str(out / f"analyze-{key}"))
+    _cli("compare", str(runs["kappa0"]), str(runs["kappa0.1"]), "--plots",
+         str(out / "compare"))
+
+    base = workdir / "sweep-base.yaml"
+    base.write_text(yaml.safe_dump(_scenario(*SWEEP_BASE).to_dict(), sort_keys=False))
+    sweep = workdir / "sweep-kappa-small.yaml"
+    sweep.write_text(yaml.safe_dump({"base": base.name, "grid": SWEEP_GRID}, sort_keys=False))
+    _cli("sweep", str(sweep), "--workers", "1", "--out", str(workdir / "sweep"), "--plots",
+         str(out / "sweep"))
+
+    _cli("epsilon", "--plot", str(out / "epsilon.png"))
+    _cli("fit", str(ROOT / "analysis" / "data" / "hatzes_like.csv"), "--model", "all",
+         "--plot", str(out / "fit.png"))
+    return sorted(out.rglob("*.png"))
+
+
+def parse_args(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--workdir", type=Path, help="keep the run files here")
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "figures" / "gallery")
+    parser.add_argument("--reuse", action="store_true", help="keep finished run files of "
+                        "--workdir and the sweep's points (redraw the figures only)")
+    return parser.parse_args(argv)
+
+
+if __name__ == "__main__":
+    args = parse_args()
+    started = time.perf_counter()
+    if args.workdir is not None:
+        args.workdir.mkdir(parents=True, exist_ok=True)
+        pngs = build(args.workdir, args.out, reuse=args.reuse)
+    else:
+        tmp = Path(tempfile.mkdtemp(prefix="ringsim-gallery-"))
+        try:
+            pngs = build(tmp, args.out)
+        finally:
+            shutil.rmtree(tmp)
+    print(f"{len(pngs)} figures in {args.out} ({time.perf_counter() - started:.0f} s)")
