@@ -577,6 +577,24 @@ static int rs_apply_impulse(struct reb_simulation* const r, struct rs_resolver* 
     return 1;
 }
 
+/* After an impulse between c.p1 and c.p2: stamps both particles' deflections and counts
+ * the collision in multi_encounters if either had been deflected earlier in this step.
+ * Returns 0 if memory ran out. */
+static int rs_count_deflections(const struct reb_simulation* const r,
+                                struct rs_resolver* const res, const struct reb_collision c){
+    const double m1 = r->particles[c.p1].m;
+    const double m2 = r->particles[c.p2].m;
+    const double total_mass = m1 + m2;
+    const int repeated = rs_pair_memory_stamp(&res->memory, r, c.p1, c.p2,
+                                              m2 >= RS_DEFLECTING_MASS_SHARE * total_mass,
+                                              m1 >= RS_DEFLECTING_MASS_SHARE * total_mass);
+    if (repeated < 0){
+        return 0;
+    }
+    res->stats.multi_encounters += repeated;
+    return 1;
+}
+
 int rs_resolve_pair(struct reb_simulation* const r, struct rs_resolver* const res,
                     struct reb_collision c, int swept){
     struct reb_particle* const p1 = &r->particles[c.p1];
@@ -634,15 +652,31 @@ int rs_resolve_pair(struct reb_simulation* const r, struct rs_resolver* const re
     if (!resolved){
         return 0;
     }
-    const double total_mass = p1->m + p2->m;
-    const int repeated = rs_pair_memory_stamp(
-        memory, r, c.p1, c.p2, p2->m >= RS_DEFLECTING_MASS_SHARE * total_mass,
-        p1->m >= RS_DEFLECTING_MASS_SHARE * total_mass);
-    if (repeated < 0 || (swept && !rs_pair_memory_insert(memory, key))){
+    if (!rs_count_deflections(r, res, c) || (swept && !rs_pair_memory_insert(memory, key))){
         r->status = REB_STATUS_GENERIC_ERROR;   /* out of memory */
-        return 1;
     }
-    res->stats.multi_encounters += repeated;
+    return 1;
+}
+
+int rs_resolve_contact(struct reb_simulation* const r, struct rs_resolver* const res,
+                       struct reb_collision c, double back_time){
+    struct reb_particle* const p1 = &r->particles[c.p1];
+    struct reb_particle* const p2 = &r->particles[c.p2];
+    const struct reb_vec6d gb = c.gb;
+    const double dvx = p1->vx + gb.vx - p2->vx;
+    const double dvy = p1->vy + gb.vy - p2->vy;
+    const double dvz = p1->vz + gb.vz - p2->vz;
+    const double cx = p1->x + gb.x - p2->x - back_time * dvx;
+    const double cy = p1->y + gb.y - p2->y - back_time * dvy;
+    const double cz = p1->z + gb.z - p2->z - back_time * dvz;
+    const double contact = sqrt(cx * cx + cy * cy + cz * cz);
+    rs_pair_memory_sync(&res->memory, r);
+    if (!rs_apply_impulse(r, res, p1, p2, gb, cx, cy, cz, contact, dvx, dvy, dvz, back_time)){
+        return 0;
+    }
+    if (!rs_count_deflections(r, res, c)){
+        r->status = REB_STATUS_GENERIC_ERROR;   /* out of memory */
+    }
     return 1;
 }
 
