@@ -410,35 +410,38 @@ enum RS_SCAN {
  * last `window` of the step).  Returns 0 if memory ran out. */
 static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detector* d,
                    const struct rs_sheet_particle pi, int64_t span, int mode, double window){
-    const struct rs_sheet_grid* g = &d->grid;
+    const struct rs_sheet_grid g = d->grid;     /* a copy: the loop below writes to d */
     const int64_t* const start = d->cell_start;
+    const struct rs_sheet_particle* const sorted = d->sorted;
     const double deviation_i = mode == RS_SCAN_RECHECK ? d->track[pi.index].deviation : 0.0;
-    const int64_t cx = rs_cell_coordinate(pi.xw, -0.5 * g->Lx, g->sx, g->nx);
-    const int64_t cz = g->nz > 1 ? rs_cell_coordinate(pi.z, g->z_min, g->sz, g->nz) : 0;
+    const int64_t cx = rs_cell_coordinate(pi.xw, -0.5 * g.Lx, g.sx, g.nx);
+    const int64_t cz = g.nz > 1 ? rs_cell_coordinate(pi.z, g.z_min, g.sz, g.nz) : 0;
+    int64_t candidates = 0;
     for (int64_t kx = -span; kx <= span; kx++){
-        const int64_t box_x = rs_floor_div(cx + kx, g->nx);
-        const int64_t column_x = cx + kx - box_x * g->nx;
+        const int64_t box_x = rs_floor_div(cx + kx, g.nx);
+        const int64_t column_x = cx + kx - box_x * g.nx;
         /* Image of i in the frame of the box the column belongs to. */
-        const double image_x = -(double)box_x * g->Lx;
-        const double image_vy = (double)box_x * g->box_speed;
-        double image_y = (double)box_x * g->slide;
+        const double image_x = -(double)box_x * g.Lx;
+        const double image_vy = (double)box_x * g.box_speed;
+        double image_y = (double)box_x * g.slide;
         double yq = pi.yw + image_y;
-        const double wrap_y = floor((yq + 0.5 * g->Ly) / g->Ly);
-        yq -= wrap_y * g->Ly;
-        image_y -= wrap_y * g->Ly;
-        const int64_t cyq = rs_cell_coordinate(yq, -0.5 * g->Ly, g->sy, g->ny);
+        const double wrap_y = floor((yq + 0.5 * g.Ly) / g.Ly);
+        yq -= wrap_y * g.Ly;
+        image_y -= wrap_y * g.Ly;
+        const int64_t cyq = rs_cell_coordinate(yq, -0.5 * g.Ly, g.sy, g.ny);
         for (int64_t ky = -span; ky <= span; ky++){
-            const int64_t box_y = rs_floor_div(cyq + ky, g->ny);
-            const int64_t column_y = cyq + ky - box_y * g->ny;
-            const double gy_i = image_y - (double)box_y * g->Ly;
+            const int64_t box_y = rs_floor_div(cyq + ky, g.ny);
+            const int64_t column_y = cyq + ky - box_y * g.ny;
+            const double gy_i = image_y - (double)box_y * g.Ly;
             for (int64_t kz = -span; kz <= span; kz++){
                 const int64_t layer = cz + kz;
-                if (layer < 0 || layer >= g->nz){
+                if (layer < 0 || layer >= g.nz){
                     continue;
                 }
-                const int64_t cell = (layer * g->ny + column_y) * g->nx + column_x;
-                for (int64_t b = start[cell]; b < start[cell + 1]; b++){
-                    const struct rs_sheet_particle* pj = &d->sorted[b];
+                const int64_t cell = (layer * g.ny + column_y) * g.nx + column_x;
+                const int64_t end = start[cell + 1];
+                for (int64_t b = start[cell]; b < end; b++){
+                    const struct rs_sheet_particle* pj = &sorted[b];
                     if (mode == RS_SCAN_REPORT ? pj->index <= pi.index
                                                : pj->index == pi.index){
                         continue;
@@ -453,7 +456,7 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
                     const double dx = pi.x + gb.x - pj->x;
                     const double dy = pi.y + gb.y - pj->y;
                     const double dz = pi.z - pj->z;
-                    double bound = pi.reach + pj->reach + g->shear_step * fabs(dx);
+                    double bound = pi.reach + pj->reach + g.shear_step * fabs(dx);
                     if (mode == RS_SCAN_RECHECK){
                         bound += deviation_i + d->track[pj->index].deviation;
                     }
@@ -467,7 +470,7 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
                         }
                         continue;
                     }
-                    d->candidates++;
+                    candidates++;
                     const double dvx = pi.vx - pj->vx;
                     const double dvy = pi.vy + gb.vy - pj->vy;
                     const double dvz = pi.vz - pj->vz;
@@ -475,7 +478,7 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
                     const double dv2 = dvx * dvx + dvy * dvy + dvz * dvz;
                     double s_closest = dv2 > 0.0 ? (dx * dvx + dy * dvy + dz * dvz) / dv2
                                                  : 0.0;
-                    s_closest = s_closest < 0.0 ? 0.0 : (s_closest > g->dt ? g->dt : s_closest);
+                    s_closest = s_closest < 0.0 ? 0.0 : (s_closest > g.dt ? g.dt : s_closest);
                     const double ex = dx - s_closest * dvx;
                     const double ey = dy - s_closest * dvy;
                     const double ez = dz - s_closest * dvz;
@@ -490,6 +493,7 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
             }
         }
     }
+    d->candidates += candidates;
     return 1;
 }
 
