@@ -94,14 +94,18 @@
  *   end as in tree mode.  A pair resolved once is ignored for the rest of the step (a
  *   per-simulation set of pairs, cleared when steps_done changes).
  * sheet (rs_sheet_detect.c): ringsim's own swept-sphere search for shearing sheets reports
- *   the same pairs as REBOUND's line search, each once, and resolves them here exactly as
- *   in the line modes (rs_resolve_pair with swept = 1).
+ *   the same pairs as REBOUND's line search, each once, finds their contact times and
+ *   resolves them in time order through rs_resolve_contact (the same impulse and moves as
+ *   the line modes, at the contact time the detector gives); after each collision the
+ *   detector re-checks the paths of both particles, and it, not the pair memory, decides
+ *   which pairs may collide again in the step (see its header).
  *
  * multi_encounters counts resolved collisions in which one partner had already been
  * deflected earlier in the same step, a particle counting as deflected by a partner that
- * carries at least RS_DEFLECTING_MASS_SHARE = 0.1 of the pair's mass.  In the swept-path
- * modes such a second contact is found on a straight path the particle no longer follows;
- * ringsim's dt: auto keeps the fraction near 1%.
+ * carries at least RS_DEFLECTING_MASS_SHARE = 0.1 of the pair's mass.  In line and
+ * linetree modes such a second contact is found on a straight path the particle no longer
+ * follows (in REBOUND's shuffled order); the sheet detector resolves it in time order on
+ * the particle's new path, so there the count measures how often it happens, not an error.
  *
  * Validity limits
  * ---------------
@@ -109,9 +113,10 @@
  *   only if dt << R / v_rel for all pairs.  Faster pairs tunnel through each other or
  *   sink deep into contact.
  * - line/linetree/sheet take paths as straight lines with the end-of-step velocities:
- *   valid for Omega dt << 1.  Several contacts of one particle within a step are resolved
- *   one after another in REBOUND's shuffled order, each on its own straight path
- *   (multi_encounters measures how often).
+ *   valid for Omega dt << 1.  line/linetree: several contacts of one particle within a
+ *   step are resolved one after another in REBOUND's shuffled order, each on the straight
+ *   path of the velocities at that moment, and each pair at most once per step
+ *   (multi_encounters measures how often).  sheet: in time order (rs_sheet_detect.c).
  * - Head-on normal impulse only: no tangential friction, no spin, no adhesion.
  * - eps depends on the normal speed only through the laws above; the Dilley law is a
  *   fit to 2.5-20 cm ice spheres at 0.01-5 cm/s and its size/mass scaling is a model.
