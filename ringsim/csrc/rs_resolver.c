@@ -97,14 +97,18 @@
  *   end as in tree mode.  A pair resolved once is ignored for the rest of the step (a
  *   per-simulation set of pairs, cleared when steps_done changes).
  * sheet (rs_sheet_detect.c): ringsim's own swept-sphere search for shearing sheets reports
- *   the same pairs as REBOUND's line search, each once, and resolves them here exactly as
- *   in the line modes (rs_resolve_pair with swept = 1).
+ *   the same pairs as REBOUND's line search, each once, finds their contact times and
+ *   resolves them in time order through rs_resolve_contact (the same impulse and moves as
+ *   the line modes, at the contact time the detector gives); after each collision the
+ *   detector re-checks the paths of both particles, and it, not the pair memory, decides
+ *   which pairs may collide again in the step (see its header).
  *
  * multi_encounters counts resolved collisions in which one partner had already been
  * deflected earlier in the same step, a particle counting as deflected by a partner that
- * carries at least RS_DEFLECTING_MASS_SHARE = 0.1 of the pair's mass.  In the swept-path
- * modes such a second contact is found on a straight path the particle no longer follows;
- * ringsim's dt: auto keeps the fraction near 1%.
+ * carries at least RS_DEFLECTING_MASS_SHARE = 0.1 of the pair's mass.  In line and
+ * linetree modes such a second contact is found on a straight path the particle no longer
+ * follows (in REBOUND's shuffled order); the sheet detector resolves it in time order on
+ * the particle's new path, so there the count measures how often it happens, not an error.
  *
  * Validity limits
  * ---------------
@@ -112,9 +116,10 @@
  *   only if dt << R / v_rel for all pairs.  Faster pairs tunnel through each other or
  *   sink deep into contact.
  * - line/linetree/sheet take paths as straight lines with the end-of-step velocities:
- *   valid for Omega dt << 1.  Several contacts of one particle within a step are resolved
- *   one after another in REBOUND's shuffled order, each on its own straight path
- *   (multi_encounters measures how often).
+ *   valid for Omega dt << 1.  line/linetree: several contacts of one particle within a
+ *   step are resolved one after another in REBOUND's shuffled order, each on the straight
+ *   path of the velocities at that moment, and each pair at most once per step
+ *   (multi_encounters measures how often).  sheet: in time order (rs_sheet_detect.c).
  * - Head-on normal impulse only: no tangential friction, no spin, no adhesion.
  * - eps depends on the normal speed only through the laws above; the Dilley law is a
  *   fit to 2.5-20 cm ice spheres at 0.01-5 cm/s and its size/mass scaling is a model.
@@ -599,6 +604,24 @@ static int rs_apply_impulse(struct reb_simulation* const r, struct rs_resolver* 
     return 1;
 }
 
+/* After an impulse between c.p1 and c.p2: stamps both particles' deflections and counts
+ * the collision in multi_encounters if either had been deflected earlier in this step.
+ * Returns 0 if memory ran out. */
+static int rs_count_deflections(const struct reb_simulation* const r,
+                                struct rs_resolver* const res, const struct reb_collision c){
+    const double m1 = r->particles[c.p1].m;
+    const double m2 = r->particles[c.p2].m;
+    const double total_mass = m1 + m2;
+    const int repeated = rs_pair_memory_stamp(&res->memory, r, c.p1, c.p2,
+                                              m2 >= RS_DEFLECTING_MASS_SHARE * total_mass,
+                                              m1 >= RS_DEFLECTING_MASS_SHARE * total_mass);
+    if (repeated < 0){
+        return 0;
+    }
+    res->stats.multi_encounters += repeated;
+    return 1;
+}
+
 int rs_resolve_pair(struct reb_simulation* const r, struct rs_resolver* const res,
                     struct reb_collision c, int swept){
     struct reb_particle* const p1 = &r->particles[c.p1];
@@ -656,15 +679,31 @@ int rs_resolve_pair(struct reb_simulation* const r, struct rs_resolver* const re
     if (!resolved){
         return 0;
     }
-    const double total_mass = p1->m + p2->m;
-    const int repeated = rs_pair_memory_stamp(
-        memory, r, c.p1, c.p2, p2->m >= RS_DEFLECTING_MASS_SHARE * total_mass,
-        p1->m >= RS_DEFLECTING_MASS_SHARE * total_mass);
-    if (repeated < 0 || (swept && !rs_pair_memory_insert(memory, key))){
+    if (!rs_count_deflections(r, res, c) || (swept && !rs_pair_memory_insert(memory, key))){
         r->status = REB_STATUS_GENERIC_ERROR;   /* out of memory */
-        return 1;
     }
-    res->stats.multi_encounters += repeated;
+    return 1;
+}
+
+int rs_resolve_contact(struct reb_simulation* const r, struct rs_resolver* const res,
+                       struct reb_collision c, double back_time){
+    struct reb_particle* const p1 = &r->particles[c.p1];
+    struct reb_particle* const p2 = &r->particles[c.p2];
+    const struct reb_vec6d gb = c.gb;
+    const double dvx = p1->vx + gb.vx - p2->vx;
+    const double dvy = p1->vy + gb.vy - p2->vy;
+    const double dvz = p1->vz + gb.vz - p2->vz;
+    const double cx = p1->x + gb.x - p2->x - back_time * dvx;
+    const double cy = p1->y + gb.y - p2->y - back_time * dvy;
+    const double cz = p1->z + gb.z - p2->z - back_time * dvz;
+    const double contact = sqrt(cx * cx + cy * cy + cz * cz);
+    rs_pair_memory_sync(&res->memory, r);
+    if (!rs_apply_impulse(r, res, p1, p2, gb, cx, cy, cz, contact, dvx, dvy, dvz, back_time)){
+        return 0;
+    }
+    if (!rs_count_deflections(r, res, c)){
+        r->status = REB_STATUS_GENERIC_ERROR;   /* out of memory */
+    }
     return 1;
 }
 

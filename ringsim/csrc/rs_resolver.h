@@ -78,5 +78,14 @@ struct rs_resolver* rs_resolver_of(const struct reb_simulation* r);
 int rs_resolve_pair(struct reb_simulation* r, struct rs_resolver* res, struct reb_collision c,
                     int swept);
 
+/* Resolve pair c at a contact found by the caller: back_time [s] before the end of the
+ * step on the pair's current straight relative path (0 <= back_time <= dt_last_done).
+ * Impulse along the separation there, both particles moved on with their new velocities
+ * for back_time, multi_encounters counted; no per-step pair memory (the caller decides
+ * which pairs may collide again).  Returns 1 if an impulse was applied (0: receding or
+ * below round-off at that point). */
+int rs_resolve_contact(struct reb_simulation* r, struct rs_resolver* res, struct reb_collision c,
+                       double back_time);
+
 
 #endif /* RS_RESOLVER_H */

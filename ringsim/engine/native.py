@@ -141,6 +141,8 @@ def _load_library() -> ctypes.CDLL:
                                               double_p]
         lib.rs_sheet_detector_counters.restype = ctypes.c_int
         lib.rs_sheet_detector_counters.argtypes = [ctypes.c_void_p, int64_p, double_p]
+        lib.rs_sheet_order_counters.restype = ctypes.c_int
+        lib.rs_sheet_order_counters.argtypes = [ctypes.c_void_p, int64_p]
 
     librebound = rebound.clibrebound
     librebound.reb_simulation_struct_size.restype = size_t

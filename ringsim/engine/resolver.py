@@ -289,6 +289,25 @@ class ResolverHandle:
             "multi_encounters": int(s.multi_encounters),
         }
 
+    def order_stats(self) -> dict[str, int]:
+        """Counters of the sheet detector's time-ordered resolution since creation.
+
+        Returns
+        -------
+        dict with ``resolved`` (contacts resolved), ``rescheduled`` (of which timed on a
+        path changed earlier in the same step), ``rechecks`` (one per particle and
+        collision), ``wide_rechecks`` (of which over more than one cell),
+        ``span_limited`` (of which cut at the largest search span) and ``saturated``
+        (particles that reached the most contacts per step).  All zero before the first
+        search or without the sheet detector.
+        """
+        out = (ctypes.c_int64 * 6)()
+        if _SHEET_STEP_ADDRESS is not None:
+            _LIB.rs_sheet_order_counters(self.address, out)
+        names = ("resolved", "rescheduled", "rechecks", "wide_rechecks", "span_limited",
+                 "saturated")
+        return dict(zip(names, (int(v) for v in out), strict=True))
+
     def detector_stats(self) -> dict[str, Any]:
         """Counters of the sheet detector since the handle was created.
 
