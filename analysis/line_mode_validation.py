@@ -140,11 +140,11 @@ def simulate(sc, orbits: float, detection: str, dt_orbits: float | str,
                              "integration.dt": dt_orbits, "integration.orbits": orbits})
     built = sheet.build_sheet(sc)
     sim, geometry, handle = built.sim, built.geometry, built.resolver
-    if detection == "line" and handle.detector != "sheet":
+    if detection == "line" and handle.collision_detection != "line":
         # line mode is validated with ringsim's sheet detector, whichever search
         # build_sheet installs for it
         handle.close()
-        handle = install_resolver(sim, sc.restitution_dict(), detector="sheet")
+        handle = install_resolver(sim, sc.restitution_dict(), collision_detection="line")
     Omega, orbit = sc.orbital_frequency, sc.orbital_period
     if state is not None:
         _set_state(sim, state)

@@ -2,7 +2,7 @@
 
 The equilibrium window is found on the velocity dispersion and the thickness (MSER-5 on
 each, the later start wins); every quantity is then averaged over that same window with a
-standard error corrected for autocorrelation (``timeseries.equilibrium``).  A run whose
+standard error corrected for autocorrelation (``timeseries.stationary_mean``).  A run whose
 window is too short or still drifts is reported as not in equilibrium, with the reason.
 """
 
@@ -71,8 +71,8 @@ def equilibrium(run) -> dict:
     Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
 
     # rows 1.. (row 0 is the initial state, before any collision)
-    c_fit = timeseries.equilibrium(t[1:], ts["velocity_dispersion"][1:])
-    h_fit = timeseries.equilibrium(t[1:], ts["thickness"][1:])
+    c_fit = timeseries.stationary_mean(t[1:], ts["velocity_dispersion"][1:])
+    h_fit = timeseries.stationary_mean(t[1:], ts["thickness"][1:])
     start = 1 + max(c_fit.start_index, h_fit.start_index)
     in_eq = bool(c_fit.in_equilibrium and h_fit.in_equilibrium)
     reasons = []
