@@ -4,6 +4,8 @@ The equilibrium window is found on the velocity dispersion and the thickness (MS
 each, the later start wins); every quantity is then averaged over that same window with a
 standard error corrected for autocorrelation (``timeseries.stationary_mean``).  A run whose
 window is too short or still drifts is reported as not in equilibrium, with the reason.
+The keys of the result are part of the interface users rely on: docs/interface.md,
+"Equilibrium JSON".
 """
 
 from __future__ import annotations
@@ -53,8 +55,9 @@ def equilibrium(run) -> dict:
     Returns
     -------
     dict
-        CONTRACT.md keys (each number ``{"mean", "stderr"}``, SI unless the name says
-        otherwise) plus ``in_equilibrium``, ``reason``, ``orbits``, ``n_particles``,
+        The keys of docs/interface.md "Equilibrium JSON" (each number ``{"mean",
+        "stderr"}``, SI unless the name says otherwise) plus ``in_equilibrium``,
+        ``reason``, ``orbits``, ``n_particles``,
         ``optical_depth``, ``translational_viscosity`` and ``collisional_viscosity``
         [m^2/s], and ``kinetic_estimate`` (the dilute-ring energy balance of the
         scenario's law, ``kinetic.kinetic_dispersion_estimate``).
