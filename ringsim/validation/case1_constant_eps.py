@@ -28,8 +28,8 @@ def histogram_estimator_check(n: int = 400, orbits: float = 4.0, tau: float = 1.
     from ringsim.engine.native import VN_BIN_EDGES
 
     sc = common.sheet_scenario("hist-check", size_distribution=common.MONODISPERSE_1M,
-                        restitution={"model": "constant", "epsilon": 0.5}, tau=tau, n=n,
-                        orbits=orbits, log_collisions=200_000)
+                               restitution={"model": "constant", "epsilon": 0.5}, tau=tau, n=n,
+                               orbits=orbits, log_collisions=200_000)
     built = sheet.build_sheet(sc)
     orbit = sc.orbital_period
     built.sim.integrate(0.5 * orbit, exact_finish_time=0)
@@ -38,7 +38,7 @@ def histogram_estimator_check(n: int = 400, orbits: float = 4.0, tau: float = 1.
     log = built.resolver.stats()["log"]
     counts, _ = np.histogram(log["v_n"], bins=VN_BIN_EDGES)
     estimate = float(np.sum(counts * common.bin_mean_square_speed(counts.astype(float),
-                                                           VN_BIN_EDGES)))
+                                                                  VN_BIN_EDGES)))
     exact = float(np.sum(log["v_n"] ** 2))
     return {"n_collisions": int(log.size), "ratio": estimate / exact}
 
@@ -47,8 +47,8 @@ def measure(tau: float, sizes: Sizes, workdir: Path) -> dict:
     """Run (or reuse) the sheet at optical depth ``tau`` and measure its equilibrium."""
     orbits = sizes.case1_orbits_dilute if tau <= 0.15 else sizes.case1_orbits
     sc = common.sheet_scenario(f"case1-tau{tau:g}", size_distribution=common.MONODISPERSE_1M,
-                        restitution={"model": "constant", "epsilon": EPSILON}, tau=tau,
-                        n=sizes.case1_n, orbits=orbits)
+                               restitution={"model": "constant", "epsilon": EPSILON}, tau=tau,
+                               n=sizes.case1_n, orbits=orbits)
     run = common.run_cached(sc, workdir / f"case1_tau{tau:g}.h5")
     eq = equilibrium(run)
     return {**common.equilibrium_entry(eq, tau), "balance": common.energy_balance(run, eq),

@@ -65,10 +65,10 @@ def excess_kurtosis(run, skip_orbits: float = 3.0) -> dict:
 
 def _threshold_scenario(sizes: Sizes, eps: float, orbits: float):
     sc = common.sheet_scenario(f"case2-eps{eps:.5f}", size_distribution=common.MONODISPERSE_1M,
-                        restitution={"model": "constant", "epsilon": round(eps, 6)},
-                        tau=sizes.case2_tau, n=sizes.case2_n, orbits=orbits,
-                        collision_detection="line", dt=1.0e-3,
-                        initial_dispersion=sizes.case2_initial_dispersion)
+                               restitution={"model": "constant", "epsilon": round(eps, 6)},
+                               tau=sizes.case2_tau, n=sizes.case2_n, orbits=orbits,
+                               collision_detection="line", dt=1.0e-3,
+                               initial_dispersion=sizes.case2_initial_dispersion)
     return with_overrides(sc, {"output.snapshot_every": 1.0})
 
 
@@ -86,9 +86,9 @@ def _tensor_shape(run, skip_orbits: float = 3.0) -> dict:
 def endpoints(sizes: Sizes, workdir: Path) -> dict:
     """The runs well below (settles) and well above (heats) the threshold."""
     settle = common.run_cached(_threshold_scenario(sizes, EPS_LOW, sizes.case2_settle_orbits),
-                        workdir / "case2_settle.h5")
+                               workdir / "case2_settle.h5")
     heat = common.run_cached(_threshold_scenario(sizes, EPS_HIGH, sizes.case2_orbits),
-                      workdir / "case2_heat.h5")
+                             workdir / "case2_heat.h5")
     ts_h = heat.timeseries
     return {"settle": settle, "heat": heat, "eq_settle": equilibrium(settle),
             "g_low": growth_rate(settle, end_orbits=sizes.case2_orbits),  # same window
@@ -104,7 +104,7 @@ def bisect(sizes: Sizes, workdir: Path) -> tuple[dict, float, float]:
     for _ in range(sizes.case2_steps):
         mid = round(0.5 * (lo + hi), 6)
         run = common.run_cached(_threshold_scenario(sizes, mid, sizes.case2_orbits),
-                         workdir / f"case2_eps{mid:.5f}.h5")
+                                workdir / f"case2_eps{mid:.5f}.h5")
         rate = growth_rate(run)
         runs[mid] = (run, rate)
         if rate[0] > 0:

@@ -22,8 +22,8 @@ from ringsim.validation.render import equilibrium_note, fmt
 def measure(tau: float, sizes: Sizes, workdir: Path) -> dict:
     """Run (or reuse) the sheet at optical depth ``tau`` and measure its equilibrium."""
     sc = common.sheet_scenario(f"case3-tau{tau:g}", size_distribution=common.MONODISPERSE_1M,
-                        restitution=common.BRIDGES, tau=tau, n=sizes.case3_n,
-                        orbits=sizes.case3_orbits, planet=common.SATURN)
+                               restitution=common.BRIDGES, tau=tau, n=sizes.case3_n,
+                               orbits=sizes.case3_orbits, planet=common.SATURN)
     run = common.run_cached(sc, workdir / f"case3_tau{tau:g}.h5")
     eq = equilibrium(run)
     return {**common.equilibrium_entry(eq, tau), "eps": common.value(eq["mean_epsilon"]),

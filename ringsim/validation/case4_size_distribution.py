@@ -24,8 +24,8 @@ def measure(sizes: Sizes, workdir: Path) -> dict:
     """Run (or reuse) the sheet; c per size bin, small/large ratio, slope of c(r)."""
     sd = SIZE_DISTRIBUTION
     sc = common.sheet_scenario("case4-powerlaw", size_distribution=sd, restitution=common.BRIDGES,
-                        tau=sizes.case4_tau, n=sizes.case4_n, orbits=sizes.case4_orbits,
-                        planet=common.SATURN, collision_detection="line", dt=1.0e-3)
+                               tau=sizes.case4_tau, n=sizes.case4_n, orbits=sizes.case4_orbits,
+                               planet=common.SATURN, collision_detection="line", dt=1.0e-3)
     run = common.run_cached(sc, workdir / "case4_powerlaw.h5")
     eq = equilibrium(run)
     bins = eq["per_size_bin"]
