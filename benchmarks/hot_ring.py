@@ -77,13 +77,14 @@ def tree_probe(sc, snapshot: dict, t: float, steps: int) -> tuple[float, float]:
                                        geometry.n_root_y, n_root_z, geometry.Omega)
         sim = rebound.Simulation()
         sheet.configure_simulation(sim, geometry, gravity=False, softening=0.0,
-                                   opening_angle=0.0, detection="tree", rand_seed=sc.seed)
+                                   opening_angle=0.0, collision_detection="tree",
+                                   rand_seed=sc.seed)
         sheet.add_particles(sim, arrays, arrays["radius"], arrays["mass"])
         sim.t = t
         sim.minimum_collision_velocity = built.sim.minimum_collision_velocity
         built.resolver.reinstall(sim)
     dt = timestep.auto_dt(arrays, sc.orbital_frequency, sc.integration.dt_safety,
-                       detection="tree")
+                          collision_detection="tree")
     sim.dt = dt
     if steps <= 0:
         return dt, math.nan
@@ -173,14 +174,14 @@ def time_to_equilibrium(args) -> dict:
 
 # --- 2. scaling ------------------------------------------------------------------------------
 
-def scaling_scenario(n: int, tau: float, dispersion: float, detection: str):
+def scaling_scenario(n: int, tau: float, dispersion: float, collision_detection: str):
     return scenario_from_dict({
         "name": "scaling", "seed": 1, "planet": {"Omega": 2.0e-4},
         "particles": {"density": 900.0,
                       "size_distribution": {"kind": "monodisperse", "radius": 1.0}},
         "sheet": {"optical_depth": tau, "n_particles": n, "initial_dispersion": dispersion},
         "restitution": {"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.1},
-        "integration": {"orbits": 1.0, "dt": 1.0e-3, "collision_detection": detection},
+        "integration": {"orbits": 1.0, "dt": 1.0e-3, "collision_detection": collision_detection},
     }, source="<benchmark>")
 
 
@@ -189,13 +190,14 @@ def cost_per_particle_step(n: int, tau: float, dispersion: float, engine: str) -
     sc = scaling_scenario(n, tau, dispersion, "tree" if engine == "tree" else "line")
     built = sheet.build_sheet(sc)
     sim = built.sim
-    if engine == "linetree" or (engine == "sheet" and built.resolver.detector != "sheet"):
+    if engine == "linetree" or (engine == "sheet"
+                                and built.resolver.collision_detection != "line"):
         built.resolver.close()
         if engine == "linetree":
             sim.collision = "linetree"
             install_resolver(sim, sc.restitution_dict())
         else:
-            install_resolver(sim, sc.restitution_dict(), detector="sheet")
+            install_resolver(sim, sc.restitution_dict(), collision_detection="line")
     sim.steps(2)
     steps = max(3, int(3e5 / n))
     c0 = time.process_time()

@@ -1,6 +1,6 @@
 """ringsim: collisional N-body simulations of a planetary-ring patch.
 
-The public API (see CONTRACT.md)::
+The public API (see docs/interface.md)::
 
     sc = ringsim.load_scenario("scenarios/kappa0.yaml")
     path = ringsim.run(sc, output="runs/k0.h5")

@@ -1,4 +1,4 @@
-"""The ``ringsim`` command line (see CONTRACT.md for the commands and exit statuses).
+"""The ``ringsim`` command line (see docs/interface.md for the commands and exit statuses).
 
 Exit status: 0 success; 2 bad input (one line on stderr naming the file and the key, no
 traceback, no output written); 1 anything else.  ``--debug`` shows tracebacks.

@@ -305,7 +305,7 @@ def test_equilibrium_coverage_on_ar1_with_transient():
     means, errs, starts, ok = [], [], [], []
     for _ in range(reps):
         v = mu + amplitude * np.exp(-np.arange(n) / decay) + ar1(rng, n, 0.9, 1.0)
-        res = timeseries.equilibrium(t, v)
+        res = timeseries.stationary_mean(t, v)
         means.append(res.mean)
         errs.append(res.stderr)
         starts.append(res.start_index)
@@ -328,7 +328,7 @@ def test_linear_trend_is_not_equilibrium():
     n = 3000
     t = np.arange(n) * 0.1
     v = 10.0 + 0.02 * t + ar1(rng, n, 0.9, 0.5)  # +6 over the series
-    res = timeseries.equilibrium(t, v)
+    res = timeseries.stationary_mean(t, v)
     assert not res.in_equilibrium and "drifting" in res.reason
     assert res.slope == pytest.approx(0.02, rel=0.2)
 
@@ -336,14 +336,14 @@ def test_linear_trend_is_not_equilibrium():
 def test_short_or_strongly_correlated_series_is_not_equilibrium():
     rng = np.random.default_rng(9)
     v = 5.0 + ar1(rng, 400, 0.99, 1.0)  # tau_int ~ 200: a couple of independent samples
-    res = timeseries.equilibrium(np.arange(400.0), v)
+    res = timeseries.stationary_mean(np.arange(400.0), v)
     assert not res.in_equilibrium and "too short" in res.reason
-    res = timeseries.equilibrium(np.arange(5.0), np.ones(5))
+    res = timeseries.stationary_mean(np.arange(5.0), np.ones(5))
     assert not res.in_equilibrium
 
 
 def test_constant_series_is_exact():
-    res = timeseries.equilibrium(np.arange(100.0), np.full(100, 3.25))
+    res = timeseries.stationary_mean(np.arange(100.0), np.full(100, 3.25))
     assert res.mean == 3.25 and res.stderr == 0.0 and res.in_equilibrium
 
 

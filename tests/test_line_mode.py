@@ -93,7 +93,7 @@ def sheared_box(collision: str, box: float, dt_orbits: float, t: float) -> rebou
 def attach(sim: rebound.Simulation, detection: str, restitution: dict, **kwargs):
     """ringsim's resolver with the sheet detector ("sheet") or REBOUND's search."""
     if detection == "sheet":
-        return install_resolver(sim, restitution, detector="sheet", **kwargs)
+        return install_resolver(sim, restitution, collision_detection="line", **kwargs)
     sim.collision = detection
     return install_resolver(sim, restitution, **kwargs)
 
@@ -293,7 +293,7 @@ def three_bodies(side_mass: float) -> rebound.Simulation:
                          ids=["equal-masses", "grains-on-a-boulder"])
 def test_multi_encounters_count_particles_deflected_twice_in_a_step(side_mass, multi):
     sim = three_bodies(side_mass)
-    handle = install_resolver(sim, CONSTANT_HALF, detector="sheet")
+    handle = install_resolver(sim, CONSTANT_HALF, collision_detection="line")
     sim.steps(1)
     stats = handle.stats()
     assert stats["count"] == 2, "both strikes resolved"
@@ -347,20 +347,20 @@ def ring_arrays(n: int, tau: float, dispersion_rOmega: float, seed: int) -> tupl
 def test_auto_dt_line_keeps_predicted_multi_encounters_below_target():
     dt_max = 1e-3 * ORBIT
     hot, _ = ring_arrays(500, 0.25, 100.0, seed=11)
-    assert timestep.auto_dt(hot, OMEGA, 0.1, detection="line") == pytest.approx(dt_max), \
+    assert timestep.auto_dt(hot, OMEGA, 0.1, collision_detection="line") == pytest.approx(dt_max), \
         "a hot dilute ring runs at the orbit limit"
 
     _, sim, _ = integrate_sheet(cold_dense_scenario("line", 1e-3), 1.0)
     dense = sheet.particle_arrays(sim)
     rate = multi_encounter_rate(dense, OMEGA, MULTI_ENCOUNTER_WINDOW_STEPS * dt_max)
-    dt = timestep.auto_dt(dense, OMEGA, 0.1, detection="line")
+    dt = timestep.auto_dt(dense, OMEGA, 0.1, collision_detection="line")
     assert rate * dt_max > MULTI_ENCOUNTER_TARGET, "the cooled dense ring needs a shorter step"
     assert rate * dt <= MULTI_ENCOUNTER_TARGET < rate * 2.0 * dt, "the largest such step"
     assert math.log2(dt_max / dt) == pytest.approx(round(math.log2(dt_max / dt))), \
         "a power-of-two fraction of 1e-3 orbit"
     # hysteresis: a step in use is kept while the bound has no 1.5 margin above it
-    assert timestep.auto_dt(dense, OMEGA, 0.1, current=dt, detection="line") == dt
-    assert timestep.auto_dt(dense, OMEGA, 0.1, current=dt / 2, detection="line") == dt / 2
+    assert timestep.auto_dt(dense, OMEGA, 0.1, current=dt, collision_detection="line") == dt
+    assert timestep.auto_dt(dense, OMEGA, 0.1, current=dt / 2, collision_detection="line") == dt / 2
 
 
 def cold_dense_scenario(detection: str, dt: float | str, n: int = 300):
@@ -382,9 +382,9 @@ def integrate_sheet(sc, orbits: float, every: float = 0.1):
     c [m/s], H [m], collisions, multi_encounters and predicted fractions per output."""
     built = sheet.build_sheet(sc)
     sim, handle = built.sim, built.resolver
-    if sc.integration.collision_detection == "line" and handle.detector != "sheet":
+    if sc.integration.collision_detection == "line" and handle.collision_detection != "line":
         handle.close()
-        handle = install_resolver(sim, sc.restitution_dict(), detector="sheet")
+        handle = install_resolver(sim, sc.restitution_dict(), collision_detection="line")
     rows = []
     for k in range(1, int(round(orbits / every)) + 1):
         sim.integrate(k * every * ORBIT, exact_finish_time=0)
@@ -414,7 +414,7 @@ def test_cold_dense_equilibrium_agrees_with_tree_reference():
     for detection, dt in (("line", 1e-3), ("tree", "auto")):
         rows, _, _ = integrate_sheet(cold_dense_scenario(detection, dt), 4.0)
         t = np.arange(1, rows.shape[0] + 1) * 0.1
-        results[detection] = [timeseries.equilibrium(t, rows[:, k]) for k in (0, 1)]
+        results[detection] = [timeseries.stationary_mean(t, rows[:, k]) for k in (0, 1)]
     for k, name in enumerate(("velocity dispersion", "thickness")):
         line, tree = results["line"][k], results["tree"][k]
         z = (line.mean - tree.mean) / math.hypot(line.stderr, tree.stderr)
@@ -437,7 +437,7 @@ def test_line_mode_resume_from_binary_is_bit_identical(tmp_path):
         warnings.filterwarnings("ignore", message="You have to reset function pointers")
         resumed = rebound.Simulation(str(path))
     resumed.rand_seed = rand_seed
-    install_resolver(resumed, sc.restitution_dict(), detector="sheet")
+    install_resolver(resumed, sc.restitution_dict(), collision_detection="line")
     resumed.integrate(0.6 * ORBIT, exact_finish_time=0)
     assert resumed.t == sim.t and resumed.collisions_log_n == sim.collisions_log_n
     np.testing.assert_array_equal(phase_space(resumed), phase_space(sim))
@@ -446,14 +446,14 @@ def test_line_mode_resume_from_binary_is_bit_identical(tmp_path):
 # --- installation ----------------------------------------------------------------------------
 
 def test_sheet_detector_installation_is_checked():
-    with pytest.raises(ValueError, match="detector"):
-        install_resolver(free_box("none"), CONSTANT_HALF, detector="octree")
+    with pytest.raises(ValueError, match="collision_detection"):
+        install_resolver(free_box("none"), CONSTANT_HALF, collision_detection="octree")
     sim = free_box("none")
     sim.boundary = "open"
     with pytest.raises(ValueError, match="shear"):
-        install_resolver(sim, CONSTANT_HALF, detector="sheet")
+        install_resolver(sim, CONSTANT_HALF, collision_detection="line")
     sim = free_box("tree")
-    handle = install_resolver(sim, CONSTANT_HALF, detector="sheet")
+    handle = install_resolver(sim, CONSTANT_HALF, collision_detection="line")
     assert sim.collision == "none", "REBOUND's own search is switched off"
     handle.close()
     assert sim.extras is None

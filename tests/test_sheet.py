@@ -104,9 +104,9 @@ def test_auto_dt_line_mode_is_bounded_by_the_orbit_and_encounters():
               "vy": rng.normal(0, 0.01, n), "vz": rng.normal(0, 0.01, n),
               "radius": np.full(n, 0.5), "mass": np.full(n, 470.0)}
     dilute["vy"] = dilute["vy"] - 1.5 * Omega * dilute["x"]
-    assert timestep.auto_dt(dilute, Omega, 0.1, detection="line") == dt_max
+    assert timestep.auto_dt(dilute, Omega, 0.1, collision_detection="line") == dt_max
     crowded = _arrays(1e-3)
-    dt = timestep.auto_dt(crowded, Omega, 0.1, detection="line")
+    dt = timestep.auto_dt(crowded, Omega, 0.1, collision_detection="line")
     assert dt < dt_max and math.log2(dt_max / dt) == int(math.log2(dt_max / dt))
 
 

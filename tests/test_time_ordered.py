@@ -146,7 +146,7 @@ def test_three_body_step_equals_ten_short_steps(c_on_course, sheared):
     speed = 5.0 / dt                                   # [m/s]: 5 m per step, 2 diameters
     one = three_body_sim(dt, dt, speed, c_on_course, sheared)
     ten = three_body_sim(dt / 10, dt, speed, c_on_course, sheared)
-    handles = [install_resolver(s, EPS_HALF, detector="sheet") for s in (one, ten)]
+    handles = [install_resolver(s, EPS_HALF, collision_detection="line") for s in (one, ten)]
     start = phase_space(one)
     one.steps(1)
     ten.steps(10)
@@ -230,7 +230,7 @@ def resolve_one_step(sim: rebound.Simulation, handle) -> None:
 
 def test_hot_sheet_step_leaves_no_overlap_and_conserves_momentum():
     sim = hot_sheet(seed=7)
-    handle = install_resolver(sim, EPS_HALF, detector="sheet")
+    handle = install_resolver(sim, EPS_HALF, collision_detection="line")
     masses = np.array([p.m for p in sim.particles])
     radii = np.array([p.r for p in sim.particles])
     # Move the particles on by one step along straight lines: the state is then the end of
@@ -265,7 +265,7 @@ def test_hot_sheet_step_leaves_no_overlap_and_conserves_momentum():
 
     # Deterministic: the same state resolved again gives the same bits.
     again = hot_sheet(seed=7)
-    handle_again = install_resolver(again, EPS_HALF, detector="sheet")
+    handle_again = install_resolver(again, EPS_HALF, collision_detection="line")
     again.set_serialized_particle_data(xyz=np.ascontiguousarray(end[:, :3]))
     resolve_one_step(again, handle_again)
     np.testing.assert_array_equal(phase_space(again), after)
@@ -288,7 +288,7 @@ def test_perfectly_inelastic_chain_is_cut_and_conserves_momentum():
     sim.add(m=1e3, r=1.0, x=-2.0 - 0.5 * speed * 100.0, vx=speed)
     sim.add(m=1e3, r=1.0, x=0.0)
     sim.add(m=1e3, r=1.0, x=2.0)                         # touching B, at rest
-    handle = install_resolver(sim, {"model": "constant", "epsilon": 0.0}, detector="sheet")
+    handle = install_resolver(sim, {"model": "constant", "epsilon": 0.0}, collision_detection="line")
     sim.steps(1)
     count = handle.stats()["count"]
     assert 8 < count <= 64, f"{count} collisions: a chain, cut"

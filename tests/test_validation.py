@@ -1,4 +1,4 @@
-"""The validation ladder of issue 6 (analysis/validation.py) at small sizes.
+"""The validation ladder of issue 6 (ringsim.validation) at small sizes.
 
 Each test runs one reference case with fewer particles and orbits than the documented
 run (docs/validation.md, "Reference cases") and asserts the agreement the report states,
@@ -23,38 +23,36 @@ so a change that breaks the physics fails here.  Tolerances, per case:
    ringsim.restitution within 1e-12, the eps applied in head-on pairs within 1e-9, and
    each figure's curve sampled by >= 20 logged collisions at 0.01-2 cm/s.
 
-All tests are marked slow (about a minute each): ``pytest -m slow tests/test_validation.py``.
+The case tests are marked slow (about a minute each): ``pytest -m slow
+tests/test_validation.py``.  Two fast tests check the renderer of docs/validation.md: the
+line-mode section is rebuilt from its stored numbers to the letter, and case results
+survive their JSON round trip with the same Markdown.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
+import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from ringsim.validation.case1_constant_eps import case1
+from ringsim.validation.case2_threshold import case2
+from ringsim.validation.case3_bridges_identical import case3
+from ringsim.validation.case4_size_distribution import case4
+from ringsim.validation.case5_rebound_example import case5
+from ringsim.validation.case6_dilley_figures import case6
+from ringsim.validation.common import QUICK, CaseResult, Comparison, load_results, save_result
+from ringsim.validation.render import line_mode_markdown, section_markdown
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
-@pytest.fixture(scope="module")
-def validation():
-    """analysis/validation.py as a module (it is a script, not part of the package)."""
-    name = "ringsim_validation_ladder"
-    if name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(name, ROOT / "analysis" / "validation.py")
-        module = importlib.util.module_from_spec(spec)
-        # dataclasses look their module up in sys.modules while the class is created
-        sys.modules[name] = module
-        spec.loader.exec_module(module)
-    return sys.modules[name]
-
-
-def small(validation, **changes):
-    return dataclasses.replace(validation.QUICK, **changes)
+def small(**changes):
+    return dataclasses.replace(QUICK, **changes)
 
 
 def row(result, prefix: str):
@@ -64,9 +62,9 @@ def row(result, prefix: str):
 
 
 @pytest.mark.slow
-def test_case1_constant_epsilon_dense_rings(validation, tmp_path):
-    sizes = small(validation, case1_taus=(0.1, 0.5, 1.5))
-    result = validation.case1(sizes, tmp_path, tmp_path / "fig")
+def test_case1_constant_epsilon_dense_rings(tmp_path):
+    sizes = small(case1_taus=(0.1, 0.5, 1.5))
+    result = case1(sizes, tmp_path, tmp_path / "fig")
     table = result.extra["table"]
     assert [t["tau"] for t in table] == [0.1, 0.5, 1.5]
     for t in table:
@@ -84,9 +82,9 @@ def test_case1_constant_epsilon_dense_rings(validation, tmp_path):
 
 
 @pytest.mark.slow
-def test_case2_gt78_threshold(validation, tmp_path):
-    sizes = small(validation)
-    result = validation.case2(sizes, tmp_path, tmp_path / "fig")
+def test_case2_gt78_threshold(tmp_path):
+    sizes = small()
+    result = case2(sizes, tmp_path, tmp_path / "fig")
     low, high = result.extra["g_low"], result.extra["g_high"]
     assert low[0] < -5.0 * low[1], f"eps = 0.3 must cool: rate {low}"
     assert high[0] > 5.0 * high[1], f"eps = 0.9 must heat: rate {high}"
@@ -103,9 +101,9 @@ def test_case2_gt78_threshold(validation, tmp_path):
 
 
 @pytest.mark.slow
-def test_case3_bridges_near_monolayer(validation, tmp_path):
-    sizes = small(validation, case3_taus=(0.25, 1.0))
-    result = validation.case3(sizes, tmp_path, tmp_path / "fig")
+def test_case3_bridges_near_monolayer(tmp_path):
+    sizes = small(case3_taus=(0.25, 1.0))
+    result = case3(sizes, tmp_path, tmp_path / "fig")
     for t in result.extra["table"]:
         assert 1.0 <= t["c"][0] <= 5.0, f"c = {t['c'][0]} r Omega at tau {t['tau']}"
         assert t["h"][0] <= 3.0, f"H = {t['h'][0]} r at tau {t['tau']}"
@@ -114,9 +112,9 @@ def test_case3_bridges_near_monolayer(validation, tmp_path):
 
 
 @pytest.mark.slow
-def test_case4_size_distribution_far_from_equipartition(validation, tmp_path):
-    sizes = small(validation)
-    result = validation.case4(sizes, tmp_path, tmp_path / "fig")
+def test_case4_size_distribution_far_from_equipartition(tmp_path):
+    sizes = small()
+    result = case4(sizes, tmp_path, tmp_path / "fig")
     ratio, ratio_err = result.extra["ratio"]
     assert 2.0 - 3.0 * ratio_err <= ratio <= 5.0 + 3.0 * ratio_err, f"ratio {ratio}"
     assert ratio < result.extra["equipartition"] / 3.0, "far from equipartition"
@@ -125,9 +123,9 @@ def test_case4_size_distribution_far_from_equipartition(validation, tmp_path):
 
 
 @pytest.mark.slow
-def test_case5_ringsim_matches_rebound_builtin_resolver(validation, tmp_path):
-    sizes = small(validation)
-    result = validation.case5(sizes, tmp_path, tmp_path / "fig")
+def test_case5_ringsim_matches_rebound_builtin_resolver(tmp_path):
+    sizes = small()
+    result = case5(sizes, tmp_path, tmp_path / "fig")
     assert result.extra["lockstep_first_step_m"] < 1e-6, "same physics in the first step"
     assert not result.extra["guard_events"], "the ringsim run kept REBOUND's box"
     for c in result.comparisons:
@@ -136,9 +134,9 @@ def test_case5_ringsim_matches_rebound_builtin_resolver(validation, tmp_path):
 
 
 @pytest.mark.slow
-def test_case6_dilley_figures_in_the_running_resolver(validation, tmp_path):
-    sizes = small(validation)
-    result = validation.case6(sizes, tmp_path, tmp_path / "fig")
+def test_case6_dilley_figures_in_the_running_resolver(tmp_path):
+    sizes = small()
+    result = case6(sizes, tmp_path, tmp_path / "fig")
     for c in result.comparisons:
         assert c.ringsim <= c.ref_high, f"{c.quantity}: {c.ringsim}"
     groups = result.extra["groups"]
@@ -146,3 +144,32 @@ def test_case6_dilley_figures_in_the_running_resolver(validation, tmp_path):
     for g in groups:
         assert g["max_dev"] <= 1e-12, f"{g['label']}: eps differs from the paper's"
         assert g["n_in_range"] >= 20, f"{g['label']}: too few impacts at 0.01-2 cm/s"
+
+
+def test_line_mode_section_is_rendered_from_its_stored_numbers():
+    summary = json.loads((ROOT / "analysis" / "data" / "line_mode_validation.json").read_text())
+    section = line_mode_markdown(summary, replicas=6)
+    assert section.startswith("## Line-mode collision detection")
+    assert section.strip() in (ROOT / "docs" / "validation.md").read_text(), \
+        "docs/validation.md's line-mode section is not what its stored numbers render to"
+
+
+def test_case_results_round_trip_through_json_to_the_same_markdown(tmp_path):
+    rows = [Comparison("c/(rΩ), τ = 0.5", 1.716, 0.011, reference="a few: 1–5", source="s",
+                       kind="range", ref_low=1.0, ref_high=5.0),
+            Comparison("ratio", 2.4, 0.1, reference="6.3", source="equipartition",
+                       ref_value=6.3, expected="disagree"),
+            Comparison("ε_cr", 0.648, 0.004, reference="0.63", source="GT78",
+                       ref_value=0.63, ref_err=0.005)]
+    result = CaseResult(2, "title", "setup", rows, "discussion", figure="f.png",
+                        cpu_seconds=12.0, sizes="quick", extra={"x": np.float64(1.5)})
+    save_result(result, tmp_path)
+    loaded = load_results(tmp_path)
+    assert list(loaded) == [2]
+    assert section_markdown(loaded, "fig") == section_markdown({2: result}, "fig")
+    assert [c.sigma for c in loaded[2].comparisons] == [
+        0.0, pytest.approx(-39.0), pytest.approx(18 / math.hypot(4, 5))]
+    assert [c.as_expected for c in loaded[2].comparisons] == [True, True, True]
+    assert loaded[2].passed
+    assert "| ε_cr | 0.6480 ± 0.0040 | 0.63 | GT78 | +2.8σ | agrees |" in \
+        section_markdown(loaded, "fig")

@@ -2,8 +2,10 @@
 
 The equilibrium window is found on the velocity dispersion and the thickness (MSER-5 on
 each, the later start wins); every quantity is then averaged over that same window with a
-standard error corrected for autocorrelation (``timeseries.equilibrium``).  A run whose
+standard error corrected for autocorrelation (``timeseries.stationary_mean``).  A run whose
 window is too short or still drifts is reported as not in equilibrium, with the reason.
+The keys of the result are part of the interface users rely on: docs/interface.md,
+"Equilibrium JSON".
 """
 
 from __future__ import annotations
@@ -53,8 +55,9 @@ def equilibrium(run) -> dict:
     Returns
     -------
     dict
-        CONTRACT.md keys (each number ``{"mean", "stderr"}``, SI unless the name says
-        otherwise) plus ``in_equilibrium``, ``reason``, ``orbits``, ``n_particles``,
+        The keys of docs/interface.md "Equilibrium JSON" (each number ``{"mean",
+        "stderr"}``, SI unless the name says otherwise) plus ``in_equilibrium``,
+        ``reason``, ``orbits``, ``n_particles``,
         ``optical_depth``, ``translational_viscosity`` and ``collisional_viscosity``
         [m^2/s], and ``kinetic_estimate`` (the dilute-ring energy balance of the
         scenario's law, ``kinetic.kinetic_dispersion_estimate``).
@@ -71,8 +74,8 @@ def equilibrium(run) -> dict:
     Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
 
     # rows 1.. (row 0 is the initial state, before any collision)
-    c_fit = timeseries.equilibrium(t[1:], ts["velocity_dispersion"][1:])
-    h_fit = timeseries.equilibrium(t[1:], ts["thickness"][1:])
+    c_fit = timeseries.stationary_mean(t[1:], ts["velocity_dispersion"][1:])
+    h_fit = timeseries.stationary_mean(t[1:], ts["thickness"][1:])
     start = 1 + max(c_fit.start_index, h_fit.start_index)
     in_eq = bool(c_fit.in_equilibrium and h_fit.in_equilibrium)
     reasons = []

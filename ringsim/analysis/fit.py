@@ -426,7 +426,7 @@ def fit_model(data: RestitutionData, model: str) -> dict:
     -------
     dict
         ``{"model", "parameters": {name: {"value", "stderr", "fixed"}}, "chi2",
-        "reduced_chi2", "aic", "n_points"}`` as in CONTRACT.md, plus ``n_free_parameters``,
+        "reduced_chi2", "aic", "n_points"}`` as in docs/interface.md, plus ``n_free_parameters``,
         ``sigma_source``, ``aic_definition``, ``units`` (of each parameter), ``note``,
         ``success`` and ``message`` of the optimizer.  Parameters are SI (v_c in m/s);
         stderr is None for a fixed parameter or when the data cannot separate the

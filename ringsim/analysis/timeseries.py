@@ -141,7 +141,7 @@ def autocorrelated_mean(values: ArrayLike,
     """Mean of a stationary series and its standard error, corrected for autocorrelation.
 
     stderr = sqrt(var tau_int / n) with ``integrated_autocorrelation_time``; no transient
-    is removed (see ``equilibrium`` for that).  Non-finite samples are dropped.
+    is removed (see ``stationary_mean`` for that).  Non-finite samples are dropped.
 
     Parameters
     ----------
@@ -166,10 +166,11 @@ def autocorrelated_mean(values: ArrayLike,
     return float(np.mean(v)), math.sqrt(float(np.var(v)) * tau / v.size), v.size / tau
 
 
-def equilibrium(series_t: ArrayLike, series_values: ArrayLike, *, min_fraction: float = 0.5,
-                batch_size: int = 5, min_effective_samples: float = 20.0,
-                trend_sigma: float = 3.0, max_relative_drift: float = 0.05,
-                window_factor: float = 5.0) -> EquilibriumResult:
+def stationary_mean(series_t: ArrayLike, series_values: ArrayLike, *,
+                    min_fraction: float = 0.5, batch_size: int = 5,
+                    min_effective_samples: float = 20.0, trend_sigma: float = 3.0,
+                    max_relative_drift: float = 0.05,
+                    window_factor: float = 5.0) -> EquilibriumResult:
     """Equilibrium mean and its standard error of a time series, with a drift test.
 
     1. The transient is cut by MSER-5 (``mser_truncation``), discarding at most

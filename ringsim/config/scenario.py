@@ -69,7 +69,7 @@ __all__ = [
     "Restitution",
     "Scenario",
     "ScenarioError",
-    "Sheet",
+    "SheetConfig",
     "SizeDistribution",
     "load_scenario",
     "scenario_from_dict",
@@ -194,7 +194,7 @@ class Particles:
 
 
 @dataclass(frozen=True)
-class Sheet:
+class SheetConfig:
     """The shearing-sheet patch.
 
     Attributes
@@ -350,7 +350,7 @@ class Scenario:
     description: str
     planet: Planet
     particles: Particles
-    sheet: Sheet
+    sheet: SheetConfig
     restitution: Restitution
     integration: Integration
     output: Output
@@ -498,7 +498,7 @@ def _read_particles(top: Section) -> Particles:
     return Particles(density=density, size_distribution=_read_size_distribution(sec))
 
 
-def _read_sheet(top: Section) -> Sheet:
+def _read_sheet(top: Section) -> SheetConfig:
     sec = top.section("sheet", keys=_SECTION_KEYS["sheet"])
     sec.check_keys(_SECTION_KEYS["sheet"])
     d = DEFAULTS
@@ -508,7 +508,7 @@ def _read_sheet(top: Section) -> Sheet:
             if sec.has(name):
                 raise sec.error(name, "only used with self-gravity",
                                 "set sheet.gravity: true, or remove the key")
-    return Sheet(
+    return SheetConfig(
         optical_depth=sec.number("optical_depth", d["sheet.optical_depth"], gt=0.0,
                                  le=MAX_OPTICAL_DEPTH),
         n_particles=sec.integer("n_particles", d["sheet.n_particles"], ge=2),
@@ -597,7 +597,7 @@ def _read_output(top: Section, name: str) -> Output:
     )
 
 
-def _check_geometry(top: Section, particles: Particles, sheet: Sheet,
+def _check_geometry(top: Section, particles: Particles, sheet: SheetConfig,
                     probe: Scenario) -> None:
     """The box must be wider and (if given) taller than the largest particle."""
     r_max = particles.size_distribution.largest_radius

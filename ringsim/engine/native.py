@@ -173,8 +173,10 @@ _SHEET_STEP_ADDRESS = (ctypes.cast(_LIB.rs_sheet_step, ctypes.c_void_p).value
                        if hasattr(_LIB, "rs_sheet_step") else None)
 #: Type of REBOUND's post_timestep_modifications pointer.
 _POST_TIMESTEP = ctypes.CFUNCTYPE(None, ctypes.POINTER(rebound.Simulation))
-#: Collision searches: REBOUND's own (sim.collision as set) or ringsim's sheet detector.
-DETECTORS = ("rebound", "sheet")
+#: Values of ``collision_detection`` (the scenario's ``integration.collision_detection``):
+#: None keeps the simulation's REBOUND search as set, "tree" is REBOUND's tree search,
+#: "line" ringsim's swept-sphere sheet detector.
+COLLISION_DETECTIONS = (None, "tree", "line")
 #: Error codes of the sheet detector (RS_DETECT_* in rs_sheet_detect.c).
 DETECTOR_ERRORS = {0: "none", 1: "out of memory",
                    2: "boundary is neither 'shear' nor 'periodic'",

@@ -16,10 +16,10 @@ Collision search: with REBOUND's ``tree`` or ``direct`` search a pair is resolve
 overlaps and approaches at the end of the step; with ``line`` or ``linetree`` at its first
 contact on the straight relative path within the step, after which both particles move on
 with their new velocities for the rest of the step (see the header of the C file).
-``install_resolver(..., detector="sheet")`` replaces REBOUND's search by ringsim's own
-swept-sphere search for shearing sheets (``ringsim/csrc/rs_sheet_detect.c``): cells in
-the shear frame, searches widened by the speeds relative to the shear flow only, contacts
-resolved as in ``linetree`` mode.  Its cost per particle-step does not grow with the box.
+``install_resolver(..., collision_detection="line")`` replaces REBOUND's search by
+ringsim's own swept-sphere search for shearing sheets (``ringsim/csrc/rs_sheet_detect.c``):
+cells in the shear frame, searches widened by the speeds relative to the shear flow only,
+contacts resolved as in ``linetree`` mode.  Its cost per particle-step does not grow with the box.
 
 Lifetime: the handle owns the C memory of parameters and statistics and frees it when
 closed or garbage-collected.  ``install_resolver`` stores the handle in the simulation
@@ -71,9 +71,9 @@ from ringsim.engine.native import (
     _POST_TIMESTEP,
     _RESOLVE_ADDRESS,
     _SHEET_STEP_ADDRESS,
+    COLLISION_DETECTIONS,
     COLLISION_DTYPE,
     DETECTOR_ERRORS,
-    DETECTORS,
     LOG_DTYPE,
     MODEL_CODES,
     ONE_MINUS_EPSILON_BIN_EDGES,
@@ -125,20 +125,23 @@ class ResolverHandle:
         Number of sampled collisions kept (ring buffer); 0 disables the log.
     log_every : int
         Sampling stride: every ``log_every``-th resolved collision is logged.
-    detector : "rebound" or "sheet"
-        Collision search.  "rebound": REBOUND's own, as set in ``sim.collision`` (``tree``
-        and ``direct`` report overlaps at step ends, ``line`` and ``linetree`` swept paths).
-        "sheet": ringsim's swept-sphere search for shear-periodic (or periodic) boxes
-        (``rs_sheet_detect.c``): :meth:`reinstall` sets ``sim.collision = "none"`` and
-        runs the search and the contact-time resolution as REBOUND's
+    collision_detection : None, "tree" or "line"
+        Collision search, the word of the scenario's ``integration.collision_detection``.
+        None: REBOUND's own search, as set in ``sim.collision`` (``tree`` and ``direct``
+        report overlaps at step ends, ``line`` and ``linetree`` swept paths).  "tree":
+        the same, for a simulation whose ``sim.collision`` is REBOUND's ``tree`` (checked).
+        "line": ringsim's swept-sphere sheet detector for shear-periodic (or periodic)
+        boxes (``rs_sheet_detect.c``): :meth:`reinstall` sets ``sim.collision = "none"``
+        and runs the search and the contact-time resolution as REBOUND's
         ``post_timestep_modifications``, once per step, before REBOUND wraps the particles.
     """
 
     def __init__(self, restitution: Mapping[str, Any], *, log_capacity: int = 0,
-                 log_every: int = 1, detector: str = "rebound"):
-        if detector not in DETECTORS:
-            raise ValueError(f"detector: must be one of {DETECTORS}, got {detector!r}")
-        if detector == "sheet" and _SHEET_STEP_ADDRESS is None:
+                 log_every: int = 1, collision_detection: str | None = None):
+        if collision_detection not in COLLISION_DETECTIONS:
+            raise ValueError(f"collision_detection: must be one of {COLLISION_DETECTIONS}, "
+                             f"got {collision_detection!r}")
+        if collision_detection == "line" and _SHEET_STEP_ADDRESS is None:
             raise ImportError("ringsim._resolver was built without rs_sheet_detect.c; add it "
                               "to setup.py's sources and rebuild "
                               "(`python setup.py build_ext --inplace`)")
@@ -157,7 +160,7 @@ class ResolverHandle:
         self.parameters = dict(params)
         self.log_capacity = int(log_capacity)
         self.log_every = int(log_every)
-        self.detector = detector
+        self.collision_detection = collision_detection
         self._address: int | None = address
         self._struct = _Resolver.from_address(address)
         # Function pointers into the loaded library; kept here so they live with the handle.
@@ -198,21 +201,24 @@ class ResolverHandle:
         if extras not in (None, address) and not isinstance(previous, ResolverHandle):
             raise ValueError("sim.extras is already used by another library (REBOUNDx?); "
                              "ringsim's resolver needs it to find its parameters")
-        if self.detector == "sheet":
+        if self.collision_detection == "tree" and sim.collision != "tree":
+            raise ValueError(f"collision_detection 'tree' needs sim.collision = 'tree', "
+                             f"the simulation has {sim.collision!r}")
+        if self.collision_detection == "line":
             if sim.boundary not in ("shear", "periodic"):
-                raise ValueError(f"detector 'sheet' needs boundary 'shear' or 'periodic', "
-                                 f"the simulation has {sim.boundary!r}")
+                raise ValueError(f"collision_detection 'line' needs boundary 'shear' or "
+                                 f"'periodic', the simulation has {sim.boundary!r}")
             post = _function_address(sim._post_timestep_modifications)
             if post not in (None, _SHEET_STEP_ADDRESS):
-                raise ValueError("sim.post_timestep_modifications is already set; detector "
-                                 "'sheet' runs there")
+                raise ValueError("sim.post_timestep_modifications is already set; "
+                                 "collision_detection 'line' runs its search there")
         if isinstance(previous, ResolverHandle) and previous is not self:
             previous._sim = None    # the old resolver's statistics stay readable
         if self._sim is not None and self._sim is not sim:
             _detach(self._sim, self)
         sim.extras = address
         sim._collision_resolve = self._resolve_fp
-        if self.detector == "sheet":
+        if self.collision_detection == "line":
             sim.collision = "none"
             sim._post_timestep_modifications = self._sheet_step_fp
         sim._extras_ref = self
@@ -316,8 +322,8 @@ class ResolverHandle:
         dict with ``steps`` (searches run), ``candidates`` (pairs whose straight paths
         were tested), ``reports`` (pairs passed to the resolver), ``cells`` and
         ``cell_size`` [m] of the last search's grid, and ``error`` (text; "none" if the
-        last search succeeded).  All zero before the first search or for
-        ``detector="rebound"``.
+        last search succeeded).  All zero before the first search or without
+        ``collision_detection="line"``.
         """
         counters = (ctypes.c_int64 * 5)()
         cell_size = ctypes.c_double()
@@ -445,7 +451,7 @@ def collision_records(pairs: Any, ghosts: Any = None) -> np.ndarray:
 
 def install_resolver(sim: rebound.Simulation, restitution: Mapping[str, Any], *,
                      log_capacity: int = 0, log_every: int = 1,
-                     detector: str = "rebound") -> ResolverHandle:
+                     collision_detection: str | None = None) -> ResolverHandle:
     """Put ringsim's C collision resolver with the given restitution law into ``sim``.
 
     Parameters
@@ -461,9 +467,11 @@ def install_resolver(sim: rebound.Simulation, restitution: Mapping[str, Any], *,
         Number of sampled collisions kept in C (0: no log).
     log_every : int
         Log every ``log_every``-th collision.
-    detector : "rebound" or "sheet"
-        "rebound" keeps the simulation's REBOUND collision search; "sheet" replaces it by
-        ringsim's swept-sphere search for shearing sheets (see :class:`ResolverHandle`).
+    collision_detection : None, "tree" or "line"
+        None keeps the simulation's REBOUND collision search (``tree``, ``direct``,
+        ``line`` or ``linetree``, as set in ``sim.collision``); "tree" checks that it is
+        REBOUND's tree search; "line" replaces it by ringsim's swept-sphere sheet detector
+        for shearing sheets (see :class:`ResolverHandle`).
 
     Returns
     -------
@@ -472,7 +480,7 @@ def install_resolver(sim: rebound.Simulation, restitution: Mapping[str, Any], *,
         ``sim``; keep it to read the statistics.
     """
     handle = ResolverHandle(restitution, log_capacity=log_capacity, log_every=log_every,
-                            detector=detector)
+                            collision_detection=collision_detection)
     return handle.reinstall(sim)
 
 

@@ -203,7 +203,7 @@ class Runner:
         self.handle = install_resolver(
             sim, self.scenario.restitution_dict(),
             log_capacity=self.scenario.output.log_collisions,
-            detector=sheet.detector_for(self.scenario.integration.collision_detection))
+            collision_detection=self.scenario.integration.collision_detection)
         runfile.set_attributes(self.path, status="running")
         self.wall_before = float(run.attrs.get("wall_time_s", 0.0))
         if new_orbits > old_orbits:
@@ -283,7 +283,7 @@ class Runner:
         due = integ.collision_detection == "tree" or self.state.rows % LINE_DT_EVERY == 1
         if integ.dt == "auto" and due:
             dt = timestep.auto_dt(arrays, self.Omega, integ.dt_safety, current=self.sim.dt,
-                               detection=integ.collision_detection)
+                               collision_detection=integ.collision_detection)
             if dt != self.sim.dt:
                 self._guard_event(f"dt auto: {self.sim.dt:.6g} s -> {dt:.6g} s "
                                   f"({dt / self.orbit:.3g} orbit)", show=False)

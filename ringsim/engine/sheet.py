@@ -169,8 +169,8 @@ def initial_state(radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
 # --- the simulation ----------------------------------------------------------------------------
 
 def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gravity: bool,
-                         softening: float, opening_angle: float, detection: str,
-                         rand_seed: int) -> None:
+                         softening: float, opening_angle: float,
+                         collision_detection: str, rand_seed: int) -> None:
     """Set a REBOUND simulation up as a shearing sheet (no particles added).
 
     Parameters
@@ -178,7 +178,8 @@ def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gr
     geometry : SheetGeometry
     gravity : bool
         Tree self-gravity with ``softening`` [m] and ``opening_angle`` [rad].
-    detection : "tree" (overlaps at step ends) or "line" (REBOUND's linetree)
+    collision_detection : "tree" (overlaps at step ends) or "line" (swept paths: REBOUND's
+        linetree here; ``install_resolver`` replaces it by ringsim's sheet detector)
     rand_seed : int
         Seed of REBOUND's collision shuffle.
     """
@@ -191,7 +192,7 @@ def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gr
     sim.N_root_x, sim.N_root_y, sim.N_root_z = (geometry.n_root_x, geometry.n_root_y,
                                                 geometry.n_root_z)
     sim.boundary = "shear"
-    sim.collision = "linetree" if detection == "line" else "tree"
+    sim.collision = "linetree" if collision_detection == "line" else "tree"
     if gravity:
         sim.G = G_SI
         sim.gravity = "tree"
@@ -215,7 +216,7 @@ def add_particles(sim: rebound.Simulation, state: dict[str, np.ndarray], radii: 
 
 
 @dataclass
-class Sheet:
+class BuiltSheet:
     """A built sheet: the simulation, its geometry and what the run loop needs."""
 
     sim: rebound.Simulation
@@ -238,7 +239,7 @@ def particle_arrays(sim: rebound.Simulation) -> dict[str, np.ndarray]:
             "vy": vxyz[:, 1], "vz": vxyz[:, 2], "radius": r, "mass": m}
 
 
-def build_sheet(scenario) -> Sheet:
+def build_sheet(scenario) -> BuiltSheet:
     """Scenario -> ready-to-run shearing sheet with ringsim's native resolver installed.
 
     The scenario's ``seed`` seeds both numpy (radii, positions, velocities) and REBOUND's
@@ -267,26 +268,16 @@ def build_sheet(scenario) -> Sheet:
     configure_simulation(sim, geometry, gravity=sheet_cfg.gravity,
                          softening=scenario.softening_length or 0.0,
                          opening_angle=sheet_cfg.opening_angle or 0.0,
-                         detection=scenario.integration.collision_detection,
+                         collision_detection=scenario.integration.collision_detection,
                          rand_seed=scenario.seed)
     add_particles(sim, state, radii, masses)
     sim.minimum_collision_velocity = minimum_collision_velocity(radii, Omega)
     handle = install_resolver(sim, scenario.restitution_dict(),
                               log_capacity=scenario.output.log_collisions,
-                              detector=detector_for(scenario.integration.collision_detection))
+                              collision_detection=scenario.integration.collision_detection)
     edges = size_bin_edges(particles.size_distribution)
     sim.dt = choose_dt(scenario.integration, particle_arrays(sim), Omega)
-    return Sheet(sim, geometry, radii, masses, edges, handle)
-
-
-def detector_for(detection: str) -> str:
-    """The resolver's collision search for a scenario's ``collision_detection``.
-
-    ``line`` uses ringsim's swept-sphere search for shearing sheets
-    (``rs_sheet_detect.c``), whose cost per particle-step does not grow with the box as
-    that of REBOUND's ``linetree`` does; ``tree`` uses REBOUND's tree search.
-    """
-    return "sheet" if detection == "line" else "rebound"
+    return BuiltSheet(sim, geometry, radii, masses, edges, handle)
 
 
 def initial_z_half_height(sheet_cfg, r_mean: float, dispersion: float, Omega: float) -> float:
@@ -389,7 +380,7 @@ def enlarged_copy(sim: rebound.Simulation, geometry: SheetGeometry,
     new = rebound.Simulation()
     configure_simulation(new, new_geometry, gravity=sim.gravity == "tree",
                          softening=sim.softening, opening_angle=math.sqrt(sim.opening_angle2),
-                         detection="tree" if sim.collision == "tree" else "line",
+                         collision_detection="tree" if sim.collision == "tree" else "line",
                          rand_seed=0)
     arrays = particle_arrays(sim)
     add_particles(new, arrays, arrays["radius"], arrays["mass"])

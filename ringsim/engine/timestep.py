@@ -1,4 +1,4 @@
-"""The time-step policy: ``dt: auto`` for tree and line detection, and its checks."""
+"""The time-step policy: ``dt: auto`` for tree and line collision detection, and its checks."""
 
 from __future__ import annotations
 
@@ -177,7 +177,7 @@ def relative_speed_bound(arrays: dict[str, np.ndarray], Omega: float) -> float:
 
 
 def auto_dt(arrays: dict[str, np.ndarray], Omega: float, safety: float,
-            current: float | None = None, detection: str = "tree") -> float:
+            current: float | None = None, collision_detection: str = "tree") -> float:
     """Time step [s] of ``dt: auto``.
 
     Line detection (swept paths, contact-time resolution) finds every crossing whatever the
@@ -210,10 +210,10 @@ def auto_dt(arrays: dict[str, np.ndarray], Omega: float, safety: float,
     safety : float [dimensionless], fraction of the smallest radius (tree detection)
     current : float [s], optional
         The step in use.
-    detection : "tree" or "line"
+    collision_detection : "tree" or "line"
     """
     dt_max = DT_MAX_ORBITS * 2.0 * math.pi / Omega
-    if detection == "line":
+    if collision_detection == "line":
         from ringsim.engine.timestep import (
             MULTI_ENCOUNTER_TARGET,
             MULTI_ENCOUNTER_WINDOW_STEPS,
@@ -252,7 +252,7 @@ def choose_dt(integration, arrays: dict[str, np.ndarray], Omega: float) -> float
     """
     if integration.dt == "auto":
         return auto_dt(arrays, Omega, integration.dt_safety,
-                       detection=integration.collision_detection)
+                       collision_detection=integration.collision_detection)
     return float(integration.dt) * (2.0 * math.pi / Omega)  # as SheetGeometry.orbit
 
 

@@ -1,6 +1,6 @@
 """The run file (HDF5): time series, snapshots, checkpoint and the scenario that made it.
 
-Layout (CONTRACT.md "Run file"):
+Layout (docs/interface.md "Run file"; every dataset in docs/run_file.md):
 
 * ``/`` attributes ``ringsim_version``, ``rebound_version``, ``scenario_yaml``, ``units`` =
   "SI", ``seed``, ``created_utc``, plus ``status`` ("running", "finished", "stopped"),

@@ -1,0 +1,138 @@
+"""Validation ladder: ringsim against published ring physics (issue 6).
+
+Runs six reference cases through the same machinery users run (``ringsim.run`` on
+scenarios, the native resolver, ``ringsim.compare.equilibrium``) and writes the section
+"## Reference cases" of ``docs/validation.md`` with one table and one figure per case
+(figures in ``docs/figures/validation/``)::
+
+    python analysis/validation.py                # documented sizes (~25 min of CPU);
+                                                 # the same: python -m ringsim.validation
+    python analysis/validation.py --quick        # small sizes (~5 min), same checks,
+                                                 # report in runs/validation/quick/
+    python analysis/validation.py --cases 2 5    # only these cases; the report keeps the
+                                                 # stored results of the others
+    python analysis/validation.py --report-only  # rewrite the report from stored results
+
+Cases (all SI inside; results in units of the particle radius r and Omega):
+
+1. identical particles, constant eps = 0.5, no self-gravity, tau = 0.1 ... 1.5:
+   c/(r Omega), filling factor, the dilute estimate of ``ringsim.diagnostics`` and the
+   energy balance of the sheet (viscous heating = collisional dissipation);
+2. Goldreich & Tremaine (1978) thermal balance: eps well below eps_cr settles, well above
+   heats; eps_cr bracketed by bisection on runs and compared with 0.63;
+3. Bridges et al. (1984) law, identical 1 m particles at 100 000 km from Saturn: a
+   near-monolayer with c of a few r Omega;
+4. Bridges law, dN/dR ~ R^-3 over a factor 10 in radius: small/large velocity dispersion;
+5. REBOUND's shearing-sheet example through ``scenarios/bridges.yaml``: ringsim's resolver
+   against REBOUND's built-in hard-sphere resolver from the same seed;
+6. Dilley (1993) Figs. 1 and 5: eps in the running resolver's collision log against the
+   paper's equations and ``ringsim.restitution``, and the rebound speed of head-on pairs.
+
+Each case is a module of ``ringsim.validation`` (``case1_constant_eps`` ...
+``case6_dilley_figures``), built from what they share in ``common`` and rendered to
+Markdown by ``render``.  Each case returns a ``CaseResult``: rows comparing ringsim's
+value (with its standard error) with a reference value (with its uncertainty and source),
+the difference in units of the combined uncertainty, and whether that is the expected
+outcome.  Results are
+stored as JSON beside the runs (``--workdir``, default ``runs/validation``) and finished
+run files are reused when their scenario is unchanged.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from ringsim.report import replace_section
+from ringsim.validation.case1_constant_eps import case1
+from ringsim.validation.case2_threshold import case2
+from ringsim.validation.case3_bridges_identical import case3
+from ringsim.validation.case4_size_distribution import case4
+from ringsim.validation.case5_rebound_example import case5
+from ringsim.validation.case6_dilley_figures import case6
+from ringsim.validation.common import (
+    DOC,
+    FULL,
+    QUICK,
+    ROOT,
+    RUNS_USED,
+    WORKDIR,
+    CaseResult,
+    Sizes,
+    load_results,
+    save_result,
+)
+from ringsim.validation.render import SECTION_HEADING, row_markdown, section_markdown
+
+FIGURES = ROOT / "docs" / "figures" / "validation"
+
+CASES: dict[int, Callable[[Sizes, Path, Path], CaseResult]] = {
+    1: case1, 2: case2, 3: case3, 4: case4, 5: case5, 6: case6}
+
+
+def run_case(number: int, sizes: Sizes, workdir: Path, figures: Path) -> CaseResult:
+    """Run one case, time it and store its result.
+
+    The time is the wall-clock time the case costs from scratch: the recorded run time of
+    every run file it uses (reused or new) plus this invocation's other work.
+    """
+    workdir.mkdir(parents=True, exist_ok=True)
+    RUNS_USED.clear()
+    t0 = time.perf_counter()
+    result = CASES[number](sizes, workdir, figures)
+    elapsed = time.perf_counter() - t0
+    new_runs = sum(w for w, fresh in RUNS_USED.values() if fresh)
+    result.cpu_seconds = (max(elapsed - new_runs, 0.0)
+                          + sum(w for w, _ in RUNS_USED.values()))
+    result.sizes = "quick" if sizes == QUICK else ("full" if sizes == FULL else "custom")
+    save_result(result, workdir)
+    return result
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="small sizes (~5 min of CPU)")
+    parser.add_argument("--cases", type=int, nargs="+", choices=sorted(CASES),
+                        default=sorted(CASES))
+    parser.add_argument("--workdir", type=Path, default=WORKDIR,
+                        help="run files and stored results")
+    parser.add_argument("--doc", type=Path, default=None,
+                        help=f"report to write (default {DOC.relative_to(ROOT)}; with "
+                        "--quick WORKDIR/quick/validation.md, so that quick numbers never "
+                        "replace the documented ones)")
+    parser.add_argument("--figures", type=Path, default=None,
+                        help=f"figure directory (default {FIGURES.relative_to(ROOT)}; with "
+                        "--quick WORKDIR/quick/figures)")
+    parser.add_argument("--report-only", action="store_true",
+                        help="rewrite the report from stored results")
+    args = parser.parse_args(argv)
+    sizes = QUICK if args.quick else FULL
+    workdir = args.workdir / ("quick" if args.quick else "full")
+    if args.doc is None:
+        args.doc = workdir / "validation.md" if args.quick else DOC
+    if args.figures is None:
+        args.figures = workdir / "figures" if args.quick else FIGURES
+    if not args.report_only:
+        for number in args.cases:
+            t0 = time.perf_counter()
+            result = run_case(number, sizes, workdir, args.figures)
+            print(f"case {number}: {'as expected' if result.passed else 'NOT AS EXPECTED'} "
+                  f"({time.perf_counter() - t0:.0f} s)", flush=True)
+            for c in result.comparisons:
+                print("   ", row_markdown(c))
+    results = load_results(workdir)
+    try:
+        figures_rel = args.figures.resolve().relative_to(args.doc.resolve().parent)
+    except ValueError:
+        figures_rel = args.figures.resolve()
+    # replace_section re-reads the file right before writing and keeps other sections
+    replace_section(args.doc, SECTION_HEADING, section_markdown(results, figures_rel.as_posix()),
+                    title="Validation")
+    print(f"wrote {args.doc}")
+    return 0 if all(r.passed for r in results.values()) else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,221 @@
+"""The architecture of docs/architecture.md, enforced mechanically.
+
+1. Imports go one way along the data path, config/physics -> engine -> store -> analysis ->
+   plots, with the command line, the sweep and the validation as front ends on top.  Every
+   module under ringsim/ is parsed with ``ast`` (nothing is imported); an import of a
+   forbidden layer fails the test unless it is listed in ``ALLOWED`` with its reason.
+2. No module over 600 lines, no function over 80 lines, except the ones in
+   ``LONG_MODULES`` / ``LONG_FUNCTIONS`` (today's exceptions; an entry that is no longer
+   needed fails the test too, so that the lists only shrink).
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parent.parent / "ringsim"
+
+#: Layer of each top-level name under ringsim.  "base" holds the helpers every layer may
+#: use (errors, argument checks, the Markdown section writer, the package root).
+LAYERS = {
+    "config": "config", "physics": "physics", "restitution": "physics", "engine": "engine",
+    "store": "store", "analysis": "analysis", "plots": "plots", "cli": "cli",
+    "sweep": "sweep", "testing": "testing", "validation": "validation",
+    "errors": "base", "checks": "base", "report": "base", "__init__": "base",
+    "__version__": "base", "_resolver": "engine",
+}
+
+_FRONT_ENDS = {"cli", "sweep", "validation"}
+#: Layer -> the layers it must not import.
+FORBIDDEN = {
+    "base": {"config", "physics", "engine", "store", "analysis", "plots", "testing"}
+    | _FRONT_ENDS,
+    "physics": {"config", "engine", "store", "analysis", "plots", "testing"} | _FRONT_ENDS,
+    "config": {"engine", "store", "analysis", "plots", "testing"} | _FRONT_ENDS,
+    "engine": {"analysis", "plots", "testing"} | _FRONT_ENDS,
+    "store": {"engine", "analysis", "plots", "testing"} | _FRONT_ENDS,
+    "analysis": {"engine", "testing"} | _FRONT_ENDS,
+    "plots": {"engine", "testing"} | _FRONT_ENDS,
+    "testing": {"store", "analysis", "plots"} | _FRONT_ENDS,
+    "sweep": {"cli", "validation", "testing"},
+    "cli": {"validation", "testing"},
+    "validation": {"cli", "sweep", "testing"},
+}
+
+#: Imports across the forbidden lines that are there on purpose:
+#: (importing module, imported module) -> (where: "module" or "function", reason).
+ALLOWED = {
+    ("ringsim.engine.runner", "ringsim.analysis.snapshot"): (
+        "module",
+        "the run loop writes one time-series row per output from snapshot_summary, a pure "
+        "numpy function of the particle arrays that imports nothing of the engine"),
+    ("ringsim.config.scenario", "ringsim.engine.native"): (
+        "function",
+        "the one deliberate exception of the data path: scenario validation asks the C "
+        "library for line mode's step limit (loaded only when a scenario is validated)"),
+}
+
+MAX_MODULE_LINES = 600
+MAX_FUNCTION_LINES = 80
+#: Today's exceptions (being shortened; remove an entry once it fits).
+LONG_MODULES = {
+    "analysis/fit.py",          # 688 lines: data reading, five laws' fits, CLI, plots
+    "config/scenario.py",       # 725 lines: sections, readers and cross-checks
+}
+LONG_FUNCTIONS = {
+    "analysis/fit.py::fit_model",
+    "analysis/timeseries.py::stationary_mean",
+    "physics/kinetic.py::kinetic_dispersion_estimate",
+    "sweep.py::run_sweep",
+}
+
+
+@functools.cache
+def _modules() -> tuple[tuple[str, Path], ...]:
+    """(dotted name, path) of every module under ringsim/."""
+    out = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out.append((".".join(parts), path))
+    return tuple(out)
+
+
+def layer_of(module: str) -> str:
+    """The layer of a dotted name under ringsim ("ringsim" itself is base)."""
+    parts = module.split(".")
+    return LAYERS[parts[1]] if len(parts) > 1 else "base"
+
+
+def _is_type_checking(node: ast.If) -> bool:
+    test = node.test
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+
+
+def imports(module: str, path: Path) -> list[tuple[str, str, int]]:
+    """(imported ringsim module, "module" or "function", line) of every runtime import.
+
+    ``from A import b`` counts as an import of ``A.b`` when ``A.b`` is a module of the
+    package, else of ``A``.  Imports under ``if TYPE_CHECKING:`` are not run and are
+    skipped.
+    """
+    known = {name for name, _ in _modules()}
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    found = []
+
+    def visit(node: ast.AST, where: str) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and _is_type_checking(child):
+                continue
+            inner = "function" if isinstance(
+                child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda) else where
+            if isinstance(child, ast.Import):
+                found.extend((a.name, where, child.lineno) for a in child.names)
+            elif isinstance(child, ast.ImportFrom):
+                base = child.module or ""
+                if child.level:
+                    anchor = package.split(".")[:len(package.split(".")) - child.level + 1]
+                    base = ".".join([*anchor, base] if base else anchor)
+                for a in child.names:
+                    full = f"{base}.{a.name}"
+                    found.append((full if full in known else base, where, child.lineno))
+            visit(child, inner)
+
+    visit(ast.parse(path.read_text()), "module")
+    return [(name, where, line) for name, where, line in found
+            if name == "ringsim" or name.startswith("ringsim.")]
+
+
+def test_every_module_has_a_layer():
+    unknown = {name for name, _ in _modules() if name.count(".")
+               and name.split(".")[1] not in LAYERS}
+    assert not unknown, f"modules without a layer (add them to LAYERS): {sorted(unknown)}"
+
+
+def test_imports_follow_the_data_path():
+    bad = []
+    for module, path in _modules():
+        forbidden = FORBIDDEN[layer_of(module)]
+        for imported, where, line in imports(module, path):
+            if layer_of(imported) not in forbidden:
+                continue
+            allowed = ALLOWED.get((module, imported))
+            if allowed is None or (allowed[0] == "module" and where != "module") \
+                    or (allowed[0] == "function" and where != "function"):
+                bad.append(f"{path.relative_to(PACKAGE.parent)}:{line}: {module} "
+                           f"({layer_of(module)}) imports {imported} "
+                           f"({layer_of(imported)}) at {where} level")
+    assert not bad, "imports against the data path:\n" + "\n".join(bad)
+
+
+def test_no_library_module_imports_the_validation():
+    users = [module for module, path in _modules()
+             if layer_of(module) != "validation"
+             and any(layer_of(name) == "validation" for name, _, _ in imports(module, path))]
+    assert not users, f"the validation is a front end; imported by {users}"
+
+
+def test_the_checker_sees_imports_at_both_levels(tmp_path):
+    # a test that cannot fail is a defect: the walker must find both kinds of import
+    path = tmp_path / "probe.py"
+    path.write_text("from ringsim.engine import sheet\n"
+                    "import typing\n"
+                    "if typing.TYPE_CHECKING:\n    import ringsim.plots\n"
+                    "def f():\n    from ringsim.analysis.snapshot import snapshot_summary\n")
+    found = imports("ringsim.physics.probe", path)
+    assert ("ringsim.engine.sheet", "module", 1) in found
+    assert ("ringsim.analysis.snapshot", "function", 6) in found
+    assert not any(name == "ringsim.plots" for name, _, _ in found), "TYPE_CHECKING only"
+
+
+def _sizes():
+    modules, functions = {}, {}
+    for _, path in _modules():
+        rel = path.relative_to(PACKAGE).as_posix()
+        source = path.read_text()
+        modules[rel] = len(source.splitlines())
+
+        def walk(node, prefix, rel=rel):
+            for child in ast.iter_child_nodes(node):
+                if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef):
+                    name = f"{prefix}{child.name}"
+                    functions[f"{rel}::{name}"] = child.end_lineno - child.lineno + 1
+                    walk(child, f"{name}.")
+                elif isinstance(child, ast.ClassDef):
+                    walk(child, f"{prefix}{child.name}.")
+                else:
+                    walk(child, prefix)
+
+        walk(ast.parse(source), "")
+    return modules, functions
+
+
+@pytest.fixture(scope="module")
+def sizes():
+    return _sizes()
+
+
+def test_no_module_over_600_lines(sizes):
+    modules, _ = sizes
+    long = {m: n for m, n in modules.items() if n > MAX_MODULE_LINES and m not in LONG_MODULES}
+    assert not long, f"modules over {MAX_MODULE_LINES} lines: {long}"
+
+
+def test_no_function_over_80_lines(sizes):
+    _, functions = sizes
+    long = {f: n for f, n in functions.items()
+            if n > MAX_FUNCTION_LINES and f not in LONG_FUNCTIONS}
+    assert not long, f"functions over {MAX_FUNCTION_LINES} lines: {long}"
+
+
+def test_the_exceptions_are_still_needed(sizes):
+    modules, functions = sizes
+    fit = sorted(m for m in LONG_MODULES if modules.get(m, 0) <= MAX_MODULE_LINES)
+    fit += sorted(f for f in LONG_FUNCTIONS if functions.get(f, 0) <= MAX_FUNCTION_LINES)
+    assert not fit, f"now within the limits (or gone): remove from the allow-lists: {fit}"
