@@ -288,7 +288,8 @@ def test_perfectly_inelastic_chain_is_cut_and_conserves_momentum():
     sim.add(m=1e3, r=1.0, x=-2.0 - 0.5 * speed * 100.0, vx=speed)
     sim.add(m=1e3, r=1.0, x=0.0)
     sim.add(m=1e3, r=1.0, x=2.0)                         # touching B, at rest
-    handle = install_resolver(sim, {"model": "constant", "epsilon": 0.0}, collision_detection="line")
+    handle = install_resolver(sim, {"model": "constant", "epsilon": 0.0},
+                              collision_detection="line")
     sim.steps(1)
     count = handle.stats()["count"]
     assert 8 < count <= 64, f"{count} collisions: a chain, cut"

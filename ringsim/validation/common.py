@@ -26,7 +26,7 @@ from ringsim.analysis import timeseries
 from ringsim.config.scenario import scenario_from_dict
 from ringsim.errors import InputError
 from ringsim.physics import restitution as rs
-from ringsim.plots import _pyplot, save_figure
+from ringsim.plots.common import pyplot, save_figure
 from ringsim.store.runfile import open_run
 
 #: The repository (a source checkout) whose docs/ and runs/ the ladder writes.
@@ -265,9 +265,6 @@ def figure_file(fig, figures: Path, name: str) -> Path:
     return save_figure(fig, figures / name)
 
 
-def pyplot():
-    """matplotlib.pyplot on the non-interactive Agg backend."""
-    return _pyplot()
 
 
 def dispersion_against_tau(table: list[dict], label: str):
