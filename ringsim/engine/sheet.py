@@ -107,15 +107,40 @@ def box_geometry(radii: np.ndarray, optical_depth: float, aspect: float, Omega: 
 
 # --- initial state -----------------------------------------------------------------------------
 
+#: Largest volume filling factor at the mid-plane of the initial layer.
+INITIAL_FILLING_FACTOR = 0.1
+
+
+def minimum_scale_height(radii: np.ndarray, area: float) -> float:
+    """Thinnest initial Gaussian layer [m] whose mid-plane filling factor is 0.1.
+
+    The mid-plane volume filling factor of N spheres in a Gaussian layer of scale height h
+    over the box area A is sum(4/3 pi R^3) / (A sqrt(2 pi) h); a layer this dilute is
+    filled by random draws without overlaps in a few rounds.
+
+    Parameters
+    ----------
+    radii : array [m]
+    area : float [m^2]
+        Lx Ly.
+    """
+    volume = float(np.sum(4.0 / 3.0 * np.pi * radii**3))
+    return volume / (area * math.sqrt(2.0 * math.pi) * INITIAL_FILLING_FACTOR)
+
 def initial_state(radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
                   rng: np.random.Generator) -> dict[str, np.ndarray]:
     """Positions [m] and velocities [m/s] of a ring with a small random dispersion.
 
     Positions are uniform in the box with a Gaussian vertical distribution of scale
-    height dispersion/Omega (at least twice the largest radius); velocities are the
-    shear flow vy = -1.5 Omega x plus isotropic Gaussian motions of 1-D dispersion
-    ``dispersion``.  Particles drawn overlapping another are drawn again, so the run starts
-    without overlaps.
+    height h = max(dispersion / Omega, `minimum_scale_height`); velocities are the shear
+    flow vy = -1.5 Omega x plus Gaussian motions of 1-D dispersion ``dispersion`` in x
+    and y and Omega h in z.  z and vz / Omega then share one Gaussian: the layer is in
+    vertical equilibrium from the start.  (Heights drawn with vz of the horizontal
+    dispersion would all fall through the mid-plane together a quarter orbit later, a
+    burst of collisions that heats the ring, crowds the layer and enlarges the box.)
+    Particles drawn overlapping another are drawn again, so the run starts without
+    overlaps; the box is shear-periodic at t = 0, where the images across the radial
+    boundary are not shifted in y.
 
     Parameters
     ----------
@@ -128,7 +153,7 @@ def initial_state(radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
 
     n = radii.size
     Lx, Ly, Omega = geometry.Lx, geometry.Ly, geometry.Omega
-    h = max(dispersion / Omega, 2.0 * radii.max())
+    h = max(dispersion / Omega, minimum_scale_height(radii, Lx * Ly))
     z_limit = VERTICAL_GUARD_FRACTION * 0.5 * geometry.z_period
 
     def draw(k):
@@ -141,8 +166,7 @@ def initial_state(radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
     pos = draw(n)
     r_max = radii.max()
     for _ in range(200):
-        # periodic in x and y (the shear offset at the x edges is ignored here; the
-        # resolver separates any pair the approximation misses)
+        # periodic in x and y: at t = 0 the shear offset of the radial images is zero
         wrapped = pos + np.array([0.5 * Lx, 0.5 * Ly, 0.0])
         wrapped[:, 0] %= Lx
         wrapped[:, 1] %= Ly
@@ -160,7 +184,9 @@ def initial_state(radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
         if bad.size == 0:
             break
         pos[bad] = draw(bad.size)
-    vel = rng.normal(0.0, dispersion, (n, 3))
+    vel = np.empty((n, 3))
+    vel[:, :2] = rng.normal(0.0, dispersion, (n, 2))
+    vel[:, 2] = rng.normal(0.0, Omega * h, n)
     vel[:, 1] += -1.5 * Omega * pos[:, 0]
     return {"x": pos[:, 0], "y": pos[:, 1], "z": pos[:, 2],
             "vx": vel[:, 0], "vy": vel[:, 1], "vz": vel[:, 2]}
@@ -253,7 +279,8 @@ def build_sheet(scenario) -> Sheet:
     masses = particles.density * 4.0 / 3.0 * np.pi * radii**3
     r_mean = float(radii.mean())
     dispersion = sheet_cfg.initial_dispersion * r_mean * Omega
-    z_half = initial_z_half_height(sheet_cfg, r_mean, dispersion, Omega)
+    z_half = initial_z_half_height(sheet_cfg, r_mean, dispersion, Omega,
+                                   r_max=float(radii.max()))
     geometry = box_geometry(radii, sheet_cfg.optical_depth, sheet_cfg.aspect, Omega, z_half)
     state = initial_state(radii, geometry, dispersion, rng)
     # the initial velocities may already carry particles beyond the requested box
@@ -289,15 +316,32 @@ def detector_for(detection: str) -> str:
     return "sheet" if detection == "line" else "rebound"
 
 
-def initial_z_half_height(sheet_cfg, r_mean: float, dispersion: float, Omega: float) -> float:
+def initial_z_half_height(sheet_cfg, r_mean: float, dispersion: float, Omega: float,
+                          r_max: float = 0.0) -> float:
     """Half the initial vertical period [m]: ``sheet.z_box`` mean radii, or automatic.
 
-    Automatic: room for a ring 20 times thicker than the initial one, and at least 50 mean
-    radii; the vertical guard enlarges it further if the ring heats beyond that.
+    Automatic: room for vertical amplitudes of 20 times the initial thickness, of 50 mean
+    radii and of 20 largest radii (the guard keeps amplitudes below 0.4 of the half
+    period).  The last term is for broad size distributions: the shear across a large
+    particle, 1.5 Omega (r_max + r), kicks small particles to ~3 Omega r_max in their first
+    collisions, so their amplitudes reach several r_max within an orbit whatever the
+    initial dispersion.  The vertical guard enlarges the box further if the ring heats
+    beyond that.
+
+    Parameters
+    ----------
+    sheet_cfg : the scenario's sheet section
+    r_mean : float [m]
+    dispersion : float [m/s]
+        Initial 1-D velocity dispersion.
+    Omega : float [1/s]
+    r_max : float [m]
+        Largest radius.
     """
     if sheet_cfg.z_box != "auto":
         return 0.5 * float(sheet_cfg.z_box) * r_mean
-    return max(50.0 * r_mean, 20.0 * dispersion / Omega) / VERTICAL_GUARD_FRACTION
+    return (max(50.0 * r_mean, 20.0 * r_max, 20.0 * dispersion / Omega)
+            / VERTICAL_GUARD_FRACTION)
 
 
 def minimum_collision_velocity(radii: np.ndarray, Omega: float) -> float:
