@@ -2,12 +2,20 @@
 
 Exit status: 0 success; 2 bad input (one line on stderr naming the file and the key, no
 traceback, no output written); 1 anything else.  ``--debug`` shows tracebacks.
+
+A reader that closes stdout early (``ringsim analyze RUN.h5 --plots figs | head``) does not
+stop a command: the rest of what it prints is discarded, its files (figures, JSON, run
+files) are still written, and the exit status is the command's own (0 on success).  The
+closed pipe is not an error of ringsim: a shell script with ``set -o pipefail`` is not
+failed by ``head`` taking the lines it wanted.
 """
 
 from __future__ import annotations
 
 import argparse
+import io
 import json
+import os
 import sys
 import traceback
 from pathlib import Path
@@ -15,6 +23,47 @@ from pathlib import Path
 from ringsim.errors import InputError
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class _ClosedPipeSafeStdout(io.TextIOBase):
+    """stdout that survives its reader going away: after the first BrokenPipeError the
+    file descriptor is pointed at /dev/null (so the interpreter's final flush is quiet too)
+    and the rest of the output is dropped."""
+
+    def __init__(self, stream):
+        self.stream = stream
+        self.reader_gone = False
+
+    def write(self, text: str) -> int:
+        if not self.reader_gone:
+            try:
+                self.stream.write(text)
+                if "\n" in text:
+                    self.stream.flush()
+            except BrokenPipeError:
+                self._drop()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self.reader_gone:
+            try:
+                self.stream.flush()
+            except BrokenPipeError:
+                self._drop()
+
+    def _drop(self) -> None:
+        self.reader_gone = True
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(devnull, self.stream.fileno())
+        finally:
+            os.close(devnull)
+
+    def isatty(self) -> bool:
+        return self.stream.isatty()
+
+    def fileno(self) -> int:
+        return self.stream.fileno()
 
 
 class _Parser(argparse.ArgumentParser):
@@ -82,6 +131,36 @@ def _open_runs(paths: list[str]):
     return runs
 
 
+def _print_status(run) -> None:
+    """The run's status in the analyze header, and a warning on stderr unless finished."""
+    status = str(run.attrs.get("status", "unknown"))
+    orbits = run.timeseries.get("orbits")
+    done = float(orbits[-1]) if orbits is not None and len(orbits) else 0.0
+    planned = run.scenario.integration.orbits
+    print(f"status: {status} at orbit {done:.4g} of {planned:g} ({run.path})")
+    if status != "finished":
+        why = {"stopped": "it was stopped (continue it with ringsim run SCENARIO --resume)",
+               "running": "it is still running, or its process died (--resume continues "
+                          "it from its last checkpoint)"}.get(status, "its status is unknown")
+        print(f"ringsim: warning: {run.path} is not finished: {why}; the equilibrium below "
+              f"is of the first {done:.4g} orbits only", file=sys.stderr)
+
+
+def _sweep_summaries(paths: list[str]) -> list[str]:
+    """The paths that are sweep summaries (``summary.h5``: attribute ``sweep_yaml``)."""
+    import h5py
+
+    found = []
+    for path in paths:
+        try:
+            with h5py.File(path, "r") as f:
+                if "sweep_yaml" in f.attrs and "scenario_yaml" not in f.attrs:
+                    found.append(path)
+        except OSError:
+            continue  # not HDF5 or unreadable: _open_runs reports it
+    return found
+
+
 def _write_json(path: str, payload) -> None:
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     Path(path).write_text(json.dumps(payload, indent=2, allow_nan=True) + "\n")
@@ -91,6 +170,7 @@ def _cmd_analyze(args) -> int:
     from ringsim.analysis.equilibrium import equilibrium, equilibrium_table
 
     (run,) = _open_runs([args.run])
+    _print_status(run)
     eq = equilibrium(run)
     print(equilibrium_table(eq))
     if args.json:
@@ -107,7 +187,14 @@ def _cmd_compare(args) -> int:
     from ringsim.analysis.compare import comparison, comparison_table
     from ringsim.analysis.equilibrium import equilibrium
 
-    runs = _open_runs(args.runs)
+    summaries = _sweep_summaries(args.runs)
+    for path in summaries:
+        print(f"ringsim: note: skipping {path}: a sweep summary, not a run file", file=sys.stderr)
+    paths = [p for p in args.runs if p not in summaries]
+    if not paths:
+        raise InputError(args.runs[0], "RUN.h5", "only sweep summaries given; compare the "
+                         "run files of the sweep (the other .h5 files of its directory)")
+    runs = _open_runs(paths)
     equilibria = [equilibrium(run) for run in runs]
     comp = comparison(equilibria)
     print(comparison_table(comp))
@@ -193,6 +280,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    if argv is None and not isinstance(sys.stdout, _ClosedPipeSafeStdout):
+        sys.stdout = _ClosedPipeSafeStdout(sys.stdout)
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv  # accepted anywhere on the line
     argv = [a for a in argv if a != "--debug"]
