@@ -268,21 +268,49 @@ def build_sheet(scenario) -> Sheet:
     """Scenario -> ready-to-run shearing sheet with ringsim's native resolver installed.
 
     The scenario's ``seed`` seeds both numpy (radii, positions, velocities) and REBOUND's
-    collision shuffle (``sim.rand_seed``): the same scenario gives the same bits.
+    collision shuffle (``sim.rand_seed``): the same scenario gives the same bits.  With
+    ``sheet.initial_state`` the particles come from the file instead
+    (`ringsim.engine.initial_file`).
     """
     from ringsim.engine.resolver import install_resolver
 
-    rng = np.random.default_rng(scenario.seed)
+    sim, geometry, radii, masses = new_simulation(scenario)
+    handle = install_resolver(sim, scenario.restitution_dict(),
+                              log_capacity=scenario.output.log_collisions,
+                              detector=detector_for(scenario.integration.collision_detection))
+    edges = size_bin_edges(scenario.particles.size_distribution)
+    return Sheet(sim, geometry, radii, masses, edges, handle)
+
+
+def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndarray,
+                                      np.ndarray]:
+    """The scenario's REBOUND simulation before a resolver is installed: (sim, geometry,
+    radii [m], masses [kg]).  `ringsim export --rebound` saves this simulation, so that a
+    REBOUND user's continuation and ringsim's are the same."""
     Omega = scenario.orbital_frequency
-    particles, sheet_cfg = scenario.particles, scenario.sheet
-    radii = particles.size_distribution.draw_radii(sheet_cfg.n_particles, rng)
-    masses = particles.density * 4.0 / 3.0 * np.pi * radii**3
-    r_mean = float(radii.mean())
-    dispersion = sheet_cfg.initial_dispersion * r_mean * Omega
-    z_half = initial_z_half_height(sheet_cfg, r_mean, dispersion, Omega,
+    sheet_cfg = scenario.sheet
+    if sheet_cfg.initial_state is not None:
+        from ringsim.engine.initial_file import read_initial_state
+
+        radii, masses, state, geometry, t0 = read_initial_state(scenario)
+        w = np.column_stack([state["vx"], state["vy"] + 1.5 * Omega * state["x"],
+                             state["vz"]])
+        dispersion = float(np.sqrt(np.mean(w * w)))
+    else:
+        rng = np.random.default_rng(scenario.seed)
+        radii = scenario.particles.size_distribution.draw_radii(sheet_cfg.n_particles, rng)
+        masses = scenario.particles.density * 4.0 / 3.0 * np.pi * radii**3
+        dispersion = sheet_cfg.initial_dispersion * float(radii.mean()) * Omega
+        geometry, t0 = None, 0.0
+    z_half = initial_z_half_height(sheet_cfg, float(radii.mean()), dispersion, Omega,
                                    r_max=float(radii.max()))
-    geometry = box_geometry(radii, sheet_cfg.optical_depth, sheet_cfg.aspect, Omega, z_half)
-    state = initial_state(radii, geometry, dispersion, rng)
+    if geometry is None:
+        geometry = box_geometry(radii, sheet_cfg.optical_depth, sheet_cfg.aspect, Omega,
+                                z_half)
+        state = initial_state(radii, geometry, dispersion, rng)
+    else:
+        geometry = SheetGeometry(geometry.root_size, geometry.n_root_x, geometry.n_root_y,
+                                 max(1, math.ceil(2.0 * z_half / geometry.root_size)), Omega)
     # the initial velocities may already carry particles beyond the requested box
     amplitude = max_vertical_amplitude(state, Omega)
     if amplitude >= VERTICAL_GUARD_FRACTION * 0.5 * geometry.z_period:
@@ -297,13 +325,10 @@ def build_sheet(scenario) -> Sheet:
                          detection=scenario.integration.collision_detection,
                          rand_seed=scenario.seed)
     add_particles(sim, state, radii, masses)
+    sim.t = t0
     sim.minimum_collision_velocity = minimum_collision_velocity(radii, Omega)
-    handle = install_resolver(sim, scenario.restitution_dict(),
-                              log_capacity=scenario.output.log_collisions,
-                              detector=detector_for(scenario.integration.collision_detection))
-    edges = size_bin_edges(particles.size_distribution)
     sim.dt = choose_dt(scenario.integration, particle_arrays(sim), Omega)
-    return Sheet(sim, geometry, radii, masses, edges, handle)
+    return sim, geometry, radii, masses
 
 
 def detector_for(detection: str) -> str:
