@@ -74,11 +74,45 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _cmd_epsilon(args) -> int:
+    if args.plot and Path(args.plot).suffix.lower() != ".png":
+        raise InputError(args.plot, "--plot", "the figure must be a .png file")
+    if args.restitution is None:
+        if args.radius or args.density is not None:
+            raise InputError("<command line>", "--radius" if args.radius else "--density",
+                             "only with --restitution (the paper's figures fix the sizes)")
+        return _paper_epsilon(args)
+    from ringsim import userlaw
+
+    law, density, radii = userlaw.read_law(args.restitution, args.density, args.radius)
+    curves = userlaw.user_curves(law, density, radii)
+    title = userlaw.law_title(law, density)
+    _print_curves(title, curves)
+    if args.json:
+        _write_json(args.json, {
+            "units": {"v": "m/s", "epsilon": "dimensionless", "radius": "m",
+                      "density": "kg/m^3"},
+            "restitution": law, "density": density,
+            "curves": [{"radius": r, "label": c.label, "v": c.v.tolist(),
+                        "epsilon": [float(e) for e in c.epsilon]}
+                       for r, c in zip(radii, curves, strict=True)]})
+    if args.plot:
+        print(f"wrote {userlaw.plot_user_curves(curves, title, args.plot)}")
+    return EXIT_OK
+
+
+def _print_curves(title: str, curves) -> None:
+    speeds_cm_s = (0.01, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0)
+    print(f"coefficient of restitution at impact speeds [cm/s]: {title}")
+    print(f"{'curve':<62}" + "".join(f"{v:>8g}" for v in speeds_cm_s))
+    for curve in curves:
+        idx = [int(abs(curve.v - v * 0.01).argmin()) for v in speeds_cm_s]
+        print(f"  {curve.label:<60}" + "".join(f"{curve.epsilon[i]:8.4f}" for i in idx))
+
+
+def _paper_epsilon(args) -> int:
     from ringsim.plots import paper_curves, plot_epsilon_curves
 
     curves = paper_curves()
-    if args.plot and Path(args.plot).suffix.lower() != ".png":
-        raise InputError(args.plot, "--plot", "the figure must be a .png file")
     speeds_cm_s = (0.01, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0)
     header = f"{'curve':<62}" + "".join(f"{v:>8g}" for v in speeds_cm_s)
     print("coefficient of restitution at impact speeds [cm/s]")
@@ -208,6 +242,28 @@ def _cmd_compare(args) -> int:
     return EXIT_OK
 
 
+def _cmd_export(args) -> int:
+    from ringsim.engine import export
+
+    if not (args.csv or args.rebound):
+        raise InputError("<command line>", "export", "give --csv OUT.csv and/or "
+                         "--rebound OUT.bin")
+    (run,) = _open_runs([args.run])
+    for option, path, suffix in (("--csv", args.csv, ".csv"), ("--rebound", args.rebound,
+                                                               ".bin")):
+        if path and Path(path).suffix.lower() != suffix:
+            raise InputError(path, option, f"the file must end in {suffix}")
+    if args.csv:
+        print(f"wrote {export.export_csv(run, args.snapshot, args.csv)}")
+    if args.rebound:
+        path, info = export.export_rebound(run, args.snapshot, args.rebound)
+        print(f"wrote {path}: t = {info['t']:.10g} s (orbit {info['orbits']:.6g} of the shear "
+              f"phase); continue it with\n  sim = rebound.Simulation({str(path)!r})\n"
+              f"  ringsim.install_resolver(sim, {info['restitution']!r}, "
+              f"detector={info['detector']!r})")
+    return EXIT_OK
+
+
 def _cmd_sweep(args) -> int:
     from ringsim.sweep import sweep_command
 
@@ -233,7 +289,26 @@ def build_parser() -> argparse.ArgumentParser:
                        "(Dilley 1993 Figs. 1 and 5)")
     p.add_argument("--plot", metavar="PNG", help="write the figure to this PNG file")
     p.add_argument("--json", metavar="OUT.json", help="write the curves as JSON")
+    p.add_argument("--restitution", metavar="LAW", help="your own law instead of the "
+                   "paper's figures: key=value pairs as in a scenario's restitution section "
+                   "(model=dilley,xi0=0.16,p=0.65,kappa=0.1) or a YAML file with a "
+                   "restitution section (a scenario: its sizes and density are the defaults)")
+    p.add_argument("--radius", metavar="R", type=float, nargs="+", help="radii [m] of the "
+                   "colliding identical spheres, one curve each")
+    p.add_argument("--density", metavar="RHO", type=float, help="bulk density [kg/m^3] "
+                   "(default 900, or the scenario's)")
     p.set_defaults(func=_cmd_epsilon)
+
+    p = sub.add_parser("export", help="a snapshot of a run as a particle CSV or a REBOUND "
+                       "simulation file")
+    p.add_argument("run", metavar="RUN.h5")
+    p.add_argument("--snapshot", type=int, default=-1, metavar="I",
+                   help="snapshot index (negative from the end; default -1, the last)")
+    p.add_argument("--csv", metavar="OUT.csv", help="write the particles as CSV "
+                   "(x_m ... mass_kg, the format of sheet.initial_state)")
+    p.add_argument("--rebound", metavar="OUT.bin", help="write a REBOUND simulation that "
+                   "continues the snapshot (see docs/export.md)")
+    p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser("run", help="run a scenario and write its HDF5 run file")
     p.add_argument("scenario", metavar="SCENARIO.yaml")
