@@ -35,10 +35,14 @@ class InitialStateFile:
         relative paths are relative to the scenario file's folder.
     snapshot : int
         Snapshot of a run file (negative counts from the end); -1 for a CSV.
+    t : float [s]
+        For a CSV: the time of the state, which sets the y offset of the images across the
+        radial boundary (1.5 Omega Lx t mod Ly); a run file gives its snapshot's time.
     """
 
     file: str
     snapshot: int = -1
+    t: float = 0.0
 
     @property
     def kind(self) -> str:
@@ -47,7 +51,7 @@ class InitialStateFile:
 
     def to_dict(self) -> dict[str, Any]:
         if self.kind == "csv":
-            return {"file": self.file}
+            return {"file": self.file, "t": self.t}
         return {"file": self.file, "snapshot": self.snapshot}
 
 
@@ -74,7 +78,7 @@ def read_initial_state(sheet: Section) -> InitialStateFile | None:
         return None
     allowed = "a mapping: file (a run file .h5 with snapshot, or a particle .csv)"
     sec = sheet.section("initial_state", allowed=allowed)
-    sec.check_keys(("file", "snapshot"))
+    sec.check_keys(("file", "snapshot", "t"))
     name = sec.string("file", what="a run file (.h5) or a particle CSV (.csv)")
     suffix = Path(name).suffix.lower()
     if suffix not in INITIAL_STATE_SUFFIXES:
@@ -83,11 +87,14 @@ def read_initial_state(sheet: Section) -> InitialStateFile | None:
     kind = INITIAL_STATE_SUFFIXES[suffix]
     if kind == "csv" and sec.has("snapshot"):
         raise sec.error("snapshot", "only for a run file", "remove the key for a CSV")
+    if kind == "run" and sec.has("t"):
+        raise sec.error("t", "only for a CSV", "remove the key: a run file gives its time")
     snapshot = sec.integer("snapshot", -1) if kind == "run" else -1
+    t = sec.number("t", 0.0, unit="s") if kind == "csv" else 0.0
     for key in _REPLACED_BY_FILE[kind]:
         if sheet.has(key):
             raise sheet.error(key, "given with sheet.initial_state, which replaces it",
                               f"remove the key (the {'run ' if kind == 'run' else ''}file "
                               "gives the particles" + (" and the box)" if kind == "run"
                                                        else ")"))
-    return InitialStateFile(file=name, snapshot=snapshot)
+    return InitialStateFile(file=name, snapshot=snapshot, t=t)

@@ -39,8 +39,9 @@ def export_csv(run, index: int, out: str | Path) -> Path:
     a = run.attrs
     lines = [f"# ringsim snapshot {index} of {run.path} (run {run.scenario.name}, seed "
              f"{run.scenario.seed})",
-             f"# t = {snap['t']!r} s; box Lx = {a['Lx']!r} m, Ly = {a['Ly']!r} m; "
-             f"Omega = {a['Omega']!r} 1/s; vy includes the shear flow -1.5 Omega x",
+             f"# t = {snap['t']!r} s (give it as sheet.initial_state.t); box Lx = "
+             f"{a['Lx']!r} m, Ly = {a['Ly']!r} m; Omega = {a['Omega']!r} 1/s; vy includes "
+             "the shear flow -1.5 Omega x",
              ",".join(CSV_COLUMNS)]
     table = np.column_stack([snap[f] for f in _FIELDS])
     lines += [",".join(repr(float(x)) for x in row) for row in table]

@@ -10,7 +10,8 @@ exactly where they were (starting at t = 0 would shift them by a).
 
 A CSV (comment lines start with ``#``) has the header ``x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,
 radius_m,mass_kg``; its box has Ly / Lx = ``sheet.aspect`` (as a ratio of small integers) and
-holds the particles at ``sheet.optical_depth``, and it starts at t = 0 (no offset).
+holds the particles at ``sheet.optical_depth``, and it starts at ``sheet.initial_state.t``
+(default 0: no offset), reduced modulo the shear period.
 
 Every problem is an `InputError` naming the scenario file and ``sheet.initial_state.file``
 (or ``.snapshot``): missing file, not a run file, snapshot out of range, another Omega,
@@ -120,7 +121,7 @@ def _read_csv(scenario, path: Path) -> FileState:
         raise _error(scenario, f"{path}: not a table of numbers ({exc})") from None
     arrays = {field: table[:, header.index(column)]
               for field, column in zip(_FIELDS, CSV_COLUMNS, strict=True)}
-    return FileState(arrays, None, 0, 0, 0.0)
+    return FileState(arrays, None, 0, 0, scenario.sheet.initial_state.t)
 
 
 def read_initial_state(scenario):
@@ -156,6 +157,8 @@ def read_initial_state(scenario):
     else:
         geometry = box_geometry(a["radius"], scenario.sheet.optical_depth,
                                 scenario.sheet.aspect, Omega, 0.0)
+        loaded = FileState(a, None, 0, 0, loaded.t % shear_period(geometry.Lx, geometry.Ly,
+                                                                   Omega))
     slack = 1e-9 * max(geometry.Lx, geometry.Ly)
     for field, half in (("x", 0.5 * geometry.Lx), ("y", 0.5 * geometry.Ly)):
         if np.any(np.abs(a[field]) > half + slack):
