@@ -996,6 +996,7 @@ def case5_scenario(sizes: Sizes):
     sc = load_scenario(ROOT / "scenarios" / "bridges.yaml")
     return with_overrides(sc, {"name": "case5-rebound-example", "snapshot.optical_depth": tau,
                                "sheet.n_particles": n,
+                               "integration.collision_detection": "tree",  # the example's
                                "integration.orbits": sizes.case5_orbits,
                                "output.snapshot_every": 0.5})
 
