@@ -2,12 +2,20 @@
 
 Exit status: 0 success; 2 bad input (one line on stderr naming the file and the key, no
 traceback, no output written); 1 anything else.  ``--debug`` shows tracebacks.
+
+A reader that closes stdout early (``ringsim analyze RUN.h5 --plots figs | head``) does not
+stop a command: the rest of what it prints is discarded, its files (figures, JSON, run
+files) are still written, and the exit status is the command's own (0 on success).  The
+closed pipe is not an error of ringsim: a shell script with ``set -o pipefail`` is not
+failed by ``head`` taking the lines it wanted.
 """
 
 from __future__ import annotations
 
 import argparse
+import io
 import json
+import os
 import sys
 import traceback
 from pathlib import Path
@@ -15,6 +23,47 @@ from pathlib import Path
 from ringsim.errors import InputError
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class _ClosedPipeSafeStdout(io.TextIOBase):
+    """stdout that survives its reader going away: after the first BrokenPipeError the
+    file descriptor is pointed at /dev/null (so the interpreter's final flush is quiet too)
+    and the rest of the output is dropped."""
+
+    def __init__(self, stream):
+        self.stream = stream
+        self.reader_gone = False
+
+    def write(self, text: str) -> int:
+        if not self.reader_gone:
+            try:
+                self.stream.write(text)
+                if "\n" in text:
+                    self.stream.flush()
+            except BrokenPipeError:
+                self._drop()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self.reader_gone:
+            try:
+                self.stream.flush()
+            except BrokenPipeError:
+                self._drop()
+
+    def _drop(self) -> None:
+        self.reader_gone = True
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(devnull, self.stream.fileno())
+        finally:
+            os.close(devnull)
+
+    def isatty(self) -> bool:
+        return self.stream.isatty()
+
+    def fileno(self) -> int:
+        return self.stream.fileno()
 
 
 class _Parser(argparse.ArgumentParser):
@@ -25,11 +74,45 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _cmd_epsilon(args) -> int:
+    if args.plot and Path(args.plot).suffix.lower() != ".png":
+        raise InputError(args.plot, "--plot", "the figure must be a .png file")
+    if args.restitution is None:
+        if args.radius or args.density is not None:
+            raise InputError("<command line>", "--radius" if args.radius else "--density",
+                             "only with --restitution (the paper's figures fix the sizes)")
+        return _paper_epsilon(args)
+    from ringsim import userlaw
+
+    law, density, radii = userlaw.read_law(args.restitution, args.density, args.radius)
+    curves = userlaw.user_curves(law, density, radii)
+    title = userlaw.law_title(law, density)
+    _print_curves(title, curves)
+    if args.json:
+        _write_json(args.json, {
+            "units": {"v": "m/s", "epsilon": "dimensionless", "radius": "m",
+                      "density": "kg/m^3"},
+            "restitution": law, "density": density,
+            "curves": [{"radius": r, "label": c.label, "v": c.v.tolist(),
+                        "epsilon": [float(e) for e in c.epsilon]}
+                       for r, c in zip(radii, curves, strict=True)]})
+    if args.plot:
+        print(f"wrote {userlaw.plot_user_curves(curves, title, args.plot)}")
+    return EXIT_OK
+
+
+def _print_curves(title: str, curves) -> None:
+    speeds_cm_s = (0.01, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0)
+    print(f"coefficient of restitution at impact speeds [cm/s]: {title}")
+    print(f"{'curve':<62}" + "".join(f"{v:>8g}" for v in speeds_cm_s))
+    for curve in curves:
+        idx = [int(abs(curve.v - v * 0.01).argmin()) for v in speeds_cm_s]
+        print(f"  {curve.label:<60}" + "".join(f"{curve.epsilon[i]:8.4f}" for i in idx))
+
+
+def _paper_epsilon(args) -> int:
     from ringsim.plots import paper_curves, plot_epsilon_curves
 
     curves = paper_curves()
-    if args.plot and Path(args.plot).suffix.lower() != ".png":
-        raise InputError(args.plot, "--plot", "the figure must be a .png file")
     speeds_cm_s = (0.01, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0)
     header = f"{'curve':<62}" + "".join(f"{v:>8g}" for v in speeds_cm_s)
     print("coefficient of restitution at impact speeds [cm/s]")
@@ -82,6 +165,36 @@ def _open_runs(paths: list[str]):
     return runs
 
 
+def _print_status(run) -> None:
+    """The run's status in the analyze header, and a warning on stderr unless finished."""
+    status = str(run.attrs.get("status", "unknown"))
+    orbits = run.timeseries.get("orbits")
+    done = float(orbits[-1]) if orbits is not None and len(orbits) else 0.0
+    planned = run.scenario.integration.orbits
+    print(f"status: {status} at orbit {done:.4g} of {planned:g} ({run.path})")
+    if status != "finished":
+        why = {"stopped": "it was stopped (continue it with ringsim run SCENARIO --resume)",
+               "running": "it is still running, or its process died (--resume continues "
+                          "it from its last checkpoint)"}.get(status, "its status is unknown")
+        print(f"ringsim: warning: {run.path} is not finished: {why}; the equilibrium below "
+              f"is of the first {done:.4g} orbits only", file=sys.stderr)
+
+
+def _sweep_summaries(paths: list[str]) -> list[str]:
+    """The paths that are sweep summaries (``summary.h5``: attribute ``sweep_yaml``)."""
+    import h5py
+
+    found = []
+    for path in paths:
+        try:
+            with h5py.File(path, "r") as f:
+                if "sweep_yaml" in f.attrs and "scenario_yaml" not in f.attrs:
+                    found.append(path)
+        except OSError:
+            continue  # not HDF5 or unreadable: _open_runs reports it
+    return found
+
+
 def _write_json(path: str, payload) -> None:
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     Path(path).write_text(json.dumps(payload, indent=2, allow_nan=True) + "\n")
@@ -91,6 +204,7 @@ def _cmd_analyze(args) -> int:
     from ringsim.analysis.equilibrium import equilibrium, equilibrium_table
 
     (run,) = _open_runs([args.run])
+    _print_status(run)
     eq = equilibrium(run)
     print(equilibrium_table(eq))
     if args.json:
@@ -107,7 +221,14 @@ def _cmd_compare(args) -> int:
     from ringsim.analysis.compare import comparison, comparison_table
     from ringsim.analysis.equilibrium import equilibrium
 
-    runs = _open_runs(args.runs)
+    summaries = _sweep_summaries(args.runs)
+    for path in summaries:
+        print(f"ringsim: note: skipping {path}: a sweep summary, not a run file", file=sys.stderr)
+    paths = [p for p in args.runs if p not in summaries]
+    if not paths:
+        raise InputError(args.runs[0], "RUN.h5", "only sweep summaries given; compare the "
+                         "run files of the sweep (the other .h5 files of its directory)")
+    runs = _open_runs(paths)
     equilibria = [equilibrium(run) for run in runs]
     comp = comparison(equilibria)
     print(comparison_table(comp))
@@ -118,6 +239,28 @@ def _cmd_compare(args) -> int:
 
         for path in plot_comparison(runs, equilibria, args.plots):
             print(f"wrote {path}")
+    return EXIT_OK
+
+
+def _cmd_export(args) -> int:
+    from ringsim.engine import export
+
+    if not (args.csv or args.rebound):
+        raise InputError("<command line>", "export", "give --csv OUT.csv and/or "
+                         "--rebound OUT.bin")
+    (run,) = _open_runs([args.run])
+    for option, path, suffix in (("--csv", args.csv, ".csv"), ("--rebound", args.rebound,
+                                                               ".bin")):
+        if path and Path(path).suffix.lower() != suffix:
+            raise InputError(path, option, f"the file must end in {suffix}")
+    if args.csv:
+        print(f"wrote {export.export_csv(run, args.snapshot, args.csv)}")
+    if args.rebound:
+        path, info = export.export_rebound(run, args.snapshot, args.rebound)
+        print(f"wrote {path}: t = {info['t']:.10g} s (orbit {info['orbits']:.6g} of the shear "
+              f"phase); continue it with\n  sim = rebound.Simulation({str(path)!r})\n"
+              f"  ringsim.install_resolver(sim, {info['restitution']!r}, "
+              f"detector={info['detector']!r})")
     return EXIT_OK
 
 
@@ -146,7 +289,26 @@ def build_parser() -> argparse.ArgumentParser:
                        "(Dilley 1993 Figs. 1 and 5)")
     p.add_argument("--plot", metavar="PNG", help="write the figure to this PNG file")
     p.add_argument("--json", metavar="OUT.json", help="write the curves as JSON")
+    p.add_argument("--restitution", metavar="LAW", help="your own law instead of the "
+                   "paper's figures: key=value pairs as in a scenario's restitution section "
+                   "(model=dilley,xi0=0.16,p=0.65,kappa=0.1) or a YAML file with a "
+                   "restitution section (a scenario: its sizes and density are the defaults)")
+    p.add_argument("--radius", metavar="R", type=float, nargs="+", help="radii [m] of the "
+                   "colliding identical spheres, one curve each")
+    p.add_argument("--density", metavar="RHO", type=float, help="bulk density [kg/m^3] "
+                   "(default 900, or the scenario's)")
     p.set_defaults(func=_cmd_epsilon)
+
+    p = sub.add_parser("export", help="a snapshot of a run as a particle CSV or a REBOUND "
+                       "simulation file")
+    p.add_argument("run", metavar="RUN.h5")
+    p.add_argument("--snapshot", type=int, default=-1, metavar="I",
+                   help="snapshot index (negative from the end; default -1, the last)")
+    p.add_argument("--csv", metavar="OUT.csv", help="write the particles as CSV "
+                   "(x_m ... mass_kg, the format of sheet.initial_state)")
+    p.add_argument("--rebound", metavar="OUT.bin", help="write a REBOUND simulation that "
+                   "continues the snapshot (see docs/export.md)")
+    p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser("run", help="run a scenario and write its HDF5 run file")
     p.add_argument("scenario", metavar="SCENARIO.yaml")
@@ -195,6 +357,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    if argv is None and not isinstance(sys.stdout, _ClosedPipeSafeStdout):
+        sys.stdout = _ClosedPipeSafeStdout(sys.stdout)
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv  # accepted anywhere on the line
     argv = [a for a in argv if a != "--debug"]

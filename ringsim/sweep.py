@@ -27,7 +27,9 @@ Two sweeps must not write into the same directory at the same time.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import io
 import os
 import re
 import sys
@@ -257,12 +259,44 @@ def plan_sweep(sweep, out: str | os.PathLike) -> list[PointTask]:
 
 # --- one point (runs in a worker) -------------------------------------------------------------
 
+class _LabelledStream(io.TextIOBase):
+    """A text stream that starts every line with ``label: `` (the point's run file), so that
+    the guard warnings of parallel workers say which run they come from."""
+
+    def __init__(self, stream, label: str):
+        self.stream = stream
+        self.label = label
+        self.at_line_start = True
+
+    def write(self, text: str) -> int:
+        pieces = []
+        for piece in text.splitlines(keepends=True):
+            if self.at_line_start and piece.strip():
+                pieces.append(f"{self.label}: ")
+            pieces.append(piece)
+            self.at_line_start = piece.endswith(("\n", "\r"))
+        self.stream.write("".join(pieces))
+        return len(text)
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+    def isatty(self) -> bool:
+        return False
+
+
 def run_point(task: PointTask) -> PointResult:
     """Run (or resume, or reuse) one grid point and compute its equilibrium.
 
     This is the function sent to worker processes and Dask workers.  Errors propagate to
-    the caller, which marks the point failed.
+    the caller, which marks the point failed.  What the run writes to stderr (guard
+    warnings, Python warnings) is prefixed with the point's run file name.
     """
+    with contextlib.redirect_stderr(_LabelledStream(sys.stderr, Path(task.path).name)):
+        return _run_point(task)
+
+
+def _run_point(task: PointTask) -> PointResult:
     from ringsim.analysis.equilibrium import equilibrium
     from ringsim.engine.runner import run
     from ringsim.store.runfile import open_run

@@ -660,15 +660,22 @@ def plot_fits(data: RestitutionData, results: Sequence[dict], path: str | Path) 
 
 # --- command line -------------------------------------------------------------------------------
 
-def _requested_models(text: str) -> tuple[str, ...]:
-    if text == "all":
-        return FIT_MODELS
-    if text not in FIT_MODELS:
+def _requested_models(text: str, data: RestitutionData | None = None
+                      ) -> tuple[tuple[str, ...], dict[str, str]]:
+    """The models ``--model`` asks for that ``data`` can be fitted with, and the skipped ones
+    with the reason: ``--model all`` on data without radii and masses fits the laws that
+    need none (only dilley needs them).  Without ``data`` only the name is checked."""
+    if text != "all" and text not in FIT_MODELS:
         close = difflib.get_close_matches(text, FIT_MODELS + ("all",), n=1, cutoff=0.6)
         hint = f"did you mean {close[0]!r}? " if close else ""
         raise InputError("<command line>", "--model", f"unknown model {text!r} ({hint}one of "
                          f"{', '.join(FIT_MODELS)} or all)")
-    return (text,)
+    models = FIT_MODELS if text == "all" else (text,)
+    skipped: dict[str, str] = {}
+    if text == "all" and data is not None and not data.has_sizes:
+        skipped["dilley"] = ("the file has no radius and mass columns (R_bar_m or R1_m and "
+                             "R2_m; M_bar_kg or M1_kg and M2_kg)")
+    return tuple(m for m in models if m not in skipped), skipped
 
 
 def fit_command(args) -> int:
@@ -678,12 +685,15 @@ def fit_command(args) -> int:
     Returns 0 on success, 1 if an optimizer did not converge (InputError for bad input
     propagates: exit status 2, nothing written).
     """
-    models = _requested_models(args.model)
+    models, _ = _requested_models(args.model)
     if args.plot and Path(args.plot).suffix.lower() != ".png":
         raise InputError(args.plot, "--plot", "the figure must be a .png file")
-    data = read_data(args.data, need_sizes="dilley" in models)
+    data = read_data(args.data, need_sizes=args.model == "dilley")
+    models, skipped = _requested_models(args.model, data)
     results = fit_models(data, models)
     print(fit_table(results))
+    for model, reason in skipped.items():
+        print(f"skipped {model}: {reason}")
     best = results[0]
     yaml_text = restitution_yaml(best) if args.write_restitution else None
     if yaml_text is not None:

@@ -38,6 +38,11 @@ from typing import Any
 
 import yaml
 
+from ringsim.config.initial_state import (
+    InitialStateFile,
+    read_initial_state,
+    sheet_dict_with_file,
+)
 from ringsim.config.schema import (
     REQUIRED,
     ScenarioError,
@@ -96,7 +101,7 @@ _SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "planet": ("Omega", "GM", "a"),
     "particles": ("density", "size_distribution"),
     "sheet": ("optical_depth", "n_particles", "aspect", "gravity", "softening",
-              "opening_angle", "initial_dispersion", "z_box"),
+              "opening_angle", "initial_dispersion", "z_box", "initial_state"),
     "integration": ("orbits", "dt", "dt_safety", "collision_detection"),
     "output": ("path", "timeseries_every", "snapshot_every", "checkpoint_every",
                "log_collisions"),
@@ -216,6 +221,8 @@ class SheetConfig:
         Initial 1-D velocity dispersion relative to the shear flow.
     z_box : float [mean radii] or "auto"
         Initial vertical height of the box.
+    initial_state : InitialStateFile or None
+        Particles (radii, masses, positions, velocities) from a file instead of drawn.
     """
 
     optical_depth: float
@@ -226,11 +233,14 @@ class SheetConfig:
     opening_angle: float | None
     initial_dispersion: float
     z_box: float | str
+    initial_state: InitialStateFile | None = None
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"optical_depth": self.optical_depth,
                              "n_particles": self.n_particles, "aspect": self.aspect,
                              "gravity": self.gravity}
+        if self.initial_state is not None:
+            return sheet_dict_with_file(self, d)
         if self.gravity:
             d["softening"] = self.softening
             d["opening_angle"] = self.opening_angle
@@ -508,6 +518,7 @@ def _read_sheet(top: Section) -> SheetConfig:
             if sec.has(name):
                 raise sec.error(name, "only used with self-gravity",
                                 "set sheet.gravity: true, or remove the key")
+    initial_state = read_initial_state(sec)
     return SheetConfig(
         optical_depth=sec.number("optical_depth", d["sheet.optical_depth"], gt=0.0,
                                  le=MAX_OPTICAL_DEPTH),
@@ -521,6 +532,7 @@ def _read_sheet(top: Section) -> SheetConfig:
         initial_dispersion=sec.number("initial_dispersion", d["sheet.initial_dispersion"],
                                       unit="mean radius x Omega", ge=0.0),
         z_box=sec.number_or_auto("z_box", d["sheet.z_box"], unit="mean radii", gt=0.0),
+        initial_state=initial_state,
     )
 
 
@@ -641,7 +653,8 @@ def _build(data: Any, source: str, source_text: str | None) -> Scenario:
                         particles=particles, sheet=sheet, restitution=restitution,
                         integration=integration, output=output, source=source,
                         source_text=source_text, _given=plain(data))
-    _check_geometry(top, particles, sheet, scenario)
+    if sheet.initial_state is None:  # else the file's particles are checked at set-up
+        _check_geometry(top, particles, sheet, scenario)
     return scenario
 
 

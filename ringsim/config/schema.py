@@ -1,5 +1,10 @@
 """The small validation framework of ringsim's YAML files: one-line errors naming the key.
 
+Files are read as YAML 1.2 (ruamel.yaml's safe loader, `parse_yaml`): numbers are numbers as
+users write them (``3.7931e16``, ``1e8``), ``yes``/``no``/``on``/``off`` are text (only
+``true``/``false`` are booleans), ``010`` is ten (octal is ``0o10``), and a key given twice
+is an error.
+
 `Section` wraps one mapping of a file being validated, with its dotted-key prefix, and
 reads typed values from it (`Section.number`, `Section.integer`, ...), raising
 `ScenarioError` ``"<file>: <dotted.key>: <what is wrong> (<allowed range or type>)"``.
@@ -17,7 +22,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
+from ruamel.yaml import YAML
+from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
 from ringsim.errors import InputError
 
@@ -155,6 +161,9 @@ class Section:
     def boolean(self, name: str, default: Any = REQUIRED) -> bool:
         allowed = "true or false"
         value = self.get(name, default, allowed)
+        if isinstance(value, str) and value.lower() in _YAML11_BOOLEANS:
+            raise self.error(name, f"got the text {show(value)}, not a boolean (YAML 1.2 "
+                             "reads only true and false as booleans)", allowed)
         if not isinstance(value, (bool, np.bool_)):
             raise self.error(name, f"got {type(value).__name__} {show(value)}", allowed)
         return bool(value)
@@ -197,19 +206,18 @@ class Section:
         return Section(self.file, self.key(name), value)
 
 
+#: Words that YAML 1.1 (PyYAML) read as booleans and YAML 1.2 reads as text.
+_YAML11_BOOLEANS = frozenset({"yes", "no", "on", "off", "y", "n"})
+
+
 def _string_number_hint(text: str) -> str:
-    """Why a number-looking string was read as text, and the fix."""
+    """Why a number-looking string was read as text, and the fix (YAML 1.2 reads every
+    unquoted number as a number, so only quotes make one text)."""
     try:
         x = float(text)
     except ValueError:
         return ""
-    if not math.isfinite(x):
-        return ""
-    if "e" in text.lower() and "." not in text:
-        mantissa, _, exponent = text.lower().partition("e")
-        return (f"; YAML reads exponent notation without a decimal point as text: "
-                f"write {mantissa}.0e{exponent}")
-    return "; remove the quotes"
+    return "; remove the quotes" if math.isfinite(x) else ""
 
 
 def _range_text(kind: str, unit: str, gt, ge, lt, le) -> str:
@@ -256,13 +264,19 @@ def read_text(path: str | PathLike) -> str:
 
 
 def parse_yaml(text: str, source: str) -> Any:
+    """YAML 1.2 text -> plain Python data (dicts, lists, str, int, float, bool, None).
+
+    Safe loading only (no Python objects from tags); a syntax error or a duplicated key
+    raises `ScenarioError` with key ``"<yaml>"`` and the line and column.
+    """
+    loader = YAML(typ="safe", pure=True)
     try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
+        return loader.load(text)
+    except YAMLError as exc:
+        mark = None
+        if isinstance(exc, MarkedYAMLError):
+            mark = exc.problem_mark or exc.context_mark
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(exc, "problem", None) or str(exc)
+        problem = (getattr(exc, "problem", None) or str(exc)).splitlines()[0]
         raise ScenarioError(source, "<yaml>", f"invalid YAML{where}: {problem}",
                             "YAML syntax: 'key: value' lines, nesting by indentation") from None
-
-

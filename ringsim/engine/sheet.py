@@ -107,15 +107,40 @@ def box_geometry(radii: np.ndarray, optical_depth: float, aspect: float, Omega: 
 
 # --- initial state -----------------------------------------------------------------------------
 
+#: Largest volume filling factor at the mid-plane of the initial layer.
+INITIAL_FILLING_FACTOR = 0.1
+
+
+def minimum_scale_height(radii: np.ndarray, area: float) -> float:
+    """Thinnest initial Gaussian layer [m] whose mid-plane filling factor is 0.1.
+
+    The mid-plane volume filling factor of N spheres in a Gaussian layer of scale height h
+    over the box area A is sum(4/3 pi R^3) / (A sqrt(2 pi) h); a layer this dilute is
+    filled by random draws without overlaps in a few rounds.
+
+    Parameters
+    ----------
+    radii : array [m]
+    area : float [m^2]
+        Lx Ly.
+    """
+    volume = float(np.sum(4.0 / 3.0 * np.pi * radii**3))
+    return volume / (area * math.sqrt(2.0 * math.pi) * INITIAL_FILLING_FACTOR)
+
 def initial_state(radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
                   rng: np.random.Generator) -> dict[str, np.ndarray]:
     """Positions [m] and velocities [m/s] of a ring with a small random dispersion.
 
     Positions are uniform in the box with a Gaussian vertical distribution of scale
-    height dispersion/Omega (at least twice the largest radius); velocities are the
-    shear flow vy = -1.5 Omega x plus isotropic Gaussian motions of 1-D dispersion
-    ``dispersion``.  Particles drawn overlapping another are drawn again, so the run starts
-    without overlaps.
+    height h = max(dispersion / Omega, `minimum_scale_height`); velocities are the shear
+    flow vy = -1.5 Omega x plus Gaussian motions of 1-D dispersion ``dispersion`` in x
+    and y and Omega h in z.  z and vz / Omega then share one Gaussian: the layer is in
+    vertical equilibrium from the start.  (Heights drawn with vz of the horizontal
+    dispersion would all fall through the mid-plane together a quarter orbit later, a
+    burst of collisions that heats the ring, crowds the layer and enlarges the box.)
+    Particles drawn overlapping another are drawn again, so the run starts without
+    overlaps; the box is shear-periodic at t = 0, where the images across the radial
+    boundary are not shifted in y.
 
     Parameters
     ----------
@@ -128,7 +153,7 @@ def initial_state(radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
 
     n = radii.size
     Lx, Ly, Omega = geometry.Lx, geometry.Ly, geometry.Omega
-    h = max(dispersion / Omega, 2.0 * radii.max())
+    h = max(dispersion / Omega, minimum_scale_height(radii, Lx * Ly))
     z_limit = VERTICAL_GUARD_FRACTION * 0.5 * geometry.z_period
 
     def draw(k):
@@ -141,8 +166,7 @@ def initial_state(radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
     pos = draw(n)
     r_max = radii.max()
     for _ in range(200):
-        # periodic in x and y (the shear offset at the x edges is ignored here; the
-        # resolver separates any pair the approximation misses)
+        # periodic in x and y: at t = 0 the shear offset of the radial images is zero
         wrapped = pos + np.array([0.5 * Lx, 0.5 * Ly, 0.0])
         wrapped[:, 0] %= Lx
         wrapped[:, 1] %= Ly
@@ -160,7 +184,9 @@ def initial_state(radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
         if bad.size == 0:
             break
         pos[bad] = draw(bad.size)
-    vel = rng.normal(0.0, dispersion, (n, 3))
+    vel = np.empty((n, 3))
+    vel[:, :2] = rng.normal(0.0, dispersion, (n, 2))
+    vel[:, 2] = rng.normal(0.0, Omega * h, n)
     vel[:, 1] += -1.5 * Omega * pos[:, 0]
     return {"x": pos[:, 0], "y": pos[:, 1], "z": pos[:, 2],
             "vx": vel[:, 0], "vy": vel[:, 1], "vz": vel[:, 2]}
@@ -243,20 +269,49 @@ def build_sheet(scenario) -> BuiltSheet:
     """Scenario -> ready-to-run shearing sheet with ringsim's native resolver installed.
 
     The scenario's ``seed`` seeds both numpy (radii, positions, velocities) and REBOUND's
-    collision shuffle (``sim.rand_seed``): the same scenario gives the same bits.
+    collision shuffle (``sim.rand_seed``): the same scenario gives the same bits.  With
+    ``sheet.initial_state`` the particles come from the file instead
+    (`ringsim.engine.initial_file`).
     """
     from ringsim.engine.resolver import install_resolver
 
-    rng = np.random.default_rng(scenario.seed)
+    sim, geometry, radii, masses = new_simulation(scenario)
+    handle = install_resolver(sim, scenario.restitution_dict(),
+                              log_capacity=scenario.output.log_collisions,
+                              collision_detection=scenario.integration.collision_detection)
+    edges = size_bin_edges(scenario.particles.size_distribution)
+    return BuiltSheet(sim, geometry, radii, masses, edges, handle)
+
+
+def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndarray,
+                                      np.ndarray]:
+    """The scenario's REBOUND simulation before a resolver is installed: (sim, geometry,
+    radii [m], masses [kg]).  `ringsim export --rebound` saves this simulation, so that a
+    REBOUND user's continuation and ringsim's are the same."""
     Omega = scenario.orbital_frequency
-    particles, sheet_cfg = scenario.particles, scenario.sheet
-    radii = particles.size_distribution.draw_radii(sheet_cfg.n_particles, rng)
-    masses = particles.density * 4.0 / 3.0 * np.pi * radii**3
-    r_mean = float(radii.mean())
-    dispersion = sheet_cfg.initial_dispersion * r_mean * Omega
-    z_half = initial_z_half_height(sheet_cfg, r_mean, dispersion, Omega)
-    geometry = box_geometry(radii, sheet_cfg.optical_depth, sheet_cfg.aspect, Omega, z_half)
-    state = initial_state(radii, geometry, dispersion, rng)
+    sheet_cfg = scenario.sheet
+    if sheet_cfg.initial_state is not None:
+        from ringsim.engine.initial_file import read_initial_state
+
+        radii, masses, state, geometry, t0 = read_initial_state(scenario)
+        w = np.column_stack([state["vx"], state["vy"] + 1.5 * Omega * state["x"],
+                             state["vz"]])
+        dispersion = float(np.sqrt(np.mean(w * w)))
+    else:
+        rng = np.random.default_rng(scenario.seed)
+        radii = scenario.particles.size_distribution.draw_radii(sheet_cfg.n_particles, rng)
+        masses = scenario.particles.density * 4.0 / 3.0 * np.pi * radii**3
+        dispersion = sheet_cfg.initial_dispersion * float(radii.mean()) * Omega
+        geometry, t0 = None, 0.0
+    z_half = initial_z_half_height(sheet_cfg, float(radii.mean()), dispersion, Omega,
+                                   r_max=float(radii.max()))
+    if geometry is None:
+        geometry = box_geometry(radii, sheet_cfg.optical_depth, sheet_cfg.aspect, Omega,
+                                z_half)
+        state = initial_state(radii, geometry, dispersion, rng)
+    else:
+        geometry = SheetGeometry(geometry.root_size, geometry.n_root_x, geometry.n_root_y,
+                                 max(1, math.ceil(2.0 * z_half / geometry.root_size)), Omega)
     # the initial velocities may already carry particles beyond the requested box
     amplitude = max_vertical_amplitude(state, Omega)
     if amplitude >= VERTICAL_GUARD_FRACTION * 0.5 * geometry.z_period:
@@ -271,24 +326,38 @@ def build_sheet(scenario) -> BuiltSheet:
                          collision_detection=scenario.integration.collision_detection,
                          rand_seed=scenario.seed)
     add_particles(sim, state, radii, masses)
+    sim.t = t0
     sim.minimum_collision_velocity = minimum_collision_velocity(radii, Omega)
-    handle = install_resolver(sim, scenario.restitution_dict(),
-                              log_capacity=scenario.output.log_collisions,
-                              collision_detection=scenario.integration.collision_detection)
-    edges = size_bin_edges(particles.size_distribution)
     sim.dt = choose_dt(scenario.integration, particle_arrays(sim), Omega)
-    return BuiltSheet(sim, geometry, radii, masses, edges, handle)
+    return sim, geometry, radii, masses
 
 
-def initial_z_half_height(sheet_cfg, r_mean: float, dispersion: float, Omega: float) -> float:
+def initial_z_half_height(sheet_cfg, r_mean: float, dispersion: float, Omega: float,
+                          r_max: float = 0.0) -> float:
     """Half the initial vertical period [m]: ``sheet.z_box`` mean radii, or automatic.
 
-    Automatic: room for a ring 20 times thicker than the initial one, and at least 50 mean
-    radii; the vertical guard enlarges it further if the ring heats beyond that.
+    Automatic: room for vertical amplitudes of 20 times the initial thickness, of 50 mean
+    radii and of 20 largest radii (the guard keeps amplitudes below 0.4 of the half
+    period).  The last term is for broad size distributions: the shear across a large
+    particle, 1.5 Omega (r_max + r), kicks small particles to ~3 Omega r_max in their first
+    collisions, so their amplitudes reach several r_max within an orbit whatever the
+    initial dispersion.  The vertical guard enlarges the box further if the ring heats
+    beyond that.
+
+    Parameters
+    ----------
+    sheet_cfg : the scenario's sheet section
+    r_mean : float [m]
+    dispersion : float [m/s]
+        Initial 1-D velocity dispersion.
+    Omega : float [1/s]
+    r_max : float [m]
+        Largest radius.
     """
     if sheet_cfg.z_box != "auto":
         return 0.5 * float(sheet_cfg.z_box) * r_mean
-    return max(50.0 * r_mean, 20.0 * dispersion / Omega) / VERTICAL_GUARD_FRACTION
+    return (max(50.0 * r_mean, 20.0 * r_max, 20.0 * dispersion / Omega)
+            / VERTICAL_GUARD_FRACTION)
 
 
 def minimum_collision_velocity(radii: np.ndarray, Omega: float) -> float:

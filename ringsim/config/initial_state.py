@@ -1,0 +1,100 @@
+"""The scenario key ``sheet.initial_state``: start a run from the particles of a file.
+
+``sheet.initial_state: {file: other_run.h5, snapshot: -1}`` takes radii, masses, positions,
+velocities and the box of a snapshot of a run file; ``{file: particles.csv}`` takes the
+particles of a CSV (columns ``x_m, y_m, z_m, vx_m_s, vy_m_s, vz_m_s, radius_m, mass_kg``)
+in the box that ``sheet.optical_depth`` and ``sheet.aspect`` give them.  The keys the file
+replaces may not be given with it.  This module checks the key; the file itself is read and
+checked when the sheet is built (`ringsim.engine.initial_file`).  See docs/scenario.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path, PurePath
+from typing import Any
+
+from ringsim.config.schema import Section, show
+
+#: Suffixes of the files ``sheet.initial_state.file`` may name.
+INITIAL_STATE_SUFFIXES = {".h5": "run", ".hdf5": "run", ".csv": "csv"}
+#: Keys of ``sheet`` that the file replaces (radii, positions and velocities come from it;
+#: a run file also gives the box), by kind of file.
+_REPLACED_BY_FILE = {"run": ("optical_depth", "n_particles", "aspect", "initial_dispersion"),
+                     "csv": ("n_particles", "initial_dispersion")}
+
+
+@dataclass(frozen=True)
+class InitialStateFile:
+    """Initial particles from a file (``sheet.initial_state``).
+
+    Attributes
+    ----------
+    file : str
+        A run file (``.h5``) or a particle CSV (``.csv``), as written in the scenario:
+        relative paths are relative to the scenario file's folder.
+    snapshot : int
+        Snapshot of a run file (negative counts from the end); -1 for a CSV.
+    t : float [s]
+        For a CSV: the time of the state, which sets the y offset of the images across the
+        radial boundary (1.5 Omega Lx t mod Ly); a run file gives its snapshot's time.
+    """
+
+    file: str
+    snapshot: int = -1
+    t: float = 0.0
+
+    @property
+    def kind(self) -> str:
+        """"run" or "csv"."""
+        return INITIAL_STATE_SUFFIXES[PurePath(self.file).suffix.lower()]
+
+    def to_dict(self) -> dict[str, Any]:
+        if self.kind == "csv":
+            return {"file": self.file, "t": self.t}
+        return {"file": self.file, "snapshot": self.snapshot}
+
+
+
+def sheet_dict_with_file(sheet, d: dict[str, Any]) -> dict[str, Any]:
+    """Sheet.to_dict with an initial-state file: without the keys the file replaces."""
+    for name in _REPLACED_BY_FILE[sheet.initial_state.kind]:
+        d.pop(name, None)
+    if sheet.gravity:
+        d["softening"] = sheet.softening
+        d["opening_angle"] = sheet.opening_angle
+    d["z_box"] = sheet.z_box
+    d["initial_state"] = sheet.initial_state.to_dict()
+    return d
+
+
+
+def read_initial_state(sheet: Section) -> InitialStateFile | None:
+    """``sheet.initial_state: {file: run.h5, snapshot: -1}`` or ``{file: particles.csv}``.
+
+    The file's contents are checked when the sheet is built (ringsim.engine.initial_file),
+    so that a run file that embeds this scenario can be opened after the file is gone."""
+    if not sheet.has("initial_state"):
+        return None
+    allowed = "a mapping: file (a run file .h5 with snapshot, or a particle .csv)"
+    sec = sheet.section("initial_state", allowed=allowed)
+    sec.check_keys(("file", "snapshot", "t"))
+    name = sec.string("file", what="a run file (.h5) or a particle CSV (.csv)")
+    suffix = Path(name).suffix.lower()
+    if suffix not in INITIAL_STATE_SUFFIXES:
+        raise sec.error("file", f"{show(name)} is neither a run file nor a CSV",
+                        "a file ending in .h5, .hdf5 or .csv")
+    kind = INITIAL_STATE_SUFFIXES[suffix]
+    if kind == "csv" and sec.has("snapshot"):
+        raise sec.error("snapshot", "only for a run file", "remove the key for a CSV")
+    if kind == "run" and sec.has("t"):
+        raise sec.error("t", "only for a CSV", "remove the key: a run file gives its time")
+    snapshot = sec.integer("snapshot", -1) if kind == "run" else -1
+    t = sec.number("t", 0.0, unit="s") if kind == "csv" else 0.0
+    for key in _REPLACED_BY_FILE[kind]:
+        if sheet.has(key):
+            raise sheet.error(key, "given with sheet.initial_state, which replaces it",
+                              f"remove the key (the {'run ' if kind == 'run' else ''}file "
+                              "gives the particles" + (" and the box)" if kind == "run"
+                                                       else ")"))
+    return InitialStateFile(file=name, snapshot=snapshot, t=t)

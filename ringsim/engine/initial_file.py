@@ -1,0 +1,174 @@
+"""Set-up from a file (``sheet.initial_state``): the particles of a run-file snapshot or of
+a CSV, checked, with their box and the time at which the sheet starts.
+
+A run file gives radii, masses, positions, velocities (SI, vy including the shear flow
+-1.5 Omega x) and the box (``root_size``, ``N_root_x``, ``N_root_y``).  The shearing sheet
+depends on time only through the y offset of the images across the radial boundary,
+a = 1.5 Omega Lx t mod Ly, which repeats every Ly / (1.5 Omega Lx): the sheet starts at the
+snapshot's time reduced modulo that period, so that pairs across the radial boundary are
+exactly where they were (starting at t = 0 would shift them by a).
+
+A CSV (comment lines start with ``#``) has the header ``x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,
+radius_m,mass_kg``; its box has Ly / Lx = ``sheet.aspect`` (as a ratio of small integers) and
+holds the particles at ``sheet.optical_depth``, and it starts at ``sheet.initial_state.t``
+(default 0: no offset), reduced modulo the shear period.
+
+Every problem is an `InputError` naming the scenario file and ``sheet.initial_state.file``
+(or ``.snapshot``): missing file, not a run file, snapshot out of range, another Omega,
+missing or unknown columns, non-finite values, radii or masses <= 0, particles outside the
+box, or pairs overlapping by more than 10 % of the smaller radius.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ringsim.errors import InputError
+
+#: CSV columns of a particle file, in the order `ringsim export --csv` writes them.
+CSV_COLUMNS = ("x_m", "y_m", "z_m", "vx_m_s", "vy_m_s", "vz_m_s", "radius_m", "mass_kg")
+_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "radius", "mass")
+_KEY = "sheet.initial_state.file"
+
+
+@dataclass(frozen=True)
+class FileState:
+    """Particles read from a file.
+
+    Attributes
+    ----------
+    arrays : dict of arrays
+        x, y, z [m], vx, vy, vz [m/s], radius [m], mass [kg].
+    root_size : float [m] or None
+        The run file's root box (None for a CSV: sized from the scenario).
+    n_root_x, n_root_y : int
+    t : float [s]
+        Time at which the sheet starts (the snapshot's time modulo the shear period).
+    """
+
+    arrays: dict
+    root_size: float | None
+    n_root_x: int
+    n_root_y: int
+    t: float
+
+
+def resolve_path(scenario) -> Path:
+    """The file of ``sheet.initial_state``: relative paths from the scenario file's folder
+    (from the working directory for a scenario not read from a file)."""
+    path = Path(scenario.sheet.initial_state.file)
+    source = Path(scenario.source)
+    if not path.is_absolute() and source.suffix.lower() in (".yaml", ".yml") \
+            and source.is_file():
+        path = source.parent / path
+    return path
+
+
+def shear_period(Lx: float, Ly: float, Omega: float) -> float:
+    """Period [s] of the radial images' y offset 1.5 Omega Lx t mod Ly."""
+    return Ly / (1.5 * Omega * Lx)
+
+
+def _error(scenario, problem: str, key: str = _KEY) -> InputError:
+    return InputError(scenario.source, key, problem)
+
+
+def _read_run(scenario, path: Path) -> FileState:
+    from ringsim.store.runfile import open_run
+
+    try:
+        run = open_run(path)
+    except (OSError, KeyError) as exc:
+        raise _error(scenario, f"{path} is not a ringsim run file ({exc})") from None
+    index = scenario.sheet.initial_state.snapshot
+    if not -run.n_snapshots <= index < run.n_snapshots:
+        raise _error(scenario, f"{path} has {run.n_snapshots} snapshots, no index {index} "
+                     f"(-{run.n_snapshots} ... {run.n_snapshots - 1})",
+                     "sheet.initial_state.snapshot")
+    Omega = float(run.attrs["Omega"])
+    if not math.isclose(Omega, scenario.orbital_frequency, rel_tol=1e-12):
+        raise _error(scenario, f"{path} was run at Omega = {Omega:.10g} 1/s, the scenario's "
+                     f"planet gives {scenario.orbital_frequency:.10g} 1/s (the velocities "
+                     "include the shear flow of the run's Omega)")
+    snap = run.snapshot(index)
+    root, nx, ny = float(run.attrs["root_size"]), int(run.attrs["N_root_x"]), \
+        int(run.attrs["N_root_y"])
+    t = float(snap["t"]) % shear_period(root * nx, root * ny, Omega)
+    return FileState({f: np.asarray(snap[f], dtype=float) for f in _FIELDS}, root, nx, ny, t)
+
+
+def _read_csv(scenario, path: Path) -> FileState:
+    lines = [line for line in path.read_text(encoding="utf-8").splitlines()
+             if line.strip() and not line.lstrip().startswith("#")]
+    if not lines:
+        raise _error(scenario, f"{path} has no header line ({', '.join(CSV_COLUMNS)})")
+    header = [name.strip() for name in lines[0].split(",")]
+    missing = [c for c in CSV_COLUMNS if c not in header]
+    unknown = [c for c in header if c not in CSV_COLUMNS]
+    if missing or unknown or len(header) != len(CSV_COLUMNS):
+        what = (f"unknown column {unknown[0]!r}" if unknown else
+                f"missing column {missing[0]!r}" if missing else "a column appears twice")
+        raise _error(scenario, f"{path}: {what} (the header is {','.join(CSV_COLUMNS)}; "
+                     "units in the names: m, m/s, kg)")
+    try:
+        table = np.array([[float(cell) for cell in line.split(",")] for line in lines[1:]],
+                         dtype=float).reshape(-1, len(header))
+    except ValueError as exc:
+        raise _error(scenario, f"{path}: not a table of numbers ({exc})") from None
+    arrays = {field: table[:, header.index(column)]
+              for field, column in zip(_FIELDS, CSV_COLUMNS, strict=True)}
+    return FileState(arrays, None, 0, 0, scenario.sheet.initial_state.t)
+
+
+def read_initial_state(scenario):
+    """(radii [m], masses [kg], state dict, geometry, t [s]) of ``sheet.initial_state``.
+
+    The geometry's vertical extent is a placeholder (one root box): the caller sizes it.
+    """
+    from ringsim.engine.sheet import (
+        OVERLAP_REPORT_FRACTION,
+        SheetGeometry,
+        box_geometry,
+        count_overlaps,
+    )
+
+    path = resolve_path(scenario)
+    if not path.is_file():
+        raise _error(scenario, f"no such file: {path}")
+    kind = scenario.sheet.initial_state.kind
+    loaded = _read_run(scenario, path) if kind == "run" else _read_csv(scenario, path)
+    a = loaded.arrays
+    n = a["radius"].size
+    if n < 2:
+        raise _error(scenario, f"{path} has {n} particle(s); a sheet needs at least 2")
+    for field in _FIELDS:
+        if not np.all(np.isfinite(a[field])):
+            raise _error(scenario, f"{path}: {field} has values that are not finite")
+    for field in ("radius", "mass"):
+        if not np.all(a[field] > 0):
+            raise _error(scenario, f"{path}: every {field} must be > 0")
+    Omega = scenario.orbital_frequency
+    if loaded.root_size is not None:
+        geometry = SheetGeometry(loaded.root_size, loaded.n_root_x, loaded.n_root_y, 1, Omega)
+    else:
+        geometry = box_geometry(a["radius"], scenario.sheet.optical_depth,
+                                scenario.sheet.aspect, Omega, 0.0)
+        loaded = FileState(a, None, 0, 0, loaded.t % shear_period(geometry.Lx, geometry.Ly,
+                                                                   Omega))
+    slack = 1e-9 * max(geometry.Lx, geometry.Ly)
+    for field, half in (("x", 0.5 * geometry.Lx), ("y", 0.5 * geometry.Ly)):
+        if np.any(np.abs(a[field]) > half + slack):
+            raise _error(scenario, f"{path}: particles outside the box, |{field}| > {half:.6g} m"
+                         f" (box {geometry.Lx:.6g} m x {geometry.Ly:.6g} m"
+                         + (" from sheet.optical_depth and sheet.aspect)" if kind == "csv"
+                            else ")"))
+    overlapping = count_overlaps(a, geometry, loaded.t, OVERLAP_REPORT_FRACTION)
+    if overlapping:
+        raise _error(scenario, f"{path}: {overlapping} pairs overlap by more than "
+                     f"{OVERLAP_REPORT_FRACTION:.0%} of the smaller radius")
+    state = {f: a[f].copy() for f in ("x", "y", "z", "vx", "vy", "vz")}
+    return a["radius"].copy(), a["mass"].copy(), state, geometry, loaded.t

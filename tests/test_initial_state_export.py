@@ -1,0 +1,204 @@
+"""Conveniences: a run started from a file's particles, and a snapshot exported to CSV and
+to a REBOUND simulation that continues in plain REBOUND exactly as ringsim continues it."""
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+import rebound
+
+import ringsim
+from ringsim.cli import main
+from ringsim.config.scenario import scenario_from_dict, scenario_from_text
+from ringsim.config.schema import ScenarioError
+from ringsim.engine import export, sheet
+from ringsim.engine.initial_file import CSV_COLUMNS, shear_period
+from ringsim.physics import restitution as rs
+
+BASE = {
+    "name": "src", "seed": 3, "planet": {"Omega": 2.0e-4},
+    "particles": {"size_distribution": {"kind": "powerlaw", "q": 3.0, "r_min": 0.5,
+                                        "r_max": 1.5}},
+    "sheet": {"n_particles": 80, "optical_depth": 0.25},
+    "restitution": {"model": "dilley", "kappa": 0.1},
+    "integration": {"orbits": 0.37, "collision_detection": "line"},
+    "output": {"timeseries_every": 0.05, "snapshot_every": 0.1},
+}
+
+
+@pytest.fixture(scope="module")
+def source_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("src") / "src.h5"
+    return ringsim.open_run(ringsim.run(scenario_from_dict(BASE), output=out,
+                                        progress=False))
+
+
+def _from_file(initial_state: dict, source: str = "<test>", **sheet_keys):
+    d = {k: v for k, v in BASE.items() if k != "sheet"}
+    d["name"] = "cont"
+    d["sheet"] = {"initial_state": initial_state, **sheet_keys}
+    return scenario_from_dict(d, source=source)
+
+
+def test_run_starts_from_a_snapshot(source_run):
+    sc = _from_file({"file": str(source_run.path), "snapshot": 2})
+    built = sheet.build_sheet(sc)
+    snap = source_run.snapshot(2)
+    arrays = sheet.particle_arrays(built.sim)
+    for field in ("x", "y", "z", "vx", "vy", "vz", "radius", "mass"):
+        np.testing.assert_array_equal(arrays[field], snap[field], err_msg=field)
+    g, attrs = built.geometry, source_run.attrs
+    assert (g.root_size, g.n_root_x, g.n_root_y) == (attrs["root_size"], 1, 1)
+    period = shear_period(g.Lx, g.Ly, 2.0e-4)
+    assert 0.0 <= built.sim.t < period
+    # the same shear phase: the images across the radial boundary are where they were
+    assert (1.5 * 2e-4 * g.Lx * built.sim.t - 1.5 * 2e-4 * g.Lx * snap["t"]) / g.Ly \
+        == pytest.approx(round((built.sim.t - snap["t"]) / period), abs=1e-9)
+
+
+def test_scenario_key_round_trips_and_refuses_replaced_keys():
+    sc = _from_file({"file": "other.h5", "snapshot": -1})
+    assert scenario_from_text(sc.to_yaml()) == sc
+    assert "n_particles" not in sc.to_dict()["sheet"]
+    with pytest.raises(ScenarioError) as info:
+        _from_file({"file": "other.h5"}, n_particles=10)
+    assert info.value.key == "sheet.n_particles" and "initial_state" in str(info.value)
+    with pytest.raises(ScenarioError) as info:
+        _from_file({"file": "p.csv", "snapshot": 1})
+    assert info.value.key == "sheet.initial_state.snapshot"
+    with pytest.raises(ScenarioError) as info:
+        _from_file({"file": "p.txt"})
+    assert info.value.key == "sheet.initial_state.file"
+
+
+def _cli_error(tmp_path, capsys, initial_state: dict, **sheet_keys) -> str:
+    d = {k: v for k, v in BASE.items() if k != "sheet"}
+    d["sheet"] = {"initial_state": initial_state, **sheet_keys}
+    path = tmp_path / "cont.yaml"
+    path.write_text(scenario_from_dict(d).to_yaml())
+    out = tmp_path / "cont.h5"
+    assert main(["run", str(path), "-o", str(out), "--no-progress"]) == 2
+    assert not out.exists(), "no run file written for bad input"
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"ringsim: error: {path}: sheet.initial_state")
+    return err[0]
+
+
+def test_bad_initial_state_files_are_one_line_errors(source_run, tmp_path, capsys):
+    assert "no such file" in _cli_error(tmp_path, capsys, {"file": "missing.h5"})
+    assert "no index 99" in _cli_error(tmp_path, capsys, {"file": str(source_run.path),
+                                                          "snapshot": 99})
+    bad = tmp_path / "bad.csv"
+    bad.write_text("x,y,z,vx,vy,vz,r,m\n0,0,0,0,0,0,1,1\n")
+    assert "unknown column 'x'" in _cli_error(tmp_path, capsys, {"file": str(bad)})
+    outside = tmp_path / "outside.csv"
+    outside.write_text(",".join(CSV_COLUMNS) + "\n0,0,0,0,0,0,1,4000\n1e4,0,0,0,0,0,1,4000\n")
+    assert "outside the box" in _cli_error(tmp_path, capsys, {"file": str(outside)})
+    overlap = tmp_path / "overlap.csv"
+    overlap.write_text(",".join(CSV_COLUMNS) + "\n0,0,0,0,0,0,1,4000\n0.5,0,0,0,0,0,1,4000\n")
+    assert "overlap" in _cli_error(tmp_path, capsys, {"file": str(overlap)})
+    other = dict(BASE, planet={"Omega": 1.0e-4})
+    path = tmp_path / "other.yaml"
+    other["sheet"] = {"initial_state": {"file": str(source_run.path)}}
+    path.write_text(scenario_from_dict(other).to_yaml())
+    assert main(["run", str(path), "-o", str(tmp_path / "o.h5"), "--no-progress"]) == 2
+    assert "Omega" in capsys.readouterr().err
+
+
+def test_csv_export_starts_an_identical_sheet(source_run, tmp_path):
+    csv = export.export_csv(source_run, 1, tmp_path / "snap.csv")
+    scenario = tmp_path / "from_csv.yaml"
+    scenario.write_text("name: from_csv\nseed: 3\nplanet: {Omega: 2e-4}\n"
+                        "particles: {size_distribution: {kind: powerlaw, q: 3, r_min: 0.5, "
+                        "r_max: 1.5}}\n"
+                        "sheet: {optical_depth: 0.25, initial_state: {file: snap.csv, "
+                        f"t: {source_run.snapshot(1)['t']!r}}}}}\n"
+                        "integration: {orbits: 0.1, collision_detection: line}\n")
+    sc = ringsim.load_scenario(scenario)  # the CSV is found beside the scenario
+    arrays = sheet.particle_arrays(sheet.build_sheet(sc).sim)
+    snap = source_run.snapshot(1)
+    for field in ("x", "y", "z", "vx", "vy", "vz", "radius", "mass"):
+        np.testing.assert_array_equal(arrays[field], snap[field], err_msg=field)
+    assert csv.read_text().splitlines()[2] == ",".join(CSV_COLUMNS)
+    # without its time the state's radial images would be shifted: refused, not run
+    at_zero = scenario.read_text().replace(f"t: {source_run.snapshot(1)['t']!r}", "t: 0")
+    with pytest.raises(ringsim.InputError, match="overlap"):
+        sheet.build_sheet(scenario_from_text(at_zero, source=str(scenario)))
+    path = ringsim.run(sc, output=tmp_path / "c.h5", progress=False)
+    assert ringsim.open_run(path).attrs["status"] == "finished"
+
+
+def test_rebound_export_continues_bit_for_bit(source_run, tmp_path, capsys):
+    out = tmp_path / "snap.bin"
+    assert main(["export", str(source_run.path), "--snapshot", "-1", "--rebound",
+                 str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "ringsim.install_resolver(sim" in printed
+    # a REBOUND user's continuation: load, re-install the resolver (function pointers are
+    # not saved), step
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # REBOUND's reminder about function pointers
+        sim = rebound.Simulation(str(out))
+    scenario = export.continuation_scenario(source_run, -1)
+    ringsim.install_resolver(sim, scenario.restitution_dict(), detector="sheet")
+    sim.steps(10)
+    # ringsim's own continuation of the same snapshot (sheet.initial_state)
+    own = sheet.build_sheet(scenario)
+    own.sim.steps(10)
+    a, b = sheet.particle_arrays(sim), sheet.particle_arrays(own.sim)
+    assert sim.t == own.sim.t
+    for field in a:
+        assert np.array_equal(a[field], b[field]), field
+    assert own.resolver.stats()["count"] > 0, "collisions were resolved in those steps"
+
+
+def test_export_needs_an_output_and_a_valid_snapshot(source_run, tmp_path, capsys):
+    assert main(["export", str(source_run.path)]) == 2
+    assert main(["export", str(source_run.path), "--snapshot", "50", "--csv",
+                 str(tmp_path / "a.csv")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and "--snapshot" in err[1]
+    assert not (tmp_path / "a.csv").exists()
+
+
+def test_epsilon_of_the_users_law(tmp_path, capsys):
+    png, out = tmp_path / "eps.png", tmp_path / "eps.json"
+    assert main(["epsilon", "--restitution", "model=dilley,kappa=0.1", "--radius", "0.5",
+                 "2", "--density", "500", "--plot", str(png), "--json", str(out)]) == 0
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    payload = json.loads(out.read_text())
+    assert payload["restitution"] == {"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.1}
+    curve = payload["curves"][1]
+    v = np.array(curve["v"])
+    mass = 500.0 * 4.0 / 3.0 * np.pi * 2.0**3
+    np.testing.assert_allclose(curve["epsilon"], rs.dilley_epsilon(v, 1.0, mass / 2.0,
+                                                                   kappa=0.1), rtol=1e-14)
+    assert "R = 0.5 m" in capsys.readouterr().out
+
+
+def test_epsilon_law_from_a_scenario_uses_its_sizes(tmp_path, capsys):
+    path = tmp_path / "s.yaml"
+    path.write_text("name: s\nseed: 1\nplanet: {Omega: 2e-4}\nparticles: {density: 400, "
+                    "size_distribution: {kind: powerlaw, q: 3, r_min: 1, r_max: 4}}\n"
+                    "restitution: {model: bridges, v_c: 7.7e-5}\n")
+    out = tmp_path / "e.json"
+    assert main(["epsilon", "--restitution", str(path), "--json", str(out)]) == 0
+    payload = json.loads(out.read_text())
+    assert payload["density"] == 400.0 and payload["curves"][0]["radius"] == 1.0
+    assert payload["curves"][-1]["radius"] == 4.0
+
+
+@pytest.mark.parametrize("argv, key", [
+    (["--restitution", "model=dilley,kapa=0.1", "--radius", "1"], "restitution.kapa"),
+    (["--restitution", "model=constant", "--radius", "1"], "restitution.epsilon"),
+    (["--restitution", "model=dilley", "--radius", "-1"], "--radius"),
+    (["--restitution", "model=dilley"], "--radius"),
+    (["--radius", "1"], "--radius"),
+    (["--restitution", "kappa"], "--restitution"),
+])
+def test_epsilon_bad_law_is_one_line_naming_the_key(argv, key, tmp_path, capsys):
+    assert main(["epsilon", *argv, "--plot", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f": {key}:" in err[0], err
+    assert not (tmp_path / "x.png").exists()
