@@ -260,7 +260,7 @@ def _cmd_export(args) -> int:
         print(f"wrote {path}: t = {info['t']:.10g} s (orbit {info['orbits']:.6g} of the shear "
               f"phase); continue it with\n  sim = rebound.Simulation({str(path)!r})\n"
               f"  ringsim.install_resolver(sim, {info['restitution']!r}, "
-              f"detector={info['detector']!r})")
+              f"collision_detection={info['collision_detection']!r})")
     return EXIT_OK
 
 

@@ -5,8 +5,8 @@ a ``restitution`` section (a scenario, or the file ``ringsim fit --write-restitu
 writes); it is checked by the scenario rules, so errors name ``restitution.<key>``.  Each
 radius R [m] gives the curve of two identical spheres of that radius and bulk density
 colliding: reduced radius R/2, reduced mass m/2 with m = density 4/3 pi R^3.  Without
-``--radius`` a scenario file's smallest, mean and largest radii are used.  Speeds and the
-figure are in cm/s, as the paper's figures (`ringsim.plots.paper_curves`).
+``--radius`` a scenario file's smallest, mean and largest radii are used.  The printed
+table gives speeds in cm/s, as the paper; the figure uses mm/s, as every ringsim figure.
 """
 
 from __future__ import annotations
@@ -21,7 +21,10 @@ from ringsim.config.scenario import scenario_from_dict
 from ringsim.config.schema import parse_yaml, read_text
 from ringsim.errors import InputError
 from ringsim.physics import restitution as rs
-from ringsim.plots import CM_S, Curve
+from ringsim.plots.laws import Curve
+
+#: One centimetre per second [m/s] (the paper's speed unit, used by the printed table).
+CM_S = 0.01
 
 #: Speeds [m/s] of the curves: 200 log-spaced from 0.01 to 2 cm/s, as the paper's figures.
 SPEEDS = np.logspace(np.log10(0.01 * CM_S), np.log10(2.0 * CM_S), 200)
@@ -92,16 +95,17 @@ def law_title(law: dict, density: float) -> str:
 
 
 def plot_user_curves(curves: Sequence[Curve], title: str, path: str | Path) -> Path:
-    """One panel: epsilon against impact speed [cm/s], a line per radius; writes a PNG."""
-    from ringsim.plots import _pyplot, save_figure
+    """One panel: epsilon against impact speed (in the figures' speed unit, mm/s), a line
+    per radius; writes a PNG."""
+    from ringsim.plots.common import SPEED_SCALE, SPEED_UNIT, pyplot, save_figure
 
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 5.0))
     for curve in curves:
-        ax.plot(curve.v / CM_S, curve.epsilon, label=curve.label)
+        ax.plot(curve.v / SPEED_SCALE, curve.epsilon, label=curve.label)
     ax.set_xscale("log")
     ax.set_ylim(0.0, 1.02)
-    ax.set_xlabel("normal impact speed v [cm/s]")
+    ax.set_xlabel(f"normal impact speed v [{SPEED_UNIT}]")
     ax.set_ylabel("coefficient of restitution ε")
     ax.set_title(title, fontsize=10)
     ax.grid(True, which="both", alpha=0.3)

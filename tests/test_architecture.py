@@ -27,6 +27,7 @@ LAYERS = {
     "sweep": "sweep", "testing": "testing", "validation": "validation",
     "errors": "base", "checks": "base", "report": "base", "__init__": "base",
     "__version__": "base", "_resolver": "engine",
+    "userlaw": "cli",  # the `ringsim epsilon --restitution` command's law, table and figure
 }
 
 _FRONT_ENDS = {"cli", "sweep", "validation"}

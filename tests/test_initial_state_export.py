@@ -141,7 +141,7 @@ def test_rebound_export_continues_bit_for_bit(source_run, tmp_path, capsys):
         warnings.simplefilter("ignore")  # REBOUND's reminder about function pointers
         sim = rebound.Simulation(str(out))
     scenario = export.continuation_scenario(source_run, -1)
-    ringsim.install_resolver(sim, scenario.restitution_dict(), detector="sheet")
+    ringsim.install_resolver(sim, scenario.restitution_dict(), collision_detection="line")
     sim.steps(10)
     # ringsim's own continuation of the same snapshot (sheet.initial_state)
     own = sheet.build_sheet(scenario)

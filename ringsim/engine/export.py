@@ -66,8 +66,8 @@ def continuation_scenario(run, index: int):
 
 def export_rebound(run, index: int, out: str | Path) -> tuple[Path, dict]:
     """Write the REBOUND simulation continuing snapshot ``index``; returns the path and
-    what REBOUND's file does not keep: {"restitution": ..., "detector": ...}."""
-    from ringsim.engine.sheet import detector_for, new_simulation
+    what REBOUND's file does not keep: {"restitution": ..., "collision_detection": ...}."""
+    from ringsim.engine.sheet import new_simulation
 
     scenario = continuation_scenario(run, index)
     sim = new_simulation(scenario)[0]
@@ -77,6 +77,6 @@ def export_rebound(run, index: int, out: str | Path) -> tuple[Path, dict]:
         out.unlink()  # save_to_file appends to an existing file
     sim.save_to_file(str(out))
     return out, {"restitution": scenario.restitution_dict(),
-                 "detector": detector_for(scenario.integration.collision_detection),
+                 "collision_detection": scenario.integration.collision_detection,
                  "rand_seed": int(sim.rand_seed), "t": float(sim.t),
                  "orbits": float(sim.t) * scenario.orbital_frequency / (2.0 * math.pi)}
