@@ -304,7 +304,9 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
         dispersion = sheet_cfg.initial_dispersion * float(radii.mean()) * Omega
         geometry, t0 = None, 0.0
     z_half = initial_z_half_height(sheet_cfg, float(radii.mean()), dispersion, Omega,
-                                   r_max=float(radii.max()))
+                                   r_max=float(radii.max()),
+                                   expected_dispersion=expected_dispersion(scenario, radii,
+                                                                           masses))
     if geometry is None:
         geometry = box_geometry(radii, sheet_cfg.optical_depth, sheet_cfg.aspect, Omega,
                                 z_half)
@@ -332,8 +334,35 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
     return sim, geometry, radii, masses
 
 
+#: Room the automatic box leaves above the expected equilibrium thickness, in units of that
+#: thickness c_eq / Omega: the smallest particles of a broad size distribution move 2-3
+#: times faster than the mean, and the largest of the ~1e4-1e5 vertical amplitudes the
+#: guard inspects over a run is ~4.5 times their Rayleigh scale.
+EQUILIBRIUM_AMPLITUDES = 8.0
+
+
+def expected_dispersion(scenario, radii: np.ndarray, masses: np.ndarray) -> float:
+    """The scenario's equilibrium velocity dispersion [m/s] by the dilute kinetic estimate
+    (``physics.kinetic``; Goldreich & Tremaine 1978 balance of its restitution law), or 0
+    where that estimate has no stable balance (a cold ring that collapses to a monolayer).
+
+    Parameters
+    ----------
+    scenario : Scenario
+    radii : array [m]
+    masses : array [kg]
+    """
+    from ringsim.physics.kinetic import kinetic_dispersion_estimate
+
+    estimate = kinetic_dispersion_estimate(scenario.restitution_dict(), radii, masses,
+                                           scenario.sheet.optical_depth,
+                                           scenario.orbital_frequency)
+    return float(estimate["velocity_dispersion"]) if estimate["status"] == "equilibrium" \
+        else 0.0
+
+
 def initial_z_half_height(sheet_cfg, r_mean: float, dispersion: float, Omega: float,
-                          r_max: float = 0.0) -> float:
+                          r_max: float = 0.0, expected_dispersion: float = 0.0) -> float:
     """Half the initial vertical period [m]: ``sheet.z_box`` mean radii, or automatic.
 
     Automatic: room for vertical amplitudes of 20 times the initial thickness, of 50 mean
@@ -341,8 +370,10 @@ def initial_z_half_height(sheet_cfg, r_mean: float, dispersion: float, Omega: fl
     period).  The last term is for broad size distributions: the shear across a large
     particle, 1.5 Omega (r_max + r), kicks small particles to ~3 Omega r_max in their first
     collisions, so their amplitudes reach several r_max within an orbit whatever the
-    initial dispersion.  The vertical guard enlarges the box further if the ring heats
-    beyond that.
+    initial dispersion.  And room for `EQUILIBRIUM_AMPLITUDES` times the equilibrium
+    thickness the kinetic estimate expects (``expected_dispersion`` / Omega), so that a ring
+    heating to its equilibrium never needs a larger box.  The vertical guard enlarges the
+    box further if the ring heats beyond that.
 
     Parameters
     ----------
@@ -353,10 +384,13 @@ def initial_z_half_height(sheet_cfg, r_mean: float, dispersion: float, Omega: fl
     Omega : float [1/s]
     r_max : float [m]
         Largest radius.
+    expected_dispersion : float [m/s]
+        Equilibrium velocity dispersion expected (0: unknown).
     """
     if sheet_cfg.z_box != "auto":
         return 0.5 * float(sheet_cfg.z_box) * r_mean
-    return (max(50.0 * r_mean, 20.0 * r_max, 20.0 * dispersion / Omega)
+    return (max(50.0 * r_mean, 20.0 * r_max, 20.0 * dispersion / Omega,
+                EQUILIBRIUM_AMPLITUDES * expected_dispersion / Omega)
             / VERTICAL_GUARD_FRACTION)
 
 
