@@ -32,17 +32,16 @@ import pytest
 import rebound
 
 from ringsim.analysis import snapshot, timeseries
-from ringsim.config.scenario import scenario_from_dict
-from ringsim.engine import sheet, timestep
+from ringsim.config.scenario import scenario_from_dict, with_overrides
+from ringsim.engine import sheet
 from ringsim.engine.resolver import install_resolver
-from ringsim.engine.timestep import (
-    MULTI_ENCOUNTER_TARGET,
+from ringsim.physics import restitution as rs
+from ringsim.validation.encounters import (
     MULTI_ENCOUNTER_WINDOW_STEPS,
     multi_encounter_fraction,
     multi_encounter_rate,
     predicted_contacts,
 )
-from ringsim.physics import restitution as rs
 
 OMEGA = 2e-4                       # [1/s]
 ORBIT = 2.0 * math.pi / OMEGA      # [s]
@@ -289,14 +288,17 @@ def three_bodies(side_mass: float) -> rebound.Simulation:
     return sim
 
 
-@pytest.mark.parametrize("side_mass, multi", [(1e3, 1), (10.0, 0)],
+# Equal masses: an exact event-driven integration of the three spheres has contacts at
+# 25.2 s (A-B), 42.5 s (B-C) and 55.7 s (A-B again) inside the 100 s step; the time-ordered
+# detector resolves all three, two of them on a path deflected earlier in the step.
+@pytest.mark.parametrize("side_mass, count, multi", [(1e3, 3, 2), (10.0, 2, 0)],
                          ids=["equal-masses", "grains-on-a-boulder"])
-def test_multi_encounters_count_particles_deflected_twice_in_a_step(side_mass, multi):
+def test_multi_encounters_count_particles_deflected_twice_in_a_step(side_mass, count, multi):
     sim = three_bodies(side_mass)
     handle = install_resolver(sim, CONSTANT_HALF, collision_detection="line")
     sim.steps(1)
     stats = handle.stats()
-    assert stats["count"] == 2, "both strikes resolved"
+    assert stats["count"] == count, "every contact of the exact event sequence resolved"
     assert stats["multi_encounters"] == multi
     counters = handle.detector_stats()
     assert counters["steps"] == 1 and counters["reports"] == 2 and counters["error"] == "none"
@@ -344,27 +346,15 @@ def ring_arrays(n: int, tau: float, dispersion_rOmega: float, seed: int) -> tupl
     return state, box
 
 
-def test_auto_dt_line_keeps_predicted_multi_encounters_below_target():
-    dt_max = 1e-3 * ORBIT
-    hot, _ = ring_arrays(500, 0.25, 100.0, seed=11)
-    assert timestep.auto_dt(hot, OMEGA, 0.1, collision_detection="line") == pytest.approx(dt_max), \
-        "a hot dilute ring runs at the orbit limit"
-
-    _, sim, _ = integrate_sheet(cold_dense_scenario("line", 1e-3), 1.0)
-    dense = sheet.particle_arrays(sim)
-    rate = multi_encounter_rate(dense, OMEGA, MULTI_ENCOUNTER_WINDOW_STEPS * dt_max)
-    dt = timestep.auto_dt(dense, OMEGA, 0.1, collision_detection="line")
-    assert rate * dt_max > MULTI_ENCOUNTER_TARGET, "the cooled dense ring needs a shorter step"
-    assert rate * dt <= MULTI_ENCOUNTER_TARGET < rate * 2.0 * dt, "the largest such step"
-    assert math.log2(dt_max / dt) == pytest.approx(round(math.log2(dt_max / dt))), \
-        "a power-of-two fraction of 1e-3 orbit"
-    # hysteresis: a step in use is kept while the bound has no 1.5 margin above it, and
-    # grows back once it has (which of the two this state shows depends on where its bound
-    # falls in [dt, 2 dt); both outcomes are exact)
-    assert timestep.auto_dt(dense, OMEGA, 0.1, current=dt, collision_detection="line") == dt
-    bound = MULTI_ENCOUNTER_TARGET / rate
-    shorter = timestep.auto_dt(dense, OMEGA, 0.1, current=dt / 2, collision_detection="line")
-    assert shorter == (dt / 2 if bound < 1.5 * dt else dt), (bound / dt, shorter / dt)
+def test_dense_ring_runs_at_the_orbit_limit_within_the_detectors_limits():
+    """dt: auto gives line mode 1e-3 orbit even in a cold dense ring, where a particle often
+    meets several partners in one step; the time-ordered resolution never reaches its
+    limits there (contacts per particle and step, search span)."""
+    _, sim, handle = integrate_sheet(cold_dense_scenario("line", "auto"), 1.0)
+    assert sim.dt == pytest.approx(1e-3 * ORBIT, rel=1e-15)
+    counters = handle.order_stats()
+    assert counters["resolved"] > 1000 and counters["rescheduled"] > 0
+    assert counters["saturated"] == 0 and counters["span_limited"] == 0, counters
 
 
 def cold_dense_scenario(detection: str, dt: float | str, n: int = 300):
@@ -402,29 +392,40 @@ def integrate_sheet(sc, orbits: float, every: float = 0.1):
     return np.array(rows), sim, handle
 
 
-def test_measured_multi_encounters_match_the_prediction_in_a_dense_ring():
+def test_straight_path_prediction_is_a_lower_bound_of_measured_multi_encounters():
+    """The prediction sees only second contacts already on course at the start of a step;
+    the time-ordered detector also resolves those a deflection causes, so the measured
+    fraction is larger (1.7-3.6 times in docs/validation.md), and still rare at 1e-3 orbit."""
     rows, _, _ = integrate_sheet(cold_dense_scenario("line", 1e-3), 2.0)
     late = rows[10:]                                   # after one orbit of cooling
     measured = late[:, 3].sum() / late[:, 2].sum()
     predicted = late[:, 4].mean()
     assert late[:, 2].sum() > 2000
-    assert 0.6 < measured / predicted < 1.6, f"measured {measured:.4f}, predicted {predicted:.4f}"
-    assert measured < 0.03, "multiple encounters stay rare at 1e-3 orbit"
+    assert predicted < measured < 0.05, f"measured {measured:.4f}, predicted {predicted:.4f}"
 
 
 def test_cold_dense_equilibrium_agrees_with_tree_reference():
-    """c and H after the transient, line mode at 1e-3 orbit against tree mode at dt: auto."""
-    results = {}
+    """c and H after the transient, line mode at 1e-3 orbit against tree mode at dt: auto,
+    each the mean of 4 seeds.  The uncertainty is the seeds' scatter: one run's
+    autocorrelation-corrected standard error (~0.35 %) is 4-5 times smaller than the
+    seed-to-seed scatter (~1.8 %) of 4-orbit windows, and would reject runs that agree.
+    Within 10 % as well: the tree reference itself moves by 3 % with its dt_safety."""
+    means = {}
     for detection, dt in (("line", 1e-3), ("tree", "auto")):
-        rows, _, _ = integrate_sheet(cold_dense_scenario(detection, dt), 4.0)
-        t = np.arange(1, rows.shape[0] + 1) * 0.1
-        results[detection] = [timeseries.stationary_mean(t, rows[:, k]) for k in (0, 1)]
+        per_seed = []
+        for seed in (3, 4, 5, 6):
+            sc = with_overrides(cold_dense_scenario(detection, dt), {"seed": seed})
+            rows, _, _ = integrate_sheet(sc, 4.0)
+            t = np.arange(1, rows.shape[0] + 1) * 0.1
+            per_seed.append([timeseries.stationary_mean(t, rows[:, k]).mean for k in (0, 1)])
+        means[detection] = np.array(per_seed)
     for k, name in enumerate(("velocity dispersion", "thickness")):
-        line, tree = results["line"][k], results["tree"][k]
-        z = (line.mean - tree.mean) / math.hypot(line.stderr, tree.stderr)
+        line, tree = means["line"][:, k], means["tree"][:, k]
+        error = math.hypot(line.std(ddof=1), tree.std(ddof=1)) / math.sqrt(line.size)
+        z = (line.mean() - tree.mean()) / error
         assert abs(z) < 3.0, \
-            f"{name}: line {line.mean:.4g} vs tree {tree.mean:.4g} ({z:+.1f} sigma)"
-        assert abs(line.mean / tree.mean - 1.0) < 0.1, f"{name} within 10%"
+            f"{name}: line {line.mean():.4g} vs tree {tree.mean():.4g} ({z:+.1f} sigma)"
+        assert abs(line.mean() / tree.mean() - 1.0) < 0.1, f"{name} within 10%"
 
 
 # --- restart -------------------------------------------------------------------------------

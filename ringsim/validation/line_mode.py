@@ -24,9 +24,10 @@ For every case:
    with the replica mean in units of that scatter.
 
 Every run also records the resolver's ``multi_encounters`` (collisions in which a partner
-was deflected earlier in the same step), the fraction ``dt: auto`` predicts for the step
-in use (``ringsim.resolver.multi_encounter_rate``), and the CPU time per particle-step of
-the integration alone.  Sizes are small (300-400 particles) to fit the validation into
+was deflected earlier in the same step), the fraction predicted on straight paths for the
+step in use (``ringsim.validation.encounters.multi_encounter_rate``; before contacts were
+resolved in time order ``dt: auto`` used it), and the CPU time per particle-step of the
+integration alone.  Sizes are small (300-400 particles) to fit the validation into
 about half an hour of one core: the tree reference of the hot Dilley rings needs 10^4 -
 10^5 steps per orbit.
 """
@@ -44,13 +45,13 @@ import numpy as np
 from ringsim.analysis import snapshot
 from ringsim.config.scenario import scenario_from_dict, with_overrides
 from ringsim.engine import sheet, timestep
-from ringsim.engine.timestep import (
+from ringsim.report import replace_section
+from ringsim.validation.common import DOC, ROOT, figure_file, pyplot
+from ringsim.validation.encounters import (
     MULTI_ENCOUNTER_TARGET,
     MULTI_ENCOUNTER_WINDOW_STEPS,
     multi_encounter_rate,
 )
-from ringsim.report import replace_section
-from ringsim.validation.common import DOC, ROOT, figure_file, pyplot
 from ringsim.validation.render import LINE_MODE_HEADING, line_mode_markdown, scales
 
 FIGURES = ROOT / "docs" / "figures" / "line_mode"
