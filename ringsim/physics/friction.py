@@ -461,6 +461,23 @@ def hcs_temperature_ratio(eps_n: float, beta: float, k: float = SOLID_SPHERE_INE
     return (b + math.sqrt(b * b + 4.0 * B * B)) / (2.0 * B)
 
 
+def hcs_relaxation_collisions(eps_n: float, beta: float, k: float = SOLID_SPHERE_INERTIA
+                              ) -> float:
+    """Collisions per particle in which T_rot/T_tr closes 1/e of its gap to the HCS value.
+
+    Linearising dR/dt = G T_tr^(1/2) [B - (C - A) R - B R^2] (from
+    :func:`hcs_coefficients`) about R* = :func:`hcs_temperature_ratio` gives the rate
+    G T_tr^(1/2) (C - A + 2 B R*).  Per collision: for Maxwellian smooth spheres each
+    collision dissipates (1 - eps_n^2) T_tr on average, so dT_tr/dt = -(1 - eps_n^2)
+    omega_c T_tr / 3 with omega_c the collision frequency per particle, which is
+    -G A T_tr^(3/2) with A = (1 - eps_n^2)/4: G T_tr^(1/2) = (4/3) omega_c.  Slow for
+    nearly smooth spheres (about 18 collisions at eps_n = 0.9, beta = -0.5; 3 at beta = 0.5).
+    """
+    A, B, C = hcs_coefficients(eps_n, beta, k)
+    rate = 4.0 / 3.0 * (C - A + 2.0 * B * hcs_temperature_ratio(eps_n, beta, k))
+    return 1.0 / rate
+
+
 def collisional_spin_ratio(beta: float, k: float = SOLID_SPHERE_INERTIA) -> float:
     """E_rot / E_tr when collisions neither feed nor drain rotation on average.
 
@@ -475,3 +492,28 @@ def collisional_spin_ratio(beta: float, k: float = SOLID_SPHERE_INERTIA) -> floa
     if not -1.0 <= beta <= 1.0:
         raise ValueError(f"beta must lie in [-1, 1], got {beta}")
     return k * (1.0 + beta) / (2.0 * (1.0 + k) - (1.0 + beta))
+
+
+def spin_statistics(w: ArrayLike, Omega: float, weights: ArrayLike | None = None
+                    ) -> dict[str, float]:
+    """Spin distribution in units of Omega, in the rotating frame of the sheet.
+
+    Returns ``mean_abs`` <|w|>/Omega, ``rms`` sqrt(<|w|^2>)/Omega and ``mean_z`` <w_z>/Omega
+    (w_z > 0: rotation in the sense of the orbital motion relative to the rotating frame;
+    add 1 for the inertial frame, see :func:`inertial_spin`; synchronous rotation is 0, a
+    sphere rolling with the mean shear -3/4).
+
+    Parameters
+    ----------
+    w : array (n, 3) [rad/s]
+        Spins relative to the rotating frame.
+    Omega : float [1/s]
+        Orbital frequency.
+    weights : array (n,), optional
+        Weights of the particles (e.g. mass or cross section); equal by default.
+    """
+    w = np.atleast_2d(np.asarray(w, dtype=float))
+    size = np.sqrt(np.sum(w * w, axis=1))
+    return {"mean_abs": float(np.average(size, weights=weights)) / Omega,
+            "rms": math.sqrt(float(np.average(size * size, weights=weights))) / Omega,
+            "mean_z": float(np.average(w[:, 2], weights=weights)) / Omega}
