@@ -52,7 +52,7 @@ def main() -> None:
         mean, stderr = run.converged_ratio(after)
         target = fr.hcs_temperature_ratio(eps_n, beta)
         collisions = run.collisions_per_particle[-1] * n / 2.0
-        print(f"| {n} | {eps_n} | {beta} | {start} | {length:g} | {after:g} | {target:.4f} "
+        print(f"| {n} | {eps_n} | {beta} | {start} | {length:.0f} | {after:.0f} | {target:.4f} "
               f"| {mean:.4f} ± {stderr:.4f} | {100.0 * (mean / target - 1.0):+.1f}% "
               f"| {run.multi_contacts / collisions:.2%} "
               f"| {time.perf_counter() - clock:.0f} s |", flush=True)

@@ -223,8 +223,7 @@ def collision_impulse(dr: ArrayLike, dv: ArrayLike, w1: ArrayLike, w2: ArrayLike
     w2 = _rows("w2", w2, n)
     R1, R2, m1, m2, eps_n, k1, k2 = (np.broadcast_to(np.asarray(a, dtype=float), (n,))
                                      for a in (R1, R2, m1, m2, eps_n, k1, k2))
-    dx, dy, dz = dr[:, 0], dr[:, 1], dr[:, 2]
-    dvx, dvy, dvz = dv[:, 0], dv[:, 1], dv[:, 2]
+    (dx, dy, dz), (dvx, dvy, dvz) = dr.T, dv.T
     distance = np.sqrt(dx * dx + dy * dy + dz * dz)
 
     # Normal part: rs_apply_impulse's operations, in its order.
@@ -239,42 +238,45 @@ def collision_impulse(dr: ArrayLike, dv: ArrayLike, w1: ArrayLike, w2: ArrayLike
 
     # Tangential part.
     lever = distance / (R1 + R2)
-    a1 = R1 * lever
-    a2 = R2 * lever
-    sx = a1 * w1[:, 0] + a2 * w2[:, 0]
-    sy = a1 * w1[:, 1] + a2 * w2[:, 1]
-    sz = a1 * w1[:, 2] + a2 * w2[:, 2]
-    gx = dvx - (sy * nz - sz * ny)
-    gy = dvy - (sz * nx - sx * nz)
-    gz = dvz - (sx * ny - sy * nx)
-    gn = gx * nx + gy * ny + gz * nz
-    gtx = gx - gn * nx
-    gty = gy - gn * ny
-    gtz = gz - gn * nz
+    gtx, gty, gtz = _tangential_contact_velocity(dv, w1, w2, R1 * lever, R2 * lever,
+                                                 nx, ny, nz)
     tangential_factor = 1.0 / (1.0 + lever * lever * (share1 / k1 + share2 / k2))
     coefficient, beta, sliding = _tangential_coefficient(model, params, tangential_factor,
                                                          sep, gtx, gty, gtz)
-    jtx = -(coefficient * gtx)
-    jty = -(coefficient * gty)
-    jtz = -(coefficient * gtz)
+    jtx, jty, jtz = -(coefficient * gtx), -(coefficient * gty), -(coefficient * gtz)
 
-    jx = sep * nx + jtx
-    jy = sep * ny + jty
-    jz = sep * nz + jtz
-    dv1 = np.stack([share1 * jx, share1 * jy, share1 * jz], axis=1)
-    dv2 = np.stack([-(share2 * jx), -(share2 * jy), -(share2 * jz)], axis=1)
+    j = [sep * nx + jtx, sep * ny + jty, sep * nz + jtz]
+    dv1 = np.stack([share1 * jc for jc in j], axis=1)
+    dv2 = np.stack([-(share2 * jc) for jc in j], axis=1)
 
     # Spins: only the tangential impulse has a torque (n x j_n = 0 exactly in the
     # mathematics, not in floating point, so it is left out).
-    cx = ny * jtz - nz * jty
-    cy = nz * jtx - nx * jtz
-    cz = nx * jty - ny * jtx
-    f1 = lever * share1 / (k1 * R1)
-    f2 = lever * share2 / (k2 * R2)
-    dw1 = np.stack([-(f1 * cx), -(f1 * cy), -(f1 * cz)], axis=1)
-    dw2 = np.stack([-(f2 * cx), -(f2 * cy), -(f2 * cz)], axis=1)
+    cx, cy, cz = ny * jtz - nz * jty, nz * jtx - nx * jtz, nx * jty - ny * jtx
+    dw1 = _spin_change(lever * share1 / (k1 * R1), cx, cy, cz)
+    dw2 = _spin_change(lever * share2 / (k2 * R2), cx, cy, cz)
     return Impulse(dv1, dv2, dw1, dw2, impact_speed, np.stack([gtx, gty, gtz], axis=1),
                    tangential_factor, beta, sliding)
+
+
+def _tangential_contact_velocity(dv: FloatArray, w1: FloatArray, w2: FloatArray,
+                                 a1: FloatArray, a2: FloatArray, nx: FloatArray,
+                                 ny: FloatArray, nz: FloatArray
+                                 ) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """g_t of g = dv - (a1 w1 + a2 w2) x n, component by component as the C will do."""
+    sx = a1 * w1[:, 0] + a2 * w2[:, 0]
+    sy = a1 * w1[:, 1] + a2 * w2[:, 1]
+    sz = a1 * w1[:, 2] + a2 * w2[:, 2]
+    gx = dv[:, 0] - (sy * nz - sz * ny)
+    gy = dv[:, 1] - (sz * nx - sx * nz)
+    gz = dv[:, 2] - (sx * ny - sy * nx)
+    gn = gx * nx + gy * ny + gz * nz
+    return gx - gn * nx, gy - gn * ny, gz - gn * nz
+
+
+def _spin_change(factor: FloatArray, cx: FloatArray, cy: FloatArray, cz: FloatArray
+                 ) -> FloatArray:
+    """-factor (n x j_t) as an (n, 3) array [rad/s]."""
+    return np.stack([-(factor * cx), -(factor * cy), -(factor * cz)], axis=1)
 
 
 def _tangential_coefficient(model: str, params: Mapping[str, float],
@@ -420,11 +422,13 @@ def hcs_coefficients(eps_n: float, beta: float, k: float = SOLID_SPHERE_INERTIA
 
     G, proportional to the Enskog collision frequency n (2R)^2 g(2R) / sqrt(m), sets the
     time scale only.  The derivation: average the energy changes of the rule in this
-    module's docstring over pairs weighted by their normal approach speed; the normal
-    impulse removes (1 - eps_n^2)/4 and the tangential one 2 eta (1 - eta) of the
-    translational temperature scale, and transfers eta^2/k between the two temperatures.
-    ``tests/test_friction.py`` checks the ratios of these rates against a Monte Carlo
-    average of :func:`collision_impulse` over Maxwellian pairs.
+    module's docstring over pairs weighted by their normal approach speed, with
+    independent Maxwellian velocities and spins; the normal impulse gives the
+    (1 - eps_n^2)/4 of A, the tangential impulse eta (1 - eta) of A, the transfer B
+    between the temperatures and C.  ``tests/test_friction.py`` checks the ratios of
+    these rates against a Monte Carlo average of :func:`collision_impulse` over
+    Maxwellian pairs.  The cooling gas is not exactly Maxwellian: simulations find T_rot
+    /T_tr a few percent below :func:`hcs_temperature_ratio` (docs/friction.md).
     """
     eta = k * (1.0 + beta) / (2.0 * (1.0 + k))
     A = (1.0 - eps_n * eps_n) / 4.0 + eta * (1.0 - eta)
