@@ -20,8 +20,8 @@ Conventions (declared here once)
   frame term, so the collision rule below is the same as in an inertial box.  Both spins
   are constant between collisions (no torque acts on a sphere).  w_z > 0 is rotation in
   the sense of the orbital motion as seen in the rotating frame; the shear flow
-  vy = -(3/2) Omega x has vorticity -(3/2) Omega z_hat, so a sphere rolling with the
-  mean shear has w_z = -(3/4) Omega (inertial +Omega/4).
+  vy = -(3/2) Omega x has vorticity -(3/2) Omega z_hat, so a sphere turning with the
+  local mean flow (half its vorticity) has w_z = -(3/4) Omega (inertial +Omega/4).
 * Contact point: on the centre line, dividing ``|dr|`` in the ratio R1 : R2, i.e. at the
   lever arms ``a1 = R1 lam``, ``a2 = R2 lam`` from the centres with
   ``lam = |dr| / (R1 + R2)`` (1 at exact contact, slightly below 1 for the overlaps of
@@ -50,7 +50,7 @@ m1/(m1+m2)/k2))`` (= k/(1+k) = 2/7 for equal k = 2/5 at contact), from
   the behaviour without a friction section; beta = 0 the contact point stops; beta = 1
   perfectly rough, the tangential contact velocity reversed without loss), the model of
   Huthmann & Zippelius (1997) and Luding et al. (1998);
-* ``coulomb``: Walton's (1993) model as written by Luding et al. (1998, eq. 4): the
+* ``coulomb``: Walton's (1993) model as written by Luding et al. (1998): the
   tangential impulse that would give the sticking value beta0 (default 0: the contact
   point comes to rest), bounded by Coulomb's law |J_t| <= mu |J_n|:
 
@@ -104,11 +104,11 @@ FRICTION_MODELS: dict[str, dict[str, dict[str, object]]] = {
     "coulomb": {
         "mu": {"unit": "-", "range": (0.0, math.inf), "default": None,
                "meaning": "Coulomb friction coefficient: |J_t| <= mu |J_n|",
-               "source": "Walton 1993; Luding et al. 1998, PRE 58, 3416, eq. 4"},
+               "source": "Walton 1993; Luding et al. 1998, PRE 58, 3416"},
         "beta0": {"unit": "-", "range": (-1.0, 1.0), "default": 0.0,
                   "meaning": "tangential restitution of sticking contacts (0: the contact "
                              "point comes to rest)",
-                  "source": "Walton 1993; Luding et al. 1998, PRE 58, 3416, eq. 4"},
+                  "source": "Walton 1993; Luding et al. 1998, PRE 58, 3416"},
     },
 }
 
@@ -317,7 +317,7 @@ def collide(x1: ArrayLike, v1: ArrayLike, w1: ArrayLike, x2: ArrayLike, v2: Arra
 
 def coulomb_beta(mu: float, eps_n: ArrayLike, impact_speed: ArrayLike, g_t: ArrayLike,
                  tangential_factor: ArrayLike, beta0: float = 0.0) -> FloatArray:
-    """Tangential restitution of Walton's Coulomb model (Luding et al. 1998, eq. 4).
+    """Tangential restitution of Walton's Coulomb model (Luding et al. 1998).
 
     beta = min(beta0, -1 + mu (1 + eps_n) v_n / (f_t |g_t|)); beta0 where |g_t| = 0.
 
@@ -505,7 +505,7 @@ def spin_statistics(w: ArrayLike, Omega: float, weights: ArrayLike | None = None
     Returns ``mean_abs`` <|w|>/Omega, ``rms`` sqrt(<|w|^2>)/Omega and ``mean_z`` <w_z>/Omega
     (w_z > 0: rotation in the sense of the orbital motion relative to the rotating frame;
     add 1 for the inertial frame, see :func:`inertial_spin`; synchronous rotation is 0, a
-    sphere rolling with the mean shear -3/4).
+    sphere turning with the mean shear flow -3/4).
 
     Parameters
     ----------
