@@ -1,0 +1,523 @@
+"""Collisions of rough spheres: normal restitution, tangential restitution, Coulomb friction.
+
+Pure numpy, SI units, vectorised over many collisions.  The normal coefficient of
+restitution ``eps_n`` comes from any law of :mod:`ringsim.physics.restitution` (Dilley's
+pair-dependent eps unchanged); this module adds what happens along the contact plane and
+to the spins.
+
+Conventions (declared here once)
+--------------------------------
+* Pair (1, 2); ``dr = r1 - r2`` (with REBOUND's ghost-box offset added to particle 1), the
+  unit normal ``n = dr / |dr|`` points from 2 to 1, ``dv = v1 - v2``.  Approaching pairs
+  have ``dv . n < 0``; the impact speed is ``v_n = -dv . n > 0``.
+* Spin ``w`` [rad/s] is the angular velocity of a particle about its own centre,
+  **measured relative to the rotating frame of the shearing sheet** (x radially outward,
+  y along the orbital motion, z along the orbital angular momentum, as REBOUND's sheet).
+  w = 0 is synchronous rotation (the particle keeps one face to the planet); the spin
+  relative to inertial space is ``w + Omega z_hat`` (:func:`inertial_spin`).  ringsim
+  stores the rotating-frame spin because the sheet's velocities are rotating-frame
+  velocities: the contact-point velocity of a particle is then ``v + w x arm`` with no
+  frame term, so the collision rule below is the same as in an inertial box.  Both spins
+  are constant between collisions (no torque acts on a sphere).  w_z > 0 is rotation in
+  the sense of the orbital motion as seen in the rotating frame; the shear flow
+  vy = -(3/2) Omega x has vorticity -(3/2) Omega z_hat, so a sphere turning with the
+  local mean flow (half its vorticity) has w_z = -(3/4) Omega (inertial +Omega/4).
+* Contact point: on the centre line, dividing ``|dr|`` in the ratio R1 : R2, i.e. at the
+  lever arms ``a1 = R1 lam``, ``a2 = R2 lam`` from the centres with
+  ``lam = |dr| / (R1 + R2)`` (1 at exact contact, slightly below 1 for the overlaps of
+  the tree search).  With ``a1 + a2 = |dr|`` the impulse conserves the total angular
+  momentum (spins plus orbital) exactly, also for overlapping pairs.
+* Relative velocity of the contact points (of 1 with respect to 2):
+  ``g = dv - (a1 w1 + a2 w2) x n``, its tangential part ``g_t = g - (g . n) n``.
+* Moment of inertia ``I = k m R^2``; ``k = 2/5`` is a solid sphere.
+
+Collision rule
+--------------
+The impulse ``J`` acts on particle 1 at the contact point (``-J`` on 2).  In units of the
+reduced mass M_bar = m1 m2/(m1 + m2), ``j = J / M_bar`` is a velocity:
+
+    normal       j_n = (1 + eps_n) v_n n                  g_n' = -eps_n g_n
+    tangential   j_t = -(1 + beta) f_t g_t                g_t' = -beta g_t
+    velocities   v1' = v1 + m2/(m1+m2) j,   v2' = v2 - m1/(m1+m2) j,   j = j_n + j_t
+    spins        w1' = w1 - lam m2/(m1+m2) / (k1 R1) (n x j_t)
+                 w2' = w2 - lam m1/(m1+m2) / (k2 R2) (n x j_t)
+
+with the tangential mass factor ``f_t = M_t / M_bar = 1 / (1 + lam^2 (m2/(m1+m2)/k1 +
+m1/(m1+m2)/k2))`` (= k/(1+k) = 2/7 for equal k = 2/5 at contact), from
+1/M_t = 1/m1 + 1/m2 + a1^2/I1 + a2^2/I2.  ``beta`` is
+
+* ``constant``: a constant tangential restitution in [-1, 1] (beta = -1 smooth spheres,
+  the behaviour without a friction section; beta = 0 the contact point stops; beta = 1
+  perfectly rough, the tangential contact velocity reversed without loss), the model of
+  Huthmann & Zippelius (1997) and Luding et al. (1998);
+* ``coulomb``: Walton's (1993) model as written by Luding et al. (1998): the
+  tangential impulse that would give the sticking value beta0 (default 0: the contact
+  point comes to rest), bounded by Coulomb's law |J_t| <= mu |J_n|:
+
+      beta = min(beta0, -1 + mu (1 + eps_n) v_n / (f_t |g_t|))
+
+  i.e. sticking (beta = beta0) for steep impacts and sliding with |J_t| = mu |J_n| for
+  grazing ones (for equal spheres at contact, f_t = k/(1+k) and this is Luding's
+  -1 + mu (1 + eps_n)(1 + 1/k) cot(gamma), gamma the impact angle).
+
+Energy lost (closed form; the impulse acts on the mean of the contact velocities before
+and after, J . (g + g')/2):
+
+    Delta E = -1/2 M_bar (1 - eps_n^2) v_n^2 - 1/2 M_bar f_t (1 - beta^2) |g_t|^2.
+
+beta = -1 gives j_t = 0 exactly, so velocities and spins are bit-for-bit those of the
+smooth-sphere resolver (:func:`collision_impulse` follows ``rs_resolver.c``'s arithmetic for
+the normal part).
+
+References
+----------
+Walton, O. R. 1993, in Particulate Two-Phase Flow, ed. M. C. Roco (Butterworth), 884-911.
+Huthmann, M. & Zippelius, A. 1997, Phys. Rev. E 56, R6275.
+Luding, S., Huthmann, M., McNamara, S. & Zippelius, A. 1998, Phys. Rev. E 58, 3416.
+McNamara, S. & Luding, S. 1998, Phys. Rev. E 58, 2247.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+
+#: Moment-of-inertia factor k of a homogeneous solid sphere, I = k m R^2.
+SOLID_SPHERE_INERTIA = 0.4
+
+#: The friction models and their parameters: unit, allowed range, default (None: required),
+#: meaning, source.  A scenario's optional ``friction:`` section is one of these.
+FRICTION_MODELS: dict[str, dict[str, dict[str, object]]] = {
+    "constant": {
+        "beta": {"unit": "-", "range": (-1.0, 1.0), "default": None,
+                 "meaning": "tangential coefficient of restitution: g_t' = -beta g_t "
+                            "(-1 smooth, 0 contact point stops, 1 perfectly rough)",
+                 "source": "Huthmann & Zippelius 1997, PRE 56, R6275; Luding et al. 1998, "
+                           "PRE 58, 3416"},
+    },
+    "coulomb": {
+        "mu": {"unit": "-", "range": (0.0, math.inf), "default": None,
+               "meaning": "Coulomb friction coefficient: |J_t| <= mu |J_n|",
+               "source": "Walton 1993; Luding et al. 1998, PRE 58, 3416"},
+        "beta0": {"unit": "-", "range": (-1.0, 1.0), "default": 0.0,
+                  "meaning": "tangential restitution of sticking contacts (0: the contact "
+                             "point comes to rest)",
+                  "source": "Walton 1993; Luding et al. 1998, PRE 58, 3416"},
+    },
+}
+
+
+def friction_parameters(friction: Mapping[str, object] | None) -> tuple[str, dict[str, float]]:
+    """Validate a ``friction`` mapping; return (model, parameters with defaults filled).
+
+    ``None`` (no friction section) is smooth spheres, returned as ``("constant",
+    {"beta": -1.0})``.  Raises ValueError naming the offending key.
+    """
+    if friction is None:
+        return "constant", {"beta": -1.0}
+    if "model" not in friction:
+        raise ValueError("model: missing (one of " + ", ".join(FRICTION_MODELS) + ")")
+    model = friction["model"]
+    if model not in FRICTION_MODELS:
+        raise ValueError(f"model: unknown friction model {model!r} "
+                         f"(one of {', '.join(FRICTION_MODELS)})")
+    table = FRICTION_MODELS[model]
+    params: dict[str, float] = {}
+    for key, value in friction.items():
+        if key == "model":
+            continue
+        if key not in table:
+            raise ValueError(f"{key}: not a parameter of friction model {model!r} "
+                             f"(allowed: {', '.join(table)})")
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer,
+                                                             np.floating)):
+            raise ValueError(f"{key}: must be a real number, got {value!r}")
+        low, high = table[key]["range"]
+        x = float(value)
+        if not (math.isfinite(x) and low <= x <= high):
+            raise ValueError(f"{key}: must lie in [{low}, {high}], got {value!r}")
+        params[key] = x
+    for key, spec in table.items():
+        if key not in params:
+            if spec["default"] is None:
+                raise ValueError(f"{key}: required by friction model {model!r}")
+            params[key] = float(spec["default"])
+    return model, params
+
+
+class Impulse(NamedTuple):
+    """Velocity and spin changes of a batch of collisions, and what the rule used.
+
+    All arrays have one row per collision.
+    """
+    dv1: FloatArray            #: (n, 3) velocity change of particle 1 [m/s]
+    dv2: FloatArray            #: (n, 3) velocity change of particle 2 [m/s]
+    dw1: FloatArray            #: (n, 3) spin change of particle 1 [rad/s]
+    dw2: FloatArray            #: (n, 3) spin change of particle 2 [rad/s]
+    impact_speed: FloatArray   #: (n,) v_n = -dv . n before the collision [m/s]
+    g_t: FloatArray            #: (n, 3) tangential contact velocity before [m/s]
+    tangential_factor: FloatArray  #: (n,) f_t = M_t / M_bar [-]
+    beta: FloatArray           #: (n,) tangential restitution applied [-]
+    sliding: NDArray[np.bool_]     #: (n,) Coulomb bound active (False for constant)
+
+
+def _rows(name: str, value: ArrayLike, n: int | None = None) -> FloatArray:
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 1:
+        a = a[None, :]
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (n, 3) or (3,), got {np.shape(value)}")
+    if n is not None and a.shape[0] != n:
+        a = np.broadcast_to(a, (n, 3))
+    return a
+
+
+def collision_impulse(dr: ArrayLike, dv: ArrayLike, w1: ArrayLike, w2: ArrayLike,
+                      R1: ArrayLike, R2: ArrayLike, m1: ArrayLike, m2: ArrayLike,
+                      eps_n: ArrayLike, friction: Mapping[str, object] | None = None,
+                      k1: ArrayLike = SOLID_SPHERE_INERTIA,
+                      k2: ArrayLike = SOLID_SPHERE_INERTIA,
+                      separation_change: ArrayLike | None = None) -> Impulse:
+    """The impulse of colliding rough spheres, as velocity and spin changes.
+
+    Arithmetic in the order of ``rs_resolver.c::rs_apply_impulse`` for the normal part,
+    so that with ``friction=None`` or beta = -1 the velocity changes are bit-for-bit the
+    smooth resolver's and the spin changes are exactly zero.  The caller selects the
+    approaching pairs (v_n > 0); the rule is applied as given.
+
+    Parameters
+    ----------
+    dr : array (n, 3) [m]
+        Separation r1 - r2 at the contact (ghost offset included).
+    dv : array (n, 3) [m/s]
+        Relative velocity v1 - v2 (ghost offset included).
+    w1, w2 : array (n, 3) [rad/s]
+        Spins, relative to the rotating frame of the sheet (module docstring).
+    R1, R2 : array (n,) [m]
+        Radii, > 0.
+    m1, m2 : array (n,) [kg]
+        Masses, m1 + m2 > 0.
+    eps_n : array (n,) [-]
+        Normal coefficient of restitution of each pair, in [0, 1].
+    friction : mapping or None
+        ``{"model": "constant", "beta": B}`` or ``{"model": "coulomb", "mu": M}``
+        (optional ``beta0``); None is smooth spheres.
+    k1, k2 : array (n,) [-]
+        Moment-of-inertia factors, I = k m R^2, > 0 (2/5: solid sphere).
+    separation_change : array (n,) [m/s], optional
+        The normal relative-velocity change (1 + eps_n) v_n, if the caller raised it
+        (REBOUND's minimum_collision_velocity); the Coulomb bound uses the normal
+        impulse actually applied.
+    """
+    model, params = friction_parameters(friction)
+    dr = _rows("dr", dr)
+    n = dr.shape[0]
+    dv = _rows("dv", dv, n)
+    w1 = _rows("w1", w1, n)
+    w2 = _rows("w2", w2, n)
+    R1, R2, m1, m2, eps_n, k1, k2 = (np.broadcast_to(np.asarray(a, dtype=float), (n,))
+                                     for a in (R1, R2, m1, m2, eps_n, k1, k2))
+    (dx, dy, dz), (dvx, dvy, dvz) = dr.T, dv.T
+    distance = np.sqrt(dx * dx + dy * dy + dz * dz)
+
+    # Normal part: rs_apply_impulse's operations, in its order.
+    v_n = (dvx * dx + dvy * dy + dvz * dz) / distance
+    impact_speed = -v_n
+    sep = (1.0 + eps_n) * impact_speed if separation_change is None else \
+        np.broadcast_to(np.asarray(separation_change, dtype=float), (n,))
+    nx, ny, nz = dx / distance, dy / distance, dz / distance
+    total_mass = m1 + m2
+    share2 = m1 / total_mass
+    share1 = m2 / total_mass
+
+    # Tangential part.
+    lever = distance / (R1 + R2)
+    gtx, gty, gtz = _tangential_contact_velocity(dv, w1, w2, R1 * lever, R2 * lever,
+                                                 nx, ny, nz)
+    tangential_factor = 1.0 / (1.0 + lever * lever * (share1 / k1 + share2 / k2))
+    coefficient, beta, sliding = _tangential_coefficient(model, params, tangential_factor,
+                                                         sep, gtx, gty, gtz)
+    jtx, jty, jtz = -(coefficient * gtx), -(coefficient * gty), -(coefficient * gtz)
+
+    j = [sep * nx + jtx, sep * ny + jty, sep * nz + jtz]
+    dv1 = np.stack([share1 * jc for jc in j], axis=1)
+    dv2 = np.stack([-(share2 * jc) for jc in j], axis=1)
+
+    # Spins: only the tangential impulse has a torque (n x j_n = 0 exactly in the
+    # mathematics, not in floating point, so it is left out).
+    cx, cy, cz = ny * jtz - nz * jty, nz * jtx - nx * jtz, nx * jty - ny * jtx
+    dw1 = _spin_change(lever * share1 / (k1 * R1), cx, cy, cz)
+    dw2 = _spin_change(lever * share2 / (k2 * R2), cx, cy, cz)
+    return Impulse(dv1, dv2, dw1, dw2, impact_speed, np.stack([gtx, gty, gtz], axis=1),
+                   tangential_factor, beta, sliding)
+
+
+def _tangential_contact_velocity(dv: FloatArray, w1: FloatArray, w2: FloatArray,
+                                 a1: FloatArray, a2: FloatArray, nx: FloatArray,
+                                 ny: FloatArray, nz: FloatArray
+                                 ) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """g_t of g = dv - (a1 w1 + a2 w2) x n, component by component as the C will do."""
+    sx = a1 * w1[:, 0] + a2 * w2[:, 0]
+    sy = a1 * w1[:, 1] + a2 * w2[:, 1]
+    sz = a1 * w1[:, 2] + a2 * w2[:, 2]
+    gx = dv[:, 0] - (sy * nz - sz * ny)
+    gy = dv[:, 1] - (sz * nx - sx * nz)
+    gz = dv[:, 2] - (sx * ny - sy * nx)
+    gn = gx * nx + gy * ny + gz * nz
+    return gx - gn * nx, gy - gn * ny, gz - gn * nz
+
+
+def _spin_change(factor: FloatArray, cx: FloatArray, cy: FloatArray, cz: FloatArray
+                 ) -> FloatArray:
+    """-factor (n x j_t) as an (n, 3) array [rad/s]."""
+    return np.stack([-(factor * cx), -(factor * cy), -(factor * cz)], axis=1)
+
+
+def _tangential_coefficient(model: str, params: Mapping[str, float],
+                            tangential_factor: FloatArray, sep: FloatArray, gtx: FloatArray,
+                            gty: FloatArray, gtz: FloatArray
+                            ) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
+    """c in j_t = -c g_t, the beta it gives, and whether Coulomb's bound is active."""
+    if model == "constant":
+        beta = np.full(tangential_factor.shape, params["beta"])
+        return (1.0 + params["beta"]) * tangential_factor, beta, np.zeros(beta.shape, bool)
+    stick = (1.0 + params["beta0"]) * tangential_factor
+    g_t = np.sqrt(gtx * gtx + gty * gty + gtz * gtz)
+    limit = params["mu"] * sep
+    sliding = stick * g_t > limit        # False for g_t = 0: nothing to resist
+    safe = np.where(sliding, g_t, 1.0)
+    coefficient = np.where(sliding, limit / safe, stick)
+    beta = np.where(sliding, coefficient / tangential_factor - 1.0, params["beta0"])
+    return coefficient, beta, sliding
+
+
+def collide(x1: ArrayLike, v1: ArrayLike, w1: ArrayLike, x2: ArrayLike, v2: ArrayLike,
+            w2: ArrayLike, R1: ArrayLike, R2: ArrayLike, m1: ArrayLike, m2: ArrayLike,
+            eps_n: ArrayLike, friction: Mapping[str, object] | None = None,
+            k1: ArrayLike = SOLID_SPHERE_INERTIA, k2: ArrayLike = SOLID_SPHERE_INERTIA
+            ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """New velocities and spins (v1', w1', v2', w2') of colliding rough spheres.
+
+    Positions x [m], velocities v [m/s] and spins w [rad/s] as (n, 3) arrays in one
+    frame (particle 1 already shifted into its ghost box); other arguments as for
+    :func:`collision_impulse`.
+    """
+    x1, v1, w1, x2, v2, w2 = (np.atleast_2d(np.asarray(a, dtype=float))
+                              for a in (x1, v1, w1, x2, v2, w2))
+    imp = collision_impulse(x1 - x2, v1 - v2, w1, w2, R1, R2, m1, m2, eps_n, friction,
+                            k1, k2)
+    return v1 + imp.dv1, w1 + imp.dw1, v2 + imp.dv2, w2 + imp.dw2
+
+
+def coulomb_beta(mu: float, eps_n: ArrayLike, impact_speed: ArrayLike, g_t: ArrayLike,
+                 tangential_factor: ArrayLike, beta0: float = 0.0) -> FloatArray:
+    """Tangential restitution of Walton's Coulomb model (Luding et al. 1998).
+
+    beta = min(beta0, -1 + mu (1 + eps_n) v_n / (f_t |g_t|)); beta0 where |g_t| = 0.
+
+    Parameters
+    ----------
+    mu : float [-]
+        Friction coefficient, >= 0.
+    eps_n : array [-]
+        Normal restitution.
+    impact_speed : array [m/s]
+        v_n > 0.
+    g_t : array [m/s]
+        |g_t|, the tangential contact speed before the collision.
+    tangential_factor : array [-]
+        f_t = M_t / M_bar.
+    beta0 : float [-]
+        Tangential restitution of sticking contacts.
+    """
+    g = np.asarray(g_t, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sliding = -1.0 + mu * (1.0 + np.asarray(eps_n)) * np.asarray(impact_speed) / (
+            np.asarray(tangential_factor) * g)
+    return np.where(g > 0.0, np.minimum(beta0, sliding), beta0)
+
+
+def energy_loss(M_bar: ArrayLike, impact_speed: ArrayLike, eps_n: ArrayLike, g_t: ArrayLike,
+                beta: ArrayLike, tangential_factor: ArrayLike) -> FloatArray:
+    """Kinetic energy (translation + rotation) a collision dissipates, closed form [J].
+
+    Delta E = 1/2 M_bar (1 - eps_n^2) v_n^2 + 1/2 M_bar f_t (1 - beta^2) |g_t|^2 >= 0.
+
+    Parameters
+    ----------
+    M_bar : array [kg]
+        Reduced mass.
+    impact_speed : array [m/s]
+        v_n.
+    eps_n : array [-]
+        Normal restitution (the effective one, (separation change)/v_n - 1, if the normal
+        impulse was raised).
+    g_t : array [m/s]
+        |g_t| before the collision.
+    beta : array [-]
+        Tangential restitution applied (:func:`coulomb_beta` for Coulomb friction).
+    tangential_factor : array [-]
+        f_t = M_t / M_bar.
+    """
+    M_bar, v, e, g, b, f = (np.asarray(a, dtype=float) for a in
+                            (M_bar, impact_speed, eps_n, g_t, beta, tangential_factor))
+    return 0.5 * M_bar * ((1.0 - e * e) * v * v + f * (1.0 - b * b) * g * g)
+
+
+# --- rotational energy and spin ---------------------------------------------------------------
+
+def moment_of_inertia(m: ArrayLike, R: ArrayLike, k: ArrayLike = SOLID_SPHERE_INERTIA
+                      ) -> FloatArray:
+    """I = k m R^2 [kg m^2] for mass m [kg], radius R [m], factor k [-]."""
+    return np.asarray(k, dtype=float) * np.asarray(m, dtype=float) * np.asarray(R, float) ** 2
+
+
+def rotational_energy(m: ArrayLike, R: ArrayLike, w: ArrayLike,
+                      k: ArrayLike = SOLID_SPHERE_INERTIA) -> FloatArray:
+    """1/2 I |w|^2 per particle [J]; m [kg], R [m], w (n, 3) [rad/s] in the sheet frame."""
+    w = np.atleast_2d(np.asarray(w, dtype=float))
+    return 0.5 * moment_of_inertia(m, R, k) * np.sum(w * w, axis=1)
+
+
+def inertial_spin(w: ArrayLike, Omega: float) -> FloatArray:
+    """Spin relative to inertial space, w + Omega z_hat [rad/s].
+
+    Parameters
+    ----------
+    w : array (n, 3) [rad/s]
+        Spin relative to the rotating frame of the sheet (as ringsim stores it).
+    Omega : float [1/s]
+        Orbital frequency of the sheet.
+    """
+    out = np.array(w, dtype=float, copy=True)
+    out[..., 2] += Omega
+    return out
+
+
+# --- homogeneous cooling state (Huthmann & Zippelius 1997; Luding et al. 1998) -------------
+
+def hcs_coefficients(eps_n: float, beta: float, k: float = SOLID_SPHERE_INERTIA
+                     ) -> tuple[float, float, float]:
+    """Coefficients A, B, C of the two-temperature cooling equations of rough spheres.
+
+    For identical rough spheres (constant eps_n and beta, I = k m R^2) in a homogeneous
+    gas whose velocities and spins are independent Maxwellians of temperatures T_tr and
+    T_rot (T_tr = m<v^2>/3, T_rot = I<w^2>/3), Huthmann & Zippelius (1997) and Luding et
+    al. (1998) find in three dimensions
+
+        dT_tr/dt  = G [ -A T_tr^(3/2) + B T_tr^(1/2) T_rot ]
+        dT_rot/dt = G [  B T_tr^(3/2) - C T_tr^(1/2) T_rot ]
+
+    (in two dimensions, with one rotational degree of freedom, the second line carries a
+    factor 2) with eta = k (1 + beta) / (2 (1 + k)), the velocity change of a particle per
+    unit tangential contact velocity, and
+
+        A = (1 - eps_n^2)/4 + eta (1 - eta),   B = eta^2 / k,   C = (eta / k)(1 - eta / k).
+
+    G, proportional to the Enskog collision frequency n (2R)^2 g(2R) / sqrt(m), sets the
+    time scale only.  The derivation: average the energy changes of the rule in this
+    module's docstring over pairs weighted by their normal approach speed, with
+    independent Maxwellian velocities and spins; the normal impulse gives the
+    (1 - eps_n^2)/4 of A, the tangential impulse eta (1 - eta) of A, the transfer B
+    between the temperatures and C.  ``tests/test_friction.py`` checks the ratios of
+    these rates against a Monte Carlo average of :func:`collision_impulse` over
+    Maxwellian pairs.  The cooling gas is not exactly Maxwellian: simulations find T_rot
+    /T_tr a few percent below :func:`hcs_temperature_ratio` (docs/friction.md).
+    """
+    eta = k * (1.0 + beta) / (2.0 * (1.0 + k))
+    A = (1.0 - eps_n * eps_n) / 4.0 + eta * (1.0 - eta)
+    B = eta * eta / k
+    C = eta / k * (1.0 - eta / k)
+    return A, B, C
+
+
+def hcs_temperature_ratio(eps_n: float, beta: float, k: float = SOLID_SPHERE_INERTIA) -> float:
+    """Asymptotic T_rot / T_tr of freely cooling rough spheres in three dimensions.
+
+    Both temperatures decay by Haff's law, t^-2, with a fixed ratio R = T_rot / T_tr
+    (Huthmann & Zippelius 1997; Luding et al. 1998; McNamara & Luding 1998).  From the
+    equations of :func:`hcs_coefficients`, d ln T_rot/dt = d ln T_tr/dt gives
+    B - C R = R (B R - A), i.e. B R^2 + (C - A) R - B = 0, whose positive root is
+
+        R = [A - C + sqrt((A - C)^2 + 4 B^2)] / (2 B).
+
+    eps_n = 1, beta = 1 (elastic, perfectly rough) gives R = 1, equipartition.  As
+    beta -> -1 rotation decouples (B, C -> 0) and R depends on the start: beta = -1 is
+    refused.
+
+    Parameters
+    ----------
+    eps_n : float [-], in [0, 1]
+    beta : float [-], in (-1, 1]
+    k : float [-]
+        Moment-of-inertia factor, > 0.
+    """
+    if not -1.0 < beta <= 1.0:
+        raise ValueError(f"beta must lie in (-1, 1], got {beta}")
+    A, B, C = hcs_coefficients(eps_n, beta, k)
+    b = A - C
+    return (b + math.sqrt(b * b + 4.0 * B * B)) / (2.0 * B)
+
+
+def hcs_relaxation_collisions(eps_n: float, beta: float, k: float = SOLID_SPHERE_INERTIA
+                              ) -> float:
+    """Collisions per particle in which T_rot/T_tr closes 1/e of its gap to the HCS value.
+
+    Linearising dR/dt = G T_tr^(1/2) [B - (C - A) R - B R^2] (from
+    :func:`hcs_coefficients`) about R* = :func:`hcs_temperature_ratio` gives the rate
+    G T_tr^(1/2) (C - A + 2 B R*).  Per collision: for Maxwellian smooth spheres each
+    collision dissipates (1 - eps_n^2) T_tr on average, so dT_tr/dt = -(1 - eps_n^2)
+    omega_c T_tr / 3 with omega_c the collision frequency per particle, which is
+    -G A T_tr^(3/2) with A = (1 - eps_n^2)/4: G T_tr^(1/2) = (4/3) omega_c.  Slow for
+    nearly smooth spheres (about 18 collisions at eps_n = 0.9, beta = -0.5; 3 at beta = 0.5).
+    """
+    A, B, C = hcs_coefficients(eps_n, beta, k)
+    rate = 4.0 / 3.0 * (C - A + 2.0 * B * hcs_temperature_ratio(eps_n, beta, k))
+    return 1.0 / rate
+
+
+def collisional_spin_ratio(beta: float, k: float = SOLID_SPHERE_INERTIA) -> float:
+    """E_rot / E_tr when collisions neither feed nor drain rotation on average.
+
+    Where translation is heated by something else (a ring's shear) and rotation only
+    exchanges energy in collisions, its balance 2G (B T_tr - C T_rot) = 0 gives
+    R = B/C = k (1 + beta) / (2 (1 + k) - (1 + beta)); for k = 2/5 this is
+    2 (1 + beta) / (14 - 5 (1 + beta)), the optically-thin prediction Morishima & Salo
+    confirmed in local ring simulations (2004, DPS 36, #19.01; their e_t = -beta).
+    Assumes isotropic Maxwellians with no mean spin: the shear's systematic vorticity is
+    left out.
+    """
+    if not -1.0 <= beta <= 1.0:
+        raise ValueError(f"beta must lie in [-1, 1], got {beta}")
+    return k * (1.0 + beta) / (2.0 * (1.0 + k) - (1.0 + beta))
+
+
+def spin_statistics(w: ArrayLike, Omega: float, weights: ArrayLike | None = None
+                    ) -> dict[str, float]:
+    """Spin distribution in units of Omega, in the rotating frame of the sheet.
+
+    Returns ``mean_abs`` <|w|>/Omega, ``rms`` sqrt(<|w|^2>)/Omega and ``mean_z`` <w_z>/Omega
+    (w_z > 0: rotation in the sense of the orbital motion relative to the rotating frame;
+    add 1 for the inertial frame, see :func:`inertial_spin`; synchronous rotation is 0, a
+    sphere turning with the mean shear flow -3/4).
+
+    Parameters
+    ----------
+    w : array (n, 3) [rad/s]
+        Spins relative to the rotating frame.
+    Omega : float [1/s]
+        Orbital frequency.
+    weights : array (n,), optional
+        Weights of the particles (e.g. mass or cross section); equal by default.
+    """
+    w = np.atleast_2d(np.asarray(w, dtype=float))
+    size = np.sqrt(np.sum(w * w, axis=1))
+    return {"mean_abs": float(np.average(size, weights=weights)) / Omega,
+            "rms": math.sqrt(float(np.average(size * size, weights=weights))) / Omega,
+            "mean_z": float(np.average(w[:, 2], weights=weights)) / Omega}
