@@ -455,3 +455,18 @@ def test_module_imports_neither_rebound_nor_h5py(module):
         elif isinstance(node, ast.ImportFrom) and node.module:
             names.add(node.module.split(".")[0])
     assert not names & {"rebound", "h5py"}
+
+
+def test_kinetic_estimate_uses_one_consistent_particle():
+    """A size mix is represented by the mean radius WITH its own mass (bulk density), not
+    by the mean mass, which belongs to a larger sphere."""
+    radius = np.array([0.5, 1.0, 2.5])
+    mass = ICE * 4 / 3 * np.pi * radius**3
+    res = kinetic.kinetic_dispersion_estimate({"model": "dilley", "kappa": 0.1}, radius, mass,
+                                              0.25, OMEGA)
+    r_mean = radius.mean()
+    assert res["radius"] == pytest.approx(r_mean, rel=1e-15)
+    assert res["mass"] == pytest.approx(ICE * 4 / 3 * np.pi * r_mean**3, rel=1e-13)
+    assert res["mass"] < mass.mean() / 2, "the mean mass would be that of a 1.7 m sphere"
+    assert res["M_bar"] == pytest.approx(res["mass"] / 2, rel=1e-15)
+    assert "mean radius" in res["representative"]
