@@ -20,7 +20,7 @@ import numpy as np
 import rebound
 
 from ringsim.engine.timestep import choose_dt
-from ringsim.physics.constants import G_SI
+from ringsim.physics.constants import G_SI, SHEAR
 from ringsim.physics.sizes import size_bin_edges
 
 #: A particle's vertical amplitude may reach this fraction of the half z period.
@@ -166,6 +166,32 @@ def initial_state(radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
             "vx": vel[:, 0], "vy": vel[:, 1], "vz": vel[:, 2]}
 
 
+def centre_of_mass_at_rest(state: dict[str, np.ndarray], masses: np.ndarray,
+                           Omega: float) -> dict[str, np.ndarray]:
+    """The state with the sheet's centre of mass at rest in the shear flow, in the midplane.
+
+    Subtracts the mass-weighted mean of the velocity relative to the shear flow,
+    (vx, vy + 1.5 Omega x, vz), and the mass-weighted mean height z.  A random draw leaves
+    them non-zero (of order c / sqrt(N)); since collisions conserve momentum and Hill's
+    equations move the centre of mass as a free particle, that offset would otherwise
+    perform an undamped epicycle (and vertical oscillation) for the whole run and add to
+    every dispersion.  Relative positions and velocities are unchanged.
+
+    Parameters
+    ----------
+    state : positions x, y, z [m] and velocities vx, vy, vz [m/s]
+    masses : array [kg]
+    Omega : float [1/s]
+    """
+    weights = masses / np.sum(masses)
+    out = dict(state)
+    w_y = state["vy"] + SHEAR * Omega * state["x"]
+    for key, values in (("vx", state["vx"]), ("vz", state["vz"]), ("z", state["z"])):
+        out[key] = values - np.dot(weights, values)
+    out["vy"] = state["vy"] - np.dot(weights, w_y)
+    return out
+
+
 # --- the simulation ----------------------------------------------------------------------------
 
 def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gravity: bool,
@@ -255,7 +281,8 @@ def build_sheet(scenario) -> Sheet:
     dispersion = sheet_cfg.initial_dispersion * r_mean * Omega
     z_half = initial_z_half_height(sheet_cfg, r_mean, dispersion, Omega)
     geometry = box_geometry(radii, sheet_cfg.optical_depth, sheet_cfg.aspect, Omega, z_half)
-    state = initial_state(radii, geometry, dispersion, rng)
+    state = centre_of_mass_at_rest(initial_state(radii, geometry, dispersion, rng), masses,
+                                   Omega)
     # the initial velocities may already carry particles beyond the requested box
     amplitude = max_vertical_amplitude(state, Omega)
     if amplitude >= VERTICAL_GUARD_FRACTION * 0.5 * geometry.z_period:
