@@ -71,6 +71,36 @@ def _interval_rates(ts: dict, n_particles: int, Omega: float, area: float,
     return frequency, nu_col
 
 
+def stationary_window(orbits: np.ndarray, velocity_dispersion: np.ndarray,
+                      thickness: np.ndarray) -> dict:
+    """Where a run's equilibrium window starts and whether c and H are stationary there.
+
+    The one verdict of ringsim: ``analyze`` reports it and ``integration.until_equilibrium``
+    stops a run on it.  Row 0 (the initial state, before any collision) is skipped; the
+    finder (``timeseries.equilibrium``) runs on c and on H, the later start wins, and the
+    run is in equilibrium only if both are stationary with enough independent samples.
+
+    Parameters
+    ----------
+    orbits : array [orbits]
+        Output times.
+    velocity_dispersion : array [m/s]
+    thickness : array [m]
+
+    Returns
+    -------
+    dict with ``start`` (row index of the window), ``in_equilibrium`` (bool) and
+    ``reason`` (text).
+    """
+    fits = {name: timeseries.equilibrium(orbits[1:], series[1:], time_unit="orbit")
+            for name, series in (("velocity dispersion", velocity_dispersion),
+                                 ("thickness", thickness))}
+    problems = [f"{name}: {fit.reason}" for name, fit in fits.items() if not fit.in_equilibrium]
+    return {"start": 1 + max(fit.start_index for fit in fits.values()),
+            "in_equilibrium": not problems,
+            "reason": "; ".join(problems) if problems else fits["velocity dispersion"].reason}
+
+
 def equilibrium(run) -> dict:
     """The equilibrium of a run: the numbers ``ringsim analyze --json`` writes.
 
@@ -102,12 +132,8 @@ def equilibrium(run) -> dict:
     r_mean = float(radius.mean())
     area = float(run.attrs["Lx"]) * float(run.attrs["Ly"])
 
-    # rows 1.. (row 0 is the initial state, before any collision)
-    fits = {name: timeseries.equilibrium(orbits[1:], ts[key][1:], time_unit="orbit")
-            for name, key in (("velocity dispersion", "velocity_dispersion"),
-                              ("thickness", "thickness"))}
-    start = 1 + max(fit.start_index for fit in fits.values())
-    problems = [f"{name}: {fit.reason}" for name, fit in fits.items() if not fit.in_equilibrium]
+    window = stationary_window(orbits, ts["velocity_dispersion"], ts["thickness"])
+    start = window["start"]
 
     out: dict = {"name": sc.name}
     c = _window_stats(ts["velocity_dispersion"], start, "m/s")
@@ -127,8 +153,8 @@ def equilibrium(run) -> dict:
                                            else math.nan, 0.0, "orbits")
     out["per_size_bin"] = _per_size_bin(ts, start, radius, mass)
     out["size_ratio"] = size_dispersion_ratio(out["per_size_bin"])
-    out["in_equilibrium"] = not problems
-    out["reason"] = "; ".join(problems) if problems else fits["velocity dispersion"].reason
+    out["in_equilibrium"] = window["in_equilibrium"]
+    out["reason"] = window["reason"]
     out["status"] = str(run.attrs.get("status", "unknown"))
     out["orbits"] = float(orbits[-1])
     out["n_particles"] = int(radius.size)
