@@ -1,32 +1,40 @@
 """The mission's comparison: ring equilibria with mass exponent kappa = 0 against kappa = 0.1.
 
 Runs (or reuses finished runs of) ``scenarios/kappa0.yaml`` and ``scenarios/kappa0.1.yaml``
-with several seeds, plus a monodisperse variant of both, and writes
-``analysis/kappa_comparison.md`` with the equilibrium table, per-size-bin results, the
-dilute kinetic estimate beside each, the ratios kappa = 0.1 / kappa = 0 with uncertainties,
-and figures in ``analysis/figures/``.
+with several seeds, plus a monodisperse variant of both, every run until the equilibrium
+finder calls c and H stationary (``integration.until_equilibrium``), and writes
+``analysis/kappa_comparison.md``: the equilibria, the ratios kappa = 0.1 / kappa = 0 with
+their full error budget (``ringsim.analysis.budget``: statistical from seeds and
+autocorrelation, systematic from measured method variants), the per-size ratios with their
+bins and the equipartition value for the same bins, the dilute kinetic estimate, and the
+fraction of impacts outside the speeds the Dilley law was fitted to.
 
-    python analysis/kappa_comparison.py [--seeds 1 2 3] [--particles N] [--orbits T]
-                                        [--runs runs/kappa] [--workers 2]
+    python analysis/kappa_comparison.py [--seeds 1 2 3] [--workers 2]
+    python analysis/kappa_comparison.py --systematics      # also measure the budget
 
-Seeds are combined by averaging each seed's equilibrium mean; the uncertainty is the larger
-of the propagated per-run standard errors and the seed-to-seed scatter / sqrt(n_seeds).
+``--systematics`` runs the power-law pair again with N/4 particles, with a fixed step half
+the automatic one, and in a box of aspect 2, and writes the relative change of every ratio
+to ``analysis/data/kappa_budget.json`` (the file ``ringsim compare --systematics`` reads).
+The collision-detection part comes from the line-vs-tree measurement of
+``analysis/line_mode_validation.py`` (``analysis/data/line_mode_validation.json``).
+A run the finder does not call stationary is never averaged: it is listed and left out.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-import numpy as np
-
 import ringsim
-from ringsim.analysis.compare import ratio
-from ringsim.analysis.equilibrium import TABLE_ROWS, equilibrium
+from ringsim.analysis.budget import SOURCES
+from ringsim.analysis.compare import comparison
+from ringsim.analysis.equilibrium import TABLE_ROWS, equilibrium, size_ratio_line
 from ringsim.config.scenario import load_scenario, with_overrides
+from ringsim.plots import plot_comparison
 from ringsim.store.runfile import open_run
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -34,63 +42,16 @@ SCENARIOS = {"kappa = 0": ROOT / "scenarios" / "kappa0.yaml",
              "kappa = 0.1": ROOT / "scenarios" / "kappa0.1.yaml"}
 REPORT = ROOT / "analysis" / "kappa_comparison.md"
 FIGURES = ROOT / "analysis" / "figures"
-
-
-def variants(args) -> dict[str, dict]:
-    """Size-distribution variants: scenario overrides by name."""
-    common = {}
-    if args.particles:
-        common["sheet.n_particles"] = args.particles
-    if args.orbits:
-        common["integration.orbits"] = args.orbits
-    if args.detection:
-        common["integration.collision_detection"] = args.detection
-    mono = dict(common)
-    mono["particles.size_distribution"] = {"kind": "monodisperse", "radius": args.mono_radius}
-    if args.mono_particles:
-        mono["sheet.n_particles"] = args.mono_particles
-    return {"powerlaw": common, "monodisperse": mono}
-
-
-def run_one(job: tuple[str, dict, str]) -> tuple[str, float]:
-    """Run one scenario; returns (path, wall time [s]).
-
-    A finished file of the same scenario is reused; a stopped one, or a shorter run of the
-    same scenario, is continued with ``--resume`` (bit-identical to running it whole).
-    """
-    scenario_path, overrides, output = job
-    out = Path(output)
-    sc = with_overrides(load_scenario(scenario_path), overrides)
-    t0 = time.perf_counter()
-    if out.exists():
-        try:
-            existing = open_run(out)
-        except (OSError, KeyError):
-            existing = None
-        if existing is not None and existing.attrs.get("status") == "finished" \
-                and existing.scenario == sc:
-            return output, 0.0
-        try:
-            ringsim.run(sc, output=out, resume=True, progress=False)
-            return output, time.perf_counter() - t0
-        except ringsim.InputError:
-            pass  # not a continuation of this scenario: start again
-    ringsim.run(sc, output=out, force=True, progress=False)
-    return output, time.perf_counter() - t0
-
-
-def combine(values: list[dict]) -> dict:
-    """Average of several runs' {"mean", "stderr"}; see the module docstring."""
-    means = np.array([v["mean"] for v in values], dtype=float)
-    errs = np.array([v["stderr"] for v in values], dtype=float)
-    ok = np.isfinite(means)
-    if not ok.any():
-        return {"mean": math.nan, "stderr": math.nan}
-    means, errs = means[ok], errs[ok]
-    n = means.size
-    propagated = math.sqrt(float(np.nansum(errs**2))) / n
-    scatter = float(np.std(means, ddof=1)) / math.sqrt(n) if n > 1 else 0.0
-    return {"mean": float(means.mean()), "stderr": max(propagated, scatter)}
+BUDGET = ROOT / "analysis" / "data" / "kappa_budget.json"
+LINE_VALIDATION = ROOT / "analysis" / "data" / "line_mode_validation.json"
+#: Most orbits a run may take to become stationary.
+MAX_ORBITS = 400.0
+#: Method variants of the systematic budget: source -> overrides of the power-law pair.
+SYSTEMATIC_VARIANTS = {
+    "n_particles": {"sheet.n_particles": 1000},
+    "dt": {"integration.dt": 5e-4},
+    "box_size": {"sheet.aspect": 2.0},
+}
 
 
 EXPLANATION = [
@@ -108,35 +69,6 @@ EXPLANATION = [
     "its square. The collision frequency per particle barely changes, because in a thick "
     "ring it is set by the optical depth (~ 3 tau Omega), not by c.",
 ]
-
-
-def kinetic_sentence(combined: dict, labels: list[str]) -> str:
-    """N-body dispersion against the dilute kinetic estimate, in words."""
-    parts = []
-    for lab in labels:
-        k = combined[lab]["kinetic"]
-        if k["status"] == "equilibrium":
-            c = combined[lab]["velocity_dispersion_rOmega"]["mean"]
-            parts.append(f"{lab}: {c:.3g} against {k['velocity_dispersion_rOmega']:.3g}")
-    if not parts:
-        return ""
-    return ("The dilute kinetic estimate (identical particles of the mean size) is close: "
-            + "; ".join(parts) + " <r>Omega. ")
-
-
-def size_sentence(combined: dict, labels: list[str]) -> str:
-    """Ratio of the smallest to the largest size bin's dispersion, in words."""
-    parts = []
-    for lab in labels:
-        bins = combined[lab]["bins"]
-        if not bins or not bins[0]:
-            return ""
-        small = combine([b[0]["velocity_dispersion"] for b in bins])
-        large = combine([b[-1]["velocity_dispersion"] for b in bins])
-        parts.append(f"{fmt(ratio(small, large))} with {lab}")
-    return ("The smallest particles move faster than the largest by a factor "
-            + " and ".join(parts) + " (equipartition would give 31.6): kappa heats every size "
-            "nearly alike.")
 
 
 def scaling_prediction(sc) -> tuple[float, float]:
@@ -157,160 +89,230 @@ def scaling_prediction(sc) -> tuple[float, float]:
     return factor(sd.smallest_radius), factor(sd.mean_radius)
 
 
+def variants(args) -> dict[str, dict]:
+    """Size-distribution variants: scenario overrides by name."""
+    common = {"integration.until_equilibrium": True, "integration.orbits": args.max_orbits}
+    mono = dict(common)
+    mono["particles.size_distribution"] = {"kind": "monodisperse", "radius": args.mono_radius}
+    mono["sheet.n_particles"] = args.mono_particles
+    return {"powerlaw": common, "monodisperse": mono}
+
+
+def run_one(job: tuple[str, dict, str]) -> tuple[str, float]:
+    """Run one scenario; returns (path, wall time [s]).  A finished file of the same
+    scenario is reused; a stopped one is continued (bit-identical to running it whole)."""
+    scenario_path, overrides, output = job
+    out = Path(output)
+    sc = with_overrides(load_scenario(scenario_path), overrides)
+    t0 = time.perf_counter()
+    if out.exists():
+        try:
+            existing = open_run(out)
+        except (OSError, KeyError, ringsim.InputError):
+            existing = None
+        if existing is not None and existing.scenario == sc:
+            if existing.attrs.get("status") == "finished":
+                return output, 0.0
+            ringsim.run(sc, output=out, resume=True, progress=False)
+            return output, time.perf_counter() - t0
+    ringsim.run(sc, output=out, force=True, progress=False)
+    return output, time.perf_counter() - t0
+
+
+def run_all(jobs: list[tuple[str, dict, str]], workers: int) -> list[str]:
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        return [path for path, _ in pool.map(run_one, jobs)]
+
+
+def pair_jobs(variant: str, overrides: dict, seeds, runs_dir: Path) -> list[tuple]:
+    """(scenario, overrides, output) of both kappa values and every seed."""
+    return [(str(path), dict(overrides, seed=seed),
+             str(runs_dir / f"{variant}_{path.stem}_seed{seed}.h5"))
+            for path in SCENARIOS.values() for seed in seeds]
+
+
+def stationary_equilibria(paths: list[str]) -> tuple[list[dict], list[str]]:
+    """Equilibria of the runs the finder calls stationary, and a line per one it does not."""
+    kept, left_out = [], []
+    for path in paths:
+        eq = equilibrium(open_run(path))
+        eq["law_outside_range"] = law_outside_range(open_run(path))
+        if eq["in_equilibrium"]:
+            kept.append(eq)
+        else:
+            left_out.append(f"{eq['name']} (seed {eq['scenario']['seed']}): {eq['reason']}")
+    return kept, left_out
+
+
+def law_outside_range(run) -> float:
+    """Fraction of the run's impacts outside the speeds its restitution law was measured
+    over (the run file's ``law_range_outside`` time series); NaN if not recorded."""
+    ts = run.timeseries
+    if "law_range_outside" not in ts:
+        return math.nan
+    total = float(ts["collisions"][1:].sum())
+    return float(ts["law_range_outside"][1:].sum()) / total if total else math.nan
+
+
+def ratio_of_pair(paths: list[str]) -> dict:
+    """The comparison (kappa = 0.1 / kappa = 0) of one set of runs."""
+    eqs, _ = stationary_equilibria(paths)
+    return comparison(eqs)["ratios"][0]
+
+
+def detection_systematics() -> dict[str, float]:
+    """Relative change of the kappa ratio of c and H between line and tree detection, from
+    the short same-state comparisons of analysis/line_mode_validation.py (power law)."""
+    if not LINE_VALIDATION.exists():
+        return {}
+    data = json.loads(LINE_VALIDATION.read_text())
+    out = {}
+    for key in ("velocity_dispersion", "thickness"):
+        ratios = []
+        for case in ("kappa0.1-powerlaw", "kappa0-powerlaw"):
+            tree = data[case]["tree"][key]
+            line = data[case]["line"]["line0.001"][key]["mean"]
+            ratios.append(line / tree)
+        out[key] = abs(ratios[0] / ratios[1] - 1.0)
+    out["velocity_dispersion_rOmega"] = out["velocity_dispersion"]
+    out["thickness_r"] = out["thickness"]
+    return out
+
+
+def measure_budget(args, runs_dir: Path, base_ratio: dict) -> dict:
+    """Run the method variants and write the systematic budget (see module docstring)."""
+    relative: dict[str, dict[str, float]] = {key: {} for key in TABLE_ROWS}
+    common = variants(args)["powerlaw"]
+    for source, overrides in SYSTEMATIC_VARIANTS.items():
+        paths = run_all(pair_jobs(f"syst-{source}", {**common, **overrides}, args.seeds,
+                                  runs_dir), args.workers)
+        other = ratio_of_pair(paths)
+        for key in TABLE_ROWS:
+            a, b = base_ratio[key], other[key]
+            if math.isfinite(a["mean"]) and math.isfinite(b["mean"]) and a["mean"]:
+                # a difference smaller than its own noise is not resolved: take the noise
+                noise = math.hypot(a["statistical"], b["statistical"]) / abs(a["mean"])
+                relative[key][source] = max(abs(b["mean"] / a["mean"] - 1.0), noise)
+    for key, value in detection_systematics().items():
+        relative[key]["collision_detection"] = value
+    budget = {"description": "measured by analysis/kappa_comparison.py --systematics for the "
+                             "kappa0/kappa0.1 power-law pair (" + ", ".join(
+                                 f"{s}: {SOURCES[s]}" for s in (*SYSTEMATIC_VARIANTS,
+                                                                "collision_detection")) + ")",
+              "measured_by": "analysis/kappa_comparison.py --systematics",
+              "variants": SYSTEMATIC_VARIANTS, "relative": relative}
+    BUDGET.parent.mkdir(parents=True, exist_ok=True)
+    BUDGET.write_text(json.dumps(budget, indent=1) + "\n")
+    return budget
+
+
 def fmt(v: dict, scale: float = 1.0, digits: int = 3) -> str:
     if not math.isfinite(v["mean"]):
         return "n/a"
     return f"{v['mean'] * scale:.{digits}g} ± {v['stderr'] * scale:.2g}"
 
 
+def fmt_ratio(r: dict) -> str:
+    if not math.isfinite(r["mean"]):
+        return "n/a"
+    syst = f"{r['systematic']:.2g}" if math.isfinite(r["systematic"]) else "not measured"
+    return (f"**{r['mean']:.3g}** ± {r['statistical']:.2g} (stat) ± {syst} (syst)"
+            + (f" = ± {r['total']:.2g}" if math.isfinite(r["total"]) else ""))
+
+
+def variant_section(variant: str, comp: dict, left_out: list[str], eqs: list[dict]) -> list[str]:
+    """Markdown of one size-distribution variant."""
+    base, other = comp["runs"]
+    r = comp["ratios"][0]
+    sc = eqs[0]["scenario"]
+    lines = [f"## {variant} particles", "",
+             f"Scenario: {sc['particles']['size_distribution']}, density "
+             f"{sc['particles']['density']:g} kg/m^3, tau = {sc['sheet']['optical_depth']:g}, "
+             f"{sc['sheet']['n_particles']} particles, Omega = {sc['planet']} , collision "
+             f"detection {sc['integration']['collision_detection']}, dt "
+             f"{sc['integration']['dt']}, run until stationary (at most "
+             f"{sc['integration']['orbits']:g} orbits). Stationary runs averaged: "
+             f"{base['name']} and {other['name']}.", "",
+             "| quantity | kappa = 0 | kappa = 0.1 | ratio 0.1 / 0 |", "|---|---|---|---|"]
+    for key, (label, unit, scale) in TABLE_ROWS.items():
+        lines.append(f"| {label}{f' [{unit}]' if unit else ''} | {fmt(base[key], scale)} | "
+                     f"{fmt(other[key], scale)} | {fmt_ratio(r[key])} |")
+    kin = [g["kinetic_estimate"] for g in (base, other)]
+    lines.append("| dilute kinetic estimate c / (<r> Omega) | " + " | ".join(
+        f"{k['velocity_dispersion_rOmega']:.3g}" if k["status"] == "equilibrium"
+        else k["status"] for k in kin) + " | |")
+    outside = []
+    for g in (base, other):
+        fractions = [e["law_outside_range"] for e in eqs if e["name"] in g.get("replicas",
+                                                                              [g["name"]])]
+        outside.append(f"{100 * sum(fractions) / len(fractions):.1f} %" if fractions
+                       and all(math.isfinite(f) for f in fractions) else "not recorded")
+    lines.append("| impacts outside the law's measured speeds | " + " | ".join(outside)
+                 + " | |")
+    lines += ["", f"The kinetic estimate uses {kin[0].get('representative', 'the mean particle')}.",
+              ""]
+    for g in (base, other):
+        line = size_ratio_line(g.get("size_ratio"))
+        if line:
+            lines.append(f"- {g['name']}: {line}")
+    if left_out:
+        lines += ["", "Runs left out (the finder did not call them stationary):", ""]
+        lines += [f"- {item}" for item in left_out]
+    return lines + [""]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
-    parser.add_argument("--particles", type=int, default=None)
-    parser.add_argument("--orbits", type=float, default=None)
-    parser.add_argument("--detection", choices=["tree", "line"], default=None)
+    parser.add_argument("--max-orbits", type=float, default=MAX_ORBITS)
     parser.add_argument("--mono-radius", type=float, default=1.0,
                         help="radius of the monodisperse variant [m]")
-    parser.add_argument("--mono-particles", type=int, default=None,
-                        help="particles of the monodisperse variant (default: as the scenario)")
+    parser.add_argument("--mono-particles", type=int, default=2000)
     parser.add_argument("--runs", default=str(ROOT / "runs" / "kappa"))
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--systematics", action="store_true",
+                        help="also run the method variants and write the budget")
     parser.add_argument("--report", default=str(REPORT))
     args = parser.parse_args()
-
     runs_dir = Path(args.runs)
     runs_dir.mkdir(parents=True, exist_ok=True)
-    jobs, keys = [], []
-    for variant, overrides in variants(args).items():
-        for label, scenario_path in SCENARIOS.items():
-            for seed in args.seeds:
-                o = dict(overrides, seed=seed)
-                name = f"{variant}_{scenario_path.stem}_seed{seed}.h5"
-                jobs.append((str(scenario_path), o, str(runs_dir / name)))
-                keys.append((variant, label, seed))
     t0 = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        results = list(pool.map(run_one, jobs))
-    wall = {key: float(open_run(path).attrs.get("wall_time_s", w))
-            for key, (path, w) in zip(keys, results, strict=True)}
-    print(f"runs done in {time.perf_counter() - t0:.0f} s")
-
-    eqs, runs = {}, {}
-    for key, (path, _) in zip(keys, results, strict=True):
-        runs[key] = open_run(path)
-        eqs[key] = equilibrium(runs[key])
-    write_report(args, keys, eqs, runs, wall)
-
-
-def write_report(args, keys, eqs, runs, wall) -> None:
-    from ringsim.plots import plot_comparison
-
-    FIGURES.mkdir(parents=True, exist_ok=True)
+    sections, summary = [], []
+    results = {}
+    for variant, overrides in variants(args).items():
+        paths = run_all(pair_jobs(variant, overrides, args.seeds, runs_dir), args.workers)
+        eqs, left_out = stationary_equilibria(paths)
+        results[variant] = (paths, eqs, left_out)
+    budget = None
+    if args.systematics:
+        budget = measure_budget(args, runs_dir, comparison(results["powerlaw"][1])["ratios"][0])
+    elif BUDGET.exists():
+        budget = json.loads(BUDGET.read_text())
+    for variant, (_paths, eqs, left_out) in results.items():
+        comp = comparison(eqs, budget if variant == "powerlaw" else None)
+        sections += variant_section(variant, comp, left_out, eqs)
+        r = comp["ratios"][0]
+        low, high = scaling_prediction(open_run(_paths[0]).scenario)
+        predicted = (f"{low:.2f}" if abs(high - low) < 0.01 * low else
+                     f"{low:.2f} (pairs of the smallest particles) to {high:.2f} (mean-sized)")
+        summary.append(f"- **{variant}**: c(kappa = 0.1) / c(kappa = 0) = "
+                       f"{fmt_ratio(r['velocity_dispersion'])}; H ratio "
+                       f"{fmt_ratio(r['thickness'])}; the (M/60 g)^(kappa/p) scaling "
+                       f"predicts {predicted}.")
+        figures = plot_comparison([open_run(p) for p in (_paths[0], _paths[len(_paths) // 2])],
+                                  [equilibrium(open_run(p)) for p in (_paths[0],
+                                                                      _paths[len(_paths) // 2])],
+                                  FIGURES / variant)
+        sections += [f"![{f.stem}](figures/{variant}/{f.name})" for f in figures] + [""]
     lines = ["# Ring equilibria with kappa = 0 and kappa = 0.1", "",
-             "Generated by `python analysis/kappa_comparison.py "
-             + " ".join(f"--seeds {' '.join(map(str, args.seeds))}".split())
-             + (f" --particles {args.particles}" if args.particles else "")
-             + (f" --orbits {args.orbits:g}" if args.orbits else "")
-             + (f" --detection {args.detection}" if args.detection else "")
-             + (f" --mono-particles {args.mono_particles}" if args.mono_particles else "")
-             + "`.", ""]
-    variants_seen = list(dict.fromkeys(k[0] for k in keys))
-    labels = list(SCENARIOS)
-    summary_sentences = []
-    for variant in variants_seen:
-        first = runs[next(k for k in keys if k[0] == variant)]
-        sc = first.scenario
-        sd = sc.particles.size_distribution
-        lines += [f"## {variant} particles", "",
-                  f"Scenario: {sd.to_dict()}, density {sc.particles.density:g} kg/m^3, "
-                  f"tau = {sc.sheet.optical_depth:g}, {sc.sheet.n_particles} particles, "
-                  f"Omega = {sc.orbital_frequency:g} 1/s, {sc.integration.orbits:g} orbits, "
-                  f"dt {sc.integration.dt}, collision detection "
-                  f"{sc.integration.collision_detection}, seeds {args.seeds}.", ""]
-        combined = {}
-        for label in labels:
-            members = [k for k in keys if k[0] == variant and k[1] == label]
-            combined[label] = {key: combine([eqs[k][key] for k in members])
-                               for key in TABLE_ROWS}
-            combined[label]["in_eq"] = sum(bool(eqs[k]["in_equilibrium"]) for k in members)
-            combined[label]["n_runs"] = len(members)
-            combined[label]["verdicts"] = [f"seed {k[2]}: {eqs[k]['reason']}" for k in members]
-            combined[label]["wall"] = sum(wall[k] for k in members)
-            combined[label]["from"] = max(eqs[k]["equilibrium_from_orbit"]["mean"]
-                                          for k in members)
-            combined[label]["kinetic"] = eqs[members[0]]["kinetic_estimate"]
-            combined[label]["bins"] = [eqs[k]["per_size_bin"] for k in members]
-        header = "| quantity | " + " | ".join(labels) + " | ratio 0.1 / 0 |"
-        lines += [header, "|---|" + "---|" * (len(labels) + 1)]
-        for key, (label_text, unit, scale) in TABLE_ROWS.items():
-            r = ratio(combined[labels[1]][key], combined[labels[0]][key])
-            lines.append(f"| {label_text}{f' [{unit}]' if unit else ''} | "
-                         + " | ".join(fmt(combined[lab][key], scale) for lab in labels)
-                         + f" | {fmt(r)} |")
-        kin = []
-        for lab in labels:
-            k = combined[lab]["kinetic"]
-            kin.append(f"{k['velocity_dispersion_rOmega']:.3g}" if k["status"] == "equilibrium"
-                       else k["status"])
-        lines.append("| dilute kinetic estimate c / (<r> Omega) | " + " | ".join(kin) + " | |")
-        lines.append("| runs the equilibrium finder calls stationary | " + " | ".join(
-            f"{combined[lab]['in_eq']} of {combined[lab]['n_runs']}" for lab in labels) + " | |")
-        lines.append("| equilibrium window from orbit (latest seed) | " + " | ".join(
-            f"{combined[lab]['from']:.3g}" for lab in labels) + " | |")
-        lines.append("| wall time of the runs, all seeds [s] | " + " | ".join(
-            f"{combined[lab]['wall']:.0f}" for lab in labels) + " | |")
-        lines.append("")
-        lines.append("Verdicts of the equilibrium finder (MSER-5 transient, drift test, at "
-                     "least 20 independent samples in the window):")
-        lines.append("")
-        for lab in labels:
-            for verdict in combined[lab]["verdicts"]:
-                lines.append(f"- {lab}, {verdict}")
-        lines.append("")
-        bins0 = combined[labels[0]]["bins"][0]
-        if bins0:
-            lines += ["Per size bin (seed-averaged):", "",
-                      "| r [m] | " + " | ".join(f"c [mm/s] {lab}" for lab in labels)
-                      + " | " + " | ".join(f"H [m] {lab}" for lab in labels) + " |",
-                      "|---|" + "---|" * (2 * len(labels))]
-            for b in range(len(bins0)):
-                cells = []
-                for quantity, scale in (("velocity_dispersion", 1e3), ("thickness", 1.0)):
-                    for lab in labels:
-                        cells.append(fmt(combine([bins[b][quantity]
-                                                  for bins in combined[lab]["bins"]]), scale))
-                lines.append(f"| {bins0[b]['r_low']:.3g}-{bins0[b]['r_high']:.3g} | "
-                             + " | ".join(cells) + " |")
-            lines.append("")
-        pair = [k for k in keys if k[0] == variant and k[2] == args.seeds[0]]
-        figs = plot_comparison([runs[k] for k in pair], [eqs[k] for k in pair],
-                               FIGURES / variant)
-        for fig in figs:
-            lines.append(f"![{fig.stem}](figures/{variant}/{fig.name})")
-        lines.append("")
-        c0, c1 = (combined[lab]["velocity_dispersion_rOmega"] for lab in labels)
-        h0, h1 = (combined[lab]["thickness_r"] for lab in labels)
-        e0, e1 = (combined[lab]["mean_epsilon"] for lab in labels)
-        rc = ratio(c1, c0)
-        rh = ratio(h1, h0)
-        ff = ratio(combined[labels[1]]["filling_factor"], combined[labels[0]]["filling_factor"])
-        nu = ratio(combined[labels[1]]["translational_viscosity"],
-                   combined[labels[0]]["translational_viscosity"])
-        low, high = scaling_prediction(sc)
-        predicted = (f"{low:.2f}" if abs(high - low) < 0.01 * low
-                     else f"{low:.2f} (pairs of the smallest particles) to {high:.2f} (pairs of "
-                     "mean-sized ones)")
-        summary_sentences.append(
-            f"- **{variant}**: with kappa = 0.1 the velocity dispersion is "
-            f"{c1['mean']:.3g} <r>Omega against {c0['mean']:.3g} with kappa = 0, a factor "
-            f"{fmt(rc)}; the ring is {fmt(rh)} times as thick (H = {h1['mean']:.3g} against "
-            f"{h0['mean']:.3g} mean radii), its midplane filling factor is {fmt(ff)} times "
-            f"as large and its translational viscosity {fmt(nu)} times as large. The mean "
-            f"applied epsilon hardly moves ({e1['mean']:.3f} against {e0['mean']:.3f}). The "
-            f"scaling argument below predicts a dispersion ratio of {predicted}. "
-            + kinetic_sentence(combined, labels) + size_sentence(combined, labels))
-    lines[4:4] = ["## What changes between kappa = 0 and kappa = 0.1", "", *summary_sentences,
-                  "", *EXPLANATION, ""]
+             f"Generated by `python analysis/kappa_comparison.py --seeds "
+             f"{' '.join(map(str, args.seeds))}{' --systematics' if args.systematics else ''}`"
+             f" in {time.perf_counter() - t0:.0f} s.", "",
+             "## What changes between kappa = 0 and kappa = 0.1", "", *summary, "",
+             *EXPLANATION, "",
+             "Systematic budget: " + (budget["description"] if budget else
+                                      "not measured (run with --systematics)") + ".", "",
+             *sections]
     Path(args.report).write_text("\n".join(lines) + "\n")
     print(f"wrote {args.report}")
 

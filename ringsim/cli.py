@@ -221,6 +221,11 @@ def _cmd_compare(args) -> int:
     from ringsim.analysis.compare import comparison, comparison_table
     from ringsim.analysis.equilibrium import equilibrium
 
+    systematics = None
+    if args.systematics:
+        from ringsim.analysis.budget import load_budget
+
+        systematics = load_budget(args.systematics)
     summaries = _sweep_summaries(args.runs)
     for path in summaries:
         print(f"ringsim: note: skipping {path}: a sweep summary, not a run file", file=sys.stderr)
@@ -230,7 +235,9 @@ def _cmd_compare(args) -> int:
                          "run files of the sweep (the other .h5 files of its directory)")
     runs = _open_runs(paths)
     equilibria = [equilibrium(run) for run in runs]
-    comp = comparison(equilibria)
+    comp = comparison(equilibria, systematics)
+    for warning in comp["warnings"]:
+        print(f"ringsim: {warning}", file=sys.stderr)
     print(comparison_table(comp))
     if args.json:
         _write_json(args.json, comp)
@@ -330,6 +337,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("runs", metavar="RUN.h5", nargs="+")
     p.add_argument("--json", metavar="OUT.json", help="write the comparison as JSON")
     p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
+    p.add_argument("--systematics", metavar="BUDGET.json", help="measured systematic "
+                   "uncertainties of the ratios (ringsim.analysis.budget)")
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser("sweep", help="run a grid of scenarios (local processes or Dask)")

@@ -31,7 +31,8 @@ def two_runs(tmp_path_factory):
 
 
 def _is_number(v):
-    return set(v) == {"mean", "stderr"}
+    """A JSON number of the interface: mean, standard error and its unit (docs/interface.md)."""
+    return set(v) == {"mean", "stderr", "units"} and isinstance(v["units"], str) and v["units"]
 
 
 def test_analyze_json_has_contract_keys(two_runs, tmp_path, capsys):

@@ -151,3 +151,21 @@ def test_overlaps_across_the_shearing_boundary(t_orbits):
         # without the shear offset the ghost lands elsewhere
         arrays["y"][1] = 10.3
         assert sheet.count_overlaps(arrays, g, t) == 0
+
+
+def test_centre_of_mass_starts_at_rest_in_the_shear_flow():
+    """No undamped epicycle of the whole sheet: mass-weighted mean of (vx, vy + 1.5 Omega x,
+    vz) and of z vanish to round-off at set-up (and the collisions conserve them)."""
+    from ringsim.engine.sheet import build_sheet, particle_arrays
+
+    sc = scenario_from_dict({"name": "com", "seed": 5, "planet": {"Omega": 2e-4},
+                             "particles": {"size_distribution": {"kind": "powerlaw", "q": 3,
+                                                                 "r_min": 0.5, "r_max": 5}},
+                             "sheet": {"n_particles": 500, "initial_dispersion": 20.0}})
+    built = build_sheet(sc)
+    a = particle_arrays(built.sim)
+    m = a["mass"] / a["mass"].sum()
+    speed = np.sqrt(np.mean(a["vx"] ** 2))
+    for values in (a["vx"], a["vy"] + 1.5 * 2e-4 * a["x"], a["vz"]):
+        assert abs(np.dot(m, values)) < 1e-13 * speed
+    assert abs(np.dot(m, a["z"])) < 1e-13 * np.sqrt(np.mean(a["z"] ** 2))

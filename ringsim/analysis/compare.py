@@ -5,57 +5,112 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from ringsim.analysis.equilibrium import TABLE_ROWS, _fmt, _value
+from ringsim.analysis import budget
+from ringsim.analysis.equilibrium import (
+    NOT_IN_EQUILIBRIUM,
+    TABLE_ROWS,
+    _fmt,
+    _ratio_of,
+    size_ratio_line,
+)
+
+#: a / b with first-order propagated standard error (independent a and b).
+ratio = _ratio_of
 
 
-def ratio(a: dict, b: dict) -> dict:
-    """a / b with first-order propagated standard error (independent a and b)."""
-    if not (b["mean"] and math.isfinite(b["mean"]) and math.isfinite(a["mean"])):
-        return _value(math.nan, math.nan)
-    r = a["mean"] / b["mean"]
-    rel = math.hypot(a["stderr"] / a["mean"] if a["mean"] else 0.0, b["stderr"] / b["mean"])
-    return _value(r, abs(r) * rel)
+def _combined(members: Sequence[dict]) -> dict:
+    """One equilibrium from replicas (runs differing only in seed): every table quantity is
+    the replica mean (``budget.replica_mean``); names joined; in equilibrium only if every
+    replica is."""
+    if len(members) == 1:
+        return members[0]
+    eq = dict(members[0])
+    eq["name"] = "+".join(m["name"] for m in members)
+    for key in TABLE_ROWS:
+        eq[key] = budget.replica_mean([m[key] for m in members])
+    eq["in_equilibrium"] = all(m["in_equilibrium"] for m in members)
+    eq["reason"] = "; ".join(f"{m['name']}: {m['reason']}" for m in members
+                             if not m["in_equilibrium"]) or members[0]["reason"]
+    eq["replicas"] = [m["name"] for m in members]
+    return eq
 
 
-def comparison(equilibria: Sequence[dict]) -> dict:
-    """Side-by-side equilibria with ratios to the first run.
+def comparison(equilibria: Sequence[dict], systematics: dict | None = None) -> dict:
+    """Side-by-side equilibria with ratios to the first, each with its error budget.
+
+    Runs that differ only in their seed are replicas and are first combined
+    (``budget.replica_groups``); each later group is divided by the first.
+
+    Parameters
+    ----------
+    equilibria : list of ``ringsim.equilibrium`` results
+    systematics : a budget (``budget.load_budget``), or None
 
     Returns
     -------
-    dict with ``runs`` (the equilibria) and ``ratios``: for each later run, each table
-    quantity divided by the first run's, ``{"mean", "stderr"}``, and the difference in
-    units of the combined standard error (``significance``).
+    dict with ``runs`` (the combined equilibria), ``ratios`` (for each later group, each
+    table quantity's ratio ``{"mean", "stderr", "units", "statistical", "systematic",
+    "systematic_parts", "total", "significance"}``: ``stderr`` = ``statistical``; the
+    systematic part is NaN where the budget has no entry; ``significance`` is the
+    difference in units of the combined statistical error), ``all_in_equilibrium`` and
+    ``warnings`` (one per run the finder did not call stationary).
     """
-    base = equilibria[0]
+    groups = [_combined([equilibria[i] for i in g])
+              for g in budget.replica_groups(equilibria)]
+    base = groups[0]
     ratios = []
-    for eq in equilibria[1:]:
-        entry = {"name": eq["name"], "relative_to": base["name"]}
+    for eq in groups[1:]:
+        entry = {"name": eq["name"], "relative_to": base["name"],
+                 "in_equilibrium": bool(eq["in_equilibrium"] and base["in_equilibrium"])}
         for key in TABLE_ROWS:
             r = ratio(eq[key], base[key])
             combined = math.hypot(eq[key]["stderr"], base[key]["stderr"])
             diff = eq[key]["mean"] - base[key]["mean"]
             r["significance"] = float(diff / combined) if combined > 0 else math.nan
+            r["statistical"] = r["stderr"]
+            r["systematic"], r["systematic_parts"] = budget.systematic(systematics, key,
+                                                                       r["mean"])
+            r["total"] = math.hypot(r["statistical"], r["systematic"])
             entry[key] = r
         ratios.append(entry)
-    return {"runs": list(equilibria), "ratios": ratios}
+    warnings = [NOT_IN_EQUILIBRIUM.format(name=eq["name"], reason=eq["reason"])
+                for eq in equilibria if not eq["in_equilibrium"]]
+    return {"runs": groups, "ratios": ratios, "warnings": warnings,
+            "all_in_equilibrium": not warnings,
+            "systematics": (systematics or {}).get("description", "not measured")}
+
+
+def _ratio_text(r: dict) -> str:
+    if not math.isfinite(r["mean"]):
+        return "n/a"
+    syst = (f" ± {r['systematic']:.2g} (syst)" if math.isfinite(r["systematic"])
+            else " (syst. not measured)")
+    return f"{r['mean']:.4g} ± {r['statistical']:.2g} (stat){syst}"
 
 
 def comparison_table(comp: dict) -> str:
-    """Plain-text side-by-side table with ratios to the first run."""
+    """Plain-text side-by-side table with ratios to the first group, warnings first."""
     runs = comp["runs"]
     width = max(22, *(len(eq["name"]) + 2 for eq in runs))
-    head = f"{'quantity':<40}" + "".join(f"{eq['name']:>{width}}" for eq in runs)
-    lines = [head]
+    lines = list(comp.get("warnings", []))
+    lines.append(f"{'quantity':<40}" + "".join(f"{eq['name']:>{width}}" for eq in runs))
     for key, (label, unit, scale) in TABLE_ROWS.items():
         lines.append(f"{label + (f' [{unit}]' if unit else ''):<40}"
                      + "".join(f"{_fmt(eq[key], scale):>{width}}" for eq in runs))
     lines.append(f"{'in equilibrium':<40}"
                  + "".join(f"{str(eq['in_equilibrium']):>{width}}" for eq in runs))
+    for eq in runs:
+        line = size_ratio_line(eq.get("size_ratio"))
+        if line:
+            lines.append(f"{eq['name']}: {line}")
     for entry in comp["ratios"]:
         lines.append("")
+        caveat = "" if entry["in_equilibrium"] else "  [NOT IN EQUILIBRIUM: see the warning]"
         lines.append(f"ratio {entry['name']} / {entry['relative_to']} "
-                     "(difference in combined standard errors)")
+                     f"(difference in combined standard errors){caveat}")
         for key, (label, _unit, _scale) in TABLE_ROWS.items():
             r = entry[key]
-            lines.append(f"  {label:<38} {_fmt(r):>20}   ({r['significance']:+.1f} sigma)")
+            lines.append(f"  {label:<38} {_ratio_text(r):>44}   "
+                         f"({r['significance']:+.1f} sigma)")
+    lines.append(f"systematic budget: {comp.get('systematics', 'not measured')}")
     return "\n".join(lines)

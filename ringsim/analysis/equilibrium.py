@@ -14,39 +14,100 @@ import math
 
 import numpy as np
 
-from ringsim.analysis import timeseries
+from ringsim.analysis import snapshot, timeseries
 from ringsim.physics import kinetic
 
-#: Quantities of the equilibrium table: key -> (label, unit shown, scale from SI).
-TABLE_ROWS = {
-    "velocity_dispersion": ("velocity dispersion c", "mm/s", 1e3),
-    "velocity_dispersion_rOmega": ("c / (<r> Omega)", "", 1.0),
-    "thickness": ("thickness H (rms z)", "m", 1.0),
-    "thickness_r": ("H / <r>", "", 1.0),
-    "filling_factor": ("midplane filling factor", "", 1.0),
-    "collision_frequency": ("collisions per particle per orbit", "", 1.0),
-    "mean_epsilon": ("mean applied epsilon", "", 1.0),
-    "translational_viscosity": ("translational viscosity", "m^2/s", 1.0),
-    "collisional_viscosity": ("collisional viscosity", "m^2/s", 1.0),
+#: The equilibrium quantities, declared once: key -> (label, unit of the JSON number (SI
+#: unless the key says otherwise), unit shown in tables, scale from the JSON unit to it).
+QUANTITIES = {
+    "velocity_dispersion": ("velocity dispersion c", "m/s", "mm/s", 1e3),
+    "velocity_dispersion_rOmega": ("c / (<r> Omega)", "mean radius x Omega", "", 1.0),
+    "thickness": ("thickness H (rms z)", "m", "m", 1.0),
+    "thickness_r": ("H / <r>", "mean radii", "", 1.0),
+    "filling_factor": ("midplane filling factor", "dimensionless", "", 1.0),
+    "collision_frequency": ("collisions per particle per orbit", "1/orbit", "", 1.0),
+    "mean_epsilon": ("mean applied epsilon", "dimensionless", "", 1.0),
+    "translational_viscosity": ("translational viscosity", "m^2/s", "m^2/s", 1.0),
+    "collisional_viscosity": ("collisional viscosity", "m^2/s", "m^2/s", 1.0),
 }
+#: Rows of the plain-text tables: key -> (label, unit shown, scale from the JSON unit).
+TABLE_ROWS = {key: (label, shown, scale) for key, (label, _unit, shown, scale)
+              in QUANTITIES.items()}
+#: Units of the plain numbers of an equilibrium (the JSON's ``units`` entry).
+PLAIN_UNITS = {"orbits": "orbits", "n_particles": "count", "mean_radius": "m",
+               "optical_depth": "dimensionless", "equilibrium_from_orbit": "orbits",
+               "r_low": "m", "r_high": "m", "n": "count"}
 
 
-def _value(mean: float, stderr: float) -> dict:
-    return {"mean": float(mean), "stderr": float(stderr)}
+def _value(mean: float, stderr: float, units: str) -> dict:
+    """A JSON number: ``{"mean", "stderr", "units"}``."""
+    return {"mean": float(mean), "stderr": float(stderr), "units": units}
 
 
-def _window_stats(values: np.ndarray, start: int) -> dict:
+def _window_stats(values: np.ndarray, start: int, units: str) -> dict:
     """Mean and autocorrelation-corrected stderr of values[start:] (no further truncation)."""
     mean, stderr, _ = timeseries.autocorrelated_mean(np.asarray(values[start:], dtype=float))
-    return _value(mean, stderr)
+    return _value(mean, stderr, units)
 
 
-def _scaled(value: dict, scale: float) -> dict:
-    return _value(value["mean"] * scale, value["stderr"] * abs(scale))
+def _scaled(value: dict, scale: float, units: str) -> dict:
+    return _value(value["mean"] * scale, value["stderr"] * abs(scale), units)
+
+
+def _interval_rates(ts: dict, n_particles: int, Omega: float, area: float,
+                    surface_density: float) -> tuple[np.ndarray, np.ndarray]:
+    """Collision frequency [1/orbit] and collisional viscosity [m^2/s] of every output
+    interval, from the tested functions of ``analysis.snapshot`` (NaN for row 0, before
+    any collision, and for empty intervals)."""
+    t, plog = ts["t"], ts["collisions_plog"]
+    frequency = np.full(t.size, np.nan)
+    nu_col = np.full(t.size, np.nan)
+    Lx_Ly = (area, 1.0)
+    for i in range(1, t.size):
+        elapsed = float(t[i] - t[i - 1])
+        if elapsed > 0:
+            frequency[i] = snapshot.collision_frequency(float(ts["collisions"][i]), n_particles,
+                                                        elapsed, Omega)
+            nu_col[i] = snapshot.collisional_viscosity(float(plog[i] - plog[i - 1]), elapsed,
+                                                       *Lx_Ly, surface_density, Omega)
+    return frequency, nu_col
+
+
+def stationary_window(orbits: np.ndarray, velocity_dispersion: np.ndarray,
+                      thickness: np.ndarray) -> dict:
+    """Where a run's equilibrium window starts and whether c and H are stationary there.
+
+    The one verdict of ringsim: ``analyze`` reports it and ``integration.until_equilibrium``
+    stops a run on it.  Row 0 (the initial state, before any collision) is skipped; the
+    finder (``timeseries.stationary_mean``) runs on c and on H, the later start wins, and the
+    run is in equilibrium only if both are stationary with enough independent samples.
+
+    Parameters
+    ----------
+    orbits : array [orbits]
+        Output times.
+    velocity_dispersion : array [m/s]
+    thickness : array [m]
+
+    Returns
+    -------
+    dict with ``start`` (row index of the window), ``in_equilibrium`` (bool) and
+    ``reason`` (text).
+    """
+    fits = {name: timeseries.stationary_mean(orbits[1:], series[1:], time_unit="orbit")
+            for name, series in (("velocity dispersion", velocity_dispersion),
+                                 ("thickness", thickness))}
+    problems = [f"{name}: {fit.reason}" for name, fit in fits.items() if not fit.in_equilibrium]
+    return {"start": 1 + max(fit.start_index for fit in fits.values()),
+            "in_equilibrium": not problems,
+            "reason": "; ".join(problems) if problems else fits["velocity dispersion"].reason}
 
 
 def equilibrium(run) -> dict:
     """The equilibrium of a run: the numbers ``ringsim analyze --json`` writes.
+
+    The window is found on the velocity dispersion and the thickness (the later start
+    wins); the drift test works in orbits, so its slope reads "per orbit".
 
     Parameters
     ----------
@@ -55,89 +116,118 @@ def equilibrium(run) -> dict:
     Returns
     -------
     dict
-        The keys of docs/interface.md "Equilibrium JSON" (each number ``{"mean",
-        "stderr"}``, SI unless the name says otherwise) plus ``in_equilibrium``,
-        ``reason``, ``orbits``, ``n_particles``,
-        ``optical_depth``, ``translational_viscosity`` and ``collisional_viscosity``
-        [m^2/s], and ``kinetic_estimate`` (the dilute-ring energy balance of the
-        scenario's law, ``kinetic.kinetic_dispersion_estimate``).
+        docs/interface.md keys: each number ``{"mean", "stderr", "units"}`` (SI unless the
+        key says otherwise, see `QUANTITIES`), plus ``in_equilibrium``, ``reason``,
+        ``status`` (the run file's: finished, stopped, running), ``orbits``,
+        ``n_particles``, ``mean_radius`` [m], ``optical_depth``, ``units`` (the units of
+        these plain numbers and of the per-size-bin edges), ``size_ratio`` (small / large
+        velocity dispersion with its bins and the equipartition value for the same bins,
+        `size_dispersion_ratio`) and ``kinetic_estimate`` (the dilute-ring energy balance
+        of the scenario's law, ``kinetic.kinetic_dispersion_estimate``).
     """
     ts = run.timeseries
     sc = run.scenario
     Omega = sc.orbital_frequency
-    t = ts["t"]
     orbits = ts["orbits"]
     first = run.snapshot(0)
     radius, mass = first["radius"], first["mass"]
-    n_particles = radius.size
     r_mean = float(radius.mean())
-    Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
+    area = float(run.attrs["Lx"]) * float(run.attrs["Ly"])
 
-    # rows 1.. (row 0 is the initial state, before any collision)
-    c_fit = timeseries.stationary_mean(t[1:], ts["velocity_dispersion"][1:])
-    h_fit = timeseries.stationary_mean(t[1:], ts["thickness"][1:])
-    start = 1 + max(c_fit.start_index, h_fit.start_index)
-    in_eq = bool(c_fit.in_equilibrium and h_fit.in_equilibrium)
-    reasons = []
-    for name, fit in (("velocity dispersion", c_fit), ("thickness", h_fit)):
-        if not fit.in_equilibrium:
-            reasons.append(f"{name}: {fit.reason}")
-    reason = "; ".join(reasons) if reasons else c_fit.reason
+    window = stationary_window(orbits, ts["velocity_dispersion"], ts["thickness"])
+    start = window["start"]
 
     out: dict = {"name": sc.name}
-    c = _window_stats(ts["velocity_dispersion"], start)
-    h = _window_stats(ts["thickness"], start)
+    c = _window_stats(ts["velocity_dispersion"], start, "m/s")
+    h = _window_stats(ts["thickness"], start, "m")
     out["velocity_dispersion"] = c
-    out["velocity_dispersion_rOmega"] = _scaled(c, 1.0 / (r_mean * Omega))
+    out["velocity_dispersion_rOmega"] = _scaled(c, 1.0 / (r_mean * Omega),
+                                                QUANTITIES["velocity_dispersion_rOmega"][1])
     out["thickness"] = h
-    out["thickness_r"] = _scaled(h, 1.0 / r_mean)
-    out["filling_factor"] = _window_stats(ts["filling_factor"], start)
-
-    interval_orbits = np.diff(orbits, prepend=orbits[0])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        frequency = np.where(interval_orbits > 0,
-                             2.0 * ts["collisions"] / n_particles / interval_orbits, np.nan)
-    frequency[0] = np.nan
-    out["collision_frequency"] = _window_stats(frequency, start)
-    out["mean_epsilon"] = _window_stats(ts["mean_epsilon"], start)
+    out["thickness_r"] = _scaled(h, 1.0 / r_mean, QUANTITIES["thickness_r"][1])
+    frequency, nu_col = _interval_rates(ts, radius.size, Omega, area, float(mass.sum()) / area)
+    for key, series in (("filling_factor", ts["filling_factor"]),
+                        ("collision_frequency", frequency), ("mean_epsilon", ts["mean_epsilon"]),
+                        ("translational_viscosity", ts["translational_viscosity"]),
+                        ("collisional_viscosity", nu_col)):
+        out[key] = _window_stats(series, start, QUANTITIES[key][1])
     out["equilibrium_from_orbit"] = _value(float(orbits[start]) if start < orbits.size
-                                           else math.nan, 0.0)
-    out["per_size_bin"] = _per_size_bin(ts, start)
-
-    out["translational_viscosity"] = _window_stats(ts["translational_viscosity"], start)
-    sigma = float(mass.sum()) / (Lx * Ly)
-    dt = np.diff(t, prepend=t[0])
-    dplog = np.diff(ts["collisions_plog"], prepend=ts["collisions_plog"][0])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        nu_col = np.where(dt > 0, 2.0 * dplog / (3.0 * Omega * sigma * Lx * Ly * dt), np.nan)
-    out["collisional_viscosity"] = _window_stats(nu_col, start)
-
-    out["in_equilibrium"] = in_eq
-    out["reason"] = reason
+                                           else math.nan, 0.0, "orbits")
+    out["per_size_bin"] = _per_size_bin(ts, start, radius, mass)
+    out["size_ratio"] = size_dispersion_ratio(out["per_size_bin"])
+    out["in_equilibrium"] = window["in_equilibrium"]
+    out["reason"] = window["reason"]
+    out["status"] = str(run.attrs.get("status", "unknown"))
     out["orbits"] = float(orbits[-1])
-    out["n_particles"] = int(n_particles)
+    out["n_particles"] = int(radius.size)
     out["mean_radius"] = r_mean
     out["optical_depth"] = float(ts["optical_depth"][-1])
+    out["units"] = dict(PLAIN_UNITS)
     out["restitution"] = sc.restitution_dict()
+    out["scenario"] = sc.to_dict()
     out["kinetic_estimate"] = kinetic_estimate(sc.restitution_dict(), radius, mass,
                                                out["optical_depth"], Omega)
     return out
 
 
-def _per_size_bin(ts: dict, start: int) -> list[dict]:
+def _per_size_bin(ts: dict, start: int, radius: np.ndarray, mass: np.ndarray) -> list[dict]:
+    """Per-bin window averages, with each bin's mean radius [m] and mass [kg] (from the
+    first snapshot), which the equipartition comparison needs."""
     edges = ts.get("size_bin_edges")
     if edges is None or "size_bin_velocity_dispersion" not in ts:
         return []
+    index = np.clip(np.searchsorted(edges, radius, side="right") - 1, 0, edges.size - 2)
     rows = []
     for k in range(edges.size - 1):
+        members = index == k
         rows.append({
             "r_low": float(edges[k]),
             "r_high": float(edges[k + 1]),
-            "velocity_dispersion": _window_stats(ts["size_bin_velocity_dispersion"][:, k], start),
-            "thickness": _window_stats(ts["size_bin_thickness"][:, k], start),
+            "velocity_dispersion": _window_stats(ts["size_bin_velocity_dispersion"][:, k], start,
+                                                 "m/s"),
+            "thickness": _window_stats(ts["size_bin_thickness"][:, k], start, "m"),
             "n": int(round(float(np.mean(ts["size_bin_n"][start:, k])))),
+            "mean_radius": _value(radius[members].mean() if members.any() else math.nan, 0.0,
+                                  "m"),
+            "mean_mass": _value(mass[members].mean() if members.any() else math.nan, 0.0,
+                                "kg"),
         })
     return rows
+
+
+def size_dispersion_ratio(bins: list[dict], min_particles: int = 10) -> dict | None:
+    """Velocity dispersion of the smallest over the largest populated size bin.
+
+    Beside it the equipartition value for the SAME bins, sqrt(<m>_large / <m>_small)
+    (equal mean kinetic energy per particle), so that the two are compared like for
+    like; bins with fewer than ``min_particles`` particles are skipped.  None with fewer
+    than two usable bins.
+
+    Parameters
+    ----------
+    bins : the ``per_size_bin`` entries of an equilibrium
+    min_particles : int
+    """
+    usable = [b for b in bins if b["n"] >= min_particles
+              and math.isfinite(b["velocity_dispersion"]["mean"])]
+    if len(usable) < 2:
+        return None
+    small, large = usable[0], usable[-1]
+    r = _ratio_of(small["velocity_dispersion"], large["velocity_dispersion"])
+    return {"ratio": r,
+            "small_bin_m": [small["r_low"], small["r_high"]],
+            "large_bin_m": [large["r_low"], large["r_high"]],
+            "equipartition": math.sqrt(large["mean_mass"]["mean"] / small["mean_mass"]["mean"]),
+            "units": {"small_bin_m": "m", "large_bin_m": "m", "equipartition": "dimensionless"}}
+
+
+def _ratio_of(a: dict, b: dict) -> dict:
+    """a / b with first-order propagated standard error (independent a and b)."""
+    if not (b["mean"] and math.isfinite(b["mean"]) and math.isfinite(a["mean"])):
+        return _value(math.nan, math.nan, "dimensionless")
+    r = a["mean"] / b["mean"]
+    rel = math.hypot(a["stderr"] / a["mean"] if a["mean"] else 0.0, b["stderr"] / b["mean"])
+    return _value(r, abs(r) * rel, "dimensionless")
 
 
 def kinetic_estimate(restitution: dict, radius: np.ndarray, mass: np.ndarray,
@@ -152,11 +242,13 @@ def kinetic_estimate(restitution: dict, radius: np.ndarray, mass: np.ndarray,
     optical_depth : float
     Omega : float [1/s]
     """
-    est = kinetic.kinetic_dispersion_estimate(restitution, radius, mass, optical_depth,
-                                                  Omega)
-    return {key: (float(est[key]) if isinstance(est[key], (float, np.floating)) else est[key])
-            for key in ("status", "reason", "velocity_dispersion", "velocity_dispersion_rOmega",
-                        "epsilon_critical", "effective_epsilon")}
+    est = kinetic.kinetic_dispersion_estimate(restitution, radius, mass, optical_depth, Omega)
+    out = {key: (float(est[key]) if isinstance(est[key], (float, np.floating)) else est[key])
+           for key in ("status", "reason", "representative", "velocity_dispersion",
+                       "velocity_dispersion_rOmega", "epsilon_critical", "effective_epsilon")}
+    out["units"] = {"velocity_dispersion": "m/s",
+                    "velocity_dispersion_rOmega": "mean radius x Omega"}
+    return out
 
 
 # --- tables ------------------------------------------------------------------------------------
@@ -168,10 +260,28 @@ def _fmt(value: dict, scale: float = 1.0) -> str:
     return f"{mean:.4g} ± {err:.2g}"
 
 
+#: Printed by ``analyze`` and ``compare`` for a run the finder did not call stationary.
+NOT_IN_EQUILIBRIUM = ("WARNING: {name} never reached equilibrium ({reason}); its numbers are "
+                      "averages over a window that is too short or still drifting, not "
+                      "equilibrium values")
+
+
+def size_ratio_line(size_ratio: dict | None) -> str | None:
+    """One line: the small/large dispersion ratio, its bins and equipartition's value."""
+    if not size_ratio:
+        return None
+    (s0, s1), (l0, l1) = size_ratio["small_bin_m"], size_ratio["large_bin_m"]
+    return (f"c(r in {s0:.3g}-{s1:.3g} m) / c(r in {l0:.3g}-{l1:.3g} m) = "
+            f"{_fmt(size_ratio['ratio'])}; equipartition for these bins: "
+            f"{size_ratio['equipartition']:.3g}")
+
+
 def equilibrium_table(eq: dict) -> str:
     """Plain-text table of one equilibrium."""
     lines = [f"run: {eq['name']}  ({eq['n_particles']} particles, {eq['orbits']:.4g} orbits, "
-             f"tau = {eq['optical_depth']:.3g})"]
+             f"tau = {eq['optical_depth']:.3g}, status {eq.get('status', 'unknown')})"]
+    if not eq["in_equilibrium"]:
+        lines.append(NOT_IN_EQUILIBRIUM.format(name=eq["name"], reason=eq["reason"]))
     status = "in equilibrium" if eq["in_equilibrium"] else "NOT IN EQUILIBRIUM"
     lines.append(f"equilibrium window from orbit {eq['equilibrium_from_orbit']['mean']:.3g}: "
                  f"{status} ({eq['reason']})")
@@ -181,7 +291,7 @@ def equilibrium_table(eq: dict) -> str:
     if k["status"] == "equilibrium":
         lines.append(f"  {'dilute kinetic estimate c / (<r> Omega)':<42} "
                      f"{k['velocity_dispersion_rOmega']:.4g} (eps_crit = "
-                     f"{k['epsilon_critical']:.3f})")
+                     f"{k['epsilon_critical']:.3f}; {k['representative']})")
     else:
         lines.append(f"  {'dilute kinetic estimate':<42} {k['status']}: {k['reason']}")
     if eq["per_size_bin"]:
@@ -189,5 +299,7 @@ def equilibrium_table(eq: dict) -> str:
         for b in eq["per_size_bin"]:
             lines.append(f"    {b['r_low']:7.3g} - {b['r_high']:<7.3g} {b['n']:8d}   "
                          f"{_fmt(b['velocity_dispersion'], 1e3):<18} {_fmt(b['thickness'])}")
+        line = size_ratio_line(eq.get("size_ratio"))
+        if line:
+            lines.append("  " + line)
     return "\n".join(lines)
-

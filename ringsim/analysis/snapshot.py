@@ -360,25 +360,30 @@ def _bin_index(radius: FloatArray, edges: FloatArray) -> NDArray[np.intp]:
     return idx
 
 
-def _binned_statistics(idx: NDArray[np.intp], n_bins: int, w: FloatArray,
-                       z: FloatArray) -> dict[str, FloatArray]:
-    """Per-bin count, 1-D dispersion about the bin's mean velocity, rms z about <z>_bin."""
+def _binned_statistics(idx: NDArray[np.intp], n_bins: int, w: FloatArray, z: FloatArray,
+                       w_ref: FloatArray, z_ref: float) -> dict[str, FloatArray]:
+    """Per-bin count, 1-D dispersion and rms height about the SHEET's mean motion.
+
+    Deviations are taken from the sheet's mass-weighted mean velocity ``w_ref`` (relative to
+    the shear flow) and mean height ``z_ref``, not from each bin's own mean: a bin's own
+    mean would remove one degree of freedom per component and bias a sparse bin of n
+    particles low by sqrt(1 - 1/n), and it would hide a bin that moves as a whole relative
+    to the rest of the ring.
+    """
     inside = idx >= 0
     b = idx[inside]
     counts = np.bincount(b, minlength=n_bins).astype(float)
 
-    def bin_variance(values: FloatArray) -> FloatArray:
-        # Two passes (bin mean, then squared deviations) to avoid cancellation.
-        mean = np.bincount(b, weights=values, minlength=n_bins) / counts
-        dev = values - mean[b]
-        return np.bincount(b, weights=dev * dev, minlength=n_bins) / counts
+    def bin_mean_square(deviation: FloatArray) -> FloatArray:
+        return np.bincount(b, weights=deviation * deviation, minlength=n_bins) / counts
 
     with np.errstate(invalid="ignore", divide="ignore"):
-        var_sum = sum(bin_variance(comp) for comp in w[:, inside])
-        zvar = bin_variance(z[inside])
-    usable = counts >= 2
-    c = np.where(usable, np.sqrt(np.clip(var_sum, 0.0, None) / 3.0), np.nan)
-    h = np.where(usable, np.sqrt(zvar), np.nan)
+        square_sum = sum(bin_mean_square(comp - ref) for comp, ref in zip(w[:, inside], w_ref,
+                                                                          strict=True))
+        z_square = bin_mean_square(z[inside] - z_ref)
+    usable = counts >= 1
+    c = np.where(usable, np.sqrt(square_sum / 3.0), np.nan)
+    h = np.where(usable, np.sqrt(z_square), np.nan)
     return {"n": counts.astype(np.int64), "velocity_dispersion": c, "thickness": h}
 
 
@@ -418,7 +423,8 @@ def snapshot_summary(x: ArrayLike, y: ArrayLike, z: ArrayLike, vx: ArrayLike, vy
         ``mean_radius`` [m]; ``mean_mass`` [kg]; ``translational_viscosity`` [m^2/s].
         Per-bin arrays (length n_bins): ``size_bin_edges`` [m] (n_bins + 1),
         ``size_bin_n``, ``size_bin_velocity_dispersion`` [m/s] and
-        ``size_bin_thickness`` [m] (NaN where a bin holds fewer than 2 particles).
+        ``size_bin_thickness`` [m] (about the sheet's mass-weighted mean velocity and
+        height, see ``_binned_statistics``; NaN for an empty bin).
     """
     Omega = positive("Omega", Omega)
     arrays = {name: finite_array(name, a) for name, a in (("x", x), ("y", y), ("z", z), ("vx", vx),
@@ -436,7 +442,8 @@ def snapshot_summary(x: ArrayLike, y: ArrayLike, z: ArrayLike, vx: ArrayLike, vy
     zz = arrays["z"]
 
     edges = _bin_edges(r, size_bins)
-    binned = _binned_statistics(_bin_index(r, edges), edges.size - 1, w, zz)
+    binned = _binned_statistics(_bin_index(r, edges), edges.size - 1, w, zz,
+                                w_ref=w @ m / np.sum(m), z_ref=float(np.dot(m, zz) / np.sum(m)))
 
     h = float(np.mean(r)) if filling_half_width is None else float(filling_half_width)
     summary: dict[str, object] = {"n_particles": n}

@@ -169,8 +169,8 @@ def autocorrelated_mean(values: ArrayLike,
 def stationary_mean(series_t: ArrayLike, series_values: ArrayLike, *,
                     min_fraction: float = 0.5, batch_size: int = 5,
                     min_effective_samples: float = 20.0, trend_sigma: float = 3.0,
-                    max_relative_drift: float = 0.05,
-                    window_factor: float = 5.0) -> EquilibriumResult:
+                    max_relative_drift: float = 0.05, window_factor: float = 5.0,
+                    time_unit: str = "time unit") -> EquilibriumResult:
     """Equilibrium mean and its standard error of a time series, with a drift test.
 
     1. The transient is cut by MSER-5 (``mser_truncation``), discarding at most
@@ -204,6 +204,8 @@ def stationary_mean(series_t: ArrayLike, series_values: ArrayLike, *,
         Largest tolerated fitted change over the window relative to |mean|.
     window_factor : float
         Sokal's window constant c.
+    time_unit : str
+        Name of the unit of ``series_t`` (e.g. "orbit"), used in the drift message.
     """
     t = np.asarray(series_t, dtype=float).reshape(-1)
     v = np.asarray(series_values, dtype=float).reshape(-1)
@@ -249,7 +251,7 @@ def stationary_mean(series_t: ArrayLike, series_values: ArrayLike, *,
     problems = []
     if significant and drift > max_relative_drift:
         sigmas = abs(slope) / slope_err if slope_err > 0.0 else math.inf
-        problems.append(f"still drifting: slope {slope:.3g} per time unit is {sigmas:.1f} sigma, "
+        problems.append(f"still drifting: slope {slope:.3g} per {time_unit} is {sigmas:.1f} sigma, "
                         f"a change of {100 * drift:.1f}% over the window")
     if at_limit:
         problems.append("transient may not be over: MSER truncation at its limit "

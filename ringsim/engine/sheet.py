@@ -20,7 +20,7 @@ import numpy as np
 import rebound
 
 from ringsim.engine.timestep import choose_dt
-from ringsim.physics.constants import G_SI
+from ringsim.physics.constants import G_SI, SHEAR
 from ringsim.physics.sizes import size_bin_edges
 
 #: A particle's vertical amplitude may reach this fraction of the half z period.
@@ -192,6 +192,32 @@ def initial_state(radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
             "vx": vel[:, 0], "vy": vel[:, 1], "vz": vel[:, 2]}
 
 
+def centre_of_mass_at_rest(state: dict[str, np.ndarray], masses: np.ndarray,
+                           Omega: float) -> dict[str, np.ndarray]:
+    """The state with the sheet's centre of mass at rest in the shear flow, in the midplane.
+
+    Subtracts the mass-weighted mean of the velocity relative to the shear flow,
+    (vx, vy + 1.5 Omega x, vz), and the mass-weighted mean height z.  A random draw leaves
+    them non-zero (of order c / sqrt(N)); since collisions conserve momentum and Hill's
+    equations move the centre of mass as a free particle, that offset would otherwise
+    perform an undamped epicycle (and vertical oscillation) for the whole run and add to
+    every dispersion.  Relative positions and velocities are unchanged.
+
+    Parameters
+    ----------
+    state : positions x, y, z [m] and velocities vx, vy, vz [m/s]
+    masses : array [kg]
+    Omega : float [1/s]
+    """
+    weights = masses / np.sum(masses)
+    out = dict(state)
+    w_y = state["vy"] + SHEAR * Omega * state["x"]
+    for key, values in (("vx", state["vx"]), ("vz", state["vz"]), ("z", state["z"])):
+        out[key] = values - np.dot(weights, values)
+    out["vy"] = state["vy"] - np.dot(weights, w_y)
+    return out
+
+
 # --- the simulation ----------------------------------------------------------------------------
 
 def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gravity: bool,
@@ -310,7 +336,8 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
     if geometry is None:
         geometry = box_geometry(radii, sheet_cfg.optical_depth, sheet_cfg.aspect, Omega,
                                 z_half)
-        state = initial_state(radii, geometry, dispersion, rng)
+        state = centre_of_mass_at_rest(initial_state(radii, geometry, dispersion, rng),
+                                       masses, Omega)
     else:
         geometry = SheetGeometry(geometry.root_size, geometry.n_root_x, geometry.n_root_y,
                                  max(1, math.ceil(2.0 * z_half / geometry.root_size)), Omega)

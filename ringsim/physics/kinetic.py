@@ -228,7 +228,11 @@ def kinetic_dispersion_estimate(restitution: Mapping[str, object], radius: Array
     heating or transport -- valid while c >> r Omega), identical smooth spheres (no
     spin), no self-gravity, and for the velocity dependence of eps an isotropic Maxwellian
     of impact velocities.  A size distribution is represented by identical particles of the
-    MEAN radius and MEAN mass (R_bar = r/2, M_bar = m/2).
+    mean radius <r> and the mass of a sphere of that radius at the particles' bulk density
+    (sum m / sum 4/3 pi r^3): one consistent particle, R_bar = <r>/2, M_bar = m/2 (the
+    mean mass would belong to a larger sphere, (<r^3>)^(1/3) > <r>, and with a
+    mass-dependent law such as Dilley's kappa > 0 that mismatch moves the estimate by
+    tens of per cent).
 
     Balance: the ring is in thermal equilibrium at the c where the impact-averaged
     coefficient of restitution (``effective_epsilon``, energy-weighted by default) equals
@@ -261,13 +265,18 @@ def kinetic_dispersion_estimate(restitution: Mapping[str, object], radius: Array
         ``velocity_dispersion`` [m/s] (lowest stable root, NaN otherwise);
         ``velocity_dispersion_rOmega`` (c / (r Omega)); ``epsilon_critical``;
         ``effective_epsilon`` (at c, NaN if none); ``roots`` (list of
-        {"velocity_dispersion", "stable"}); ``radius`` [m], ``mass`` [kg], ``R_bar`` [m],
+        {"velocity_dispersion", "stable"}); ``radius`` [m], ``mass`` [kg] (of the
+        representative particle), ``representative`` (text), ``R_bar`` [m],
         ``M_bar`` [kg], ``optical_depth``, ``weighting``; ``gt78`` (``gt78_steady_state``).
     """
-    r = float(np.mean(nonnegative_array("radius", np.atleast_1d(radius))))
-    m = float(np.mean(nonnegative_array("mass", np.atleast_1d(mass))))
-    r = positive("radius", r)
-    m = positive("mass", m)
+    radii = nonnegative_array("radius", np.atleast_1d(radius))
+    masses = nonnegative_array("mass", np.atleast_1d(mass))
+    r = positive("radius", float(np.mean(radii)))
+    # One consistent particle: the mean radius with the mass a sphere of that radius has at
+    # the particles' bulk density (the mean mass belongs to a larger sphere: <r^3> > <r>^3).
+    density = positive("mass", float(np.sum(masses))) / float(np.sum(4.0 / 3.0 * math.pi
+                                                                      * radii**3))
+    m = positive("mass", density * 4.0 / 3.0 * math.pi * r**3)
     Omega = positive("Omega", Omega)
     c_min = positive("c_min", c_min)
     c_max = positive("c_max", c_max)
@@ -296,6 +305,8 @@ def kinetic_dispersion_estimate(restitution: Mapping[str, object], radius: Array
         "epsilon_critical": eps_cr, "radius": r, "mass": m, "R_bar": R_bar, "M_bar": M_bar,
         "optical_depth": float(optical_depth), "weighting": weighting, "roots": roots,
         "gt78": steady, "velocity_dispersion": math.nan,
+        "representative": (f"one particle of the mean radius {r:.4g} m and its own mass "
+                           f"{m:.4g} kg at the bulk density {density:.4g} kg/m^3"),
         "velocity_dispersion_rOmega": math.nan, "effective_epsilon": math.nan,
     }
     stable = [root for root in roots if root["stable"]]

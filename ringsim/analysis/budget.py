@@ -1,0 +1,115 @@
+"""Error budget of equilibrium ratios: statistical (seeds, autocorrelation) and systematic.
+
+A ratio of two equilibria (``ringsim compare``) carries
+
+* a **statistical** uncertainty: the autocorrelation-corrected standard errors of the two
+  equilibria propagated to first order; when several runs differ only in their seed
+  (replicas, `replica_groups`), each side is the mean over its replicas and its error is
+  the larger of the propagated error and the scatter of the replicas about their mean
+  (standard error of the mean over seeds), so that run-to-run variation the
+  autocorrelation analysis misses is not hidden;
+* a **systematic** uncertainty: how much the ratio moves when the method changes
+  (collision detection line vs tree, time step, particle number, box size).  These are
+  measured by dedicated runs (``analysis/kappa_comparison.py --systematics``) and stored
+  in a budget file (JSON, format below); ``ringsim compare --systematics FILE`` adds them
+  in quadrature.  Without a budget the systematic part is reported as "not measured"
+  (NaN), never guessed.
+
+Budget file::
+
+    {"description": "...", "measured_by": "...",
+     "relative": {"velocity_dispersion": {"collision_detection": 0.02, "dt": 0.005,
+                                          "n_particles": 0.01, "box_size": 0.01}, ...}}
+
+Each entry is the relative change of the RATIO [dimensionless] between the two variants of
+that source (or its measured standard error, if larger), for the quantity named by its
+``ringsim.equilibrium`` key.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ringsim.errors import InputError
+
+#: Sources of systematic error a budget may name, with what each measures.
+SOURCES = {
+    "collision_detection": "ratio with line detection against tree detection (small dt)",
+    "dt": "ratio with the time step halved",
+    "n_particles": "ratio with a different particle number at the same optical depth",
+    "box_size": "ratio with a different box aspect or size",
+    "seeds": "ratio between independent replica sets",
+}
+
+
+def load_budget(path: str | Path) -> dict:
+    """Read and check a budget file; InputError naming the file and key if invalid."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except OSError as exc:
+        raise InputError(str(path), "--systematics", f"cannot read: {exc.strerror}") from None
+    except json.JSONDecodeError as exc:
+        raise InputError(str(path), "--systematics", f"not JSON ({exc.msg})") from None
+    relative = data.get("relative") if isinstance(data, Mapping) else None
+    if not isinstance(relative, Mapping):
+        raise InputError(str(path), "relative", "missing: a mapping quantity -> source -> "
+                         "relative systematic uncertainty of the ratio")
+    for quantity, parts in relative.items():
+        if not isinstance(parts, Mapping):
+            raise InputError(str(path), f"relative.{quantity}", "not a mapping source -> value")
+        for source, value in parts.items():
+            if source not in SOURCES:
+                raise InputError(str(path), f"relative.{quantity}.{source}",
+                                 f"unknown source (one of {', '.join(SOURCES)})")
+            if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or not math.isfinite(value) or value < 0:
+                raise InputError(str(path), f"relative.{quantity}.{source}",
+                                 f"{value!r} is not a finite number >= 0")
+    return dict(data)
+
+
+def systematic(budget: Mapping | None, quantity: str, value: float) -> tuple[float, dict]:
+    """Systematic uncertainty of a ratio ``value`` of ``quantity`` [units of the ratio]:
+    the budget's relative parts added in quadrature times |value|; NaN without a budget
+    entry.  Returns (uncertainty, {source: relative part})."""
+    parts = dict((budget or {}).get("relative", {}).get(quantity, {}))
+    if not parts:
+        return math.nan, {}
+    relative = math.sqrt(sum(float(x) ** 2 for x in parts.values()))
+    return abs(value) * relative, parts
+
+
+def replica_key(eq: Mapping) -> str:
+    """What replicas share: the scenario without its name, seed and output path."""
+    scenario = json.loads(json.dumps(eq.get("scenario", {}), default=str))
+    for key in ("name", "seed", "description"):
+        scenario.pop(key, None)
+    scenario.get("output", {}).pop("path", None)
+    return json.dumps(scenario, sort_keys=True)
+
+
+def replica_groups(equilibria: Sequence[Mapping]) -> list[list[int]]:
+    """Indices of the equilibria grouped by `replica_key`, in order of first appearance."""
+    groups: dict[str, list[int]] = {}
+    for i, eq in enumerate(equilibria):
+        groups.setdefault(replica_key(eq), []).append(i)
+    return list(groups.values())
+
+
+def replica_mean(values: Sequence[Mapping]) -> dict:
+    """Mean of replica values ``{"mean", "stderr", "units"}`` with the larger of the
+    propagated error and the seed-to-seed standard error of the mean."""
+    means = np.array([v["mean"] for v in values], dtype=float)
+    errors = np.array([v["stderr"] for v in values], dtype=float)
+    n = means.size
+    propagated = float(np.sqrt(np.sum(errors**2)) / n)
+    scatter = float(np.std(means, ddof=1) / math.sqrt(n)) if n > 1 else 0.0
+    return {"mean": float(np.mean(means)), "stderr": max(propagated, scatter),
+            "stderr_propagated": propagated, "stderr_seeds": scatter, "n_replicas": n,
+            "units": values[0].get("units", "")}
