@@ -1,6 +1,6 @@
 """Homogeneous cooling of rough spheres: T_rot/T_tr against the closed form.
 
-Runs ringsim.validation_friction.cool_rough_gas for the parameter sets of
+Runs ringsim.validation.cooling.cool_rough_gas for the parameter sets of
 tests/test_friction.py (same seeds, so the same numbers), prints the table of
 docs/friction.md and writes docs/figures/friction/hcs_ratio.png.
 
@@ -17,7 +17,7 @@ import numpy as np
 
 from ringsim.physics import friction as fr
 from ringsim.plots import save_figure
-from ringsim.validation_friction import cool_rough_gas
+from ringsim.validation.cooling import cool_rough_gas
 
 FIGURE = Path(__file__).resolve().parent.parent / "docs" / "figures" / "friction" / "hcs_ratio.png"
 

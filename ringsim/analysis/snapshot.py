@@ -549,9 +549,7 @@ def collisional_viscosity(plog: float, elapsed_time: float, Lx: float, Ly: float
                                * positive("elapsed_time", elapsed_time)))
 
 
-# Gravitational viscosity (from pairwise forces) is not implemented here: it needs the
-# pairwise gravitational torques, which a snapshot of positions and velocities alone does
-# not give without an O(N^2) or tree force evaluation.
+# Gravitational viscosity: ringsim.analysis.wakes (from the surface density's field).
 
 
 # --- applied coefficients of restitution ------------------------------------------------------
