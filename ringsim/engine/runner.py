@@ -463,12 +463,13 @@ class Runner:
                     if stop.requested:
                         status = "stopped"
                         break
+                # a final checkpoint (a signal now waits for it): a stopped run resumes
+                # from here, the resolver's statistics of the open interval included; a
+                # finished one can be extended
+                self.checkpoint(attributes={"status": status})
         finally:
             if bar is not None:
                 bar.close()
-        # a final checkpoint: a stopped run resumes from here (the resolver's statistics of
-        # the open interval included), a finished one can be extended
-        self.checkpoint(attributes={"status": status})
         return status
 
 
