@@ -2,12 +2,21 @@
 
 Order of work at every time-series output (every ``output.timeseries_every`` orbits):
 
+0. runtime invariants (``engine.invariants``: finite state, particle count, momentum of
+   the sheet relative to the shear flow); a violation stops the run as ``failed`` with
+   the last good checkpoint kept;
 1. diagnostics of the current state and the resolver's collision statistics of the
    interval -> one row of ``/timeseries``; the statistics are reset;
 2. guards: the vertical guard enlarges the box before any particle can reach 0.4 of the
    half z period; ``dt: auto`` re-chooses the step as the ring heats (a fixed step that
    breaks dt << r/v is reported); deep overlaps are counted;
-3. at every ``snapshot_every`` a snapshot, at every ``checkpoint_every`` a checkpoint.
+3. at every ``snapshot_every`` a snapshot, at every ``checkpoint_every`` a checkpoint
+   (with the resolver's open-interval statistics); rows, guard events, snapshot and
+   checkpoint of an output are one atomic commit (``store.runfile.RunFileWriter``).
+
+SIGINT/SIGTERM stop the run after the current step with a final checkpoint (status
+``stopped``; the command line exits 130).  ``run`` holds the file's lock
+(``store.lock.RunFileLock``) for the whole run: one writer per file.
 
 Integration runs between outputs with ``exact_finish_time=0`` so the step sequence never
 depends on where outputs or restarts fall: a run resumed from its last checkpoint is
