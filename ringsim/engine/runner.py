@@ -25,6 +25,7 @@ bit-identical to one that never stopped.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import signal
@@ -444,13 +445,21 @@ class Runner:
         """Integrate to the first step end at or after ``t_next`` [s]."""
         self.sim.integrate(t_next, exact_finish_time=0)
 
-    def loop(self) -> str:
+    def loop(self, stop: _StopRequest | None = None) -> str:
+        """Integrate to the end (or a stop); returns the status written to the file.
+
+        ``stop``: an active :class:`_StopRequest` (``run`` installs one before the set-up,
+        so that a signal during it also ends in a checkpoint); one is made if None.
+        """
         bar = _progress_bar(self.scenario, self.sim.t / self.orbit) if self.progress else None
         wall0, coll0 = time.perf_counter(), int(self.sim.collisions_log_n)
         status = "finished"
         try:
-            with _StopRequest() as stop:
+            with contextlib.nullcontext(stop) if stop is not None else _StopRequest() as stop:
                 while self.sim.t < self.t_end * (1 - 1e-12):
+                    if stop.requested:
+                        status = "stopped"
+                        break
                     t_next = min(self.state.rows * self.ts_every, self.t_end)
                     t_next = max(t_next, self.sim.t)
                     try:
@@ -520,7 +529,7 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
         writer per file: ``store.lock.RunFileLock``).
     """
     path = Path(output if output is not None else scenario.output.path)
-    with RunFileLock(path):
+    with RunFileLock(path), _StopRequest() as stop:
         runner = Runner(scenario, path, progress)
         if resume:
             if not path.exists():
@@ -531,7 +540,7 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
                 raise InputError(str(path), "output", "file exists; use --force to "
                                  "overwrite or --resume to continue it")
             runner.start_new()
-        status = runner.loop()
+        status = runner.loop(stop)
     if status == "stopped":
         print(f"ringsim: stopped at orbit {runner.sim.t / runner.orbit:.3f}; checkpoint "
               f"written to {path}; continue with --resume")
