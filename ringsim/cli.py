@@ -1,7 +1,9 @@
 """The ``ringsim`` command line (see docs/interface.md for the commands and exit statuses).
 
 Exit status: 0 success; 2 bad input (one line on stderr naming the file and the key, no
-traceback, no output written); 1 anything else.  ``--debug`` shows tracebacks.
+traceback, no output written; also a damaged, newer-format or locked run file); 130
+interrupted (SIGINT/SIGTERM; ``run`` wrote a checkpoint first); 1 anything else (a run that
+failed a runtime invariant included).  ``--debug`` shows tracebacks.
 
 A reader that closes stdout early (``ringsim analyze RUN.h5 --plots figs | head``) does not
 stop a command: the rest of what it prints is discarded, its files (figures, JSON, run
@@ -22,7 +24,7 @@ from pathlib import Path
 
 from ringsim.errors import InputError
 
-EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 class _ClosedPipeSafeStdout(io.TextIOBase):
@@ -146,23 +148,20 @@ def _cmd_run(args) -> int:
                progress=not args.no_progress)
     from ringsim.store.runfile import open_run
 
-    status = open_run(path).attrs.get("status")
+    run = open_run(path)
+    status = run.attrs.get("status")
     print(f"{scenario.name}: {status}; run file {path}")
-    return EXIT_OK if status == "finished" else EXIT_FAILURE
+    if status == "failed":
+        print(f"ringsim: error: {path}: the run failed: {run.attrs.get('failure')}",
+              file=sys.stderr)
+    return {"finished": EXIT_OK, "stopped": EXIT_INTERRUPTED}.get(status, EXIT_FAILURE)
 
 
 def _open_runs(paths: list[str]):
     from ringsim.store.runfile import open_run
 
-    runs = []
-    for path in paths:
-        if not Path(path).is_file():
-            raise InputError(path, "RUN.h5", "no such file")
-        try:
-            runs.append(open_run(path))
-        except (OSError, KeyError) as exc:
-            raise InputError(path, "RUN.h5", f"not a ringsim run file ({exc})") from exc
-    return runs
+    # open_run checks each file (RunFileError, exit status 2, for a damaged one)
+    return [open_run(path) for path in paths]
 
 
 def _print_status(run) -> None:
@@ -382,7 +381,7 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print("ringsim: interrupted", file=sys.stderr)
-        return EXIT_FAILURE
+        return EXIT_INTERRUPTED
     except Exception as exc:  # noqa: BLE001 - the command line's last resort, status 1
         if debug:
             traceback.print_exc()

@@ -21,3 +21,8 @@ class InputError(ValueError):
         self.key = key
         self.problem = message
         super().__init__(f"{self.file}: {key}: {message}")
+
+    def __reduce__(self):
+        # Exceptions are pickled via their args; ours has three (sweep points run in
+        # worker processes, which send their errors back).
+        return (type(self), (self.file, self.key, self.problem))

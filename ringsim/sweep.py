@@ -22,7 +22,11 @@ status and every equilibrium quantity's mean and standard error (units in the CS
 names, ``units`` attributes in the HDF5 file).  A point that fails is reported and marked
 ``failed`` in the summary; the other points still run, and the sweep exits with status 1.
 
-Two sweeps must not write into the same directory at the same time.
+Every point's run file has one writer at a time (``store.lock``): a point file another
+process is writing makes the sweep refuse at planning (bad input, exit status 2), as does a
+damaged point file (unreadable, truncated, incomplete, checkpoint bytes not matching their
+SHA-256, newer format).  A checkpoint that is intact but does not load (a REBOUND
+incompatibility) fails that point only.
 """
 
 from __future__ import annotations
@@ -182,40 +186,24 @@ def _first_difference(a: Any, b: Any, prefix: str = "") -> str | None:
 def _existing_action(path: Path, scenario) -> str:
     """How to treat an existing run file of a point: reuse, resume or restart.
 
-    Raises InputError if the file is not a ringsim run file or was made by another scenario.
+    Raises InputError if the file is damaged, of a newer format or being written by another
+    process (``store.runfile.RunFileError``), or was made by another scenario.  A file whose
+    run failed a runtime invariant is reused as it is: the sweep reports it as failed.
     """
-    import h5py
-
-    from ringsim.config.scenario import scenario_from_text
-    from ringsim.config.schema import ScenarioError
+    from ringsim.store.runfile import open_run, read_checkpoint
 
     advice = "delete it or choose another --out"
-    try:
-        with h5py.File(path, "r") as f:
-            status = f.attrs.get("status")
-            text = f.attrs.get("scenario_yaml")
-            has_checkpoint = "checkpoint" in f
-    except OSError as exc:
-        raise InputError(str(path), "run file", f"exists but cannot be read as HDF5 ({exc}); "
-                         f"{advice}") from None
-    status = status.decode() if isinstance(status, bytes) else status
-    text = text.decode() if isinstance(text, bytes) else text
-    if not isinstance(text, str):
-        raise InputError(str(path), "scenario_yaml", f"exists but is not a ringsim run file; "
-                         f"{advice}")
-    try:
-        made_by = scenario_from_text(text, source=str(path)).to_dict()
-    except ScenarioError as exc:
-        raise InputError(str(path), "scenario_yaml", f"the embedded scenario is invalid "
-                         f"({exc.problem}); {advice}") from None
-    difference = _first_difference(made_by, scenario.to_dict())
+    run = open_run(path)                 # RunFileError: damaged, newer format, locked
+    checkpoint = read_checkpoint(path)   # RunFileError: damaged checkpoint
+    status = run.attrs.get("status")
+    difference = _first_difference(run.scenario.to_dict(), scenario.to_dict())
     if difference:
         raise InputError(str(path), "scenario", f"the existing run file was made by a "
                          f"different scenario ({difference}); {advice}")
-    if status == "finished":
+    if status in ("finished", "failed"):
         return "reuse"
     if status in _RESUMABLE:
-        return "resume" if has_checkpoint else "restart"
+        return "resume" if checkpoint is not None else "restart"
     raise InputError(str(path), "status", f"unknown run status {status!r}; {advice}")
 
 
@@ -316,6 +304,8 @@ def _run_point(task: PointTask) -> PointResult:
     elif status == "stopped":
         result.status = "stopped"
         result.error = "stopped before the end; start the sweep again to continue it"
+    elif status == "failed":
+        result.error = f"the run failed: {run_file.attrs.get('failure')}"
     else:
         result.error = f"the run file's status is {status!r} after the run"
     result.wall_time = time.perf_counter() - start

@@ -236,7 +236,7 @@ def test_interrupt_stops_cleanly_and_resumes(tmp_path, sig):
     assert proc.poll() is None, "the run finished before it could be interrupted"
     proc.send_signal(sig)
     stdout, stderr = proc.communicate(timeout=120)
-    assert proc.returncode == 1, stderr
+    assert proc.returncode == 130, stderr  # CONTRACT: 130 interrupted
     assert "--resume" in stdout and "Traceback" not in stderr
     stopped = ringsim.open_run(out)
     assert stopped.attrs["status"] == "stopped"

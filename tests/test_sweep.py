@@ -5,6 +5,7 @@ module (``swept``) and copied where a test changes files.
 """
 
 import csv
+import hashlib
 import importlib.util
 import os
 import shutil
@@ -187,6 +188,9 @@ def test_failed_point_is_reported_and_the_others_complete(swept, tmp_path, capsy
         del f["checkpoint"]
         ds = f.create_dataset("checkpoint", data=np.frombuffer(b"garbage!" * 16, np.uint8))
         ds.attrs.update(attrs)
+        # intact bytes that REBOUND cannot load (damaged bytes are refused at planning,
+        # exit status 2: tests/test_hardening.py)
+        ds.attrs["sha256"] = hashlib.sha256(b"garbage!" * 16).hexdigest()
     status = main(["sweep", str(swept["sweep_file"]), "--workers", "2", "--out", str(out)])
     assert status == 1, "a failed point makes the sweep fail"
     rows = read_summary(out / "summary.csv")

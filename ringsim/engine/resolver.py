@@ -84,6 +84,9 @@ from ringsim.engine.native import (
 )
 from ringsim.physics import restitution as rs
 
+#: numpy type of each scalar ctypes type of the statistics struct.
+_NUMPY_TYPES = {ctypes.c_int64: np.int64, ctypes.c_double: np.float64}
+
 
 def _validated(restitution: Mapping[str, Any]) -> tuple[str, dict[str, float]]:
     """Model name and complete parameters, checked against the declaration
@@ -380,6 +383,69 @@ class ResolverHandle:
     def reset_stats(self) -> None:
         """Zero all counters, histograms and the log."""
         _LIB.rs_resolver_reset_stats(self.address)
+
+    def stats_state(self) -> dict[str, np.ndarray]:
+        """The raw statistics, exactly as held in C, to save with a checkpoint.
+
+        Returns
+        -------
+        dict of numpy arrays: one per field of the C ``struct rs_stats`` (``count``,
+        ``n_floored``, ``sum_epsilon`` [1], ``sum_vn`` [m/s], ``vn_underflow``,
+        ``vn_overflow``, ``vn_hist``, ``eps_underflow``, ``eps_hist``, ``log_written``,
+        ``multi_encounters``; scalars as 0-d arrays) and ``log``, the whole ring buffer
+        (:data:`LOG_DTYPE`, ``log_capacity`` entries in memory order).  :meth:`set_stats`
+        restores them bit for bit.
+        """
+        if self._struct is None:
+            raise ValueError("the resolver handle is closed")
+        s = self._struct.stats
+        state = {}
+        for name, ctype in s._fields_:
+            value = getattr(s, name)
+            if issubclass(ctype, ctypes.Array):
+                state[name] = np.ctypeslib.as_array(value).copy()
+            else:
+                state[name] = np.array(value, dtype=_NUMPY_TYPES[ctype])
+        state["log"] = self._raw_log().copy()
+        return state
+
+    def set_stats(self, state: Mapping[str, Any]) -> None:
+        """Restore statistics saved by :meth:`stats_state` (e.g. on resuming a checkpoint).
+
+        Every field must be present with its shape, and the log must have this handle's
+        ``log_capacity``; ValueError naming the field otherwise (nothing is changed then).
+        """
+        if self._struct is None:
+            raise ValueError("the resolver handle is closed")
+        s = self._struct.stats
+        values = {}
+        for name, ctype in s._fields_:
+            if name not in state:
+                raise ValueError(f"statistics: {name} missing")
+            value = np.asarray(state[name])
+            expected = (ctype._length_,) if issubclass(ctype, ctypes.Array) else ()
+            if value.shape != expected:
+                raise ValueError(f"statistics: {name} has shape {value.shape}, "
+                                 f"expected {expected}")
+            values[name] = value
+        log = np.asarray(state.get("log", np.zeros(0, LOG_DTYPE)))
+        if log.dtype != LOG_DTYPE or log.shape != (self.log_capacity,):
+            raise ValueError(f"statistics: log must hold {self.log_capacity} entries of "
+                             f"LOG_DTYPE, got {log.shape} {log.dtype}")
+        for name, ctype in s._fields_:
+            if issubclass(ctype, ctypes.Array):
+                np.ctypeslib.as_array(getattr(s, name))[...] = values[name]
+            else:
+                setattr(s, name, values[name].item())
+        self._raw_log()[...] = log
+
+    def _raw_log(self) -> np.ndarray:
+        """The C ring buffer of the log as a writable numpy view (empty without a log)."""
+        if self.log_capacity == 0:
+            return np.zeros(0, dtype=LOG_DTYPE)
+        raw = (ctypes.c_char * (self.log_capacity * LOG_DTYPE.itemsize)).from_address(
+            self._struct.log)
+        return np.frombuffer(raw, dtype=LOG_DTYPE)
 
     def resolve_batch(self, collisions: np.ndarray) -> int:
         """Resolve a list of collisions in the attached simulation with one C call.

@@ -2,12 +2,21 @@
 
 Order of work at every time-series output (every ``output.timeseries_every`` orbits):
 
+0. runtime invariants (``engine.invariants``: finite state, particle count, momentum of
+   the sheet relative to the shear flow); a violation stops the run as ``failed`` with
+   the last good checkpoint kept;
 1. diagnostics of the current state and the resolver's collision statistics of the
    interval -> one row of ``/timeseries``; the statistics are reset;
 2. guards: the vertical guard enlarges the box before any particle can reach 0.4 of the
    half z period; ``dt: auto`` re-chooses the step as the ring heats (a fixed step that
    breaks dt << r/v is reported); deep overlaps are counted;
-3. at every ``snapshot_every`` a snapshot, at every ``checkpoint_every`` a checkpoint.
+3. at every ``snapshot_every`` a snapshot, at every ``checkpoint_every`` a checkpoint
+   (with the resolver's open-interval statistics); rows, guard events, snapshot and
+   checkpoint of an output are one atomic commit (``store.runfile.RunFileWriter``).
+
+SIGINT/SIGTERM stop the run after the current step with a final checkpoint (status
+``stopped``; the command line exits 130).  ``run`` holds the file's lock
+(``store.lock.RunFileLock``) for the whole run: one writer per file.
 
 Integration runs between outputs with ``exact_finish_time=0`` so the step sequence never
 depends on where outputs or restarts fall: a run resumed from its last checkpoint is
@@ -16,6 +25,7 @@ bit-identical to one that never stopped.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import signal
@@ -31,9 +41,10 @@ import numpy as np
 import rebound
 
 from ringsim.analysis import snapshot
-from ringsim.engine import sheet, timestep
+from ringsim.engine import invariants, sheet, timestep
 from ringsim.errors import InputError
 from ringsim.store import runfile
+from ringsim.store.lock import RunFileLock
 
 
 @dataclass
@@ -87,6 +98,9 @@ class _StopRequest:
 #: Time-series rows are written at most this often [s of wall time] (and at every checkpoint
 #: and at the end), so the HDF5 cost stays small against the integration.
 WRITE_INTERVAL = 2.0
+#: A commit copies the run file (crash consistency, ``store.runfile``): rows alone are
+#: written no more often than this share of wall time allows.
+COMMIT_COST_SHARE = 0.02
 #: In line mode ``dt: auto`` is re-estimated at every this many time-series outputs.
 LINE_DT_EVERY = 10
 
@@ -101,7 +115,8 @@ def _simulation_binary(sim: rebound.Simulation) -> bytes:
         os.unlink(name)
 
 
-def _simulation_from_binary(binary: bytes) -> rebound.Simulation:
+def _simulation_from_binary(binary: bytes, path: Path) -> rebound.Simulation:
+    """The simulation of a checkpoint; RunFileError naming ``path`` if it does not load."""
     fd, name = tempfile.mkstemp(suffix=".bin")
     try:
         os.write(fd, binary)
@@ -110,7 +125,12 @@ def _simulation_from_binary(binary: bytes) -> rebound.Simulation:
             # REBOUND reminds that function pointers are not saved; the caller re-installs
             # the resolver.
             warnings.filterwarnings("ignore", message="You have to reset function pointers")
-            return rebound.Simulation(name)
+            try:
+                return rebound.Simulation(name)
+            except (RuntimeError, ValueError, OSError) as exc:
+                raise runfile.RunFileError(path, f"does not load in REBOUND "
+                                           f"{rebound.__version__} ({exc})",
+                                           "/checkpoint") from None
     finally:
         os.unlink(name)
 
@@ -138,11 +158,17 @@ def _interval_index(t: float, every: float) -> int:
 
 
 class Runner:
-    """Drives one run; ``ringsim.run`` is the usual entry point."""
+    """Drives one run; ``ringsim.run`` is the usual entry point.
+
+    All writes go through one :class:`~ringsim.store.runfile.RunFileWriter`; the rows,
+    guard events and snapshot of an output and the checkpoint that follows them are
+    committed together, so the file never holds a checkpoint without the rows before it.
+    """
 
     def __init__(self, scenario, path: Path, progress: bool):
         self.scenario = scenario
-        self.path = path
+        self.path = Path(path)
+        self.writer = runfile.RunFileWriter(self.path)
         self.progress = progress
         self.orbit = scenario.orbital_period
         self.Omega = scenario.orbital_frequency
@@ -151,9 +177,12 @@ class Runner:
         self.snap_every = out.snapshot_every * self.orbit
         self.ckpt_every = out.checkpoint_every * self.orbit
         self.t_end = scenario.integration.orbits * self.orbit
+        self.check_momentum = not scenario.sheet.gravity
         self.state = LoopState()
         self.pending_rows: list[dict] = []
+        self.pending_events: list[tuple[float, float, str]] = []
         self.last_write = time.perf_counter()
+        self.commit_cost = 0.0  # wall time [s] of the last commit
         self.wall_start = time.perf_counter()
         self.wall_before = 0.0  # wall time [s] of earlier sessions of this run
 
@@ -163,18 +192,18 @@ class Runner:
         built = sheet.build_sheet(self.scenario)
         self.sim, self.geometry, self.handle = built.sim, built.geometry, built.resolver
         self.edges = built.size_bin_edges
+        self.n_particles = self.sim.N
+        self.momentum = invariants.sheet_momentum(sheet.particle_arrays(self.sim), self.Omega,
+                                                  self.sim.t)
         attributes = dict(self.geometry.attributes())
         attributes["name"] = self.scenario.name
-        runfile.create_run_file(self.path, scenario_yaml=self.scenario.yaml_text,
-                           seed=self.scenario.seed, attributes=attributes,
-                           size_bin_edges=self.edges, histogram_edges=_histogram_edges())
+        self.writer.create(scenario_yaml=self.scenario.yaml_text, seed=self.scenario.seed,
+                           attributes=attributes, size_bin_edges=self.edges,
+                           histogram_edges=_histogram_edges())
         self._output(first=True)
 
-    def start_resume(self) -> None:
-        checkpoint = runfile.read_checkpoint(self.path)
-        if checkpoint is None:
-            raise InputError(str(self.path), "--resume", "the file has no checkpoint to resume")
-        run = runfile.open_run(self.path)
+    def _check_resumable(self, run) -> tuple[float, float]:
+        """Old and new ``integration.orbits``; InputError unless only they differ."""
         old, new = run.scenario.to_dict(), self.scenario.to_dict()
         old_orbits = old["integration"].pop("orbits")
         new_orbits = new["integration"].pop("orbits")
@@ -185,17 +214,36 @@ class Runner:
         if new_orbits < old_orbits:
             raise InputError(str(self.path), "integration.orbits",
                              f"{new_orbits:g} is shorter than the run file's {old_orbits:g}")
+        return old_orbits, new_orbits
+
+    def start_resume(self) -> None:
+        run = runfile.open_run(self.path)
+        checkpoint = runfile.read_checkpoint(self.path)
+        if checkpoint is None:
+            raise InputError(str(self.path), "--resume", "the file has no checkpoint to resume")
+        old_orbits, new_orbits = self._check_resumable(run)
         st = checkpoint.state
-        self.state = LoopState(int(st["rows"]), int(st["snapshots"]), int(st["guard_events"]),
-                               int(st["dt_warned"]), int(st["overlap_warned"]))
-        runfile.truncate_to_checkpoint(self.path, self.state.rows, self.state.snapshots,
-                                  self.state.guard_events)
-        sim = _simulation_from_binary(checkpoint.binary)
-        sim.rand_seed = int(st["rand_seed"])
+        try:
+            self.state = LoopState(int(st["rows"]), int(st["snapshots"]),
+                                   int(st["guard_events"]), int(st["dt_warned"]),
+                                   int(st["overlap_warned"]))
+            self.geometry = sheet.SheetGeometry(float(st["root_size"]), int(st["N_root_x"]),
+                                                int(st["N_root_y"]), int(st["N_root_z"]),
+                                                self.Omega)
+            rand_seed = int(st["rand_seed"])
+        except (TypeError, ValueError) as exc:
+            raise runfile.RunFileError(self.path, f"holds an unusable counter ({exc})",
+                                       "/checkpoint") from None
+        if self.state.rows > run.timeseries["t"].size or self.state.snapshots > run.n_snapshots:
+            raise runfile.RunFileError(self.path, "is newer than the time series or the "
+                                       "snapshots it refers to", "/checkpoint")
+        sim = _simulation_from_binary(checkpoint.binary, self.path)
+        self.n_particles = int(st.get("n_particles", sim.N))
+        if sim.N != self.n_particles:
+            raise runfile.RunFileError(self.path, f"holds {sim.N} particles but records "
+                                       f"{self.n_particles}", "/checkpoint")
+        sim.rand_seed = rand_seed
         self.sim = sim
-        self.geometry = sheet.SheetGeometry(float(st["root_size"]), int(st["N_root_x"]),
-                                            int(st["N_root_y"]), int(st["N_root_z"]),
-                                            self.Omega)
         edges = run.timeseries.get("size_bin_edges")
         self.edges = None if edges is None else np.asarray(edges)
         from ringsim.engine.resolver import install_resolver
@@ -204,19 +252,30 @@ class Runner:
             sim, self.scenario.restitution_dict(),
             log_capacity=self.scenario.output.log_collisions,
             collision_detection=self.scenario.integration.collision_detection)
-        runfile.set_attributes(self.path, status="running")
+        if checkpoint.statistics is not None:
+            try:
+                self.handle.set_stats(checkpoint.statistics)
+            except ValueError as exc:
+                raise runfile.RunFileError(self.path, f"cannot be restored ({exc})",
+                                           f"/{runfile.CHECKPOINT_STATISTICS}") from None
+        self.momentum = (invariants.SheetMomentum.from_attributes(st)
+                         or invariants.sheet_momentum(sheet.particle_arrays(sim), self.Omega,
+                                                      sim.t))
         self.wall_before = float(run.attrs.get("wall_time_s", 0.0))
+        attributes = {"status": "running"}
         if new_orbits > old_orbits:
             # a longer run of the same scenario: continue it, and let the file say so
-            runfile.set_attributes(self.path, scenario_yaml=self.scenario.yaml_text)
+            attributes["scenario_yaml"] = self.scenario.yaml_text
             self._guard_event(f"run extended from {old_orbits:g} to {new_orbits:g} orbits",
                               show=False)
+        self._commit(truncate=(self.state.rows, self.state.snapshots,
+                               self.state.guard_events - len(self.pending_events)),
+                     attributes=attributes)
 
     # -- outputs -------------------------------------------------------------------------------
 
-    def _row(self, arrays: dict) -> dict:
+    def _row(self, arrays: dict, stats: dict) -> dict:
         g = self.geometry
-        stats = self.handle.stats()
         summary = snapshot.snapshot_summary(
             arrays["x"], arrays["y"], arrays["z"], arrays["vx"], arrays["vy"], arrays["vz"],
             arrays["radius"], arrays["mass"], self.Omega, g.Lx, g.Ly, size_bins=self.edges)
@@ -245,9 +304,26 @@ class Runner:
                 row[key] = summary[key]
         return row
 
+    def _invariants(self, arrays: dict, stats: dict, first: bool) -> float:
+        """Check the runtime invariants (``engine.invariants``); the momentum residual [m/s].
+
+        Raises InvariantViolation; the momentum reference moves to this output otherwise.
+        """
+        invariants.check_state(arrays, self.n_particles, self.sim.t)
+        now = invariants.sheet_momentum(arrays, self.Omega, self.sim.t)
+        residual = 0.0
+        if self.check_momentum and not first:
+            n_steps = math.ceil((now.t - self.momentum.t) / self.sim.dt) + 1
+            tolerance = invariants.momentum_tolerance(arrays, self.Omega, n_steps,
+                                                      int(stats["count"]))
+            residual = invariants.check_momentum(now, self.momentum, self.Omega, tolerance)
+        self.momentum = now
+        return residual
+
     def _guard_event(self, message: str, show: bool = True) -> None:
-        """Record a guard's action in the file; show it on screen unless ``show`` is False."""
-        runfile.append_guard_event(self.path, self.sim.t, self.sim.t / self.orbit, message)
+        """Record a guard's action (written with the next commit); show it unless ``show``
+        is False."""
+        self.pending_events.append((self.sim.t, self.sim.t / self.orbit, message))
         self.state.guard_events += 1
         if show:
             from tqdm import tqdm
@@ -298,59 +374,105 @@ class Runner:
                                   "step; end-of-step collision detection may miss collisions "
                                   "(use dt: auto or collision_detection: line)")
 
+
     def _output(self, first: bool = False) -> None:
         arrays = sheet.particle_arrays(self.sim)
-        row = self._row(arrays)
+        stats = self.handle.stats()
+        residual = self._invariants(arrays, stats, first)
+        row = self._row(arrays, stats)
+        row["momentum_residual"] = residual
         self.pending_rows.append(row)
         self.state.rows += 1
-        if first or time.perf_counter() - self.last_write > WRITE_INTERVAL:
-            self.write_rows()
         self.handle.reset_stats()
         if not first:
             self._guards(arrays, row["overlapping_pairs"])
             arrays = sheet.particle_arrays(self.sim)
         t = self.sim.t
+        snap = None
         if first or _interval_index(t, self.snap_every) >= self.state.snapshots:
-            runfile.write_snapshot(self.path, self.state.snapshots, t, arrays)
+            snap = (self.state.snapshots, t, arrays)
             self.state.snapshots += 1
         if first or _interval_index(t, self.ckpt_every) > _interval_index(
                 t - self.ts_every, self.ckpt_every):
-            self.checkpoint()
+            self.checkpoint(snapshot=snap)
+        elif snap is not None or self._rows_due():
+            self._commit(snapshot=snap)
+
+    def _rows_due(self) -> bool:
+        """Time to write the gathered rows: WRITE_INTERVAL passed, and at least
+        COMMIT_COST_SHARE^-1 times the cost of the last commit (a large file is copied)."""
+        since = time.perf_counter() - self.last_write
+        return since > max(WRITE_INTERVAL, self.commit_cost / COMMIT_COST_SHARE)
+
+    def _commit(self, **changes) -> None:
+        """One atomic write of the gathered rows and guard events plus ``changes``."""
+        start = time.perf_counter()
+        self.writer.commit(rows=self.pending_rows, events=self.pending_events, **changes)
+        self.pending_rows, self.pending_events = [], []
+        self.last_write = time.perf_counter()
+        self.commit_cost = self.last_write - start
 
     def write_rows(self) -> None:
-        """Write the time-series rows gathered since the last write."""
-        runfile.append_timeseries(self.path, self.pending_rows)
-        self.pending_rows = []
-        self.last_write = time.perf_counter()
+        """Write the time-series rows and guard events gathered since the last write."""
+        self._commit()
 
-    def checkpoint(self) -> None:
-        self.write_rows()
+    def checkpoint(self, snapshot=None, attributes: dict | None = None) -> None:
+        """Commit the pending rows, events, ``snapshot`` and a checkpoint of the current
+        state (REBOUND binary, loop counters, resolver statistics, momentum reference)."""
         state = self.state.as_attributes()
         state.update(self.geometry.attributes())
         state["rand_seed"] = int(self.sim.rand_seed)
         state["t"] = float(self.sim.t)
-        runfile.write_checkpoint(self.path, _simulation_binary(self.sim), state)
-        runfile.set_attributes(self.path, wall_time_s=self.wall_before + time.perf_counter()
-                          - self.wall_start)
+        state["n_particles"] = int(self.n_particles)
+        state.update(self.momentum.as_attributes())
+        attributes = dict(attributes or {})
+        attributes["wall_time_s"] = self.wall_before + time.perf_counter() - self.wall_start
+        self._commit(snapshot=snapshot, attributes=attributes,
+                     checkpoint=runfile.Checkpoint(_simulation_binary(self.sim), state,
+                                                   self.handle.stats_state()))
+
+    def fail(self, violation: Exception) -> None:
+        """Stop a run that broke an invariant: keep the last (good) checkpoint, write the
+        good rows gathered since, a guard event, ``status = "failed"`` and ``failure``."""
+        message = (f"FAILED at orbit {self.sim.t / self.orbit:.4f}: {violation}; the "
+                   "checkpoint is the last good state before it")
+        self._guard_event(message)
+        self._commit(attributes={"status": "failed", "failure": str(violation)})
 
     # -- the loop ------------------------------------------------------------------------------
 
-    def loop(self) -> str:
+    def _advance(self, t_next: float) -> None:
+        """Integrate to the first step end at or after ``t_next`` [s]."""
+        self.sim.integrate(t_next, exact_finish_time=0)
+
+    def loop(self, stop: _StopRequest | None = None) -> str:
+        """Integrate to the end (or a stop); returns the status written to the file.
+
+        ``stop``: an active :class:`_StopRequest` (``run`` installs one before the set-up,
+        so that a signal during it also ends in a checkpoint); one is made if None.
+        """
         bar = _progress_bar(self.scenario, self.sim.t / self.orbit) if self.progress else None
         wall0, coll0 = time.perf_counter(), int(self.sim.collisions_log_n)
         status = "finished"
         try:
-            with _StopRequest() as stop:
+            with contextlib.nullcontext(stop) if stop is not None else _StopRequest() as stop:
                 while self.sim.t < self.t_end * (1 - 1e-12):
+                    if stop.requested:
+                        status = "stopped"
+                        break
                     t_next = min(self.state.rows * self.ts_every, self.t_end)
                     t_next = max(t_next, self.sim.t)
                     try:
-                        self.sim.integrate(t_next, exact_finish_time=0)
+                        self._advance(t_next)
                     except KeyboardInterrupt:
                         # REBOUND stopped after a complete step: checkpoint here
                         status = "stopped"
                         break
-                    self._output()
+                    try:
+                        self._output()
+                    except invariants.InvariantViolation as violation:
+                        self.fail(violation)
+                        return "failed"
                     if bar is not None:
                         bar.update(min(self.sim.t / self.orbit, bar.total) - bar.n)
                         elapsed = time.perf_counter() - wall0
@@ -359,12 +481,13 @@ class Runner:
                     if stop.requested:
                         status = "stopped"
                         break
+                # a final checkpoint (a signal now waits for it): a stopped run resumes
+                # from here, the resolver's statistics of the open interval included; a
+                # finished one can be extended
+                self.checkpoint(attributes={"status": status})
         finally:
             if bar is not None:
                 bar.close()
-        # a final checkpoint: a stopped run resumes from here, a finished one can be extended
-        self.checkpoint()
-        runfile.set_attributes(self.path, status=status)
         return status
 
 
@@ -436,23 +559,31 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
     progress : bool
         Show a progress bar.
 
+    Returns the path whatever the run's end; the file's root attribute ``status`` says it:
+    ``finished``, ``stopped`` (SIGINT/SIGTERM; a checkpoint was written, ``resume``
+    continues) or ``failed`` (a runtime invariant broke, ``engine.invariants``; the message
+    is in the attribute ``failure`` and in ``/guards``, and was printed).
+
     Raises
     ------
     InputError
-        The file exists (without ``force``), or there is nothing to resume.
+        The file exists (without ``force``), there is nothing to resume, the file to resume
+        is damaged (``store.runfile.RunFileError``), or another process writes it (one
+        writer per file: ``store.lock.RunFileLock``).
     """
     path = Path(output if output is not None else scenario.output.path)
-    runner = Runner(scenario, path, progress)
-    if resume:
-        if not path.exists():
-            raise InputError(str(path), "--resume", "no run file to resume")
-        runner.start_resume()
-    else:
-        if path.exists() and not force:
-            raise InputError(str(path), "output", "file exists; use --force to overwrite "
-                             "or --resume to continue it")
-        runner.start_new()
-    status = runner.loop()
+    with RunFileLock(path), _StopRequest() as stop:
+        runner = Runner(scenario, path, progress)
+        if resume:
+            if not path.exists():
+                raise InputError(str(path), "--resume", "no run file to resume")
+            runner.start_resume()
+        else:
+            if path.exists() and not force:
+                raise InputError(str(path), "output", "file exists; use --force to "
+                                 "overwrite or --resume to continue it")
+            runner.start_new()
+        status = runner.loop(stop)
     if status == "stopped":
         print(f"ringsim: stopped at orbit {runner.sim.t / runner.orbit:.3f}; checkpoint "
               f"written to {path}; continue with --resume")

@@ -1,34 +1,57 @@
 """The run file (HDF5): time series, snapshots, checkpoint and the scenario that made it.
 
-Layout (docs/interface.md "Run file"; every dataset in docs/run_file.md):
+Layout (docs/interface.md "Run file"; every item in docs/run_file.md):
 
-* ``/`` attributes ``ringsim_version``, ``rebound_version``, ``scenario_yaml``, ``units`` =
-  "SI", ``seed``, ``created_utc``, plus ``status`` ("running", "finished", "stopped"),
-  ``wall_time_s`` (wall-clock time of the run up to its last checkpoint, all sessions) and
-  the box geometry of the sheet (``Lx``, ``Ly``, ``Omega``, ...).
+* ``/`` attributes ``format_version`` (:data:`FORMAT_VERSION`), ``ringsim_version``,
+  ``rebound_version``, ``scenario_yaml``, ``units`` = "SI", ``seed``, ``created_utc``,
+  ``status`` ("running", "finished", "stopped", "failed"; a failed run also has
+  ``failure``), ``wall_time_s`` and the box geometry of the sheet (``Lx``, ``Omega``, ...).
 * ``/timeseries/NAME`` resizable 1-D datasets (2-D ``(n, n_bins)`` for per-size-bin
   arrays), each with a ``units`` attribute.
 * ``/snapshots/NNNNNN/`` groups (attribute ``t``) with ``x y z vx vy vz radius mass``.
 * ``/checkpoint``: the REBOUND binary of the last checkpoint as bytes; its attributes hold
-  what the run loop needs to resume (the time-series row count, the snapshot count, the
-  next output times, ``rand_seed``).
-* ``/guards``: what the run's guards did (time-step changes, box enlargements, overlap
-  counts) as a resizable event table.
+  what the run loop needs to resume (:data:`CHECKPOINT_KEYS`) and its ``sha256``;
+  ``/checkpoint_statistics/`` the resolver's statistics of the open interval.
+* ``/guards``: what the run's guards did, as a resizable event table.
 
-Like emcee's HDF5 backend, every write opens the file with ``with h5py.File(...)`` and
-closes it again, so a run killed at any moment leaves a readable file whose last
-checkpoint is complete.
+Crash consistency: the file a reader sees is only ever replaced whole.  The one writer
+(:class:`RunFileWriter`, holding the lock of ``ringsim.store.lock``) copies the file to
+``RUN.h5.tmp``, changes the copy, flushes it to disk and renames it over the file
+(``os.replace``, atomic on POSIX).  A process killed at any moment therefore leaves the
+previous complete state (time series, snapshots and checkpoint of one commit), and a
+reader never sees a half-written file.  HDF5 itself changes a file in place through many
+separate writes, so in-place updates do not give this (docs/run_file.md has the
+measurements).
 """
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+import hashlib
+import os
+import shutil
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import h5py
 import numpy as np
+
+from ringsim.errors import InputError
+from ringsim.store.lock import writer_of
+
+#: Version of the run-file layout this ringsim writes (root attribute ``format_version``).
+#: A reader opens every file of the same MAJOR version (files without the attribute are
+#: "1.0") and refuses a newer major version.
+FORMAT_VERSION = "1.1"
+#: Version assumed for files written before ``format_version`` existed.
+UNVERSIONED = "1.0"
+#: Group holding the resolver's interval statistics at the checkpoint (format 1.1).
+CHECKPOINT_STATISTICS = "checkpoint_statistics"
+#: Checkpoint attributes the run loop needs to resume.
+CHECKPOINT_KEYS = ("rows", "snapshots", "guard_events", "dt_warned", "overlap_warned",
+                   "rand_seed", "root_size", "N_root_x", "N_root_y", "N_root_z", "t")
 
 SNAPSHOT_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "radius", "mass")
 SNAPSHOT_UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m/s",
@@ -59,6 +82,7 @@ TIMESERIES_UNITS = {
     "z_half_period": "m",
     "overlapping_pairs": "count",
     "multi_encounters": "count",
+    "momentum_residual": "m/s",
     "size_bin_velocity_dispersion": "m/s",
     "size_bin_thickness": "m",
     "size_bin_n": "count",
@@ -82,69 +106,83 @@ def _utc_now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
 
-def create_run_file(path: str | Path, *, scenario_yaml: str, seed: int,
-                    attributes: Mapping[str, object], size_bin_edges: np.ndarray | None,
-                    histogram_edges: Mapping[str, np.ndarray]) -> Path:
-    """Create a new, empty run file (overwriting ``path``).
+class RunFileError(InputError):
+    """A run file that cannot be used: missing, empty, not HDF5, truncated, incomplete, of
+    a newer format, or being written by another process (exit status 2).
 
     Parameters
     ----------
-    path : output file
-    scenario_yaml : str
-        The full scenario text, embedded so the file documents what made it.
-    seed : int
-    attributes : mapping
-        Further root attributes (the sheet geometry: ``Lx`` [m], ``Ly`` [m], ``Omega`` [1/s],
-        ...).  Numbers only or strings.
-    size_bin_edges : array [m] or None
-        Edges of the radius bins of the per-size-bin time series.
-    histogram_edges : mapping
-        Bin edges of each histogram time series (keys of :data:`HISTOGRAM_EDGES`).
+    path : the run file
+    problem : str
+        What is wrong, in one line.
+    key : str
+        The item concerned (default "run file"; e.g. "/checkpoint", "format_version").
     """
-    import rebound
 
-    from ringsim import __version__
+    def __init__(self, path: str | os.PathLike, problem: str, key: str = "run file"):
+        super().__init__(str(path), key, problem)
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with h5py.File(path, "w") as f:
-        f.attrs["ringsim_version"] = __version__
-        f.attrs["rebound_version"] = rebound.__version__
-        f.attrs["scenario_yaml"] = scenario_yaml
-        f.attrs["units"] = "SI"
-        f.attrs["seed"] = int(seed)
-        f.attrs["created_utc"] = _utc_now()
-        f.attrs["status"] = "running"
-        for key, value in attributes.items():
-            f.attrs[key] = value
-        ts = f.create_group("timeseries")
-        if size_bin_edges is not None:
-            edges = ts.create_dataset("size_bin_edges", data=np.asarray(size_bin_edges, float))
-            edges.attrs["units"] = "m"
-        for name, edges in histogram_edges.items():
-            dataset, units = HISTOGRAM_EDGES[name]
-            ts.create_dataset(dataset, data=np.asarray(edges, float)).attrs["units"] = units
-        f.create_group("snapshots")
-        guards = f.create_group("guards")
-        for name, dtype in (("t", "f8"), ("orbits", "f8")):
-            ds = guards.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dtype,
-                                       chunks=(256,))
-            ds.attrs["units"] = "s" if name == "t" else "orbits"
-        msg = guards.create_dataset("message", shape=(0,), maxshape=(None,),
-                                    dtype=h5py.string_dtype(), chunks=(256,))
-        msg.attrs["units"] = "text"
-    return path
+    def __reduce__(self):
+        return (type(self), (self.file, self.problem, self.key))
 
 
-def _append_rows(group: h5py.Group, name: str, values: np.ndarray, units: str) -> None:
-    """Append rows (first axis) to a resizable dataset, creating it on first use."""
+def _short(exc: BaseException) -> str:
+    """An h5py/HDF5 error message in one short line."""
+    text = " ".join(str(exc).split())
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
+def _text(value: object) -> object:
+    return value.decode() if isinstance(value, bytes) else value
+
+
+def _fsync(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+# --- writing ----------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Checkpoint:
+    """A checkpoint: REBOUND binary, run-loop state and the resolver's open-interval statistics.
+
+    Attributes
+    ----------
+    binary : bytes
+        ``rebound.Simulation.save_to_file`` output (embeds wall-clock fields: compare two
+        checkpoints by the state they load, not by these bytes).
+    state : dict
+        :data:`CHECKPOINT_KEYS` and whatever else the run loop saved (numbers).
+    statistics : dict of arrays, or None
+        ``ResolverHandle.stats_state()`` (None in format-1.0 files).
+    """
+
+    binary: bytes
+    state: dict
+    statistics: dict | None = field(default=None)
+
+
+def _append_rows(group: h5py.Group, name: str, values: np.ndarray, units: str,
+                 n_before: int) -> None:
+    """Append rows (first axis) to a resizable dataset, creating it on first use.
+
+    A dataset first written when the group already has ``n_before`` rows (a file made by an
+    older ringsim and continued by this one) is created with those rows filled: NaN for
+    floats, -1 for integers.
+    """
     values = np.asarray(values)
     row_shape = values.shape[1:]
     if name not in group:
         size = int(np.prod(row_shape)) if row_shape else 1
-        ds = group.create_dataset(name, shape=(0,) + row_shape, maxshape=(None,) + row_shape,
-                                  dtype=values.dtype if values.dtype.kind in "iu" else "f8",
-                                  chunks=(max(1, 4096 // max(1, size)),) + row_shape)
+        dtype = values.dtype if values.dtype.kind in "iu" else np.dtype("f8")
+        ds = group.create_dataset(name, shape=(n_before,) + row_shape,
+                                  maxshape=(None,) + row_shape, dtype=dtype,
+                                  chunks=(max(1, 4096 // max(1, size)),) + row_shape,
+                                  fillvalue=-1 if dtype.kind in "iu" else np.nan)
         ds.attrs["units"] = units
     ds = group[name]
     n = ds.shape[0]
@@ -152,124 +190,312 @@ def _append_rows(group: h5py.Group, name: str, values: np.ndarray, units: str) -
     ds[n:] = values
 
 
-def append_timeseries(path: str | Path, rows: Sequence[Mapping[str, object]]) -> int:
-    """Append time-series rows (all with the same keys); returns the new number of rows.
-
-    Every key must have a unit in :data:`TIMESERIES_UNITS`.  The file is flushed and
-    closed before returning.
-    """
-    with h5py.File(path, "a") as f:
-        ts = f["timeseries"]
-        if rows:
-            for name in rows[0]:
-                _append_rows(ts, name, np.array([row[name] for row in rows]), units_of(name))
-        n = ts["t"].shape[0] if "t" in ts else 0
-        f.flush()
-    return n
+def _append_timeseries(f: h5py.File, rows: Sequence[Mapping[str, object]]) -> None:
+    ts = f["timeseries"]
+    n_before = ts["t"].shape[0] if "t" in ts else 0
+    for name in rows[0]:
+        _append_rows(ts, name, np.array([row[name] for row in rows]), units_of(name),
+                     n_before)
 
 
-def append_guard_event(path: str | Path, t: float, orbits: float, message: str) -> None:
-    """Record what a guard did (e.g. "dt 1.2e1 s -> 6.0 s: ring heated").
-
-    Parameters
-    ----------
-    t : float [s]
-    orbits : float [orbits]
-    message : str
-    """
-    with h5py.File(path, "a") as f:
-        g = f["guards"]
-        for name, value in (("t", t), ("orbits", orbits), ("message", message)):
-            ds = g[name]
-            n = ds.shape[0]
-            ds.resize(n + 1, axis=0)
-            ds[n] = value
+def _append_guard_events(f: h5py.File, events: Sequence[tuple[float, float, str]]) -> None:
+    g = f["guards"]
+    for column, name in enumerate(("t", "orbits", "message")):
+        ds = g[name]
+        n = ds.shape[0]
+        ds.resize(n + len(events), axis=0)
+        for k, event in enumerate(events):
+            ds[n + k] = event[column]
 
 
-def write_snapshot(path: str | Path, index: int, t: float,
-                   arrays: Mapping[str, np.ndarray]) -> None:
-    """Write snapshot number ``index`` (group ``/snapshots/NNNNNN``).
-
-    Parameters
-    ----------
-    index : int
-    t : float [s]
-    arrays : mapping of SNAPSHOT_FIELDS to 1-D arrays (SI)
-    """
-    with h5py.File(path, "a") as f:
-        snaps = f["snapshots"]
-        name = f"{index:06d}"
-        if name in snaps:
-            del snaps[name]
-        g = snaps.create_group(name)
-        g.attrs["t"] = float(t)
-        g.attrs["units_t"] = "s"
-        for field in SNAPSHOT_FIELDS:
-            ds = g.create_dataset(field, data=np.asarray(arrays[field], dtype=float))
-            ds.attrs["units"] = SNAPSHOT_UNITS[field]
-        f.flush()
+def _write_snapshot(f: h5py.File, index: int, t: float,
+                    arrays: Mapping[str, np.ndarray]) -> None:
+    snaps = f["snapshots"]
+    name = f"{index:06d}"
+    if name in snaps:
+        del snaps[name]
+    g = snaps.create_group(name)
+    g.attrs["t"] = float(t)
+    g.attrs["units_t"] = "s"
+    for field_name in SNAPSHOT_FIELDS:
+        ds = g.create_dataset(field_name, data=np.asarray(arrays[field_name], dtype=float))
+        ds.attrs["units"] = SNAPSHOT_UNITS[field_name]
 
 
-def write_checkpoint(path: str | Path, binary: bytes, state: Mapping[str, object]) -> None:
-    """Replace ``/checkpoint`` with a REBOUND binary and the run-loop state to resume.
+def _overwrite(group: h5py.Group, name: str, data: np.ndarray) -> h5py.Dataset:
+    """Write ``data`` as ``group[name]``, in place when shape and type allow (no file growth)."""
+    data = np.asarray(data)
+    if name in group:
+        ds = group[name]
+        if ds.shape == data.shape and ds.dtype == data.dtype:
+            ds[...] = data
+            return ds
+        del group[name]
+    return group.create_dataset(name, data=data)
 
-    The new checkpoint is written under a temporary name and renamed, so an interrupted
-    write leaves the previous checkpoint intact.
-    """
-    with h5py.File(path, "a") as f:
-        if "checkpoint_new" in f:
-            del f["checkpoint_new"]
-        ds = f.create_dataset("checkpoint_new", data=np.frombuffer(binary, dtype=np.uint8))
-        ds.attrs["units"] = "bytes (REBOUND simulation binary)"
-        for key, value in state.items():
-            ds.attrs[key] = value
-        f.flush()
-        if "checkpoint" in f:
+
+def _write_checkpoint(f: h5py.File, checkpoint: Checkpoint) -> None:
+    data = np.frombuffer(checkpoint.binary, dtype=np.uint8)
+    if "checkpoint_new" in f:   # left by format 1.0's rename scheme
+        del f["checkpoint_new"]
+    ds = f.get("checkpoint")
+    if ds is None or ds.maxshape[0] is not None:   # absent, or contiguous (format 1.0)
+        if ds is not None:
             del f["checkpoint"]
-        f.move("checkpoint_new", "checkpoint")
-        f.flush()
+        ds = f.create_dataset("checkpoint", shape=(0,), maxshape=(None,), dtype=np.uint8,
+                              chunks=(1 << 16,))
+    ds.resize(data.size, axis=0)
+    ds[...] = data
+    for key in list(ds.attrs):
+        del ds.attrs[key]
+    ds.attrs["units"] = "bytes (REBOUND simulation binary)"
+    ds.attrs["sha256"] = hashlib.sha256(checkpoint.binary).hexdigest()
+    for key, value in checkpoint.state.items():
+        ds.attrs[key] = value
+    if checkpoint.statistics is not None:
+        g = f.require_group(CHECKPOINT_STATISTICS)
+        for name in set(g) - set(checkpoint.statistics):
+            del g[name]
+        for name, value in checkpoint.statistics.items():
+            _overwrite(g, name, value)
 
 
-@dataclass(frozen=True)
-class Checkpoint:
-    """The last checkpoint of a run file: REBOUND binary and run-loop state."""
+def _truncate(f: h5py.File, rows: int, n_snapshots: int, n_guard_events: int) -> None:
+    """Drop time-series rows, snapshots and guard events written after the checkpoint."""
+    for ds in f["timeseries"].values():
+        if ds.maxshape[0] is None and ds.shape[0] > rows:
+            ds.resize(rows, axis=0)
+    for name in list(f["snapshots"].keys()):
+        if int(name) >= n_snapshots:
+            del f["snapshots"][name]
+    for ds in f["guards"].values():
+        if ds.shape[0] > n_guard_events:
+            ds.resize(n_guard_events, axis=0)
 
-    binary: bytes
-    state: dict
+
+class RunFileWriter:
+    """The writer of one run file (an emcee-style HDF5 backend that owns its file).
+
+    Every change is one :meth:`commit`: the file is copied to ``RUN.h5.tmp``, the copy is
+    changed and flushed to disk, and renamed over the file.  Whatever happens to the process,
+    the file is either the state before a commit or the state after it.  The caller holds
+    the file's lock (``ringsim.store.lock.RunFileLock``).
+
+    Parameters
+    ----------
+    path : the run file
+    """
+
+    def __init__(self, path: str | os.PathLike):
+        self.path = Path(path)
+        self.tmp = self.path.with_name(self.path.name + ".tmp")
+
+    @contextlib.contextmanager
+    def _replacing(self, copy: bool) -> Iterator[h5py.File]:
+        if copy:
+            shutil.copyfile(self.path, self.tmp)
+        try:
+            with h5py.File(self.tmp, "a" if copy else "w") as f:
+                yield f
+            _fsync(self.tmp)
+            os.replace(self.tmp, self.path)
+        except BaseException:   # also KeyboardInterrupt: leave the file as it was
+            self.tmp.unlink(missing_ok=True)
+            raise
+
+    def create(self, *, scenario_yaml: str, seed: int, attributes: Mapping[str, object],
+               size_bin_edges: np.ndarray | None,
+               histogram_edges: Mapping[str, np.ndarray]) -> Path:
+        """Create a new, empty run file (replacing ``path``).
+
+        Parameters
+        ----------
+        scenario_yaml : str
+            The full scenario text, embedded so the file documents what made it.
+        seed : int
+        attributes : mapping
+            Further root attributes (the sheet geometry: ``Lx`` [m], ``Ly`` [m],
+            ``Omega`` [1/s], ...).  Numbers or strings.
+        size_bin_edges : array [m] or None
+            Edges of the radius bins of the per-size-bin time series.
+        histogram_edges : mapping
+            Bin edges of each histogram time series (keys of :data:`HISTOGRAM_EDGES`).
+        """
+        import rebound
+
+        from ringsim import __version__
+
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with self._replacing(copy=False) as f:
+            f.attrs["format_version"] = FORMAT_VERSION
+            f.attrs["ringsim_version"] = __version__
+            f.attrs["rebound_version"] = rebound.__version__
+            f.attrs["scenario_yaml"] = scenario_yaml
+            f.attrs["units"] = "SI"
+            f.attrs["seed"] = int(seed)
+            f.attrs["created_utc"] = _utc_now()
+            f.attrs["status"] = "running"
+            for key, value in attributes.items():
+                f.attrs[key] = value
+            ts = f.create_group("timeseries")
+            if size_bin_edges is not None:
+                edges = ts.create_dataset("size_bin_edges",
+                                          data=np.asarray(size_bin_edges, float))
+                edges.attrs["units"] = "m"
+            for name, edges in histogram_edges.items():
+                dataset, units = HISTOGRAM_EDGES[name]
+                ts.create_dataset(dataset, data=np.asarray(edges, float)).attrs["units"] = units
+            f.create_group("snapshots")
+            guards = f.create_group("guards")
+            for name in ("t", "orbits"):
+                ds = guards.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8",
+                                           chunks=(256,))
+                ds.attrs["units"] = "s" if name == "t" else "orbits"
+            msg = guards.create_dataset("message", shape=(0,), maxshape=(None,),
+                                        dtype=h5py.string_dtype(), chunks=(256,))
+            msg.attrs["units"] = "text"
+        return self.path
+
+    def commit(self, *, rows: Sequence[Mapping[str, object]] = (),
+               events: Sequence[tuple[float, float, str]] = (),
+               snapshot: tuple[int, float, Mapping[str, np.ndarray]] | None = None,
+               checkpoint: Checkpoint | None = None,
+               attributes: Mapping[str, object] | None = None,
+               truncate: tuple[int, int, int] | None = None) -> None:
+        """Apply one consistent set of changes atomically.
+
+        Parameters
+        ----------
+        rows : time-series rows (all with the same keys, each declared in
+            :data:`TIMESERIES_UNITS`)
+        events : guard events ``(t [s], orbits, message)``
+        snapshot : ``(index, t [s], arrays)`` written as ``/snapshots/NNNNNN``
+        checkpoint : replaces ``/checkpoint`` (and ``/checkpoint_statistics``)
+        attributes : root attributes to set (e.g. ``status``)
+        truncate : ``(rows, snapshots, guard_events)``: first drop everything written
+            after a checkpoint with these counters
+        """
+        with self._replacing(copy=True) as f:
+            f.attrs["format_version"] = FORMAT_VERSION
+            if truncate is not None:
+                _truncate(f, *truncate)
+            if rows:
+                _append_timeseries(f, rows)
+            if events:
+                _append_guard_events(f, events)
+            if snapshot is not None:
+                _write_snapshot(f, *snapshot)
+            if checkpoint is not None:
+                _write_checkpoint(f, checkpoint)
+            for key, value in (attributes or {}).items():
+                f.attrs[key] = value
 
 
-def read_checkpoint(path: str | Path) -> Checkpoint | None:
-    """The last complete checkpoint, or None if the file has none."""
-    with h5py.File(path, "r") as f:
+def set_attributes(path: str | os.PathLike, **attributes: object) -> None:
+    """Set root attributes (e.g. ``status``) of a run file nobody is writing."""
+    from ringsim.store.lock import RunFileLock
+
+    with RunFileLock(path):
+        RunFileWriter(path).commit(attributes=attributes)
+
+
+# --- reading ----------------------------------------------------------------------------------
+
+def _version(value: object, path: Path) -> tuple[int, int]:
+    text = _text(value) if value is not None else UNVERSIONED
+    try:
+        major, minor = (int(part) for part in str(text).split("."))
+    except ValueError:
+        raise RunFileError(path, f"{text!r} is not a version (MAJOR.MINOR)",
+                           "format_version") from None
+    return major, minor
+
+
+@contextlib.contextmanager
+def _reading(path: str | os.PathLike) -> Iterator[h5py.File]:
+    """Open a run file for reading after checking it is one this ringsim can read.
+
+    Raises RunFileError (bad input, exit status 2) for a missing, empty, non-HDF5,
+    truncated or otherwise unreadable file, a newer format, a file being written by another
+    process, and for HDF5 errors while reading it.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise RunFileError(path, "no such file")
+    writer = writer_of(path)
+    if writer is not None:
+        raise RunFileError(path, f"is being written by {writer}; wait until that run "
+                           "stops (or ends) and try again")
+    if path.stat().st_size == 0:
+        raise RunFileError(path, "is empty (0 bytes): not a run file")
+    if not h5py.is_hdf5(path):
+        raise RunFileError(path, "is not an HDF5 file (no HDF5 signature): not a run file")
+    try:
+        f = h5py.File(path, "r")
+    except (OSError, RuntimeError, ValueError) as exc:
+        raise RunFileError(path, f"is truncated or damaged: HDF5 cannot open it "
+                           f"({_short(exc)})") from None
+    with f:
+        major, minor = _version(f.attrs.get("format_version"), path)
+        if major > int(FORMAT_VERSION.split(".")[0]):
+            raise RunFileError(path, f"was written in run-file format {major}.{minor} by a "
+                               f"newer ringsim; this ringsim reads formats up to "
+                               f"{FORMAT_VERSION}: upgrade ringsim", "format_version")
+        try:
+            yield f
+        except InputError:
+            raise
+        except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:
+            raise RunFileError(path, f"is damaged: {_short(exc)}") from None
+
+
+def _require(f: h5py.File, path: Path) -> None:
+    """Check the layout every run file has; RunFileError naming the first missing item."""
+    for attr in ("scenario_yaml", "status"):
+        if attr not in f.attrs:
+            raise RunFileError(path, "missing root attribute: not a complete ringsim run "
+                               "file", attr)
+    for item in ("timeseries", "timeseries/t", "snapshots", "guards", "guards/t",
+                 "guards/orbits", "guards/message"):
+        if item not in f:
+            raise RunFileError(path, "missing: not a complete ringsim run file", f"/{item}")
+    n = f["timeseries/t"].shape[0]
+    for name, ds in f["timeseries"].items():
+        if ds.maxshape[0] is None and ds.shape[0] != n:
+            raise RunFileError(path, f"has {ds.shape[0]} rows, /timeseries/t has {n}",
+                               f"/timeseries/{name}")
+    for name, g in f["snapshots"].items():
+        for field_name in SNAPSHOT_FIELDS:
+            if field_name not in g:
+                raise RunFileError(path, "missing", f"/snapshots/{name}/{field_name}")
+
+
+def read_checkpoint(path: str | os.PathLike) -> Checkpoint | None:
+    """The last checkpoint, or None if the file has none.
+
+    Raises RunFileError when the checkpoint is incomplete or its bytes do not match the
+    SHA-256 stored with them.
+    """
+    path = Path(path)
+    with _reading(path) as f:
         if "checkpoint" not in f:
             return None
         ds = f["checkpoint"]
-        state = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in ds.attrs.items()}
-        return Checkpoint(binary=ds[...].tobytes(), state=state)
-
-
-def truncate_to_checkpoint(path: str | Path, timeseries_rows: int, n_snapshots: int,
-                           n_guard_events: int) -> None:
-    """Drop time-series rows, snapshots and guard events written after the checkpoint."""
-    with h5py.File(path, "a") as f:
-        ts = f["timeseries"]
-        for ds in ts.values():
-            if ds.maxshape[0] is None and ds.shape[0] > timeseries_rows:
-                ds.resize(timeseries_rows, axis=0)
-        for name in list(f["snapshots"].keys()):
-            if int(name) >= n_snapshots:
-                del f["snapshots"][name]
-        for ds in f["guards"].values():
-            if ds.shape[0] > n_guard_events:
-                ds.resize(n_guard_events, axis=0)
-        f.flush()
-
-
-def set_attributes(path: str | Path, **attributes: object) -> None:
-    """Set root attributes (e.g. ``status``)."""
-    with h5py.File(path, "a") as f:
-        for key, value in attributes.items():
-            f.attrs[key] = value
+        binary = ds[...].tobytes()
+        state = {k: (v.item() if isinstance(v, np.generic) else _text(v))
+                 for k, v in ds.attrs.items()}
+        digest = state.pop("sha256", None)
+        if digest is not None and hashlib.sha256(binary).hexdigest() != digest:
+            raise RunFileError(path, "is damaged: its bytes do not match their SHA-256",
+                               "/checkpoint")
+        missing = [key for key in CHECKPOINT_KEYS if key not in state]
+        if missing:
+            raise RunFileError(path, f"is incomplete (no {', '.join(missing)})",
+                               "/checkpoint")
+        statistics = None
+        if CHECKPOINT_STATISTICS in f:
+            statistics = {name: d[...] for name, d in f[CHECKPOINT_STATISTICS].items()}
+        return Checkpoint(binary=binary, state=state, statistics=statistics)
 
 
 class Run:
@@ -280,30 +506,48 @@ class Run:
     path : Path
     attrs : dict
         Root attributes.
+    format_version : str
+        Run-file format (``"1.0"`` for files written before the attribute existed).
     scenario : Scenario
         The scenario embedded in the file.
     timeseries : dict of numpy arrays (SI; see ``units``)
     units : dict
         Unit of each time series.
     n_snapshots : int
+    guard_events : list of (orbits, message)
+
+    Raises
+    ------
+    RunFileError
+        The file is not a readable ringsim run file (missing, empty, not HDF5, truncated,
+        incomplete, newer format, being written); the message says what is wrong.
     """
 
-    def __init__(self, path: str | Path):
+    def __init__(self, path: str | os.PathLike):
         from ringsim.config.scenario import scenario_from_text
+        from ringsim.config.schema import ScenarioError
 
         self.path = Path(path)
-        with h5py.File(self.path, "r") as f:
-            self.attrs = {k: (v.item() if isinstance(v, np.generic) else v)
+        with _reading(self.path) as f:
+            _require(f, self.path)
+            self.attrs = {k: (v.item() if isinstance(v, np.generic) else _text(v))
                           for k, v in f.attrs.items()}
             self.timeseries = {name: ds[...] for name, ds in f["timeseries"].items()}
-            self.units = {name: ds.attrs.get("units", "") for name, ds in f["timeseries"].items()}
+            self.units = {name: _text(ds.attrs.get("units", ""))
+                          for name, ds in f["timeseries"].items()}
             self._snapshot_names = sorted(f["snapshots"].keys())
             self.guard_events = [
-                (float(t), str(m.decode() if isinstance(m, bytes) else m))
+                (float(t), str(_text(m)))
                 for t, m in zip(f["guards"]["orbits"][...], f["guards"]["message"][...],
                                 strict=True)
             ]
-        self.scenario = scenario_from_text(self.attrs["scenario_yaml"], source=str(self.path))
+        self.format_version = str(self.attrs.get("format_version", UNVERSIONED))
+        try:
+            self.scenario = scenario_from_text(str(self.attrs["scenario_yaml"]),
+                                               source=str(self.path))
+        except ScenarioError as exc:
+            raise RunFileError(self.path, f"the embedded scenario is invalid ({exc.key}: "
+                               f"{exc.problem})", "scenario_yaml") from None
 
     @property
     def n_snapshots(self) -> int:
@@ -312,9 +556,9 @@ class Run:
     def snapshot(self, i: int) -> dict:
         """Snapshot ``i`` (negative counts from the end) as a dict of arrays plus ``t`` [s]."""
         name = self._snapshot_names[i]
-        with h5py.File(self.path, "r") as f:
+        with _reading(self.path) as f:
             g = f["snapshots"][name]
-            out = {field: g[field][...] for field in SNAPSHOT_FIELDS}
+            out = {field_name: g[field_name][...] for field_name in SNAPSHOT_FIELDS}
             out["t"] = float(g.attrs["t"])
         return out
 
@@ -323,6 +567,6 @@ class Run:
         return f"<ringsim Run {self.path} rows={n} snapshots={self.n_snapshots}>"
 
 
-def open_run(path: str | Path) -> Run:
-    """Open a run file written by ``ringsim run``."""
+def open_run(path: str | os.PathLike) -> Run:
+    """Open a run file written by ``ringsim run`` (RunFileError if it cannot be read)."""
     return Run(path)
