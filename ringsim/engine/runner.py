@@ -32,7 +32,6 @@ import signal
 import sys
 import tempfile
 import time
-import types
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -589,17 +588,3 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
               f"written to {path}; continue with --resume")
     return path
 
-
-class _CallableModule(types.ModuleType):
-    """``ringsim.run`` is both this module and the function :func:`run`.
-
-    Importing the submodule ``ringsim.run`` binds the module to the package attribute
-    ``ringsim.run``; making the module callable keeps ``ringsim.run(scenario, ...)`` (the
-    contract's API) working whatever was imported first.
-    """
-
-    def __call__(self, *args, **kwargs):
-        return run(*args, **kwargs)
-
-
-sys.modules[__name__].__class__ = _CallableModule
