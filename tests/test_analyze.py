@@ -101,3 +101,23 @@ def test_run_file_written_before_the_package_split_still_opens(tmp_path, capsys)
     assert CONTRACT_KEYS <= set(eq) and eq["n_particles"] == 80
     assert main(["compare", str(old), str(old)]) == 0
     assert "velocity dispersion" in capsys.readouterr().out
+
+
+def test_law_range_is_reported_with_the_laws_measured_ranges(two_runs):
+    """Constant eps states no measured range: nothing to report; the Dilley law's sizes are
+    2.5-20 cm, so metre-sized ring particles are all outside (a warning)."""
+    from ringsim.analysis.equilibrium import LAW_RANGE_WARNING, law_range, law_range_lines
+
+    run = ringsim.open_run(two_runs[0])
+    eq = ringsim.equilibrium(run)
+    assert eq["law_range"]["speeds"] is None and law_range_lines(eq) == []
+    ts = dict(run.timeseries)
+    ts["law_outside_sizes"] = ts["collisions"].copy()     # as a Dilley run of 1-3 m spheres
+    ts["law_outside_speeds"] = ts["collisions"] // 20
+    rng = law_range(ts, 1, "dilley")
+    assert rng["outside_sizes"] == 1.0
+    assert rng["outside_speeds"] == pytest.approx(ts["law_outside_speeds"][1:].sum()
+                                                  / ts["collisions"][1:].sum(), rel=1e-12)
+    assert 0.0 < rng["outside_speeds"] < LAW_RANGE_WARNING
+    lines = law_range_lines({**eq, "law_range": rng, "restitution": {"model": "dilley"}})
+    assert lines[1].startswith("WARNING") and not lines[0].startswith("WARNING")

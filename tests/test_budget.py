@@ -96,3 +96,9 @@ def test_cli_compare_refuses_a_bad_budget(tmp_path, capsys):
     assert main(["compare", str(tmp_path / "x.h5"), "--systematics", str(bad)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "b.json" in err[0]
+
+
+def test_replicas_of_a_single_case_are_compared_with_each_other():
+    comp = comparison([_eq("s1", 1, 1.0), _eq("s2", 2, 1.1)])
+    assert [r["name"] for r in comp["runs"]] == ["s1", "s2"]
+    assert comp["ratios"][0]["velocity_dispersion"]["mean"] == pytest.approx(1.1)

@@ -11,6 +11,7 @@ from ringsim.analysis.equilibrium import (
     TABLE_ROWS,
     _fmt,
     _ratio_of,
+    law_range_lines,
     size_ratio_line,
 )
 
@@ -39,7 +40,8 @@ def comparison(equilibria: Sequence[dict], systematics: dict | None = None) -> d
     """Side-by-side equilibria with ratios to the first, each with its error budget.
 
     Runs that differ only in their seed are replicas and are first combined
-    (``budget.replica_groups``); each later group is divided by the first.
+    (``budget.replica_groups``); each later group is divided by the first.  If every run is
+    a replica of one case, they are compared with each other instead.
 
     Parameters
     ----------
@@ -55,8 +57,10 @@ def comparison(equilibria: Sequence[dict], systematics: dict | None = None) -> d
     difference in units of the combined statistical error), ``all_in_equilibrium`` and
     ``warnings`` (one per run the finder did not call stationary).
     """
-    groups = [_combined([equilibria[i] for i in g])
-              for g in budget.replica_groups(equilibria)]
+    indices = budget.replica_groups(equilibria)
+    if len(indices) == 1:  # only replicas of one case: compare them with each other
+        indices = [[i] for i in range(len(equilibria))]
+    groups = [_combined([equilibria[i] for i in g]) for g in indices]
     base = groups[0]
     ratios = []
     for eq in groups[1:]:
@@ -103,6 +107,7 @@ def comparison_table(comp: dict) -> str:
         line = size_ratio_line(eq.get("size_ratio"))
         if line:
             lines.append(f"{eq['name']}: {line}")
+        lines += [f"{eq['name']}: {text}" for text in law_range_lines(eq)]
     for entry in comp["ratios"]:
         lines.append("")
         caveat = "" if entry["in_equilibrium"] else "  [NOT IN EQUILIBRIUM: see the warning]"

@@ -155,6 +155,7 @@ def equilibrium(run) -> dict:
                                            else math.nan, 0.0, "orbits")
     out["per_size_bin"] = _per_size_bin(ts, start, radius, mass)
     out["size_ratio"] = size_dispersion_ratio(out["per_size_bin"])
+    out["law_range"] = law_range(ts, start, sc.restitution.model)
     out["in_equilibrium"] = window["in_equilibrium"]
     out["reason"] = window["reason"]
     out["status"] = str(run.attrs.get("status", "unknown"))
@@ -168,6 +169,65 @@ def equilibrium(run) -> dict:
     out["kinetic_estimate"] = kinetic_estimate(sc.restitution_dict(), radius, mass,
                                                out["optical_depth"], Omega)
     return out
+
+
+#: Share of impacts outside the speeds (or sizes) a law was measured over above which
+#: ``analyze`` and ``compare`` warn that the result extrapolates the law.
+LAW_RANGE_WARNING = 0.10
+
+
+def law_range(ts: dict, start: int, model: str) -> dict | None:
+    """Share of the equilibrium window's impacts outside the impact speeds and reduced radii
+    the restitution law's parameters were measured over (``physics.restitution``'s
+    declaration; the run's ``law_outside_speeds`` / ``law_outside_sizes`` counts).  None
+    for run files without these counts.
+
+    Returns
+    -------
+    dict with ``outside_speeds``, ``outside_sizes`` [fraction of impacts, NaN without
+    impacts or where the law states no range], ``speeds`` [m/s] and ``sizes`` [m] (the
+    measured ranges, None where not stated) and ``source``.
+    """
+    if "law_outside_speeds" not in ts:
+        return None
+    from ringsim.physics.restitution import RESTITUTION
+
+    measured = RESTITUTION[model].measured
+    impacts = float(np.sum(ts["collisions"][start:]))
+
+    def share(key: str, declared) -> float:
+        if declared is None or not impacts:
+            return math.nan
+        return float(np.sum(ts[key][start:])) / impacts
+
+    return {"outside_speeds": share("law_outside_speeds", measured.speeds),
+            "outside_sizes": share("law_outside_sizes", measured.sizes),
+            "speeds": list(measured.speeds) if measured.speeds else None,
+            "sizes": list(measured.sizes) if measured.sizes else None,
+            "source": measured.source,
+            "units": {"outside_speeds": "fraction of impacts", "outside_sizes":
+                      "fraction of impacts", "speeds": "m/s", "sizes": "m"}}
+
+
+def law_range_lines(eq: dict) -> list[str]:
+    """Lines saying how much of a run's equilibrium extrapolates its restitution law, with a
+    WARNING above `LAW_RANGE_WARNING`."""
+    rng = eq.get("law_range")
+    if not rng:
+        return []
+    lines = []
+    for key, what, unit, scale in (("speeds", "impact speeds", "cm/s", 100.0),
+                                   ("sizes", "reduced radii", "cm", 100.0)):
+        share = rng[f"outside_{key}"]
+        if rng[key] is None or not math.isfinite(share):
+            continue
+        lo, hi = (x * scale for x in rng[key])
+        text = (f"{100 * share:.1f} % of impacts outside the {what} the "
+                f"{eq['restitution']['model']} law was measured over ({lo:g}-{hi:g} {unit})")
+        lines.append(("WARNING: " if share > LAW_RANGE_WARNING else "") + text
+                     + (": the result extrapolates the law" if share > LAW_RANGE_WARNING
+                        else ""))
+    return lines
 
 
 def _per_size_bin(ts: dict, start: int, radius: np.ndarray, mass: np.ndarray) -> list[dict]:
@@ -302,4 +362,5 @@ def equilibrium_table(eq: dict) -> str:
         line = size_ratio_line(eq.get("size_ratio"))
         if line:
             lines.append("  " + line)
+    lines += ["  " + line for line in law_range_lines(eq)]
     return "\n".join(lines)

@@ -344,6 +344,8 @@ struct rs_resolver* rs_resolver_create(int32_t model, double param0, double para
     memcpy(res->param, param, sizeof(param));
     res->log_capacity = log_capacity;
     res->log_every = log_every;
+    const double unknown[4] = {0.0, INFINITY, 0.0, INFINITY};
+    memcpy(res->measured, unknown, sizeof(unknown));
     return res;
 }
 
@@ -393,6 +395,8 @@ static void rs_record(struct rs_resolver* res, double t, double v_n, double R_ba
     s->n_floored += floored;
     s->sum_epsilon += eps;
     s->sum_vn += v_n;
+    s->outside_speeds += (v_n < res->measured[0] || v_n > res->measured[1]);
+    s->outside_sizes += (R_bar < res->measured[2] || R_bar > res->measured[3]);
 
     if (v_n > 0.0){
         const double bin = floor((log10(v_n) - RS_VN_LOG10_MIN) * RS_BINS_PER_DECADE);

@@ -39,6 +39,10 @@ struct rs_stats {
     int64_t log_written;                    /* entries written to the ring buffer */
     int64_t multi_encounters;               /* collisions in which a partner had already
                                                been deflected earlier in the same step */
+    int64_t outside_speeds;                 /* impact speed outside the law's measured
+                                               range (rs_resolver.measured[0..1]) */
+    int64_t outside_sizes;                  /* reduced radius outside its measured range
+                                               (rs_resolver.measured[2..3]) */
 };
 
 /* Pairs resolved in the current step of the swept-path modes (open-addressing set), and
@@ -67,6 +71,8 @@ struct rs_resolver {
     struct rs_pair_memory memory;
     struct rs_sheet_detector* detector;     /* NULL unless the sheet detector is used */
     void (*detector_free)(struct rs_sheet_detector*);   /* set with detector */
+    double measured[4];     /* [m/s] speeds, [m] reduced radii the law's parameters were
+                               measured over: v_min, v_max, R_min, R_max (0, inf: unknown) */
 };
 
 /* The resolver installed in r (through r->extras), or NULL. */

@@ -58,6 +58,8 @@ class _Stats(ctypes.Structure):
         ("eps_hist", ctypes.c_int64 * _N_EPS_BINS),
         ("log_written", ctypes.c_int64),
         ("multi_encounters", ctypes.c_int64),
+        ("outside_speeds", ctypes.c_int64),
+        ("outside_sizes", ctypes.c_int64),
     ]
 
 
@@ -80,6 +82,7 @@ class _Resolver(ctypes.Structure):
         ("memory_last_step", ctypes.c_void_p),
         ("detector", ctypes.c_void_p),
         ("detector_free", ctypes.c_void_p),
+        ("measured", ctypes.c_double * 4),
     ]
 
 

@@ -112,6 +112,16 @@ def _detach(sim: rebound.Simulation, handle: ResolverHandle) -> None:
         sim._extras_ref = None
 
 
+def measured_range(model: str) -> tuple[float, float, float, float]:
+    """(v_min, v_max [m/s], R_min, R_max [m]) the law's parameters were measured over, from
+    its declaration (``physics.restitution.RESTITUTION``); (0, inf) where not stated.  The
+    resolver counts the collisions outside them (``outside_speeds``, ``outside_sizes``)."""
+    measured = rs.RESTITUTION[model].measured
+    speeds = measured.speeds or (0.0, math.inf)
+    sizes = measured.sizes or (0.0, math.inf)
+    return (float(speeds[0]), float(speeds[1]), float(sizes[0]), float(sizes[1]))
+
+
 class ResolverHandle:
     """Parameters and statistics of ringsim's C resolver in one simulation.
 
@@ -166,6 +176,7 @@ class ResolverHandle:
         self.collision_detection = collision_detection
         self._address: int | None = address
         self._struct = _Resolver.from_address(address)
+        self._struct.measured[:] = measured_range(model)
         # Function pointers into the loaded library; kept here so they live with the handle.
         self._resolve_fp = COLRFF(_RESOLVE_ADDRESS)
         self._sheet_step_fp = (_POST_TIMESTEP(_SHEET_STEP_ADDRESS) if _SHEET_STEP_ADDRESS
@@ -296,6 +307,8 @@ class ResolverHandle:
             "log_written": int(s.log_written),
             "log_every": self.log_every,
             "multi_encounters": int(s.multi_encounters),
+            "outside_speeds": int(s.outside_speeds),
+            "outside_sizes": int(s.outside_sizes),
         }
 
     def order_stats(self) -> dict[str, int]:

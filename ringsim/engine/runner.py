@@ -292,6 +292,8 @@ class Runner:
             "z_half_period": 0.5 * g.z_period,
             "overlapping_pairs": sheet.count_overlaps(arrays, g, self.sim.t),
             "multi_encounters": int(stats["multi_encounters"]),
+            "law_outside_speeds": int(stats["outside_speeds"]),
+            "law_outside_sizes": int(stats["outside_sizes"]),
             "one_minus_epsilon_histogram": _with_outer_bins(stats["histograms"]
                                                             ["one_minus_epsilon"]),
             "impact_speed_histogram": _with_outer_bins(stats["histograms"]["v_n"]),

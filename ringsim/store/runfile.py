@@ -82,6 +82,8 @@ TIMESERIES_UNITS = {
     "z_half_period": "m",
     "overlapping_pairs": "count",
     "multi_encounters": "count",
+    "law_outside_speeds": "count",
+    "law_outside_sizes": "count",
     "momentum_residual": "m/s",
     "size_bin_velocity_dispersion": "m/s",
     "size_bin_thickness": "m",
