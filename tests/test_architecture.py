@@ -54,6 +54,10 @@ ALLOWED = {
         "module",
         "the run loop writes one time-series row per output from snapshot_summary, a pure "
         "numpy function of the particle arrays that imports nothing of the engine"),
+    ("ringsim.engine.runner", "ringsim.analysis.equilibrium"): (
+        "function",
+        "integration.until_equilibrium stops a run on the same stationarity verdict that "
+        "analyze reports (one verdict, declared once in analysis.equilibrium)"),
     ("ringsim.config.scenario", "ringsim.engine.native"): (
         "function",
         "the one deliberate exception of the data path: scenario validation asks the C "

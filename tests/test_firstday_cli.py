@@ -14,7 +14,7 @@ import pytest
 import ringsim
 from ringsim.cli import main
 from ringsim.config.scenario import scenario_from_dict
-from ringsim.engine.runner import _ProgressLog
+from ringsim.engine.progress import ProgressLog
 from ringsim.physics import restitution as rs
 from ringsim.store.runfile import set_attributes
 from ringsim.sweep import PointTask, _LabelledStream, run_point
@@ -115,7 +115,7 @@ def test_progress_in_a_log_is_plain_lines(tmp_path):
 
 def test_progress_log_writes_at_most_every_interval():
     stream = io.StringIO()
-    log = _ProgressLog("demo", total=10.0, initial=0.0, interval=3600.0, stream=stream)
+    log = ProgressLog("demo", total=10.0, initial=0.0, interval=3600.0, stream=stream)
     for _ in range(100):
         log.update(0.1)
     assert stream.getvalue() == "", "nothing before the interval has passed"
@@ -124,7 +124,7 @@ def test_progress_log_writes_at_most_every_interval():
     lines = stream.getvalue().splitlines()
     assert len(lines) == 1 and lines[0].startswith("demo: 10.00/10 orbits (100%) after 0:00:0")
     assert lines[0].endswith(", 5 coll/s")
-    every = _ProgressLog("demo", total=10.0, initial=0.0, interval=0.0, stream=io.StringIO())
+    every = ProgressLog("demo", total=10.0, initial=0.0, interval=0.0, stream=io.StringIO())
     for _ in range(3):
         every.update(1.0)
     assert len(every.stream.getvalue().splitlines()) == 3

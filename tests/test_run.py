@@ -269,3 +269,32 @@ def test_extending_a_finished_run_equals_a_longer_run(tmp_path):
     other = small_scenario(**{"integration.orbits": 0.8, "restitution.kappa": 0.0})
     with pytest.raises(ringsim.InputError, match="only integration.orbits may grow"):
         ringsim.run(other, output=path, resume=True, progress=False)
+
+
+def test_until_equilibrium_stops_when_stationary_and_says_why(tmp_path):
+    """A cold dense ring settles within an orbit or two: with until_equilibrium the run stops
+    long before its maximum, at an output where analyze calls it stationary; without it,
+    it runs to the end.  Both files say why they stopped."""
+    base = scenario_from_dict({
+        "name": "settle", "seed": 2, "planet": {"Omega": 2.0e-4},
+        "particles": {"size_distribution": {"kind": "monodisperse", "radius": 1.0}},
+        "sheet": {"optical_depth": 0.8, "n_particles": 150},
+        "restitution": {"model": "constant", "epsilon": 0.5},
+        "integration": {"orbits": 60.0, "collision_detection": "line",
+                        "until_equilibrium": True},
+        "output": {"timeseries_every": 0.05, "snapshot_every": 5.0}})
+    path = ringsim.run(base, output=tmp_path / "settle.h5", progress=False)
+    run = ringsim.open_run(path)
+    assert run.attrs["status"] == "finished"
+    assert run.attrs["stop_reason"].startswith("until_equilibrium: c and H stationary")
+    orbits = run.timeseries["orbits"]
+    assert orbits[-1] < 30.0, "stopped well before the maximum"
+    assert ringsim.equilibrium(run)["in_equilibrium"], "analyze agrees"
+    assert (orbits.size - 1) % 10 == 0, "decided at a check output"
+    ringsim.run(base, output=path, resume=True, progress=False)
+    assert ringsim.open_run(path).timeseries["orbits"].size == orbits.size, \
+        "resuming a run that reached equilibrium stops at once, at the same output"
+    short = with_overrides(base, {"integration.orbits": 1.0,
+                                  "integration.until_equilibrium": False})
+    path = ringsim.run(short, output=tmp_path / "plain.h5", progress=False)
+    assert ringsim.open_run(path).attrs["stop_reason"] == "reached integration.orbits = 1"

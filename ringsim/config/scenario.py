@@ -102,7 +102,7 @@ _SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "particles": ("density", "size_distribution"),
     "sheet": ("optical_depth", "n_particles", "aspect", "gravity", "softening",
               "opening_angle", "initial_dispersion", "z_box", "initial_state"),
-    "integration": ("orbits", "dt", "dt_safety", "collision_detection"),
+    "integration": ("orbits", "dt", "dt_safety", "collision_detection", "until_equilibrium"),
     "output": ("path", "timeseries_every", "snapshot_every", "checkpoint_every",
                "log_collisions"),
 }
@@ -130,6 +130,7 @@ DEFAULTS: dict[str, Any] = {
     "integration.dt": "auto",
     "integration.dt_safety": 0.1,
     "integration.collision_detection": "tree",
+    "integration.until_equilibrium": False,
     "output.timeseries_every": 0.1,
     "output.snapshot_every": 5.0,
     "output.log_collisions": 0,
@@ -297,16 +298,21 @@ class Integration:
         fraction of the smallest radius.
     collision_detection : str
         tree (overlaps at the ends of steps) | line (swept paths within the step).
+    until_equilibrium : bool
+        Stop once the equilibrium finder calls c and H stationary (``orbits`` is then the
+        maximum).
     """
 
     orbits: float
     dt: float | str
     dt_safety: float
     collision_detection: str
+    until_equilibrium: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         return {"orbits": self.orbits, "dt": self.dt, "dt_safety": self.dt_safety,
-                "collision_detection": self.collision_detection}
+                "collision_detection": self.collision_detection,
+                "until_equilibrium": self.until_equilibrium}
 
 
 @dataclass(frozen=True)
@@ -570,6 +576,7 @@ def _read_integration(top: Section, planet: Planet) -> Integration:
         dt=dt,
         dt_safety=sec.number("dt_safety", d["integration.dt_safety"], gt=0.0, le=1.0),
         collision_detection=detection,
+        until_equilibrium=sec.boolean("until_equilibrium", d["integration.until_equilibrium"]),
     )
 
 

@@ -41,6 +41,7 @@ import rebound
 
 from ringsim.analysis import snapshot
 from ringsim.engine import invariants, sheet, timestep
+from ringsim.engine.progress import progress_bar
 from ringsim.errors import InputError
 from ringsim.store import runfile
 from ringsim.store.lock import RunFileLock
@@ -102,6 +103,9 @@ WRITE_INTERVAL = 2.0
 COMMIT_COST_SHARE = 0.02
 #: In line mode ``dt: auto`` is re-estimated at every this many time-series outputs.
 LINE_DT_EVERY = 10
+#: With ``integration.until_equilibrium`` the run asks the equilibrium finder whether c and
+#: H are stationary at every this many time-series outputs.
+EQUILIBRIUM_CHECK_EVERY = 10
 
 
 def _simulation_binary(sim: rebound.Simulation) -> bytes:
@@ -184,6 +188,9 @@ class Runner:
         self.commit_cost = 0.0  # wall time [s] of the last commit
         self.wall_start = time.perf_counter()
         self.wall_before = 0.0  # wall time [s] of earlier sessions of this run
+        # c and H so far, for until_equilibrium: orbits [orbits], c [m/s], H [m]
+        self.history: dict[str, list[float]] = {"orbits": [], "velocity_dispersion": [],
+                                                "thickness": []}
 
     # -- set-up --------------------------------------------------------------------------------
 
@@ -236,6 +243,8 @@ class Runner:
         if self.state.rows > run.timeseries["t"].size or self.state.snapshots > run.n_snapshots:
             raise runfile.RunFileError(self.path, "is newer than the time series or the "
                                        "snapshots it refers to", "/checkpoint")
+        for key, values in self.history.items():
+            values.extend(float(x) for x in run.timeseries[key][:self.state.rows])
         sim = _simulation_from_binary(checkpoint.binary, self.path)
         self.n_particles = int(st.get("n_particles", sim.N))
         if sim.N != self.n_particles:
@@ -382,6 +391,8 @@ class Runner:
         residual = self._invariants(arrays, stats, first)
         row = self._row(arrays, stats)
         row["momentum_residual"] = residual
+        for key, values in self.history.items():
+            values.append(float(row[key]))
         self.pending_rows.append(row)
         self.state.rows += 1
         self.handle.reset_stats()
@@ -446,20 +457,52 @@ class Runner:
         """Integrate to the first step end at or after ``t_next`` [s]."""
         self.sim.integrate(t_next, exact_finish_time=0)
 
+    def equilibrium_reached(self) -> str | None:
+        """With ``integration.until_equilibrium``: the reason to stop if the equilibrium
+        finder calls c and H stationary now (checked every `EQUILIBRIUM_CHECK_EVERY`
+        outputs, so a resumed run decides at the same outputs), else None."""
+        if not self.scenario.integration.until_equilibrium \
+                or (self.state.rows - 1) % EQUILIBRIUM_CHECK_EVERY:
+            return None
+        from ringsim.analysis.equilibrium import stationary_window
+
+        h = {key: np.asarray(values) for key, values in self.history.items()}
+        window = stationary_window(h["orbits"], h["velocity_dispersion"], h["thickness"])
+        if not window["in_equilibrium"]:
+            return None
+        return (f"until_equilibrium: c and H stationary at orbit {h['orbits'][-1]:.4g} "
+                f"({window['reason']})")
+
+    def stop_reason(self, status: str, reason: str | None) -> str:
+        """Why the run ended, for the file's ``stop_reason`` attribute."""
+        if status == "stopped":
+            return "interrupted (SIGINT/SIGTERM); continue with --resume"
+        if reason:
+            return reason
+        orbits = self.scenario.integration.orbits
+        if not self.scenario.integration.until_equilibrium:
+            return f"reached integration.orbits = {orbits:g}"
+        return (f"until_equilibrium: reached the maximum integration.orbits = {orbits:g} "
+                "without c and H stationary")
+
     def loop(self, stop: _StopRequest | None = None) -> str:
         """Integrate to the end (or a stop); returns the status written to the file.
 
         ``stop``: an active :class:`_StopRequest` (``run`` installs one before the set-up,
         so that a signal during it also ends in a checkpoint); one is made if None.
         """
-        bar = _progress_bar(self.scenario, self.sim.t / self.orbit) if self.progress else None
+        bar = progress_bar(self.scenario, self.sim.t / self.orbit) if self.progress else None
         wall0, coll0 = time.perf_counter(), int(self.sim.collisions_log_n)
         status = "finished"
+        reason = None
         try:
             with contextlib.nullcontext(stop) if stop is not None else _StopRequest() as stop:
                 while self.sim.t < self.t_end * (1 - 1e-12):
                     if stop.requested:
                         status = "stopped"
+                        break
+                    reason = self.equilibrium_reached()
+                    if reason:
                         break
                     t_next = min(self.state.rows * self.ts_every, self.t_end)
                     t_next = max(t_next, self.sim.t)
@@ -485,62 +528,12 @@ class Runner:
                 # a final checkpoint (a signal now waits for it): a stopped run resumes
                 # from here, the resolver's statistics of the open interval included; a
                 # finished one can be extended
-                self.checkpoint(attributes={"status": status})
+                self.checkpoint(attributes={"status": status,
+                                            "stop_reason": self.stop_reason(status, reason)})
         finally:
             if bar is not None:
                 bar.close()
         return status
-
-
-#: A progress line is written at most this often [s of wall time] when stderr is not a
-#: terminal (a log file or a pipe gets plain lines instead of a carriage-return bar).
-PROGRESS_LOG_INTERVAL = 30.0
-
-
-class _ProgressLog:
-    """The part of tqdm's interface the run loop uses, writing a plain line to stderr at
-    most every ``interval`` seconds and one at the end."""
-
-    def __init__(self, name: str, total: float, initial: float, interval: float,
-                 stream=None):
-        self.name, self.total, self.n = name, total, initial
-        self.interval = interval
-        self.stream = stream if stream is not None else sys.stderr
-        self.postfix = ""
-        self.start = self.last = time.monotonic()
-
-    def update(self, delta: float) -> None:
-        self.n += delta
-        if time.monotonic() - self.last >= self.interval:
-            self._write()
-
-    def set_postfix_str(self, text: str) -> None:
-        self.postfix = text
-
-    def close(self) -> None:
-        self._write()
-
-    def _write(self) -> None:
-        self.last = time.monotonic()
-        elapsed = int(self.last - self.start)
-        fraction = self.n / self.total if self.total else 1.0
-        extra = f", {self.postfix}" if self.postfix else ""
-        self.stream.write(f"{self.name}: {self.n:.2f}/{self.total:g} orbits "
-                          f"({fraction:.0%}) after {elapsed // 3600}:{elapsed // 60 % 60:02d}:"
-                          f"{elapsed % 60:02d}{extra}\n")
-        self.stream.flush()
-
-
-def _progress_bar(scenario, done_orbits: float):
-    """A tqdm bar on a terminal; plain lines every PROGRESS_LOG_INTERVAL s otherwise."""
-    if not sys.stderr.isatty():
-        return _ProgressLog(scenario.name, scenario.integration.orbits, done_orbits,
-                            PROGRESS_LOG_INTERVAL)
-    from tqdm import tqdm
-
-    return tqdm(total=scenario.integration.orbits, initial=done_orbits, unit="orbit",
-                mininterval=0.5, desc=scenario.name, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
-                "{n:.2f}/{total:g} orbits [{elapsed}<{remaining}{postfix}]")
 
 
 def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
