@@ -48,7 +48,7 @@ LINE_VALIDATION = ROOT / "analysis" / "data" / "line_mode_validation.json"
 MAX_ORBITS = 400.0
 #: Method variants of the systematic budget: source -> overrides of the power-law pair.
 SYSTEMATIC_VARIANTS = {
-    "n_particles": {"sheet.n_particles": 1000},
+    "n_particles": {"sheet.n_particles": None},     # a quarter of the pair's particles
     "dt": {"integration.dt": 5e-4},
     "box_size": {"sheet.aspect": 2.0},
 }
@@ -92,6 +92,8 @@ def scaling_prediction(sc) -> tuple[float, float]:
 def variants(args) -> dict[str, dict]:
     """Size-distribution variants: scenario overrides by name."""
     common = {"integration.until_equilibrium": True, "integration.orbits": args.max_orbits}
+    if args.particles:
+        common["sheet.n_particles"] = args.particles
     mono = dict(common)
     mono["particles.size_distribution"] = {"kind": "monodisperse", "radius": args.mono_radius}
     mono["sheet.n_particles"] = args.mono_particles
@@ -136,7 +138,6 @@ def stationary_equilibria(paths: list[str]) -> tuple[list[dict], list[str]]:
     kept, left_out = [], []
     for path in paths:
         eq = equilibrium(open_run(path))
-        eq["law_outside_range"] = law_outside_range(open_run(path))
         if eq["in_equilibrium"]:
             kept.append(eq)
         else:
@@ -144,20 +145,17 @@ def stationary_equilibria(paths: list[str]) -> tuple[list[dict], list[str]]:
     return kept, left_out
 
 
-def law_outside_range(run) -> float:
-    """Fraction of the run's impacts outside the speeds its restitution law was measured
-    over (the run file's ``law_range_outside`` time series); NaN if not recorded."""
-    ts = run.timeseries
-    if "law_range_outside" not in ts:
-        return math.nan
-    total = float(ts["collisions"][1:].sum())
-    return float(ts["law_range_outside"][1:].sum()) / total if total else math.nan
+def comparable(eqs: list[dict]) -> bool:
+    """Whether stationary runs of both kappa values are there to form a ratio."""
+    kappas = {e["scenario"]["restitution"]["kappa"] for e in eqs}
+    return len(kappas) == 2
 
 
-def ratio_of_pair(paths: list[str]) -> dict:
-    """The comparison (kappa = 0.1 / kappa = 0) of one set of runs."""
+def ratio_of_pair(paths: list[str]) -> dict | None:
+    """The comparison (kappa = 0.1 / kappa = 0) of one set of runs; None unless both
+    kappa values have a stationary run."""
     eqs, _ = stationary_equilibria(paths)
-    return comparison(eqs)["ratios"][0]
+    return comparison(eqs)["ratios"][0] if comparable(eqs) else None
 
 
 def detection_systematics() -> dict[str, float]:
@@ -183,10 +181,15 @@ def measure_budget(args, runs_dir: Path, base_ratio: dict) -> dict:
     """Run the method variants and write the systematic budget (see module docstring)."""
     relative: dict[str, dict[str, float]] = {key: {} for key in TABLE_ROWS}
     common = variants(args)["powerlaw"]
+    n_base = args.particles or load_scenario(SCENARIOS["kappa = 0"]).sheet.n_particles
     for source, overrides in SYSTEMATIC_VARIANTS.items():
-        paths = run_all(pair_jobs(f"syst-{source}", {**common, **overrides}, args.seeds,
-                                  runs_dir), args.workers)
+        if source == "n_particles":
+            overrides = {"sheet.n_particles": n_base // 4}
+        paths = run_all(pair_jobs(f"syst-{source}", {**common, **overrides},
+                                  args.systematic_seeds, runs_dir), args.workers)
         other = ratio_of_pair(paths)
+        if other is None:
+            continue
         for key in TABLE_ROWS:
             a, b = base_ratio[key], other[key]
             if math.isfinite(a["mean"]) and math.isfinite(b["mean"]) and a["mean"]:
@@ -241,14 +244,15 @@ def variant_section(variant: str, comp: dict, left_out: list[str], eqs: list[dic
     lines.append("| dilute kinetic estimate c / (<r> Omega) | " + " | ".join(
         f"{k['velocity_dispersion_rOmega']:.3g}" if k["status"] == "equilibrium"
         else k["status"] for k in kin) + " | |")
-    outside = []
-    for g in (base, other):
-        fractions = [e["law_outside_range"] for e in eqs if e["name"] in g.get("replicas",
-                                                                              [g["name"]])]
-        outside.append(f"{100 * sum(fractions) / len(fractions):.1f} %" if fractions
-                       and all(math.isfinite(f) for f in fractions) else "not recorded")
-    lines.append("| impacts outside the law's measured speeds | " + " | ".join(outside)
-                 + " | |")
+    for key, what in (("outside_speeds", "speeds"), ("outside_sizes", "reduced radii")):
+        cells = []
+        for g in (base, other):
+            shares = [e["law_range"][key] for e in eqs if e.get("law_range")
+                      and e["name"] in g.get("replicas", [g["name"]])]
+            cells.append(f"{100 * sum(shares) / len(shares):.1f} %" if shares
+                         and all(math.isfinite(s) for s in shares) else "not stated")
+        lines.append(f"| impacts outside the law's measured {what} | " + " | ".join(cells)
+                     + " | |")
     lines += ["", f"The kinetic estimate uses {kin[0].get('representative', 'the mean particle')}.",
               ""]
     for g in (base, other):
@@ -267,7 +271,11 @@ def main() -> None:
     parser.add_argument("--max-orbits", type=float, default=MAX_ORBITS)
     parser.add_argument("--mono-radius", type=float, default=1.0,
                         help="radius of the monodisperse variant [m]")
+    parser.add_argument("--particles", type=int, default=None,
+                        help="particles of the power-law pair (default: as the scenarios)")
     parser.add_argument("--mono-particles", type=int, default=2000)
+    parser.add_argument("--systematic-seeds", type=int, nargs="+", default=[1],
+                        help="seeds of the method variants of --systematics")
     parser.add_argument("--runs", default=str(ROOT / "runs" / "kappa"))
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--systematics", action="store_true",
@@ -284,11 +292,17 @@ def main() -> None:
         eqs, left_out = stationary_equilibria(paths)
         results[variant] = (paths, eqs, left_out)
     budget = None
-    if args.systematics:
+    if args.systematics and comparable(results["powerlaw"][1]):
         budget = measure_budget(args, runs_dir, comparison(results["powerlaw"][1])["ratios"][0])
     elif BUDGET.exists():
         budget = json.loads(BUDGET.read_text())
     for variant, (_paths, eqs, left_out) in results.items():
+        if not comparable(eqs):
+            summary.append(f"- **{variant}**: no ratio: not both kappa values have a run the "
+                           "equilibrium finder calls stationary.")
+            sections += [f"## {variant} particles", "", "Runs left out (the finder did not "
+                         "call them stationary):", "", *[f"- {item}" for item in left_out], ""]
+            continue
         comp = comparison(eqs, budget if variant == "powerlaw" else None)
         sections += variant_section(variant, comp, left_out, eqs)
         r = comp["ratios"][0]
@@ -306,7 +320,10 @@ def main() -> None:
         sections += [f"![{f.stem}](figures/{variant}/{f.name})" for f in figures] + [""]
     lines = ["# Ring equilibria with kappa = 0 and kappa = 0.1", "",
              f"Generated by `python analysis/kappa_comparison.py --seeds "
-             f"{' '.join(map(str, args.seeds))}{' --systematics' if args.systematics else ''}`"
+             f"{' '.join(map(str, args.seeds))}"
+             f"{f' --particles {args.particles}' if args.particles else ''} --mono-particles "
+             f"{args.mono_particles} --max-orbits {args.max_orbits:g}"
+             f"{' --systematics' if args.systematics else ''}`"
              f" in {time.perf_counter() - t0:.0f} s.", "",
              "## What changes between kappa = 0 and kappa = 0.1", "", *summary, "",
              *EXPLANATION, "",
