@@ -26,6 +26,7 @@ import numpy as np
 
 #: Rows of Kinetic-0.5-1.dat: tau, c [r Omega], Pi_xy [r^2 Omega^2], nu_coll [r^2 Omega].
 KINETIC_EPS05 = np.array([
+    (0.004022738557472502, 2.1245959421256924, -0.011408597597881863, 0.0036649666951325474),
     (0.10462838348880808, 2.1176790725643495, -0.2986519106241994, 0.1042965087524298),
     (0.21148098488624914, 2.0424023882526767, -0.552602999122344, 0.22687357467565789),
     (0.3146027024004444, 1.930796350603784, -0.7101217419338307, 0.35491497442292963),
@@ -50,7 +51,7 @@ def kinetic_steady_state(tau: float) -> dict[str, float]:
 
     Parameters
     ----------
-    tau : float [dimensionless], within the table (0.105 - 1.59)
+    tau : float [dimensionless], within the table (0.004 - 1.59)
     """
     t, c, pi_xy, nu_coll = KINETIC_EPS05.T
     if not t[0] <= tau <= t[-1]:
@@ -84,3 +85,66 @@ def compare_with_kinetic_theory(eq: dict, Omega: float) -> dict[str, dict[str, f
     return {key: {"ringsim": value, "ringsim_err": err, "theory": theory[key],
                   "deviation": value / theory[key] - 1.0}
             for key, (value, err) in ours.items()}
+
+
+#: Section of docs/validation.md written by `main`.
+HEADING = "## Kinetic theory: identical smooth spheres, constant eps = 0.5"
+#: Optical depths, particles and orbits of `main` (tree detection, dt: auto).
+TAUS = (0.1, 0.25, 0.4, 0.5, 0.8, 1.0, 1.5)
+N_PARTICLES = 500
+ORBITS = 20.0
+OMEGA = 2.0e-4  # [1/s]
+
+
+def _scenario(tau: float):
+    from ringsim.config.scenario import scenario_from_dict
+
+    return scenario_from_dict({
+        "name": f"kinetic-tau{tau:g}", "seed": 1, "planet": {"Omega": OMEGA},
+        "particles": {"density": 900.0,
+                      "size_distribution": {"kind": "monodisperse", "radius": 1.0}},
+        "sheet": {"optical_depth": tau, "n_particles": N_PARTICLES},
+        "restitution": {"model": "constant", "epsilon": 0.5},
+        "integration": {"orbits": ORBITS, "collision_detection": "tree"},
+        "output": {"timeseries_every": 0.05, "snapshot_every": ORBITS}})
+
+
+def section_markdown(rows: list[tuple[float, dict, bool]]) -> str:
+    """The section: one line per (tau, comparison, in_equilibrium)."""
+    lines = [HEADING, "",
+             f"Written by `python -m ringsim.validation.kinetic_theory`: {N_PARTICLES} "
+             f"identical 1 m spheres, constant eps = 0.5, Omega = {OMEGA:g} 1/s, tree "
+             f"detection with dt: auto, {ORBITS:g} orbits, seed 1; equilibrium window and "
+             f"errors from `ringsim.equilibrium`.  Reference: {SOURCE}.  Tolerance of the "
+             "tests (tests/test_kinetic_theory.py): c within 3 %.", "",
+             "| tau | c ringsim [r Omega] | c theory | dev. | nu_trans ringsim [r^2 Omega] "
+             "| nu_trans theory | dev. | nu_coll ringsim | nu_coll theory | dev. | "
+             "in equilibrium |", "|---" * 11 + "|"]
+    for tau, comp, in_eq in rows:
+        cells = [f"{tau:g}"]
+        for key in ("c", "nu_trans", "nu_coll"):
+            q = comp[key]
+            cells += [f"{q['ringsim']:.4g} ± {q['ringsim_err']:.2g}", f"{q['theory']:.4g}",
+                      f"{100 * q['deviation']:+.1f} %"]
+        lines.append("| " + " | ".join(cells + [str(in_eq)]) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    """Run the optical depths of `TAUS` and write the section of docs/validation.md."""
+    import ringsim
+    from ringsim.report import replace_section
+    from ringsim.validation.common import DOC, WORKDIR
+
+    rows = []
+    for tau in TAUS:
+        path = WORKDIR / f"kinetic_tau{tau:g}.h5"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        ringsim.run(_scenario(tau), output=path, force=True, progress=False)
+        eq = ringsim.equilibrium(ringsim.open_run(path))
+        rows.append((tau, compare_with_kinetic_theory(eq, OMEGA), eq["in_equilibrium"]))
+    replace_section(DOC, HEADING, section_markdown(rows), "Validation")
+
+
+if __name__ == "__main__":
+    main()
