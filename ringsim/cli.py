@@ -206,14 +206,20 @@ def _cmd_analyze(args) -> int:
     _print_status(run)
     eq = equilibrium(run)
     print(equilibrium_table(eq))
-    if args.json:
-        _write_json(args.json, eq)
-    if args.plots:
-        from ringsim.plots import plot_run
-
-        for path in plot_run(run, eq, args.plots):
-            print(f"wrote {path}")
+    _write_results(args, eq, "plot_run", run, eq)
     return EXIT_OK
+
+
+def _write_results(args, payload, plot: str, *plot_args) -> None:
+    """``--json`` (the payload) and ``--plots DIR`` (``ringsim.plots.<plot>(*plot_args,
+    DIR)``) of analyze and compare."""
+    if args.json:
+        _write_json(args.json, payload)
+    if args.plots:
+        from ringsim import plots
+
+        for path in getattr(plots, plot)(*plot_args, args.plots):
+            print(f"wrote {path}")
 
 
 def _cmd_compare(args) -> int:
@@ -238,13 +244,7 @@ def _cmd_compare(args) -> int:
     for warning in comp["warnings"]:
         print(f"ringsim: {warning}", file=sys.stderr)
     print(comparison_table(comp))
-    if args.json:
-        _write_json(args.json, comp)
-    if args.plots:
-        from ringsim.plots import plot_comparison
-
-        for path in plot_comparison(runs, equilibria, args.plots):
-            print(f"wrote {path}")
+    _write_results(args, comp, "plot_comparison", runs, equilibria)
     return EXIT_OK
 
 
