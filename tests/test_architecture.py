@@ -73,8 +73,6 @@ LONG_MODULES = {
 }
 LONG_FUNCTIONS = {
     "analysis/fit.py::fit_model",
-    "analysis/timeseries.py::stationary_mean",
-    "physics/kinetic.py::kinetic_dispersion_estimate",
     "sweep.py::run_sweep",
 }
 

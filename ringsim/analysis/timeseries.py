@@ -166,6 +166,39 @@ def autocorrelated_mean(values: ArrayLike,
     return float(np.mean(v)), math.sqrt(float(np.var(v)) * tau / v.size), v.size / tau
 
 
+def _drift(tw: FloatArray, vw: FloatArray, mean: float,
+           window_factor: float) -> tuple[float, float, float]:
+    """OLS slope of a window [series units per unit of tw], its autocorrelation-corrected
+    standard error, and the fitted change over the window relative to |mean| (or to the
+    standard deviation for a zero mean)."""
+    n = vw.size
+    dt = tw - tw.mean()
+    sxx = float(np.dot(dt, dt))
+    if not (sxx > 0.0 and n > 2):
+        return 0.0, math.nan, 0.0
+    slope = float(np.dot(dt, vw - mean) / sxx)
+    resid = vw - mean - slope * dt
+    tau_res = integrated_autocorrelation_time(resid, window_factor)
+    slope_err = math.sqrt(float(np.dot(resid, resid)) / (n - 2) / sxx * tau_res)
+    scale = abs(mean) if mean != 0.0 else math.sqrt(float(np.var(vw)))
+    drift = abs(slope) * float(tw[-1] - tw[0]) / scale if scale > 0.0 else 0.0
+    return slope, slope_err, drift
+
+
+def _drift_problems(slope: float, slope_err: float, drift: float, trend_sigma: float,
+                    max_relative_drift: float, time_unit: str) -> list[str]:
+    """The drift verdict of `stationary_mean`: a slope beyond ``trend_sigma`` standard
+    errors (or a noiseless line) AND a change beyond ``max_relative_drift``."""
+    significant = slope_err > 0.0 and abs(slope) > trend_sigma * slope_err
+    if slope_err == 0.0 and slope != 0.0:
+        significant = True  # a noiseless straight line
+    if not (significant and drift > max_relative_drift):
+        return []
+    sigmas = abs(slope) / slope_err if slope_err > 0.0 else math.inf
+    return [f"still drifting: slope {slope:.3g} per {time_unit} is {sigmas:.1f} sigma, "
+            f"a change of {100 * drift:.1f}% over the window"]
+
+
 def stationary_mean(series_t: ArrayLike, series_values: ArrayLike, *,
                     min_fraction: float = 0.5, batch_size: int = 5,
                     min_effective_samples: float = 20.0, trend_sigma: float = 3.0,
@@ -229,30 +262,9 @@ def stationary_mean(series_t: ArrayLike, series_values: ArrayLike, *,
     n = vw.size
     mean, stderr, n_eff = autocorrelated_mean(vw, window_factor)
     tau = n / n_eff
-    var = float(np.var(vw))
-
-    # Drift: OLS slope with an autocorrelation-corrected error.
-    dt = tw - tw.mean()
-    sxx = float(np.dot(dt, dt))
-    if sxx > 0.0 and n > 2:
-        slope = float(np.dot(dt, vw - mean) / sxx)
-        resid = vw - mean - slope * dt
-        tau_res = integrated_autocorrelation_time(resid, window_factor)
-        slope_err = math.sqrt(float(np.dot(resid, resid)) / (n - 2) / sxx * tau_res)
-        duration = float(tw[-1] - tw[0])
-        scale = abs(mean) if mean != 0.0 else math.sqrt(var)
-        drift = abs(slope) * duration / scale if scale > 0.0 else 0.0
-    else:
-        slope, slope_err, drift = 0.0, math.nan, 0.0
-    significant = slope_err > 0.0 and abs(slope) > trend_sigma * slope_err
-    if slope_err == 0.0 and slope != 0.0:
-        significant = True  # a noiseless straight line
-
-    problems = []
-    if significant and drift > max_relative_drift:
-        sigmas = abs(slope) / slope_err if slope_err > 0.0 else math.inf
-        problems.append(f"still drifting: slope {slope:.3g} per {time_unit} is {sigmas:.1f} sigma, "
-                        f"a change of {100 * drift:.1f}% over the window")
+    slope, slope_err, drift = _drift(tw, vw, mean, window_factor)
+    problems = _drift_problems(slope, slope_err, drift, trend_sigma, max_relative_drift,
+                               time_unit)
     if at_limit:
         problems.append("transient may not be over: MSER truncation at its limit "
                         f"({100 * (1 - min_fraction):.0f}% of the series)")

@@ -217,6 +217,70 @@ def effective_epsilon(restitution: Mapping[str, object], velocity_dispersion: fl
     return float(math.sqrt(np.dot(weights, eps * eps) / np.sum(weights)))
 
 
+def _balances(excess, c_min: float, c_max: float,
+              n_scan: int) -> tuple[list[dict[str, object]], np.ndarray]:
+    """Roots of ``excess(ln c)`` (eps_eff - eps_cr) bracketed by a log-spaced scan of c over
+    [c_min, c_max] [m/s] and refined by Brent's method; a root is stable where the excess
+    falls through zero as c grows (hotter -> more dissipative).  Returns the roots and the
+    scanned excess."""
+    log_c = np.linspace(math.log(c_min), math.log(c_max), n_scan)
+    f = np.array([excess(x) for x in log_c])
+    roots: list[dict[str, object]] = []
+    for i in range(log_c.size - 1):
+        if f[i] == 0.0:
+            roots.append({"velocity_dispersion": math.exp(log_c[i]),
+                          "stable": bool(f[i + 1] < 0.0 or (i > 0 and f[i - 1] > 0.0))})
+        elif f[i] * f[i + 1] < 0.0:
+            x = optimize.brentq(excess, log_c[i], log_c[i + 1], xtol=1e-14, rtol=1e-15,
+                                maxiter=200)
+            roots.append({"velocity_dispersion": math.exp(x), "stable": bool(f[i] > 0.0)})
+    return roots, f
+
+
+def _balance_reason(c: float, r_Omega: float, eps_cr: float) -> str:
+    """The text of a stable thermal balance at c [m/s] (r_Omega [m/s]: the radius times
+    Omega), with a note where the dilute approximation fails."""
+    note = "" if c > 10.0 * r_Omega else (
+        "; c < 10 r Omega, where the dilute (local) approximation fails")
+    return (f"thermal balance at c = {c:.4g} m/s = {c / r_Omega:.4g} r Omega "
+            f"(eps_eff = eps_cr = {eps_cr:.4f}){note}")
+
+
+def representative_particle(radius: ArrayLike, mass: ArrayLike) -> tuple[float, float, float]:
+    """One consistent particle for a size distribution: the mean radius <r> [m], the mass of
+    a sphere of that radius at the particles' bulk density [kg], and that density
+    sum m / sum 4/3 pi r^3 [kg/m^3].  (The mean mass belongs to a larger sphere, since
+    <r^3> > <r>^3.)
+
+    Parameters
+    ----------
+    radius : float or array [m]
+    mass : float or array [kg]
+    """
+    radii = nonnegative_array("radius", np.atleast_1d(radius))
+    masses = nonnegative_array("mass", np.atleast_1d(mass))
+    r = positive("radius", float(np.mean(radii)))
+    density = positive("mass", float(np.sum(masses))) / float(np.sum(4.0 / 3.0 * math.pi
+                                                                      * radii**3))
+    return r, positive("mass", density * 4.0 / 3.0 * math.pi * r**3), density
+
+
+def _no_balance(has_roots: bool, excess: np.ndarray, eps_cr: float, c_min: float,
+                c_max: float) -> tuple[str, str]:
+    """Status and reason of a dilute ring without a stable thermal balance."""
+    if has_roots:
+        return "unstable", ("only unstable balances (eps_eff rises through eps_cr with c): the "
+                            "ring either collapses or heats without bound depending on its "
+                            "initial c")
+    if np.all(excess < 0.0):
+        return "collapse", (f"eps_eff < eps_cr = {eps_cr:.4f} at every c in [{c_min:g}, "
+                            f"{c_max:g}] m/s: collisions dissipate more than the shear "
+                            "supplies; the dilute ring collapses (to a near-monolayer held up "
+                            "by finite-size effects, not modelled here)")
+    return "heating", (f"eps_eff > eps_cr = {eps_cr:.4f} at every c in [{c_min:g}, {c_max:g}] "
+                       "m/s: no thermal balance, the velocity dispersion grows without bound")
+
+
 def kinetic_dispersion_estimate(restitution: Mapping[str, object], radius: ArrayLike,
                                 mass: ArrayLike, optical_depth: float, Omega: float, *,
                                 c_min: float = 1e-10, c_max: float = 1e3,
@@ -227,18 +291,11 @@ def kinetic_dispersion_estimate(restitution: Mapping[str, object], radius: Array
     Assumptions (as in Goldreich & Tremaine 1978): dilute ring (no finite-size, non-local
     heating or transport -- valid while c >> r Omega), identical smooth spheres (no
     spin), no self-gravity, and for the velocity dependence of eps an isotropic Maxwellian
-    of impact velocities.  A size distribution is represented by identical particles of the
-    mean radius <r> and the mass of a sphere of that radius at the particles' bulk density
-    (sum m / sum 4/3 pi r^3): one consistent particle, R_bar = <r>/2, M_bar = m/2 (the
-    mean mass would belong to a larger sphere, (<r^3>)^(1/3) > <r>, and with a
-    mass-dependent law such as Dilley's kappa > 0 that mismatch moves the estimate by
-    tens of per cent).
-
-    Balance: the ring is in thermal equilibrium at the c where the impact-averaged
-    coefficient of restitution (``effective_epsilon``, energy-weighted by default) equals
-    GT78's critical value eps_cr(tau) (``critical_epsilon``).  Roots are bracketed by a
-    log-spaced scan of c over [c_min, c_max] and refined with Brent's method; a root is
-    stable where eps_eff falls through eps_cr as c grows (hotter -> more dissipative).
+    of impact velocities.  A size distribution is represented by one consistent particle
+    (`representative_particle`; with the mean MASS instead, a mass-dependent law such as
+    Dilley's kappa > 0 moves the estimate by tens of per cent): R_bar = <r>/2, M_bar = m/2.
+    The ring is in thermal equilibrium at the c where the impact-averaged eps
+    (``effective_epsilon``) equals GT78's eps_cr(tau) (``critical_epsilon``; `_balances`).
 
     Parameters
     ----------
@@ -269,14 +326,7 @@ def kinetic_dispersion_estimate(restitution: Mapping[str, object], radius: Array
         representative particle), ``representative`` (text), ``R_bar`` [m],
         ``M_bar`` [kg], ``optical_depth``, ``weighting``; ``gt78`` (``gt78_steady_state``).
     """
-    radii = nonnegative_array("radius", np.atleast_1d(radius))
-    masses = nonnegative_array("mass", np.atleast_1d(mass))
-    r = positive("radius", float(np.mean(radii)))
-    # One consistent particle: the mean radius with the mass a sphere of that radius has at
-    # the particles' bulk density (the mean mass belongs to a larger sphere: <r^3> > <r>^3).
-    density = positive("mass", float(np.sum(masses))) / float(np.sum(4.0 / 3.0 * math.pi
-                                                                      * radii**3))
-    m = positive("mass", density * 4.0 / 3.0 * math.pi * r**3)
+    r, m, density = representative_particle(radius, mass)
     Omega = positive("Omega", Omega)
     c_min = positive("c_min", c_min)
     c_max = positive("c_max", c_max)
@@ -289,17 +339,7 @@ def kinetic_dispersion_estimate(restitution: Mapping[str, object], radius: Array
     def excess(log_c: float) -> float:
         return effective_epsilon(restitution, math.exp(log_c), R_bar, M_bar, weighting) - eps_cr
 
-    log_c = np.linspace(math.log(c_min), math.log(c_max), int(n_scan))
-    f = np.array([excess(x) for x in log_c])
-    roots: list[dict[str, object]] = []
-    for i in range(log_c.size - 1):
-        if f[i] == 0.0:
-            roots.append({"velocity_dispersion": math.exp(log_c[i]),
-                          "stable": bool(f[i + 1] < 0.0 or (i > 0 and f[i - 1] > 0.0))})
-        elif f[i] * f[i + 1] < 0.0:
-            x = optimize.brentq(excess, log_c[i], log_c[i + 1], xtol=1e-14, rtol=1e-15,
-                                maxiter=200)
-            roots.append({"velocity_dispersion": math.exp(x), "stable": bool(f[i] > 0.0)})
+    roots, f = _balances(excess, c_min, c_max, int(n_scan))
 
     result: dict[str, object] = {
         "epsilon_critical": eps_cr, "radius": r, "mass": m, "R_bar": R_bar, "M_bar": M_bar,
@@ -315,22 +355,9 @@ def kinetic_dispersion_estimate(restitution: Mapping[str, object], radius: Array
         result.update(status="equilibrium", velocity_dispersion=c,
                       velocity_dispersion_rOmega=c / (r * Omega),
                       effective_epsilon=effective_epsilon(restitution, c, R_bar, M_bar,
-                                                          weighting))
-        note = "" if c > 10.0 * r * Omega else (
-            "; c < 10 r Omega, where the dilute (local) approximation fails")
-        result["reason"] = (f"thermal balance at c = {c:.4g} m/s = {c / (r * Omega):.4g} r Omega "
-                            f"(eps_eff = eps_cr = {eps_cr:.4f}){note}")
-    elif roots:
-        result.update(status="unstable", reason=(
-            "only unstable balances (eps_eff rises through eps_cr with c): the ring either "
-            "collapses or heats without bound depending on its initial c"))
-    elif np.all(f < 0.0):
-        result.update(status="collapse", reason=(
-            f"eps_eff < eps_cr = {eps_cr:.4f} at every c in [{c_min:g}, {c_max:g}] m/s: "
-            "collisions dissipate more than the shear supplies; the dilute ring collapses "
-            "(to a near-monolayer held up by finite-size effects, not modelled here)"))
+                                                          weighting),
+                      reason=_balance_reason(c, r * Omega, eps_cr))
     else:
-        result.update(status="heating", reason=(
-            f"eps_eff > eps_cr = {eps_cr:.4f} at every c in [{c_min:g}, {c_max:g}] m/s: "
-            "no thermal balance, the velocity dispersion grows without bound"))
+        status, reason = _no_balance(bool(roots), f, eps_cr, c_min, c_max)
+        result.update(status=status, reason=reason)
     return result
