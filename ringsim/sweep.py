@@ -399,6 +399,21 @@ def default_output_dir(sweep_path: str | os.PathLike) -> Path:
     return Path("runs") / Path(sweep_path).stem
 
 
+def _plan_line(sweep_path, tasks: Sequence[PointTask], out_dir: Path, scheduler: str | None,
+               n_workers: int) -> str:
+    """What the sweep is about to do, in one line (``n_workers`` 0: nothing left to run)."""
+    counts = {a: sum(t.action == a for t in tasks) for a in ("run", "restart", "resume", "reuse")}
+    if scheduler is not None:
+        where = f"Dask scheduler {scheduler}"
+    elif n_workers:
+        where = f"{n_workers} worker process{'es' if n_workers > 1 else ''}"
+    else:
+        where = "analysed in this process"
+    return (f"sweep {sweep_path}: {len(tasks)} points -> {out_dir}/ ({counts['run']} new, "
+            f"{counts['resume']} to resume, {counts['restart']} to restart, {counts['reuse']} "
+            f"finished already; {where})")
+
+
 def run_sweep(sweep_path: str | os.PathLike, out: str | os.PathLike | None = None,
               workers: int | None = None, scheduler: str | None = None,
               echo: Callable[[str], None] | None = print) -> SweepResult:
@@ -435,20 +450,10 @@ def run_sweep(sweep_path: str | os.PathLike, out: str | os.PathLike | None = Non
     client = _dask_client(scheduler) if scheduler else None
 
     todo = [t for t in tasks if t.action != "reuse"]
-    counts = {a: sum(t.action == a for t in tasks) for a in ("run", "restart", "resume", "reuse")}
-    n_workers = 1
-    if client is None:
-        n_workers = max(1, min(workers or os.cpu_count() or 1, len(tasks)))
-    if client is not None:
-        where = f"Dask scheduler {scheduler}"
-    elif todo:
-        where = f"{n_workers} worker process{'es' if n_workers > 1 else ''}"
-    else:
-        where = "analysed in this process"
-
-    say(f"sweep {sweep_path}: {len(tasks)} points -> {out_dir}/ ({counts['run']} new, "
-        f"{counts['resume']} to resume, {counts['restart']} to restart, {counts['reuse']} "
-        f"finished already; {where})")
+    n_workers = 1 if client is not None else max(1, min(workers or os.cpu_count() or 1,
+                                                        len(tasks)))
+    say(_plan_line(sweep_path, tasks, out_dir, scheduler if client is not None else None,
+                   n_workers if todo else 0))
     out_dir.mkdir(parents=True, exist_ok=True)
 
     results: dict[int, PointResult] = {}

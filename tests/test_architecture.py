@@ -73,7 +73,6 @@ LONG_MODULES = {
 }
 LONG_FUNCTIONS = {
     "analysis/fit.py::fit_model",
-    "sweep.py::run_sweep",
 }
 
 
