@@ -72,7 +72,6 @@ LONG_MODULES = {
     "config/scenario.py",       # 725 lines: sections, readers and cross-checks
 }
 LONG_FUNCTIONS = {
-    "analysis/fit.py::fit_model",
 }
 
 

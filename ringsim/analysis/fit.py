@@ -413,6 +413,58 @@ def _identifiability_notes(data: RestitutionData) -> tuple[dict[str, float], lis
     return fixed, notes
 
 
+def _best_fit(residuals, starts: list[np.ndarray], lower: np.ndarray, upper: np.ndarray):
+    """scipy's least_squares (trust-region reflective, bounded) from each start; the best
+    successful result (lowest cost)."""
+    from scipy.optimize import least_squares
+
+    best = None
+    for x0 in starts:
+        result = least_squares(residuals, x0, jac="3-point",
+                               bounds=(lower, upper), method="trf", x_scale="jac",
+                               ftol=_TOLERANCE, xtol=_TOLERANCE, gtol=_TOLERANCE,
+                               max_nfev=_MAX_EVALUATIONS)
+        if best is None or (result.success, -result.cost) > (best.success, -best.cost):
+            best = result
+    return best
+
+
+def _aic(chi2: float, n: int, k: int, measured_sigma: bool) -> dict:
+    """AIC of a fit: chi2 + 2k with measured sigmas, n ln(RSS/n) + 2k with unit weights
+    (Gaussian errors of unknown common variance); with its definition and the sigmas'
+    source."""
+    if measured_sigma:
+        return {"aic": float(chi2 + 2.0 * k), "aic_definition": "chi2 + 2k",
+                "sigma_source": "sigma column"}
+    rss_per_point = max(chi2 / n, np.finfo(float).tiny)
+    return {"aic": float(n * math.log(rss_per_point) + 2.0 * k),
+            "aic_definition": "n ln(RSS/n) + 2k (unit weights)",
+            "sigma_source": "none: unit weights, covariance scaled by the reduced chi2"}
+
+
+def _parameter_entries(declared, free, values: dict, fixed: dict, covariance, x: np.ndarray,
+                       bounds: tuple[np.ndarray, np.ndarray], notes: list[str]) -> dict:
+    """{name: {"value", "stderr", "fixed"}} of a fit; a note for a parameter at a bound.
+
+    ``x`` and ``bounds`` are in the fitted (internal) coordinates; d(value)/d(internal) =
+    value for parameters fitted as logarithms."""
+    scale = np.array([values[p.name] if p.log else 1.0 for p in free])
+    parameters: dict[str, dict] = {}
+    for par in declared:
+        if par.name in fixed:
+            parameters[par.name] = {"value": fixed[par.name], "stderr": None, "fixed": True}
+            continue
+        i = free.index(par)
+        stderr = (None if covariance is None
+                  else float(scale[i] * math.sqrt(max(covariance[i, i], 0.0))))
+        parameters[par.name] = {"value": values[par.name], "stderr": stderr, "fixed": False}
+        lo, hi = bounds[0][i], bounds[1][i]
+        if min(x[i] - lo, hi - x[i]) <= 1e-8 * (hi - lo):
+            notes.append(f"{par.name} is at a bound of its allowed range; its standard error "
+                         "is not meaningful")
+    return parameters
+
+
 def fit_model(data: RestitutionData, model: str) -> dict:
     """Fit one restitution law by weighted least squares.
 
@@ -432,8 +484,6 @@ def fit_model(data: RestitutionData, model: str) -> dict:
         stderr is None for a fixed parameter or when the data cannot separate the
         parameters.
     """
-    from scipy.optimize import least_squares
-
     if model not in FIT_MODELS:
         raise ValueError(f"unknown model {model!r} (one of {', '.join(FIT_MODELS)})")
     if model == "dilley" and not data.has_sizes:
@@ -458,14 +508,7 @@ def fit_model(data: RestitutionData, model: str) -> dict:
     starts = [_to_internal(free, start) for start in _starts(model, data, fixed)]
     costs = [float(np.sum(residuals(x) ** 2)) for x in starts]
     order = np.argsort(costs, kind="stable")[:_OPTIMIZED_STARTS]
-    best = None
-    for x0 in (starts[i] for i in order):
-        result = least_squares(residuals, x0, jac="3-point",
-                               bounds=(lower, upper), method="trf", x_scale="jac",
-                               ftol=_TOLERANCE, xtol=_TOLERANCE, gtol=_TOLERANCE,
-                               max_nfev=_MAX_EVALUATIONS)
-        if best is None or (result.success, -result.cost) > (best.success, -best.cost):
-            best = result
+    best = _best_fit(residuals, [starts[i] for i in order], lower, upper)
 
     values = {**_to_values(free, best.x), **fixed}
     chi2 = float(np.sum(best.fun**2))
@@ -477,40 +520,16 @@ def fit_model(data: RestitutionData, model: str) -> dict:
     if covariance is None:
         notes.append("the data cannot separate the parameters (singular Jacobian): no "
                      "standard errors")
-    # d(value)/d(internal) = value for parameters fitted as logarithms
-    scale = np.array([values[p.name] if p.log else 1.0 for p in free])
-    parameters: dict[str, dict] = {}
-    for par in declared:
-        if par.name in fixed:
-            parameters[par.name] = {"value": fixed[par.name], "stderr": None, "fixed": True}
-            continue
-        i = free.index(par)
-        stderr = (None if covariance is None
-                  else float(scale[i] * math.sqrt(max(covariance[i, i], 0.0))))
-        parameters[par.name] = {"value": values[par.name], "stderr": stderr, "fixed": False}
-        bound_lo, bound_hi = lower[i], upper[i]
-        if min(best.x[i] - bound_lo, bound_hi - best.x[i]) <= 1e-8 * (bound_hi - bound_lo):
-            notes.append(f"{par.name} is at a bound of its allowed range; its standard error "
-                         "is not meaningful")
-    if data.sigma is not None:
-        aic = chi2 + 2.0 * k
-        aic_definition = "chi2 + 2k"
-        sigma_source = "sigma column"
-    else:
-        rss_per_point = max(chi2 / n, np.finfo(float).tiny)
-        aic = n * math.log(rss_per_point) + 2.0 * k
-        aic_definition = "n ln(RSS/n) + 2k (unit weights)"
-        sigma_source = "none: unit weights, covariance scaled by the reduced chi2"
+    parameters = _parameter_entries(declared, free, values, fixed, covariance, best.x,
+                                    (lower, upper), notes)
     return {
         "model": model,
         "parameters": parameters,
         "chi2": chi2,
         "reduced_chi2": reduced_chi2,
-        "aic": float(aic),
+        **_aic(chi2, n, k, data.sigma is not None),
         "n_points": n,
         "n_free_parameters": k,
-        "sigma_source": sigma_source,
-        "aic_definition": aic_definition,
         "units": {p.name: p.unit for p in declared},
         "note": "; ".join(notes),
         "success": bool(best.success),
