@@ -11,21 +11,17 @@ either the measurement or the reference shows up here and in the document.
 import pytest
 
 import ringsim
-from ringsim.config.scenario import scenario_from_dict
-from ringsim.validation.kinetic_theory import compare_with_kinetic_theory, kinetic_steady_state
+from ringsim.validation.kinetic_theory import (
+    compare_with_kinetic_theory,
+    kinetic_scenario,
+    kinetic_steady_state,
+)
 
 OMEGA = 2.0e-4  # [1/s]
 
 
 def kinetic_run(tmp_path, tau: float, n: int, orbits: float):
-    sc = scenario_from_dict({
-        "name": f"kin{tau:g}", "seed": 1, "planet": {"Omega": OMEGA},
-        "particles": {"density": 900.0,
-                      "size_distribution": {"kind": "monodisperse", "radius": 1.0}},
-        "sheet": {"optical_depth": tau, "n_particles": n},
-        "restitution": {"model": "constant", "epsilon": 0.5},
-        "integration": {"orbits": orbits, "collision_detection": "tree"},
-        "output": {"timeseries_every": 0.05, "snapshot_every": orbits}})
+    sc = kinetic_scenario(tau, n, orbits)
     path = ringsim.run(sc, output=tmp_path / f"{sc.name}.h5", progress=False)
     return compare_with_kinetic_theory(ringsim.equilibrium(ringsim.open_run(path)), OMEGA)
 

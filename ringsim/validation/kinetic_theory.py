@@ -96,17 +96,25 @@ ORBITS = 20.0
 OMEGA = 2.0e-4  # [1/s]
 
 
-def _scenario(tau: float):
+def kinetic_scenario(tau: float, n_particles: int = N_PARTICLES, orbits: float = ORBITS):
+    """The reference ring: identical 1 m ice spheres, constant eps = 0.5, tree detection.
+
+    Parameters
+    ----------
+    tau : float [dimensionless]
+    n_particles : int
+    orbits : float [orbits]
+    """
     from ringsim.config.scenario import scenario_from_dict
 
     return scenario_from_dict({
         "name": f"kinetic-tau{tau:g}", "seed": 1, "planet": {"Omega": OMEGA},
         "particles": {"density": 900.0,
                       "size_distribution": {"kind": "monodisperse", "radius": 1.0}},
-        "sheet": {"optical_depth": tau, "n_particles": N_PARTICLES},
+        "sheet": {"optical_depth": tau, "n_particles": n_particles},
         "restitution": {"model": "constant", "epsilon": 0.5},
-        "integration": {"orbits": ORBITS, "collision_detection": "tree"},
-        "output": {"timeseries_every": 0.05, "snapshot_every": ORBITS}})
+        "integration": {"orbits": orbits, "collision_detection": "tree"},
+        "output": {"timeseries_every": 0.05, "snapshot_every": orbits}})
 
 
 def section_markdown(rows: list[tuple[float, dict, bool]]) -> str:
@@ -140,7 +148,7 @@ def main() -> None:
     for tau in TAUS:
         path = WORKDIR / f"kinetic_tau{tau:g}.h5"
         path.parent.mkdir(parents=True, exist_ok=True)
-        ringsim.run(_scenario(tau), output=path, force=True, progress=False)
+        ringsim.run(kinetic_scenario(tau), output=path, force=True, progress=False)
         eq = ringsim.equilibrium(ringsim.open_run(path))
         rows.append((tau, compare_with_kinetic_theory(eq, OMEGA), eq["in_equilibrium"]))
     replace_section(DOC, HEADING, section_markdown(rows), "Validation")
