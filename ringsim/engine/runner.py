@@ -257,7 +257,8 @@ class Runner:
         from ringsim.engine.resolver import install_resolver
 
         self.handle = install_resolver(
-            sim, self.scenario.restitution_dict(),
+            sim, self.scenario.restitution_dict(), self.scenario.friction_dict(),
+            self.scenario.particles.inertia_factor,
             log_capacity=self.scenario.output.log_collisions,
             collision_detection=self.scenario.integration.collision_detection)
         if checkpoint.statistics is not None:
