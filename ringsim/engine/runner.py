@@ -267,6 +267,12 @@ class Runner:
             except ValueError as exc:
                 raise runfile.RunFileError(self.path, f"cannot be restored ({exc})",
                                            f"/{runfile.CHECKPOINT_STATISTICS}") from None
+        if self.handle.friction is not None:
+            try:
+                self.handle.set_spins(checkpoint.spins)
+            except ValueError as exc:
+                raise runfile.RunFileError(self.path, f"cannot restore the spins ({exc})",
+                                           f"/{runfile.CHECKPOINT_SPINS}") from None
         self.momentum = (invariants.SheetMomentum.from_attributes(st)
                          or invariants.sheet_momentum(sheet.particle_arrays(sim), self.Omega,
                                                       sim.t))
@@ -403,6 +409,9 @@ class Runner:
         t = self.sim.t
         snap = None
         if first or _interval_index(t, self.snap_every) >= self.state.snapshots:
+            if self.handle.friction is not None:
+                arrays = {**arrays, **dict(zip(runfile.SPIN_FIELDS, self.handle.spins().T,
+                                               strict=True))}
             snap = (self.state.snapshots, t, arrays)
             self.state.snapshots += 1
         if first or _interval_index(t, self.ckpt_every) > _interval_index(
@@ -441,8 +450,9 @@ class Runner:
         attributes = dict(attributes or {})
         attributes["wall_time_s"] = self.wall_before + time.perf_counter() - self.wall_start
         self._commit(snapshot=snapshot, attributes=attributes,
-                     checkpoint=runfile.Checkpoint(_simulation_binary(self.sim), state,
-                                                   self.handle.stats_state()))
+                     checkpoint=runfile.Checkpoint(
+                         _simulation_binary(self.sim), state, self.handle.stats_state(),
+                         None if self.handle.friction is None else self.handle.spins()))
 
     def fail(self, violation: Exception) -> None:
         """Stop a run that broke an invariant: keep the last (good) checkpoint, write the
