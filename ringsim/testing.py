@@ -26,6 +26,7 @@ import rebound
 
 from ringsim.engine.native import _LIB, LOG_DTYPE
 from ringsim.engine.resolver import ResolverHandle, _validated
+from ringsim.engine.spins import checked_friction
 
 # Normal speeds below this many round-off units of the summed |velocity components| are
 # treated as not approaching (as in the C; keeps eps = 0 pairs from resolving twice).
@@ -48,12 +49,20 @@ class PythonReferenceResolver:
 
     Parameters
     ----------
-    restitution : mapping
-        As for :func:`install_resolver`.
+    restitution, friction, inertia_factor :
+        As for :func:`install_resolver`.  With friction the twin keeps the spins in
+        :attr:`spins` and applies ``rs_tangential_impulse``'s operations in its order.
     """
 
-    def __init__(self, restitution: Mapping[str, Any]):
+    def __init__(self, restitution: Mapping[str, Any],
+                 friction: Mapping[str, Any] | None = None, inertia_factor: float = 0.4):
         self.model, self.parameters = _validated(restitution)
+        self.friction_model, self.friction_parameters, self.inertia_factor = \
+            checked_friction(friction, inertia_factor)
+        #: Spins [rad/s] by particle index, relative to the rotating frame (rows of 3).
+        self.spins: list[list[float]] = []
+        self.tangential_dissipation = 0.0
+        self.n_sliding = 0
         # The law, evaluated by the C library (never installed in a simulation).
         self._law = ResolverHandle({"model": self.model, **self.parameters})
         self._arguments = [ctypes.c_double() for _ in range(4)]   # v, R_bar, M_bar, eps
@@ -106,7 +115,7 @@ class PythonReferenceResolver:
 
         if sim._collision not in _SWEPT_PATH_MODES:
             if overlapping:
-                self._apply_impulse(sim, p1, p2, gb, dx, dy, dz, math.sqrt(distance2), dvx,
+                self._apply_impulse(sim, c, p1, p2, gb, dx, dy, dz, math.sqrt(distance2), dvx,
                                     dvy, dvz, 0.0)
             return
 
@@ -129,17 +138,18 @@ class PythonReferenceResolver:
             cy = dy - back_time * dvy
             cz = dz - back_time * dvz
             contact = math.sqrt(cx * cx + cy * cy + cz * cz)
-            resolved = self._apply_impulse(sim, p1, p2, gb, cx, cy, cz, contact, dvx, dvy,
+            resolved = self._apply_impulse(sim, c, p1, p2, gb, cx, cy, cz, contact, dvx, dvy,
                                            dvz, back_time)
         elif overlapping:
-            resolved = self._apply_impulse(sim, p1, p2, gb, dx, dy, dz, math.sqrt(distance2),
+            resolved = self._apply_impulse(sim, c, p1, p2, gb, dx, dy, dz, math.sqrt(distance2),
                                            dvx, dvy, dvz, 0.0)
         else:
             return
         if resolved:
             self._memory.add(key)
 
-    def _apply_impulse(self, sim: rebound.Simulation, p1: Any, p2: Any, gb: Any, dx: float,
+    def _apply_impulse(self, sim: rebound.Simulation, c: Any, p1: Any, p2: Any, gb: Any,
+                       dx: float,
                        dy: float, dz: float, distance: float, dvx: float, dvy: float,
                        dvz: float, back_time: float) -> bool:
         v_n = (dvx * dx + dvy * dy + dvz * dz) / distance
@@ -175,6 +185,15 @@ class PythonReferenceResolver:
         jz = separation_change * (dz / distance)
         share2 = m1 / total_mass
         share1 = m2 / total_mass
+        if self.friction_model != "none":
+            while len(self.spins) < sim.N:
+                self.spins.append([0.0, 0.0, 0.0])
+            jtx, jty, jtz = self._tangential_impulse(
+                self.spins[c.p1], self.spins[c.p2], p1.r, p2.r, share1, share2, M_bar,
+                separation_change, dx, dy, dz, distance, dvx, dvy, dvz)
+            jx += jtx
+            jy += jty
+            jz += jtz
         p2.vx = p2.vx - share2 * jx
         p2.vy = p2.vy - share2 * jy
         p2.vz = p2.vz - share2 * jz
@@ -201,6 +220,49 @@ class PythonReferenceResolver:
         self.log.append((sim.t, impact_speed, R_bar, M_bar, eps))
         return True
 
+    def _tangential_impulse(self, w1: list[float], w2: list[float], R1: float, R2: float,
+                            share1: float, share2: float, M_bar: float,
+                            separation_change: float, dx: float, dy: float, dz: float,
+                            distance: float, dvx: float, dvy: float, dvz: float
+                            ) -> tuple[float, float, float]:
+        """rs_tangential_impulse: jt per reduced mass [m/s]; turns w1, w2 in place."""
+        k = self.inertia_factor
+        nx, ny, nz = dx / distance, dy / distance, dz / distance
+        lever = distance / (R1 + R2)
+        a1 = R1 * lever
+        a2 = R2 * lever
+        sx = a1 * w1[0] + a2 * w2[0]
+        sy = a1 * w1[1] + a2 * w2[1]
+        sz = a1 * w1[2] + a2 * w2[2]
+        gx = dvx - (sy * nz - sz * ny)
+        gy = dvy - (sz * nx - sx * nz)
+        gz = dvz - (sx * ny - sy * nx)
+        gn = gx * nx + gy * ny + gz * nz
+        gtx, gty, gtz = gx - gn * nx, gy - gn * ny, gz - gn * nz
+        f_t = 1.0 / (1.0 + lever * lever * (share1 / k + share2 / k))
+        gt2 = gtx * gtx + gty * gty + gtz * gtz
+        if self.friction_model == "constant":
+            coefficient = (1.0 + self.friction_parameters["beta"]) * f_t
+        else:
+            stick = (1.0 + self.friction_parameters["beta0"]) * f_t
+            gt = math.sqrt(gt2)
+            limit = self.friction_parameters["mu"] * separation_change
+            coefficient = limit / gt if stick * gt > limit else stick
+            self.n_sliding += int(stick * gt > limit)
+        jtx, jty, jtz = -(coefficient * gtx), -(coefficient * gty), -(coefficient * gtz)
+        cx = ny * jtz - nz * jty
+        cy = nz * jtx - nx * jtz
+        cz = nx * jty - ny * jtx
+        f1 = lever * share1 / (k * R1)
+        f2 = lever * share2 / (k * R2)
+        for w, f in ((w1, f1), (w2, f2)):
+            w[0] -= f * cx
+            w[1] -= f * cy
+            w[2] -= f * cz
+        self.tangential_dissipation += 0.5 * M_bar * coefficient * (
+            2.0 - coefficient / f_t) * gt2
+        return jtx, jty, jtz
+
     def stats(self) -> dict[str, Any]:
         """count, n_floored, mean_epsilon, mean_vn [m/s] and the full log (LOG_DTYPE)."""
         count = self.count
@@ -210,4 +272,6 @@ class PythonReferenceResolver:
             "mean_epsilon": self.sum_epsilon / count if count else math.nan,
             "mean_vn": self.sum_vn / count if count else math.nan,
             "log": np.array(self.log, dtype=LOG_DTYPE),
+            "tangential_dissipation": self.tangential_dissipation,
+            "n_sliding": self.n_sliding,
         }

@@ -52,6 +52,7 @@ from ringsim.config.schema import (
     read_text,
     show,
 )
+from ringsim.physics.friction import FRICTION, INERTIA_FACTOR
 from ringsim.physics.laws import DIMENSIONLESS
 from ringsim.physics.restitution import RESTITUTION
 from ringsim.physics.sizes import (
@@ -63,6 +64,7 @@ from ringsim.physics.sizes import (
 )
 
 __all__ = [
+    "Friction",
     "Integration",
     "Mixture",
     "MixtureComponent",
@@ -97,9 +99,9 @@ AUTO_SOFTENING_FRACTION = 0.1
 # Keys of each section, in the order they are written by Scenario.to_dict().
 _SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "": ("name", "seed", "description", "planet", "particles", "sheet", "restitution",
-         "integration", "output"),
+         "friction", "integration", "output"),
     "planet": ("Omega", "GM", "a"),
-    "particles": ("density", "size_distribution"),
+    "particles": ("density", "size_distribution", "inertia_factor"),
     "sheet": ("optical_depth", "n_particles", "aspect", "gravity", "softening",
               "opening_angle", "initial_dispersion", "z_box", "initial_state"),
     "integration": ("orbits", "dt", "dt_safety", "collision_detection", "until_equilibrium"),
@@ -185,10 +187,14 @@ class Particles:
     density : float [kg/m^3]
         Bulk density of every particle (900 for solid ice; lower for porous aggregates).
     size_distribution : Monodisperse | PowerLaw | Mixture
+    inertia_factor : float [dimensionless]
+        k in the moment of inertia I = k m R^2 (2/5: solid sphere); used with a
+        ``friction`` section only (`ringsim.physics.friction.INERTIA_FACTOR`).
     """
 
     density: float
     size_distribution: SizeDistribution
+    inertia_factor: float = INERTIA_FACTOR.default
 
     @property
     def mean_mass(self) -> float:
@@ -196,7 +202,10 @@ class Particles:
         return self.density * 4.0 / 3.0 * math.pi * self.size_distribution.moment(3.0)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"density": self.density, "size_distribution": self.size_distribution.to_dict()}
+        d = {"density": self.density, "size_distribution": self.size_distribution.to_dict()}
+        if self.inertia_factor != INERTIA_FACTOR.default:   # only written with friction
+            d["inertia_factor"] = self.inertia_factor
+        return d
 
 
 @dataclass(frozen=True)
@@ -284,6 +293,27 @@ class Restitution:
 
 
 @dataclass(frozen=True)
+class Friction:
+    """Surface friction of the particles: a model of `ringsim.physics.friction.FRICTION`
+    and its parameters (defaults filled).  No section: smooth spheres, no spins.
+
+    Attributes
+    ----------
+    model : str
+        constant | coulomb.
+    parameters : tuple of (name, value) pairs
+        beta [-] | mu [-], beta0 [-].
+    """
+
+    model: str
+    parameters: tuple[tuple[str, float], ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        """{"model": ..., parameter: value, ...} as the resolver takes it."""
+        return {"model": self.model, **dict(self.parameters)}
+
+
+@dataclass(frozen=True)
 class Integration:
     """How long and how finely to integrate.
 
@@ -355,6 +385,8 @@ class Scenario:
         Seeds every random choice of the run (initial conditions, REBOUND's collision order).
     description : str
     planet, particles, sheet, restitution, integration, output : the sections.
+    friction : Friction or None
+        The optional ``friction`` section (None: smooth spheres).
     source : str
         The file it was read from (or the ``source`` name given).
     source_text : str or None
@@ -370,6 +402,7 @@ class Scenario:
     restitution: Restitution
     integration: Integration
     output: Output
+    friction: Friction | None = None
     source: str = field(default="<dict>", compare=False, repr=False)
     source_text: str | None = field(default=None, compare=False, repr=False)
     # The mapping as the user wrote it (before defaults), for with_overrides.
@@ -416,9 +449,13 @@ class Scenario:
         """{"model": ..., params...} for `ringsim.install_resolver` and `epsilon_for_pair`."""
         return self.restitution.to_dict()
 
+    def friction_dict(self) -> dict[str, Any] | None:
+        """{"model": ..., params...} for `ringsim.install_resolver`; None without friction."""
+        return None if self.friction is None else self.friction.to_dict()
+
     def to_dict(self) -> dict[str, Any]:
         """Plain nested dict with every default filled in (SI / orbits as in the file)."""
-        return {
+        d = {
             "name": self.name,
             "seed": self.seed,
             "description": self.description,
@@ -429,6 +466,9 @@ class Scenario:
             "integration": self.integration.to_dict(),
             "output": self.output.to_dict(),
         }
+        if self.friction is not None:
+            d["friction"] = self.friction.to_dict()
+        return d
 
     def to_yaml(self) -> str:
         """YAML text of `to_dict`; ``scenario_from_text(sc.to_yaml()) == sc``."""
@@ -511,7 +551,13 @@ def _read_particles(top: Section) -> Particles:
     sec = top.section("particles", required=True, keys=_SECTION_KEYS["particles"])
     sec.check_keys(_SECTION_KEYS["particles"])
     density = sec.number("density", DEFAULTS["particles.density"], unit="kg/m^3", gt=0.0)
-    return Particles(density=density, size_distribution=_read_size_distribution(sec))
+    if sec.has("inertia_factor") and not top.has("friction"):
+        raise sec.error("inertia_factor", "only used with a friction section",
+                        "add a friction section, or remove the key")
+    inertia_factor = sec.number("inertia_factor", INERTIA_FACTOR.default,
+                                **INERTIA_FACTOR.limits())
+    return Particles(density=density, size_distribution=_read_size_distribution(sec),
+                     inertia_factor=inertia_factor)
 
 
 def _read_sheet(top: Section) -> SheetConfig:
@@ -555,6 +601,19 @@ def _read_restitution(top: Section) -> Restitution:
                            **par.limits())
         params.append((par.name, value))
     return Restitution(model=model, parameters=tuple(params))
+
+
+def _read_friction(top: Section) -> Friction | None:
+    """The optional friction section, validated against the declaration `FRICTION`."""
+    if not top.has("friction"):
+        return None
+    sec = top.section("friction")
+    model = sec.string("model", choices=FRICTION.names)
+    law = FRICTION[model]
+    sec.check_keys(("model",) + law.names, context=f"the {model} model")
+    params = tuple((par.name, sec.number(par.name, REQUIRED if par.required else par.default,
+                                         **par.limits())) for par in law.parameters)
+    return Friction(model=model, parameters=params)
 
 
 def _read_integration(top: Section, planet: Planet) -> Integration:
@@ -654,11 +713,13 @@ def _build(data: Any, source: str, source_text: str | None) -> Scenario:
     particles = _read_particles(top)
     sheet = _read_sheet(top)
     restitution = _read_restitution(top)
+    friction = _read_friction(top)
     integration = _read_integration(top, planet)
     output = _read_output(top, name)
     scenario = Scenario(name=name, seed=seed, description=description, planet=planet,
                         particles=particles, sheet=sheet, restitution=restitution,
-                        integration=integration, output=output, source=source,
+                        integration=integration, output=output, friction=friction,
+                        source=source,
                         source_text=source_text, _given=plain(data))
     if sheet.initial_state is None:  # else the file's particles are checked at set-up
         _check_geometry(top, particles, sheet, scenario)

@@ -56,6 +56,13 @@
  * param[0]      double    tabor            v_c, speed where eps = 1          m/s
  * param[1]      double    tabor            q, hardness exponent, 0<q<1/2     -
  * log_capacity  int64_t   all              ring-buffer length of the log     -
+ * friction_model int32_t  -                RS_FRICTION_* (none=0, constant=1, -
+ *                                          coulomb=2; ringsim.physics.friction.FRICTION)
+ * friction[0]   double    constant         beta, tangential restitution      -
+ * friction[0]   double    coulomb          mu, Coulomb friction coefficient  -
+ * friction[1]   double    coulomb          beta0, sticking restitution       -
+ * inertia_factor double   friction         k in I = k m R^2, (0, 2/3]        -
+ * spin          double*   friction         3 per particle (rotating frame)   rad/s
  * log_every     int64_t   all              log every n-th collision          -
  * REBOUND's own field used: minimum_collision_velocity [1/s], see below.
  *
@@ -120,7 +127,11 @@
  *   step are resolved one after another in REBOUND's shuffled order, each on the straight
  *   path of the velocities at that moment, and each pair at most once per step
  *   (multi_encounters measures how often).  sheet: in time order (rs_sheet_detect.c).
- * - Head-on normal impulse only: no tangential friction, no spin, no adhesion.
+ * - Without friction (friction_model = RS_FRICTION_NONE, the default) the normal impulse
+ *   only: no spin.  With friction, rough spheres as in ringsim/physics/friction.py
+ *   (rs_tangential_impulse below): spins [rad/s] relative to the rotating frame, kept
+ *   constant between collisions (the slow precession of w_x, w_y at Omega in the rotating
+ *   frame is not followed).  No adhesion, no rolling resistance.
  * - eps depends on the normal speed only through the laws above; the Dilley law is a
  *   fit to 2.5-20 cm ice spheres at 0.01-5 cm/s and its size/mass scaling is a model.
  * - Returns 0 (keep both particles) always.  If sim->extras does not point to a
@@ -346,7 +357,48 @@ struct rs_resolver* rs_resolver_create(int32_t model, double param0, double para
     res->log_every = log_every;
     const double unknown[4] = {0.0, INFINITY, 0.0, INFINITY};
     memcpy(res->measured, unknown, sizeof(unknown));
+    res->friction_model = RS_FRICTION_NONE;
+    res->inertia_factor = 0.4;     /* solid sphere; used only with friction */
     return res;
+}
+
+/* A guard repeating the ranges declared in ringsim/physics/friction.py (FRICTION) and of
+ * the scenario's particles.inertia_factor; tests/test_friction_resolver.py checks that it
+ * accepts and refuses exactly at every bound. */
+static int rs_friction_valid(int32_t model, const double* param, double inertia_factor){
+    for (int i = 0; i < 3; i++){
+        if (!isfinite(param[i])){
+            return 0;
+        }
+    }
+    if (!(inertia_factor > 0.0 && inertia_factor <= 2.0 / 3.0)){
+        return 0;
+    }
+    switch (model){
+        case RS_FRICTION_NONE:
+            return 1;
+        case RS_FRICTION_CONSTANT:
+            return param[0] >= -1.0 && param[0] <= 1.0;
+        case RS_FRICTION_COULOMB:
+            return param[0] >= 0.0 && param[1] >= -1.0 && param[1] <= 1.0;
+        default:
+            return 0;
+    }
+}
+
+/* Sets the friction model (RS_FRICTION_*), its parameters (constant: beta; coulomb: mu,
+ * beta0) and the inertia factor k; returns 0 (and changes nothing) if they are outside
+ * their declared ranges. */
+int rs_resolver_set_friction(struct rs_resolver* res, int32_t model, double param0,
+                             double param1, double param2, double inertia_factor){
+    const double param[3] = {param0, param1, param2};
+    if (!rs_friction_valid(model, param, inertia_factor)){
+        return 0;
+    }
+    res->friction_model = model;
+    memcpy(res->friction, param, sizeof(param));
+    res->inertia_factor = inertia_factor;
+    return 1;
 }
 
 void rs_resolver_reset_stats(struct rs_resolver* res){
@@ -363,6 +415,7 @@ void rs_resolver_free(struct rs_resolver* res){
     }
     free(res->memory.keys);
     free(res->memory.last_step);
+    free(res->spin);
     free(res->log);
     free(res);
 }
@@ -532,6 +585,91 @@ static int rs_pair_memory_insert(struct rs_pair_memory* m, uint64_t key){
 /* ---------------------------------------------------------------------------------- */
 /* The resolver.                                                                      */
 
+/* Room for the spins of n particles (new ones at rest in the rotating frame); 0 if
+ * memory ran out. */
+int rs_spin_reserve(struct rs_resolver* res, int64_t n){
+    if (n <= res->spin_capacity){
+        return 1;
+    }
+    int64_t capacity = res->spin_capacity ? res->spin_capacity : 64;
+    while (capacity < n){
+        capacity *= 2;
+    }
+    double* grown = realloc(res->spin, (size_t)capacity * 3 * sizeof(double));
+    if (grown == NULL){
+        return 0;
+    }
+    memset(grown + 3 * res->spin_capacity, 0,
+           (size_t)(capacity - res->spin_capacity) * 3 * sizeof(double));
+    res->spin = grown;
+    res->spin_capacity = capacity;
+    return 1;
+}
+
+/* The tangential impulse of rough spheres per reduced mass, jt [m/s], and the spin changes
+ * it causes (applied to w1, w2 [rad/s]), in the order of operations of
+ * ringsim/physics/friction.py::collision_impulse (the tested reference):
+ *   n = dr/|dr|, lever = |dr|/(R1 + R2), arms a_i = R_i lever, s = a1 w1 + a2 w2,
+ *   g = dv - s x n, g_t = g - (g.n) n, f_t = 1/(1 + lever^2 (share1/k + share2/k)),
+ *   constant: c = (1 + beta) f_t; coulomb: c = min((1 + beta0) f_t, mu J_n/(M_bar |g_t|)),
+ *   jt = -c g_t, w_i -= lever share_i/(k R_i) (n x jt).
+ * No torque from the normal impulse (n x n = 0).  Adds the energy it dissipates,
+ * 1/2 M_bar c (2 - c/f_t) |g_t|^2 [J], and sliding contacts to the statistics. */
+static void rs_tangential_impulse(struct rs_resolver* const res, double* const w1,
+                                  double* const w2, double R1, double R2, double share1,
+                                  double share2, double M_bar, double separation_change,
+                                  double dx, double dy, double dz, double distance,
+                                  double dvx, double dvy, double dvz, double* const jt){
+    const double k = res->inertia_factor;
+    const double nx = dx / distance;
+    const double ny = dy / distance;
+    const double nz = dz / distance;
+    const double lever = distance / (R1 + R2);
+    const double a1 = R1 * lever;
+    const double a2 = R2 * lever;
+    const double sx = a1 * w1[0] + a2 * w2[0];
+    const double sy = a1 * w1[1] + a2 * w2[1];
+    const double sz = a1 * w1[2] + a2 * w2[2];
+    const double gx = dvx - (sy * nz - sz * ny);
+    const double gy = dvy - (sz * nx - sx * nz);
+    const double gz = dvz - (sx * ny - sy * nx);
+    const double gn = gx * nx + gy * ny + gz * nz;
+    const double gtx = gx - gn * nx;
+    const double gty = gy - gn * ny;
+    const double gtz = gz - gn * nz;
+    const double f_t = 1.0 / (1.0 + lever * lever * (share1 / k + share2 / k));
+    const double gt2 = gtx * gtx + gty * gty + gtz * gtz;
+    double c;
+    if (res->friction_model == RS_FRICTION_CONSTANT){
+        c = (1.0 + res->friction[0]) * f_t;
+    }else{
+        const double stick = (1.0 + res->friction[1]) * f_t;
+        const double gt = sqrt(gt2);
+        const double limit = res->friction[0] * separation_change;
+        if (stick * gt > limit){
+            c = limit / gt;
+            res->stats.n_sliding++;
+        }else{
+            c = stick;
+        }
+    }
+    jt[0] = -(c * gtx);
+    jt[1] = -(c * gty);
+    jt[2] = -(c * gtz);
+    const double cx = ny * jt[2] - nz * jt[1];
+    const double cy = nz * jt[0] - nx * jt[2];
+    const double cz = nx * jt[1] - ny * jt[0];
+    const double f1 = lever * share1 / (k * R1);
+    const double f2 = lever * share2 / (k * R2);
+    w1[0] -= f1 * cx;
+    w1[1] -= f1 * cy;
+    w1[2] -= f1 * cz;
+    w2[0] -= f2 * cx;
+    w2[1] -= f2 * cy;
+    w2[2] -= f2 * cz;
+    res->stats.tangential_dissipation += 0.5 * M_bar * c * (2.0 - c / f_t) * gt2;
+}
+
 /* Contact found: dx, dy, dz and distance are the separation at the contact (end of the
  * step, or back_time earlier on the straight relative path), dv the relative velocity.
  * Applies the impulse; for back_time > 0 moves both particles to where the new
@@ -575,11 +713,28 @@ static int rs_apply_impulse(struct reb_simulation* const r, struct rs_resolver* 
     }
 
     const double old_vy_outer = dx > 0.0 ? p1->vy : p2->vy;
-    const double jx = separation_change * (dx / distance);
-    const double jy = separation_change * (dy / distance);
-    const double jz = separation_change * (dz / distance);
+    double jx = separation_change * (dx / distance);
+    double jy = separation_change * (dy / distance);
+    double jz = separation_change * (dz / distance);
     const double share2 = m1 / total_mass;
     const double share1 = m2 / total_mass;
+    if (res->friction_model != RS_FRICTION_NONE){
+        /* Rough spheres: add the tangential impulse, turn the spins (no friction: the
+         * smooth path above is untouched, bit for bit). */
+        const size_t i1 = (size_t)(p1 - r->particles);
+        const size_t i2 = (size_t)(p2 - r->particles);
+        if (!rs_spin_reserve(res, (int64_t)r->N)){
+            r->status = REB_STATUS_GENERIC_ERROR;   /* out of memory */
+            return 0;
+        }
+        double jt[3];
+        rs_tangential_impulse(res, &res->spin[3 * i1], &res->spin[3 * i2], p1->r, p2->r,
+                              share1, share2, M_bar, separation_change, dx, dy, dz, distance,
+                              dvx, dvy, dvz, jt);
+        jx += jt[0];
+        jy += jt[1];
+        jz += jt[2];
+    }
     p2->vx -= share2 * jx;
     p2->vy -= share2 * jy;
     p2->vz -= share2 * jz;

@@ -43,6 +43,9 @@ struct rs_stats {
                                                range (rs_resolver.measured[0..1]) */
     int64_t outside_sizes;                  /* reduced radius outside its measured range
                                                (rs_resolver.measured[2..3]) */
+    double tangential_dissipation;          /* [J] kinetic energy (translation + rotation)
+                                               the tangential impulses dissipated */
+    int64_t n_sliding;                      /* collisions on which Coulomb's bound acted */
 };
 
 /* Pairs resolved in the current step of the swept-path modes (open-addressing set), and
@@ -73,7 +76,23 @@ struct rs_resolver {
     void (*detector_free)(struct rs_sheet_detector*);   /* set with detector */
     double measured[4];     /* [m/s] speeds, [m] reduced radii the law's parameters were
                                measured over: v_min, v_max, R_min, R_max (0, inf: unknown) */
+    int32_t friction_model; /* RS_FRICTION_NONE / _CONSTANT / _COULOMB */
+    int32_t reserved2;
+    double friction[3];     /* constant: beta; coulomb: mu, beta0 (slots of
+                               ringsim.physics.friction.FRICTION) */
+    double inertia_factor;  /* k in I = k m R^2 (0 < k <= 2/3) */
+    double* spin;           /* [rad/s] 3 per particle, by particle index, relative to the
+                               rotating frame of the sheet; NULL until needed */
+    int64_t spin_capacity;  /* particles spin has room for */
 };
+
+/* Friction models (struct rs_resolver.friction_model). */
+#define RS_FRICTION_NONE 0
+#define RS_FRICTION_CONSTANT 1
+#define RS_FRICTION_COULOMB 2
+
+/* Room for the spins of n particles (zeros for new ones); 0 if memory ran out. */
+int rs_spin_reserve(struct rs_resolver* res, int64_t n);
 
 /* The resolver installed in r (through r->extras), or NULL. */
 struct rs_resolver* rs_resolver_of(const struct reb_simulation* r);

@@ -15,6 +15,7 @@ import numpy as np
 import rebound
 from rebound.simulation import CollisionS
 
+from ringsim.physics.friction import FRICTION
 from ringsim.physics.restitution import RESTITUTION
 
 #: Integer codes of the restitution laws in the C struct (enum RS_MODEL), from the declaration.
@@ -22,6 +23,12 @@ MODEL_CODES = {law.name: law.code for law in RESTITUTION}
 #: Order in which each law's parameters fill the C struct's ``param[3]`` (their slots).
 PARAMETER_ORDER = {law.name: tuple(p.name for p in sorted(law.parameters, key=lambda p: p.slot))
                    for law in RESTITUTION}
+
+#: Integer codes of the friction models (RS_FRICTION_*); 0 is no friction (smooth spheres).
+FRICTION_CODES = {"none": 0, **{law.name: law.code for law in FRICTION}}
+#: Statistics fields appended for friction: a checkpoint written before them restores them
+#: as zero.
+FRICTION_STATISTICS = ("tangential_dissipation", "n_sliding")
 
 #: Bin edges of the normal-impact-speed histogram [m/s].
 VN_BIN_EDGES = np.logspace(-7.0, 2.0, 91)
@@ -60,6 +67,8 @@ class _Stats(ctypes.Structure):
         ("multi_encounters", ctypes.c_int64),
         ("outside_speeds", ctypes.c_int64),
         ("outside_sizes", ctypes.c_int64),
+        ("tangential_dissipation", ctypes.c_double),
+        ("n_sliding", ctypes.c_int64),
     ]
 
 
@@ -83,6 +92,12 @@ class _Resolver(ctypes.Structure):
         ("detector", ctypes.c_void_p),
         ("detector_free", ctypes.c_void_p),
         ("measured", ctypes.c_double * 4),
+        ("friction_model", ctypes.c_int32),
+        ("reserved2", ctypes.c_int32),
+        ("friction", ctypes.c_double * 3),
+        ("inertia_factor", ctypes.c_double),
+        ("spin", ctypes.POINTER(ctypes.c_double)),
+        ("spin_capacity", ctypes.c_int64),
     ]
 
 
@@ -123,6 +138,11 @@ def _load_library() -> ctypes.CDLL:
                                        ctypes.c_double, ctypes.c_int64, ctypes.c_int64]
     lib.rs_resolver_free.restype = None
     lib.rs_resolver_free.argtypes = [ctypes.c_void_p]
+    lib.rs_resolver_set_friction.restype = ctypes.c_int
+    lib.rs_resolver_set_friction.argtypes = [ctypes.c_void_p, ctypes.c_int32, ctypes.c_double,
+                                             ctypes.c_double, ctypes.c_double, ctypes.c_double]
+    lib.rs_spin_reserve.restype = ctypes.c_int
+    lib.rs_spin_reserve.argtypes = [ctypes.c_void_p, ctypes.c_int64]
     lib.rs_resolver_reset_stats.restype = None
     lib.rs_resolver_reset_stats.argtypes = [ctypes.c_void_p]
     double_p = ctypes.POINTER(ctypes.c_double)
@@ -159,6 +179,8 @@ def _load_library() -> ctypes.CDLL:
         ("dissipation histogram bins", lib.rs_histogram_bins(1), _N_EPS_BINS),
         ("restitution parameter slots", _Resolver.param.size // ctypes.sizeof(ctypes.c_double),
          RESTITUTION.n_slots),
+        ("friction parameter slots",
+         _Resolver.friction.size // ctypes.sizeof(ctypes.c_double), FRICTION.n_slots),
     ]
     for what, in_c, in_python in checks:
         if in_c != in_python:

@@ -65,6 +65,8 @@ import numpy as np
 import rebound
 from rebound.simulation import COLRFF, CollisionS
 
+from ringsim.engine import spins as _spins
+from ringsim.engine import statistics as _statistics
 from ringsim.engine.native import (
     _CONSTANT_COR_ADDRESS,
     _LIB,
@@ -83,9 +85,6 @@ from ringsim.engine.native import (
     _Resolver,
 )
 from ringsim.physics import restitution as rs
-
-#: numpy type of each scalar ctypes type of the statistics struct.
-_NUMPY_TYPES = {ctypes.c_int64: np.int64, ctypes.c_double: np.float64}
 
 
 def _validated(restitution: Mapping[str, Any]) -> tuple[str, dict[str, float]]:
@@ -134,6 +133,12 @@ class ResolverHandle:
     restitution : mapping
         As in the scenario's ``restitution`` section, e.g.
         ``{"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.1}``.
+    friction : mapping or None
+        As in the scenario's ``friction`` section, ``{"model": "constant", "beta": 0.0}``
+        or ``{"model": "coulomb", "mu": 0.5}`` (``physics.friction.FRICTION``); None:
+        smooth spheres, no spins (the resolver's path of today, bit for bit).
+    inertia_factor : float
+        k in I = k m R^2, in (0, 2/3] (``physics.friction.INERTIA_FACTOR``).
     log_capacity : int
         Number of sampled collisions kept (ring buffer); 0 disables the log.
     log_every : int
@@ -149,8 +154,10 @@ class ResolverHandle:
         ``post_timestep_modifications``, once per step, before REBOUND wraps the particles.
     """
 
-    def __init__(self, restitution: Mapping[str, Any], *, log_capacity: int = 0,
-                 log_every: int = 1, collision_detection: str | None = None):
+    def __init__(self, restitution: Mapping[str, Any],
+                 friction: Mapping[str, Any] | None = None, inertia_factor: float = 0.4, *,
+                 log_capacity: int = 0, log_every: int = 1,
+                 collision_detection: str | None = None):
         if collision_detection not in COLLISION_DETECTIONS:
             raise ValueError(f"collision_detection: must be one of {COLLISION_DETECTIONS}, "
                              f"got {collision_detection!r}")
@@ -159,6 +166,7 @@ class ResolverHandle:
                               "to setup.py's sources and rebuild "
                               "(`python setup.py build_ext --inplace`)")
         model, params = _validated(restitution)
+        friction_model, friction_params, k = _spins.checked_friction(friction, inertia_factor)
         if isinstance(log_capacity, bool) or not isinstance(log_capacity, (int, np.integer)) \
                 or log_capacity < 0:
             raise ValueError(f"log_capacity: must be an integer >= 0, got {log_capacity!r}")
@@ -177,6 +185,10 @@ class ResolverHandle:
         self._address: int | None = address
         self._struct = _Resolver.from_address(address)
         self._struct.measured[:] = measured_range(model)
+        self.friction = (None if friction_model == "none"
+                         else {"model": friction_model, **friction_params})
+        self.inertia_factor = k
+        _spins.install_friction(address, friction_model, friction_params, k)
         # Function pointers into the loaded library; kept here so they live with the handle.
         self._resolve_fp = COLRFF(_RESOLVE_ADDRESS)
         self._sheet_step_fp = (_POST_TIMESTEP(_SHEET_STEP_ADDRESS) if _SHEET_STEP_ADDRESS
@@ -260,6 +272,28 @@ class ResolverHandle:
         state = "closed" if self.closed else f"{self._struct.stats.count} collisions"
         return f"<ResolverHandle {self.model} {self.parameters} ({state})>"
 
+    # -- spins ----------------------------------------------------------------------------
+
+    def spins(self) -> np.ndarray:
+        """Spins of the simulation's particles, (N, 3) [rad/s], by particle index.
+
+        Angular velocities about each centre relative to the rotating frame of the sheet
+        (``physics.friction``: w_z > 0 prograde; add Omega z for the inertial spin).  Zero
+        without friction.  Detached: every particle the resolver has room for.
+        """
+        if self._struct is None:
+            raise ValueError("the resolver handle is closed")
+        n = self._sim.N if self._sim is not None else int(self._struct.spin_capacity)
+        return _spins.read_spins(self._struct, n)
+
+    def set_spins(self, spins: Any) -> None:
+        """Set the spins of all particles, (N, 3) [rad/s] in the rotating frame (e.g. from
+        a checkpoint).  The shape must match the attached simulation's particle count."""
+        if self._struct is None:
+            raise ValueError("the resolver handle is closed")
+        _spins.write_spins(self.address, self._struct, spins,
+                           self._sim.N if self._sim is not None else None)
+
     # -- statistics -----------------------------------------------------------------------
 
     def stats(self) -> dict[str, Any]:
@@ -309,6 +343,8 @@ class ResolverHandle:
             "multi_encounters": int(s.multi_encounters),
             "outside_speeds": int(s.outside_speeds),
             "outside_sizes": int(s.outside_sizes),
+            "tangential_dissipation": float(s.tangential_dissipation),
+            "n_sliding": int(s.n_sliding),
         }
 
     def order_stats(self) -> dict[str, int]:
@@ -405,20 +441,14 @@ class ResolverHandle:
         dict of numpy arrays: one per field of the C ``struct rs_stats`` (``count``,
         ``n_floored``, ``sum_epsilon`` [1], ``sum_vn`` [m/s], ``vn_underflow``,
         ``vn_overflow``, ``vn_hist``, ``eps_underflow``, ``eps_hist``, ``log_written``,
-        ``multi_encounters``; scalars as 0-d arrays) and ``log``, the whole ring buffer
+        ``multi_encounters``, ..., ``tangential_dissipation`` [J], ``n_sliding``; scalars
+        as 0-d arrays) and ``log``, the whole ring buffer
         (:data:`LOG_DTYPE`, ``log_capacity`` entries in memory order).  :meth:`set_stats`
         restores them bit for bit.
         """
         if self._struct is None:
             raise ValueError("the resolver handle is closed")
-        s = self._struct.stats
-        state = {}
-        for name, ctype in s._fields_:
-            value = getattr(s, name)
-            if issubclass(ctype, ctypes.Array):
-                state[name] = np.ctypeslib.as_array(value).copy()
-            else:
-                state[name] = np.array(value, dtype=_NUMPY_TYPES[ctype])
+        state = _statistics.saved(self._struct.stats)
         state["log"] = self._raw_log().copy()
         return state
 
@@ -430,26 +460,12 @@ class ResolverHandle:
         """
         if self._struct is None:
             raise ValueError("the resolver handle is closed")
-        s = self._struct.stats
-        values = {}
-        for name, ctype in s._fields_:
-            if name not in state:
-                raise ValueError(f"statistics: {name} missing")
-            value = np.asarray(state[name])
-            expected = (ctype._length_,) if issubclass(ctype, ctypes.Array) else ()
-            if value.shape != expected:
-                raise ValueError(f"statistics: {name} has shape {value.shape}, "
-                                 f"expected {expected}")
-            values[name] = value
+        values = _statistics.checked(self._struct.stats, state)
         log = np.asarray(state.get("log", np.zeros(0, LOG_DTYPE)))
         if log.dtype != LOG_DTYPE or log.shape != (self.log_capacity,):
             raise ValueError(f"statistics: log must hold {self.log_capacity} entries of "
                              f"LOG_DTYPE, got {log.shape} {log.dtype}")
-        for name, ctype in s._fields_:
-            if issubclass(ctype, ctypes.Array):
-                np.ctypeslib.as_array(getattr(s, name))[...] = values[name]
-            else:
-                setattr(s, name, values[name].item())
+        _statistics.restore(self._struct.stats, values)
         self._raw_log()[...] = log
 
     def _raw_log(self) -> np.ndarray:
@@ -528,8 +544,9 @@ def collision_records(pairs: Any, ghosts: Any = None) -> np.ndarray:
     return records
 
 
-def install_resolver(sim: rebound.Simulation, restitution: Mapping[str, Any], *,
-                     log_capacity: int = 0, log_every: int = 1,
+def install_resolver(sim: rebound.Simulation, restitution: Mapping[str, Any],
+                     friction: Mapping[str, Any] | None = None, inertia_factor: float = 0.4,
+                     *, log_capacity: int = 0, log_every: int = 1,
                      collision_detection: str | None = None) -> ResolverHandle:
     """Put ringsim's C collision resolver with the given restitution law into ``sim``.
 
@@ -542,6 +559,11 @@ def install_resolver(sim: rebound.Simulation, restitution: Mapping[str, Any], *,
         {xi0, p, kappa}, bridges {v_c [m/s], exponent}, constant {epsilon},
         andrews {v_c [m/s]}, tabor {v_c [m/s], q}.  Missing optional parameters take
         their defaults; unknown models or keys raise ValueError naming the key.
+    friction : mapping or None
+        ``{"model": "constant", "beta": B}`` or ``{"model": "coulomb", "mu": M}``
+        (optional ``beta0``); None: smooth spheres.  Spins: :meth:`ResolverHandle.spins`.
+    inertia_factor : float
+        k in I = k m R^2, in (0, 2/3]; 0.4 a solid sphere.
     log_capacity : int
         Number of sampled collisions kept in C (0: no log).
     log_every : int
@@ -558,7 +580,8 @@ def install_resolver(sim: rebound.Simulation, restitution: Mapping[str, Any], *,
         Stored in the simulation as well (``sim._extras_ref``), so it lives as long as
         ``sim``; keep it to read the statistics.
     """
-    handle = ResolverHandle(restitution, log_capacity=log_capacity, log_every=log_every,
+    handle = ResolverHandle(restitution, friction, inertia_factor,
+                            log_capacity=log_capacity, log_every=log_every,
                             collision_detection=collision_detection)
     return handle.reinstall(sim)
 

@@ -257,7 +257,8 @@ class Runner:
         from ringsim.engine.resolver import install_resolver
 
         self.handle = install_resolver(
-            sim, self.scenario.restitution_dict(),
+            sim, self.scenario.restitution_dict(), self.scenario.friction_dict(),
+            self.scenario.particles.inertia_factor,
             log_capacity=self.scenario.output.log_collisions,
             collision_detection=self.scenario.integration.collision_detection)
         if checkpoint.statistics is not None:
@@ -266,6 +267,12 @@ class Runner:
             except ValueError as exc:
                 raise runfile.RunFileError(self.path, f"cannot be restored ({exc})",
                                            f"/{runfile.CHECKPOINT_STATISTICS}") from None
+        if self.handle.friction is not None:
+            try:
+                self.handle.set_spins(checkpoint.spins)
+            except ValueError as exc:
+                raise runfile.RunFileError(self.path, f"cannot restore the spins ({exc})",
+                                           f"/{runfile.CHECKPOINT_SPINS}") from None
         self.momentum = (invariants.SheetMomentum.from_attributes(st)
                          or invariants.sheet_momentum(sheet.particle_arrays(sim), self.Omega,
                                                       sim.t))
@@ -402,6 +409,9 @@ class Runner:
         t = self.sim.t
         snap = None
         if first or _interval_index(t, self.snap_every) >= self.state.snapshots:
+            if self.handle.friction is not None:
+                arrays = {**arrays, **dict(zip(runfile.SPIN_FIELDS, self.handle.spins().T,
+                                               strict=True))}
             snap = (self.state.snapshots, t, arrays)
             self.state.snapshots += 1
         if first or _interval_index(t, self.ckpt_every) > _interval_index(
@@ -440,8 +450,9 @@ class Runner:
         attributes = dict(attributes or {})
         attributes["wall_time_s"] = self.wall_before + time.perf_counter() - self.wall_start
         self._commit(snapshot=snapshot, attributes=attributes,
-                     checkpoint=runfile.Checkpoint(_simulation_binary(self.sim), state,
-                                                   self.handle.stats_state()))
+                     checkpoint=runfile.Checkpoint(
+                         _simulation_binary(self.sim), state, self.handle.stats_state(),
+                         None if self.handle.friction is None else self.handle.spins()))
 
     def fail(self, violation: Exception) -> None:
         """Stop a run that broke an invariant: keep the last (good) checkpoint, write the

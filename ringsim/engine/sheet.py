@@ -302,7 +302,8 @@ def build_sheet(scenario) -> BuiltSheet:
     from ringsim.engine.resolver import install_resolver
 
     sim, geometry, radii, masses = new_simulation(scenario)
-    handle = install_resolver(sim, scenario.restitution_dict(),
+    handle = install_resolver(sim, scenario.restitution_dict(), scenario.friction_dict(),
+                              scenario.particles.inertia_factor,
                               log_capacity=scenario.output.log_collisions,
                               collision_detection=scenario.integration.collision_detection)
     edges = size_bin_edges(scenario.particles.size_distribution)

@@ -86,69 +86,81 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ringsim.physics.laws import DIMENSIONLESS, Law, LawTable, MeasuredRange, Parameter
+
 FloatArray = NDArray[np.float64]
 
 #: Moment-of-inertia factor k of a homogeneous solid sphere, I = k m R^2.
 SOLID_SPHERE_INERTIA = 0.4
 
-#: The friction models and their parameters: unit, allowed range, default (None: required),
-#: meaning, source.  A scenario's optional ``friction:`` section is one of these.
-FRICTION_MODELS: dict[str, dict[str, dict[str, object]]] = {
-    "constant": {
-        "beta": {"unit": "-", "range": (-1.0, 1.0), "default": None,
-                 "meaning": "tangential coefficient of restitution: g_t' = -beta g_t "
-                            "(-1 smooth, 0 contact point stops, 1 perfectly rough)",
-                 "source": "Huthmann & Zippelius 1997, PRE 56, R6275; Luding et al. 1998, "
-                           "PRE 58, 3416"},
-    },
-    "coulomb": {
-        "mu": {"unit": "-", "range": (0.0, math.inf), "default": None,
-               "meaning": "Coulomb friction coefficient: |J_t| <= mu |J_n|",
-               "source": "Walton 1993; Luding et al. 1998, PRE 58, 3416"},
-        "beta0": {"unit": "-", "range": (-1.0, 1.0), "default": 0.0,
-                  "meaning": "tangential restitution of sticking contacts (0: the contact "
-                             "point comes to rest)",
-                  "source": "Walton 1993; Luding et al. 1998, PRE 58, 3416"},
-    },
-}
+#: The moment-of-inertia factor k, I = k m R^2 (scenario key ``particles.inertia_factor``):
+#: 2/5 a homogeneous solid sphere, up to 2/3 a thin spherical shell (all mass at the surface).
+INERTIA_FACTOR = Parameter(
+    "inertia_factor", DIMENSIONLESS, default=SOLID_SPHERE_INERTIA, lower=0.0,
+    upper=2.0 / 3.0, upper_closed=True,
+    meaning="k in the moment of inertia I = k m R² (used with a friction section only)",
+    source="2/5 homogeneous solid sphere; 2/3 thin shell, the largest for a sphere whose "
+           "density does not grow outward")
+
+_LUDING = "Luding, Huthmann, McNamara & Zippelius 1998, PRE 58, 3416"
+_NOT_MEASURED = MeasuredRange(speeds=None, sizes=None,
+                              source="a model parameter, not fitted to ring-particle data")
+
+#: The friction models of a scenario's optional ``friction:`` section and the only
+#: declaration of their parameters (see ringsim.physics.laws).  Code 0 of the C library
+#: (RS_FRICTION_NONE) is no section: smooth spheres.  The C ``struct rs_resolver`` has
+#: ``friction[3]``.  Each law's function is :func:`collision_impulse`, the one rule.
+FRICTION = LawTable("friction", n_slots=3, laws=[
+    Law("constant", code=1, function=lambda *a, **k: collision_impulse(*a, **k),
+        formula="g_t' = −β g_t (tangential contact velocity), j_t = −(1 + β) f_t g_t",
+        source="Huthmann & Zippelius 1997, PRE 56, R6275; " + _LUDING,
+        measured=_NOT_MEASURED,
+        parameters=(
+            Parameter("beta", DIMENSIONLESS, lower=-1.0, upper=1.0, lower_closed=True,
+                      upper_closed=True, slot=0, example=0.0,
+                      meaning="tangential coefficient of restitution: g_t' = −β g_t (−1 "
+                              "smooth, 0 the contact point stops, 1 perfectly rough)",
+                      source="Huthmann & Zippelius 1997; " + _LUDING +
+                             " (example 0: the middle of the range)"),
+        )),
+    Law("coulomb", code=2, function=lambda *a, **k: collision_impulse(*a, **k),
+        formula="β = min(β0, −1 + μ (1 + ε_n) v_n / (f_t g_t)): sticking, or sliding "
+                "with J_t = μ J_n (magnitudes)",
+        source="Walton 1993, in Particulate Two-Phase Flow, 884; " + _LUDING,
+        measured=_NOT_MEASURED,
+        parameters=(
+            Parameter("mu", DIMENSIONLESS, lower=0.0, lower_closed=True, slot=0,
+                      example=0.5, meaning="Coulomb friction coefficient: J_t ≤ μ J_n (magnitudes)",
+                      source="Walton 1993; " + _LUDING + " (example 0.5)"),
+            Parameter("beta0", DIMENSIONLESS, default=0.0, lower=-1.0, upper=1.0,
+                      lower_closed=True, upper_closed=True, slot=1,
+                      meaning="tangential restitution of sticking contacts (0: the contact "
+                              "point comes to rest)",
+                      source="Walton 1993; " + _LUDING),
+        )),
+])
 
 
 def friction_parameters(friction: Mapping[str, object] | None) -> tuple[str, dict[str, float]]:
-    """Validate a ``friction`` mapping; return (model, parameters with defaults filled).
+    """Validate a ``friction`` mapping against `FRICTION`; return (model, parameters with
+    defaults filled).
 
     ``None`` (no friction section) is smooth spheres, returned as ``("constant",
-    {"beta": -1.0})``.  Raises ValueError naming the offending key.
+    {"beta": -1.0})``.  Raises ValueError starting with the offending key.
     """
     if friction is None:
         return "constant", {"beta": -1.0}
-    if "model" not in friction:
-        raise ValueError("model: missing (one of " + ", ".join(FRICTION_MODELS) + ")")
-    model = friction["model"]
-    if model not in FRICTION_MODELS:
-        raise ValueError(f"model: unknown friction model {model!r} "
-                         f"(one of {', '.join(FRICTION_MODELS)})")
-    table = FRICTION_MODELS[model]
-    params: dict[str, float] = {}
-    for key, value in friction.items():
-        if key == "model":
-            continue
-        if key not in table:
-            raise ValueError(f"{key}: not a parameter of friction model {model!r} "
-                             f"(allowed: {', '.join(table)})")
-        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer,
-                                                             np.floating)):
-            raise ValueError(f"{key}: must be a real number, got {value!r}")
-        low, high = table[key]["range"]
-        x = float(value)
-        if not (math.isfinite(x) and low <= x <= high):
-            raise ValueError(f"{key}: must lie in [{low}, {high}], got {value!r}")
-        params[key] = x
-    for key, spec in table.items():
-        if key not in params:
-            if spec["default"] is None:
-                raise ValueError(f"{key}: required by friction model {model!r}")
-            params[key] = float(spec["default"])
-    return model, params
+    model = friction.get("model")
+    if model in FRICTION.names:
+        law = FRICTION[model]
+        for key, value in friction.items():
+            if key in law.names:
+                try:
+                    law[key].check(value)
+                except ValueError as exc:
+                    raise ValueError(f"{key}: {exc}") from None
+    law, params = FRICTION.resolve(friction)
+    return law.name, params
 
 
 class Impulse(NamedTuple):

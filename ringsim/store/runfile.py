@@ -54,8 +54,12 @@ CHECKPOINT_KEYS = ("rows", "snapshots", "guard_events", "dt_warned", "overlap_wa
                    "rand_seed", "root_size", "N_root_x", "N_root_y", "N_root_z", "t")
 
 SNAPSHOT_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "radius", "mass")
+#: Spins [rad/s] relative to the rotating frame (w_z > 0 prograde), only in runs with friction.
+SPIN_FIELDS = ("wx", "wy", "wz")
 SNAPSHOT_UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m/s",
-                  "radius": "m", "mass": "kg"}
+                  "radius": "m", "mass": "kg", "wx": "rad/s", "wy": "rad/s", "wz": "rad/s"}
+#: Dataset of the spins at the checkpoint, (N, 3) [rad/s] (runs with friction only).
+CHECKPOINT_SPINS = "checkpoint_spins"
 
 #: Units of the time-series quantities (per-bin arrays share the units of their scalar).
 TIMESERIES_UNITS = {
@@ -161,11 +165,14 @@ class Checkpoint:
         :data:`CHECKPOINT_KEYS` and whatever else the run loop saved (numbers).
     statistics : dict of arrays, or None
         ``ResolverHandle.stats_state()`` (None in format-1.0 files).
+    spins : array (N, 3) [rad/s], or None
+        ``ResolverHandle.spins()`` of a run with friction (None without).
     """
 
     binary: bytes
     state: dict
     statistics: dict | None = field(default=None)
+    spins: np.ndarray | None = field(default=None)
 
 
 def _append_rows(group: h5py.Group, name: str, values: np.ndarray, units: str,
@@ -219,7 +226,9 @@ def _write_snapshot(f: h5py.File, index: int, t: float,
     g = snaps.create_group(name)
     g.attrs["t"] = float(t)
     g.attrs["units_t"] = "s"
-    for field_name in SNAPSHOT_FIELDS:
+    for field_name in SNAPSHOT_FIELDS + SPIN_FIELDS:
+        if field_name not in arrays and field_name in SPIN_FIELDS:
+            continue
         ds = g.create_dataset(field_name, data=np.asarray(arrays[field_name], dtype=float))
         ds.attrs["units"] = SNAPSHOT_UNITS[field_name]
 
@@ -254,6 +263,11 @@ def _write_checkpoint(f: h5py.File, checkpoint: Checkpoint) -> None:
     ds.attrs["sha256"] = hashlib.sha256(checkpoint.binary).hexdigest()
     for key, value in checkpoint.state.items():
         ds.attrs[key] = value
+    if CHECKPOINT_SPINS in f:
+        del f[CHECKPOINT_SPINS]
+    if checkpoint.spins is not None:
+        spins = f.create_dataset(CHECKPOINT_SPINS, data=np.asarray(checkpoint.spins, float))
+        spins.attrs["units"] = "rad/s"
     if checkpoint.statistics is not None:
         g = f.require_group(CHECKPOINT_STATISTICS)
         for name in set(g) - set(checkpoint.statistics):
@@ -497,7 +511,8 @@ def read_checkpoint(path: str | os.PathLike) -> Checkpoint | None:
         statistics = None
         if CHECKPOINT_STATISTICS in f:
             statistics = {name: d[...] for name, d in f[CHECKPOINT_STATISTICS].items()}
-        return Checkpoint(binary=binary, state=state, statistics=statistics)
+        spins = f[CHECKPOINT_SPINS][...] if CHECKPOINT_SPINS in f else None
+        return Checkpoint(binary=binary, state=state, statistics=statistics, spins=spins)
 
 
 class Run:
@@ -560,7 +575,8 @@ class Run:
         name = self._snapshot_names[i]
         with _reading(self.path) as f:
             g = f["snapshots"][name]
-            out = {field_name: g[field_name][...] for field_name in SNAPSHOT_FIELDS}
+            out = {field_name: g[field_name][...] for field_name in SNAPSHOT_FIELDS
+                   + SPIN_FIELDS if field_name in g}
             out["t"] = float(g.attrs["t"])
         return out
 
