@@ -85,7 +85,7 @@ def wake_figure(snap: dict, Lx: float, Ly: float, title: str, lambda_cr: float,
         significant = "significant" if stats.get("significant") else "NOT significant"
         subtitle = (f"dominant wave: λ = {stats['wavelength']:.3g} m "
                     f"({stats['wavelength'] / lambda_cr:.2g} λ_cr), pitch "
-                    f"{stats['pitch_angle_deg']:.3g}° (dashed: crest direction), "
-                    f"{significant}; drawn to scale")
+                    f"{stats['pitch_angle_deg']:.3g}°, {significant}\n"
+                    f"dashed: crest direction; top view drawn to scale")
     ax.set_title(f"{title}\n{subtitle}", fontsize=9)
     return fig
