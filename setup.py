@@ -18,7 +18,8 @@ setup(
     ext_modules=[
         Extension(
             "ringsim._resolver",
-            sources=["ringsim/csrc/rs_resolver.c", "ringsim/csrc/rs_sheet_detect.c"],
+            sources=["ringsim/csrc/rs_resolver.c", "ringsim/csrc/rs_sheet_detect.c",
+                     "ringsim/csrc/rs_gravity.c"],
             include_dirs=[REBOUND_INCLUDE],
             libraries=["m"],
             extra_compile_args=["-O3", "-std=c99", "-fno-fast-math", "-ffp-contract=off"],

@@ -65,11 +65,15 @@ def test_size_distribution_drawn_with_the_seed():
     assert a.size_bin_edges[0] == 0.5 and 5.0 < a.size_bin_edges[-1] < 5.0 * (1 + 1e-8)
 
 
-def test_gravity_sets_tree_gravity_and_two_ghost_rings():
+def test_gravity_sets_tree_gravity_one_ghost_ring_and_the_field_beyond():
+    # one ring plus the analytic field of the sheet beyond it (issue 12, docs/gravity.md)
+    from ringsim.engine.gravity import has_ghost_field
+
     sc = with_overrides(scenario_from_dict(BASE), {"sheet.gravity": True,
                                                    "sheet.n_particles": 50})
     sim = sheet.build_sheet(sc).sim
-    assert sim.gravity == "tree" and sim.N_ghost_x == 2 and sim.N_ghost_y == 2
+    assert sim.gravity == "tree" and sim.N_ghost_x == 1 and sim.N_ghost_y == 1
+    assert has_ghost_field(sim)
     assert math.isclose(sim.G, 6.6743e-11)
     assert sim.softening == pytest.approx(0.05)
 

@@ -156,6 +156,10 @@ def equilibrium(run) -> dict:
     out["per_size_bin"] = _per_size_bin(ts, start, radius, mass)
     out["size_ratio"] = size_dispersion_ratio(out["per_size_bin"])
     out["law_range"] = law_range(ts, start, sc.restitution.model)
+    if sc.sheet.gravity:
+        from ringsim.analysis.gravitating import gravity_equilibrium
+
+        out.update(gravity_equilibrium(run, start))
     out["in_equilibrium"] = window["in_equilibrium"]
     out["reason"] = window["reason"]
     out["status"] = str(run.attrs.get("status", "unknown"))
@@ -347,6 +351,9 @@ def equilibrium_table(eq: dict) -> str:
                  f"{status} ({eq['reason']})")
     for key, (label, unit, scale) in TABLE_ROWS.items():
         lines.append(f"  {label + (f' [{unit}]' if unit else ''):<42} {_fmt(eq[key], scale)}")
+    from ringsim.analysis.gravitating import gravity_table_lines
+
+    lines += gravity_table_lines(eq)
     k = eq["kinetic_estimate"]
     if k["status"] == "equilibrium":
         lines.append(f"  {'dilute kinetic estimate c / (<r> Omega)':<42} "

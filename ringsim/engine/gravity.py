@@ -12,6 +12,12 @@ uniform-background term, so the sheet beyond the ghost boxes is simply missing; 
 falls only as 1 / N_ghost (rms error 23 % of the field at N_ghost = 1, 13 % at 2, 4 % at 8 on
 a tau = 0.5 sheet).  :func:`ghost_truncation_field` supplies the missing field analytically;
 with it the tree's error is its own multipole error, set by the opening angle.
+
+Wiring into runs: :func:`install_ghost_field` puts the C twin of
+:func:`ghost_truncation_field` (``rs_ghost_field`` in ``ringsim/csrc/rs_gravity.c``) into
+REBOUND's ``additional_forces`` (``engine.sheet.configure_simulation`` does it for every
+gravitating sheet, the run loop again after loading a checkpoint, since REBOUND does not save
+function pointers); :func:`sheet_gravity` gives the numbers ``ringsim run`` prints and stores.
 """
 
 from __future__ import annotations
@@ -22,13 +28,15 @@ import math
 import numpy as np
 import rebound
 
-from ringsim.engine.sheet import box_geometry, initial_state
+from ringsim.config.scenario import DEFAULTS
+from ringsim.physics import gravity as patch
 from ringsim.physics.constants import G_SI
 from ringsim.physics.selfgravity import direct_accelerations, shear_offset
 
 #: Default opening angle [rad] of REBOUND's tree for ``gravity: true``: the largest that keeps
 #: the rms relative force error below 1 % with :func:`ghost_truncation_field` (docs/gravity.md).
-DEFAULT_OPENING_ANGLE = 0.3
+#: Declared once, as the scenario's default ``sheet.opening_angle``.
+DEFAULT_OPENING_ANGLE = DEFAULTS["sheet.opening_angle"]
 #: Default ghost-box rings in x and y with the truncation field added (deeper rings change
 #: the error by < 0.1 %: it is the opening angle that sets it).
 DEFAULT_GHOST_BOXES = 1
@@ -61,6 +69,8 @@ def random_sheet(n, optical_depth=0.5, radius=1.0, density=900.0, Omega=2.0e-4,
     dict with ``pos`` (N, 3) [m], ``vel`` (N, 3) [m/s], ``mass`` [kg], ``radius`` [m],
     ``Lx``, ``Ly`` [m], ``geometry`` (SheetGeometry).
     """
+    from ringsim.engine.sheet import box_geometry, initial_state
+
     rng = np.random.default_rng(seed)
     radii = np.full(n, float(radius))
     disp = 2.0 * radius * Omega if dispersion is None else dispersion
@@ -75,8 +85,10 @@ def random_sheet(n, optical_depth=0.5, radius=1.0, density=900.0, Omega=2.0e-4,
 
 
 def tree_simulation(sheet, t=0.0, opening_angle=DEFAULT_OPENING_ANGLE, softening=None,
-                    n_ghost=DEFAULT_GHOST_BOXES, G=G_SI):
+                    n_ghost=DEFAULT_GHOST_BOXES, G=G_SI, ghost_field=False):
     """A REBOUND shearing sheet holding ``sheet`` (from :func:`random_sheet`) with tree gravity.
+
+    ``ghost_field``: install the C truncation field (:func:`install_ghost_field`), as runs do.
 
     Parameters
     ----------
@@ -106,6 +118,8 @@ def tree_simulation(sheet, t=0.0, opening_angle=DEFAULT_OPENING_ANGLE, softening
     nx, ny = (n_ghost, n_ghost) if np.isscalar(n_ghost) else n_ghost
     sim.N_ghost_x, sim.N_ghost_y = int(nx), int(ny)
     sim.t = t
+    if ghost_field:
+        install_ghost_field(sim)
     for p, v, m, r in zip(sheet["pos"], sheet["vel"], sheet["mass"], sheet["radius"],
                           strict=True):
         sim.add(m=m, r=r, x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
@@ -212,3 +226,102 @@ def ghost_truncation_field(pos, mass, Lx, Ly, Omega, t, n_ghost_x, n_ghost_y, G=
         out[:, 1] -= gy
         out[:, 2] -= gz
     return out
+
+
+# --- wiring into runs ---------------------------------------------------------------------------
+
+def _ghost_field_pointer():
+    """A ctypes function pointer to ``rs_ghost_field`` (REBOUND's additional_forces type)."""
+    from ringsim.engine.native import _LIB, _POST_TIMESTEP
+
+    if not hasattr(_LIB, "rs_ghost_field"):
+        raise ImportError("ringsim._resolver was built without rs_gravity.c; rebuild the "
+                          "extension (`python setup.py build_ext --inplace`)")
+    return _POST_TIMESTEP(ctypes.cast(_LIB.rs_ghost_field, ctypes.c_void_p).value)
+
+
+def has_ghost_field(sim: rebound.Simulation) -> bool:
+    """True if ``sim.additional_forces`` is ringsim's ghost-box truncation field."""
+    current = ctypes.cast(sim._additional_forces, ctypes.c_void_p).value
+    return current is not None and current == ctypes.cast(_ghost_field_pointer(),
+                                                           ctypes.c_void_p).value
+
+
+def install_ghost_field(sim: rebound.Simulation) -> None:
+    """Add the field of the sheet beyond the ghost boxes to ``sim``'s tree gravity.
+
+    Sets REBOUND's ``additional_forces`` to ``rs_ghost_field`` (``ringsim/csrc/rs_gravity.c``,
+    the C twin of :func:`ghost_truncation_field`): REBOUND calls it right after its tree
+    gravity, at the same time ``sim.t`` (which sets the ghost rows' shear offsets), so the
+    two together are the field of the infinite shear-periodic sheet to 0.5-0.7 % rms at
+    opening angle 0.3 (docs/gravity.md).  It reads everything from the simulation (G,
+    Omega, box, N_ghost_x/y, boundary), so it stays right after the box is enlarged.  REBOUND
+    does not save function pointers: call it again after loading a simulation from a file.
+
+    Raises ValueError if ``additional_forces`` already holds another function.
+    """
+    if sim._additional_forces and not has_ghost_field(sim):
+        raise ValueError("sim.additional_forces is already set; the ghost-box truncation "
+                         "field needs it")
+    fp = _ghost_field_pointer()
+    sim._additional_forces = fp
+    sim._afp = fp    # REBOUND's slot that keeps the ctypes object alive with the simulation
+
+
+def sheet_gravity(radii, masses, density: float, Lx: float, Ly: float, Omega: float,
+                  GM: float | None = None, a: float | None = None) -> dict:
+    """The dimensionless numbers of a self-gravitating sheet that ``ringsim run`` prints
+    and stores (``physics.gravity``).
+
+    Parameters
+    ----------
+    radii : array [m]
+    masses : array [kg]
+    density : float [kg/m^3]
+    Lx, Ly : float [m]
+    Omega : float [1/s]
+    GM : float [m^3/s^2] or None
+    a : float [m] or None
+        The planet: r_h needs M_p = GM / G and a; with ``planet: {Omega}`` only it is
+        unknown (None).
+
+    Returns
+    -------
+    dict: ``r_h`` (mean pair, ``physics.gravity.mean_pair_hill_parameter``; None if
+    unknown), ``Sigma`` [kg/m^2], ``lambda_cr`` [m], ``box`` (``wake_box_spans``),
+    ``attributes`` (root attributes of the run file, each ``units_<name>`` beside it) and
+    ``message`` (one line for stderr).
+    """
+    Sigma = patch.surface_density(float(np.sum(masses)), Lx, Ly)
+    lambda_cr = float(patch.toomre_wavelength(Sigma, Omega))
+    r_h = (None if GM is None or a is None
+           else patch.mean_pair_hill_parameter(radii, density, GM, a))
+    box = patch.wake_box_spans(Lx, Ly, lambda_cr)
+    attributes = {"Sigma": Sigma, "units_Sigma": "kg/m^2",
+                  "lambda_cr": lambda_cr, "units_lambda_cr": "m",
+                  "box_lambda_cr": box["smallest"],
+                  "units_box_lambda_cr": "lambda_cr (smaller of Lx, Ly)",
+                  "r_h": math.nan if r_h is None else r_h,
+                  "units_r_h": "dimensionless (mean pair; NaN: planet GM and a not given)"}
+    rh_text = ("r_h unknown (planet given by Omega only; give GM and a)" if r_h is None
+               else f"r_h = {r_h:.3g} (mean pair)")
+    level = {"warn": "WARNING: ", "advise": "advice: ", "ok": ""}[box["level"]]
+    message = (f"self-gravity: {rh_text}, Sigma = {Sigma:.4g} kg/m^2, lambda_cr = "
+               f"{lambda_cr:.4g} m; {level}{box['message']}")
+    return {"r_h": r_h, "Sigma": Sigma, "lambda_cr": lambda_cr, "box": box,
+            "attributes": attributes, "message": message}
+
+
+def scenario_gravity(scenario, radii, masses, geometry) -> dict:
+    """:func:`sheet_gravity` of a scenario's sheet (its planet, density and box).
+
+    Parameters
+    ----------
+    scenario : Scenario
+    radii : array [m]
+    masses : array [kg]
+    geometry : SheetGeometry
+    """
+    planet = scenario.planet
+    return sheet_gravity(radii, masses, scenario.particles.density, geometry.Lx, geometry.Ly,
+                         scenario.orbital_frequency, planet.GM, planet.a)

@@ -40,9 +40,10 @@ import numpy as np
 import rebound
 
 from ringsim.analysis import snapshot
-from ringsim.engine import invariants, sheet, timestep
+from ringsim.engine import gravity, invariants, sheet, timestep
 from ringsim.engine.progress import progress_bar
 from ringsim.errors import InputError
+from ringsim.physics.gravity import toomre_q
 from ringsim.store import runfile
 from ringsim.store.lock import RunFileLock
 
@@ -181,6 +182,7 @@ class Runner:
         self.ckpt_every = out.checkpoint_every * self.orbit
         self.t_end = scenario.integration.orbits * self.orbit
         self.check_momentum = not scenario.sheet.gravity
+        self.gravity: dict | None = None  # engine.gravity.scenario_gravity of a gravitating run
         self.state = LoopState()
         self.pending_rows: list[dict] = []
         self.pending_events: list[tuple[float, float, str]] = []
@@ -203,6 +205,11 @@ class Runner:
                                                   self.sim.t)
         attributes = dict(self.geometry.attributes())
         attributes["name"] = self.scenario.name
+        if self.scenario.sheet.gravity:
+            self.gravity = gravity.scenario_gravity(self.scenario, built.radii, built.masses,
+                                                    self.geometry)
+            attributes.update(self.gravity["attributes"])
+            print(f"ringsim: {self.gravity['message']}", file=sys.stderr)
         self.writer.create(scenario_yaml=self.scenario.yaml_text, seed=self.scenario.seed,
                            attributes=attributes, size_bin_edges=self.edges,
                            histogram_edges=_histogram_edges())
@@ -252,6 +259,11 @@ class Runner:
                                        f"{self.n_particles}", "/checkpoint")
         sim.rand_seed = rand_seed
         self.sim = sim
+        if self.scenario.sheet.gravity:   # REBOUND does not save function pointers
+            gravity.install_ghost_field(sim)
+            arrays = sheet.particle_arrays(sim)
+            self.gravity = gravity.scenario_gravity(self.scenario, arrays["radius"],
+                                                    arrays["mass"], self.geometry)
         edges = run.timeseries.get("size_bin_edges")
         self.edges = None if edges is None else np.asarray(edges)
         from ringsim.engine.resolver import install_resolver
@@ -398,6 +410,9 @@ class Runner:
         residual = self._invariants(arrays, stats, first)
         row = self._row(arrays, stats)
         row["momentum_residual"] = residual
+        if self.gravity is not None:
+            row["toomre_Q"] = float(toomre_q(math.sqrt(row["sigma_xx"]), self.gravity["Sigma"],
+                                             self.Omega))
         for key, values in self.history.items():
             values.append(float(row[key]))
         self.pending_rows.append(row)

@@ -229,7 +229,8 @@ def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gr
     ----------
     geometry : SheetGeometry
     gravity : bool
-        Tree self-gravity with ``softening`` [m] and ``opening_angle`` [rad].
+        Tree self-gravity with ``softening`` [m] and ``opening_angle`` [rad], one ring of
+        ghost boxes and the field of the sheet beyond them (``engine.gravity``).
     collision_detection : "tree" (overlaps at step ends) or "line" (swept paths: REBOUND's
         linetree here; ``install_resolver`` replaces it by ringsim's sheet detector)
     rand_seed : int
@@ -246,11 +247,16 @@ def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gr
     sim.boundary = "shear"
     sim.collision = "linetree" if collision_detection == "line" else "tree"
     if gravity:
+        from ringsim.engine.gravity import DEFAULT_GHOST_BOXES, install_ghost_field
+
         sim.G = G_SI
         sim.gravity = "tree"
         sim.softening = softening
         sim.opening_angle2 = opening_angle**2
-        sim.N_ghost_x, sim.N_ghost_y = 2, 2
+        # one ring of ghost boxes plus the analytic field of the sheet beyond them
+        # (rs_gravity.c): deeper rings change the force error by < 0.1 % (docs/gravity.md)
+        sim.N_ghost_x, sim.N_ghost_y = DEFAULT_GHOST_BOXES, DEFAULT_GHOST_BOXES
+        install_ghost_field(sim)
     else:
         sim.gravity = "none"
         sim.N_ghost_x, sim.N_ghost_y = 1, 1

@@ -41,7 +41,21 @@ def run_figures(run, eq: dict) -> dict:
     figures["snapshot.png"] = snapshot_figure(
         snap, float(run.attrs["Lx"]), float(run.attrs["Ly"]),
         f"{eq['name']}: last snapshot at {snap['t'] / period:.3g} orbits")
+    if "lambda_cr" in eq:
+        figures["wakes.png"] = _wake_figure(run, eq, snap)
     return figures
+
+
+def _wake_figure(run, eq: dict, snap: dict):
+    """Top view of the last snapshot of a gravitating run, with its wake statistics."""
+    from ringsim.analysis.gravitating import snapshot_wakes
+    from ringsim.plots.wakes import wake_figure
+
+    Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
+    stats = snapshot_wakes(snap, Lx, Ly, run.scenario.orbital_frequency)
+    period = run.scenario.orbital_period
+    return wake_figure(snap, Lx, Ly, f"{eq['name']}: surface density at "
+                       f"{snap['t'] / period:.3g} orbits", eq["lambda_cr"]["mean"], stats)
 
 
 def comparison_figures(runs, equilibria: list[dict]) -> dict:

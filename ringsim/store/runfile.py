@@ -89,6 +89,7 @@ TIMESERIES_UNITS = {
     "law_outside_speeds": "count",
     "law_outside_sizes": "count",
     "momentum_residual": "m/s",
+    "toomre_Q": "dimensionless",
     "size_bin_velocity_dispersion": "m/s",
     "size_bin_thickness": "m",
     "size_bin_n": "count",
