@@ -481,10 +481,10 @@ def _datasets(path):
 def _checkpoint_state(path):
     """The state a checkpoint loads: particles, time, step, seed, counters."""
     from ringsim.engine import sheet
-    from ringsim.engine.runner import _simulation_from_binary
+    from ringsim.engine.binary import simulation_from_binary
 
     ck = runfile.read_checkpoint(path)
-    sim = _simulation_from_binary(ck.binary, path)
+    sim = simulation_from_binary(ck.binary, path)
     arrays = sheet.particle_arrays(sim)
     return ({k: v.tobytes() for k, v in arrays.items()},
             (sim.t, sim.dt, sim.N, sim.collisions_log_n, sim.collisions_plog),

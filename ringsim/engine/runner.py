@@ -30,17 +30,15 @@ import math
 import os
 import signal
 import sys
-import tempfile
 import time
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import rebound
 
 from ringsim.analysis import snapshot
 from ringsim.engine import gravity, invariants, sheet, timestep
+from ringsim.engine.binary import simulation_binary, simulation_from_binary
 from ringsim.engine.progress import progress_bar
 from ringsim.errors import InputError
 from ringsim.physics.gravity import toomre_q
@@ -107,36 +105,6 @@ LINE_DT_EVERY = 10
 #: With ``integration.until_equilibrium`` the run asks the equilibrium finder whether c and
 #: H are stationary at every this many time-series outputs.
 EQUILIBRIUM_CHECK_EVERY = 10
-
-
-def _simulation_binary(sim: rebound.Simulation) -> bytes:
-    fd, name = tempfile.mkstemp(suffix=".bin")
-    os.close(fd)
-    try:
-        sim.save_to_file(name, delete_file=True)
-        return Path(name).read_bytes()
-    finally:
-        os.unlink(name)
-
-
-def _simulation_from_binary(binary: bytes, path: Path) -> rebound.Simulation:
-    """The simulation of a checkpoint; RunFileError naming ``path`` if it does not load."""
-    fd, name = tempfile.mkstemp(suffix=".bin")
-    try:
-        os.write(fd, binary)
-        os.close(fd)
-        with warnings.catch_warnings():
-            # REBOUND reminds that function pointers are not saved; the caller re-installs
-            # the resolver.
-            warnings.filterwarnings("ignore", message="You have to reset function pointers")
-            try:
-                return rebound.Simulation(name)
-            except (RuntimeError, ValueError, OSError) as exc:
-                raise runfile.RunFileError(path, f"does not load in REBOUND "
-                                           f"{rebound.__version__} ({exc})",
-                                           "/checkpoint") from None
-    finally:
-        os.unlink(name)
 
 
 def _histogram_edges() -> dict[str, np.ndarray]:
@@ -252,7 +220,7 @@ class Runner:
                                        "snapshots it refers to", "/checkpoint")
         for key, values in self.history.items():
             values.extend(float(x) for x in run.timeseries[key][:self.state.rows])
-        sim = _simulation_from_binary(checkpoint.binary, self.path)
+        sim = simulation_from_binary(checkpoint.binary, self.path)
         self.n_particles = int(st.get("n_particles", sim.N))
         if sim.N != self.n_particles:
             raise runfile.RunFileError(self.path, f"holds {sim.N} particles but records "
@@ -466,7 +434,7 @@ class Runner:
         attributes["wall_time_s"] = self.wall_before + time.perf_counter() - self.wall_start
         self._commit(snapshot=snapshot, attributes=attributes,
                      checkpoint=runfile.Checkpoint(
-                         _simulation_binary(self.sim), state, self.handle.stats_state(),
+                         simulation_binary(self.sim), state, self.handle.stats_state(),
                          None if self.handle.friction is None else self.handle.spins()))
 
     def fail(self, violation: Exception) -> None:
