@@ -39,9 +39,7 @@ from typing import Any
 import yaml
 
 from ringsim.config.initial_state import (
-    InitialStateFile,
     read_initial_state,
-    sheet_dict_with_file,
 )
 from ringsim.config.schema import (
     REQUIRED,
@@ -51,6 +49,15 @@ from ringsim.config.schema import (
     plain,
     read_text,
     show,
+)
+from ringsim.config.sections import (
+    Friction,
+    Integration,
+    Output,
+    Particles,
+    Planet,
+    Restitution,
+    SheetConfig,
 )
 from ringsim.physics.friction import FRICTION, INERTIA_FACTOR
 from ringsim.physics.laws import DIMENSIONLESS
@@ -139,238 +146,6 @@ DEFAULTS: dict[str, Any] = {
     "output.snapshot_every": 5.0,
     "output.log_collisions": 0,
 }
-
-
-# --- the frozen scenario ----------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Planet:
-    """Where the patch orbits: give ``Omega``, or ``GM`` and ``a`` (the other stays None).
-
-    Attributes
-    ----------
-    Omega : float or None [1/s]
-        Orbital (Keplerian) angular frequency of the patch.
-    GM : float or None [m^3/s^2]
-        Gravitational parameter of the planet.
-    a : float or None [m]
-        Orbital radius of the patch.
-    """
-
-    Omega: float | None
-    GM: float | None
-    a: float | None
-
-    @property
-    def orbital_frequency(self) -> float:
-        """Omega [1/s]: as given, or sqrt(GM / a^3)."""
-        if self.Omega is not None:
-            return self.Omega
-        return math.sqrt(self.GM / self.a**3)
-
-    @property
-    def orbital_period(self) -> float:
-        """One orbit, 2 pi / Omega [s]."""
-        return 2.0 * math.pi / self.orbital_frequency
-
-    def to_dict(self) -> dict[str, float]:
-        if self.Omega is not None:
-            return {"Omega": self.Omega}
-        return {"GM": self.GM, "a": self.a}
-
-
-
-@dataclass(frozen=True)
-class Particles:
-    """The ring particles: solid spheres of one bulk density.
-
-    Attributes
-    ----------
-    density : float [kg/m^3]
-        Bulk density of every particle (900 for solid ice; lower for porous aggregates).
-    size_distribution : Monodisperse | PowerLaw | Mixture
-    inertia_factor : float [dimensionless]
-        k in the moment of inertia I = k m R^2 (2/5: solid sphere); used with a
-        ``friction`` section only (`ringsim.physics.friction.INERTIA_FACTOR`).
-    """
-
-    density: float
-    size_distribution: SizeDistribution
-    inertia_factor: float = INERTIA_FACTOR.default
-
-    @property
-    def mean_mass(self) -> float:
-        """Number-weighted mean particle mass, density * 4/3 pi <R^3> [kg]."""
-        return self.density * 4.0 / 3.0 * math.pi * self.size_distribution.moment(3.0)
-
-    def to_dict(self) -> dict[str, Any]:
-        d = {"density": self.density, "size_distribution": self.size_distribution.to_dict()}
-        if self.inertia_factor != INERTIA_FACTOR.default:   # only written with friction
-            d["inertia_factor"] = self.inertia_factor
-        return d
-
-
-@dataclass(frozen=True)
-class SheetConfig:
-    """The shearing-sheet patch.
-
-    Attributes
-    ----------
-    optical_depth : float [dimensionless]
-        Dynamical optical depth, sum(pi R^2) / (Lx Ly).
-    n_particles : int
-        Number of particles; the box area is sized to hold them at that optical depth.
-    aspect : float [dimensionless]
-        Ly / Lx (y along the orbit, x radial).
-    gravity : bool
-        Self-gravity with REBOUND's tree code.
-    softening : float [m] or "auto" or None
-        Gravitational softening length; "auto" = 0.1 x smallest radius; None without gravity.
-    opening_angle : float [rad] or None
-        Barnes-Hut opening angle of the tree (REBOUND's opening_angle2 is its square);
-        None without gravity.
-    initial_dispersion : float [mean radius x Omega]
-        Initial 1-D velocity dispersion relative to the shear flow.
-    z_box : float [mean radii] or "auto"
-        Initial vertical height of the box.
-    initial_state : InitialStateFile or None
-        Particles (radii, masses, positions, velocities) from a file instead of drawn.
-    """
-
-    optical_depth: float
-    n_particles: int
-    aspect: float
-    gravity: bool
-    softening: float | str | None
-    opening_angle: float | None
-    initial_dispersion: float
-    z_box: float | str
-    initial_state: InitialStateFile | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        d: dict[str, Any] = {"optical_depth": self.optical_depth,
-                             "n_particles": self.n_particles, "aspect": self.aspect,
-                             "gravity": self.gravity}
-        if self.initial_state is not None:
-            return sheet_dict_with_file(self, d)
-        if self.gravity:
-            d["softening"] = self.softening
-            d["opening_angle"] = self.opening_angle
-        d["initial_dispersion"] = self.initial_dispersion
-        d["z_box"] = self.z_box
-        return d
-
-
-@dataclass(frozen=True)
-class Restitution:
-    """Coefficient-of-restitution law: a model name and its parameters (defaults filled).
-
-    The parameters are also attributes: ``sc.restitution.kappa``; see
-    `ringsim.physics.restitution.RESTITUTION` for the names of each model.
-
-    Attributes
-    ----------
-    model : str
-        dilley | bridges | constant | andrews | tabor.
-    parameters : tuple of (name, value) pairs
-        xi0 [-], p [-], kappa [-] | v_c [m/s], exponent [-] | epsilon [-] | v_c [m/s] |
-        v_c [m/s], q [-].
-    """
-
-    model: str
-    parameters: tuple[tuple[str, float], ...]
-
-    def __getattr__(self, name: str) -> float:
-        # Only reached when normal lookup fails: expose the model's parameters by name.
-        if not name.startswith("_"):
-            for key, value in self.__dict__.get("parameters", ()):
-                if key == name:
-                    return value
-        raise AttributeError(f"{type(self).__name__} of model "
-                             f"{self.__dict__.get('model')!r} has no attribute {name!r}")
-
-    def to_dict(self) -> dict[str, Any]:
-        """{"model": ..., parameter: value, ...} as the resolver and epsilon_for_pair take."""
-        return {"model": self.model, **dict(self.parameters)}
-
-
-@dataclass(frozen=True)
-class Friction:
-    """Surface friction of the particles: a model of `ringsim.physics.friction.FRICTION`
-    and its parameters (defaults filled).  No section: smooth spheres, no spins.
-
-    Attributes
-    ----------
-    model : str
-        constant | coulomb.
-    parameters : tuple of (name, value) pairs
-        beta [-] | mu [-], beta0 [-].
-    """
-
-    model: str
-    parameters: tuple[tuple[str, float], ...]
-
-    def to_dict(self) -> dict[str, Any]:
-        """{"model": ..., parameter: value, ...} as the resolver takes it."""
-        return {"model": self.model, **dict(self.parameters)}
-
-
-@dataclass(frozen=True)
-class Integration:
-    """How long and how finely to integrate.
-
-    Attributes
-    ----------
-    orbits : float [orbits]
-        Duration.
-    dt : float [orbits] or "auto"
-        Fixed time step, or chosen by the run from ``dt_safety``.
-    dt_safety : float [dimensionless]
-        For dt: auto, the largest relative displacement of two particles in one step, as a
-        fraction of the smallest radius.
-    collision_detection : str
-        tree (overlaps at the ends of steps) | line (swept paths within the step).
-    until_equilibrium : bool
-        Stop once the equilibrium finder calls c and H stationary (``orbits`` is then the
-        maximum).
-    """
-
-    orbits: float
-    dt: float | str
-    dt_safety: float
-    collision_detection: str
-    until_equilibrium: bool = False
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"orbits": self.orbits, "dt": self.dt, "dt_safety": self.dt_safety,
-                "collision_detection": self.collision_detection,
-                "until_equilibrium": self.until_equilibrium}
-
-
-@dataclass(frozen=True)
-class Output:
-    """What to write and how often (intervals in orbits).
-
-    Attributes
-    ----------
-    path : str
-        Run file (HDF5); the command line's ``-o`` wins.
-    timeseries_every, snapshot_every, checkpoint_every : float [orbits]
-    log_collisions : int
-        Capacity of the sampled collision log (0: no log).
-    """
-
-    path: str
-    timeseries_every: float
-    snapshot_every: float
-    checkpoint_every: float
-    log_collisions: int
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"path": self.path, "timeseries_every": self.timeseries_every,
-                "snapshot_every": self.snapshot_every,
-                "checkpoint_every": self.checkpoint_every,
-                "log_collisions": self.log_collisions}
 
 
 @dataclass(frozen=True)
