@@ -54,8 +54,9 @@ def case5_scenario(sizes: Sizes):
     sc = load_scenario(common.ROOT / "scenarios" / "bridges.yaml")
     return with_overrides(sc, {"name": "case5-rebound-example", "sheet.optical_depth": tau,
                                "sheet.n_particles": n,
-                               # bridges.yaml runs in line mode; the example is REBOUND's tree
+                               # the example's search and step (bridges.yaml: dt auto)
                                "integration.collision_detection": "tree",
+                               "integration.dt": 1.0e-3,
                                "integration.orbits": sizes.case5_orbits,
                                "output.snapshot_every": 0.5})
 
