@@ -5,6 +5,7 @@ import io
 import json
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import h5py
@@ -30,6 +31,9 @@ SMALL = {
 
 
 def _cli(*args, **kwargs) -> subprocess.CompletedProcess:
+    """``python -m ringsim.cli`` run outside the source tree, so that it imports the
+    installed ringsim (a clean checkout has no compiled extension)."""
+    kwargs.setdefault("cwd", tempfile.gettempdir())
     return subprocess.run([sys.executable, "-m", "ringsim.cli", *args], capture_output=True,
                           text=True, timeout=300, **kwargs)
 

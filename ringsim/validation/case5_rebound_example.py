@@ -48,15 +48,17 @@ def rebound_example_geometry() -> tuple[float, int]:
     return tau, n
 
 
+#: What makes bridges.yaml REBOUND's example run: its tree search and its fixed step
+#: [orbits] (bridges.yaml itself runs clean with dt: auto).
+REBOUND_EXAMPLE_RUN = {"integration.collision_detection": "tree", "integration.dt": 1.0e-3}
+
+
 def case5_scenario(sizes: Sizes):
     tau, n_example = rebound_example_geometry()
     n = sizes.case5_n or n_example
     sc = load_scenario(common.ROOT / "scenarios" / "bridges.yaml")
     return with_overrides(sc, {"name": "case5-rebound-example", "sheet.optical_depth": tau,
-                               "sheet.n_particles": n,
-                               # the example's search and step (bridges.yaml: dt auto)
-                               "integration.collision_detection": "tree",
-                               "integration.dt": 1.0e-3,
+                               "sheet.n_particles": n, **REBOUND_EXAMPLE_RUN,
                                "integration.orbits": sizes.case5_orbits,
                                "output.snapshot_every": 0.5})
 
