@@ -100,15 +100,10 @@ def tree_simulation(sheet, t=0.0, opening_angle=DEFAULT_OPENING_ANGLE, softening
     n_ghost : int or (int, int)
         Ghost-box rings in x and y.
     """
-    geometry = sheet["geometry"]
+    from ringsim.engine.sheet import configure_box
+
     sim = rebound.Simulation()
-    sim.integrator = "sei"
-    sim.OMEGA = geometry.Omega
-    sim.OMEGAZ = geometry.Omega
-    sim.root_size = geometry.root_size
-    sim.N_root_x, sim.N_root_y, sim.N_root_z = (geometry.n_root_x, geometry.n_root_y,
-                                                geometry.n_root_z)
-    sim.boundary = "shear"
+    configure_box(sim, sheet["geometry"])
     sim.collision = "none"
     sim.G = G
     sim.gravity = "tree"

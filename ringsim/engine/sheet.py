@@ -220,6 +220,21 @@ def centre_of_mass_at_rest(state: dict[str, np.ndarray], masses: np.ndarray,
 
 # --- the simulation ----------------------------------------------------------------------------
 
+def configure_box(sim: rebound.Simulation, geometry: SheetGeometry) -> None:
+    """Hill's equations (SEI, OMEGA = OMEGAZ) in the shear-periodic box of ``geometry``.
+
+    REBOUND 5.2 has no configure_box: the root grid is set field by field, before any
+    particle is added (the tree is built as particles arrive).
+    """
+    sim.integrator = "sei"
+    sim.OMEGA = geometry.Omega
+    sim.OMEGAZ = geometry.Omega
+    sim.root_size = geometry.root_size
+    sim.N_root_x, sim.N_root_y, sim.N_root_z = (geometry.n_root_x, geometry.n_root_y,
+                                                geometry.n_root_z)
+    sim.boundary = "shear"
+
+
 def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gravity: bool,
                          softening: float, opening_angle: float,
                          collision_detection: str, rand_seed: int) -> None:
@@ -236,15 +251,7 @@ def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gr
     rand_seed : int
         Seed of REBOUND's collision shuffle.
     """
-    sim.integrator = "sei"
-    sim.OMEGA = geometry.Omega
-    sim.OMEGAZ = geometry.Omega
-    # REBOUND 5.2 has no configure_box: the root grid is set field by field, before any
-    # particle is added (the tree is built as particles arrive).
-    sim.root_size = geometry.root_size
-    sim.N_root_x, sim.N_root_y, sim.N_root_z = (geometry.n_root_x, geometry.n_root_y,
-                                                geometry.n_root_z)
-    sim.boundary = "shear"
+    configure_box(sim, geometry)
     sim.collision = "linetree" if collision_detection == "line" else "tree"
     if gravity:
         from ringsim.engine.gravity import DEFAULT_GHOST_BOXES, install_ghost_field
