@@ -434,6 +434,12 @@ _HATZES = MeasuredRange(
            "surfaces of radii of curvature 2.5-20 cm, about 0.01-5 cm/s, as fitted by Dilley "
            "(1993) sect. 5 (R_bar = 2.5 cm, M_bar = 60 g is the reference pair)")
 
+#: Where the plastic laws were applied: no measured range of their own.
+_FIG1A_COMPARISON = MeasuredRange(
+    speeds=None, sizes=None,
+    source=f"not stated: {_D93} sect. 4 applies it above v_c and compares it with the Hatzes "
+           "et al. (1988) data (Fig. 1a)")
+
 #: The restitution laws a scenario's ``restitution`` section can choose, and the only
 #: declaration of their parameters (see ringsim.physics.laws).  The C library's
 #: ``struct rs_resolver`` has ``param[3]``.
@@ -484,10 +490,7 @@ RESTITUTION = LawTable("restitution", n_slots=3, laws=[
     Law("andrews", code=3, function=andrews_epsilon,
         formula="ε² = [−2 + √(30u² − 5)]/(3u²) for u = v/v_c > 1, else 1",
         source=f"Andrews (1930) as in {_D93} eq. (4.3)",
-        measured=MeasuredRange(
-            speeds=None, sizes=None,
-            source=f"not stated: {_D93} sect. 4 applies it above v_c and compares it with "
-                   "the Hatzes et al. (1988) data (Fig. 1a)"),
+        measured=_FIG1A_COMPARISON,
         parameters=(
             Parameter("v_c", "m/s", lower=0.0, slot=0, example=FIG1A_V_C,
                       meaning="speed of first plastic yield",
@@ -496,10 +499,7 @@ RESTITUTION = LawTable("restitution", n_slots=3, laws=[
     Law("tabor", code=4, function=tabor_epsilon,
         formula="ε = u^−(1−2q) ((1 − qε²)/(1 − q))^q for u = v/v_c > 1, else 1",
         source=f"Tabor (1948) generalized in {_D93} eqs. (4.8), (4.10)",
-        measured=MeasuredRange(
-            speeds=None, sizes=None,
-            source=f"not stated: {_D93} sect. 4 applies it above v_c and compares it with "
-                   "the Hatzes et al. (1988) data (Fig. 1a)"),
+        measured=_FIG1A_COMPARISON,
         parameters=(
             Parameter("v_c", "m/s", lower=0.0, slot=0, example=FIG1A_V_C,
                       meaning="speed at which ε = 1",
