@@ -16,6 +16,7 @@ import numpy as np
 
 from ringsim.analysis import snapshot, timeseries
 from ringsim.physics import kinetic
+from ringsim.physics.restitution import RESTITUTION
 
 #: The equilibrium quantities, declared once: key -> (label, unit of the JSON number (SI
 #: unless the key says otherwise), unit shown in tables, scale from the JSON unit to it).
@@ -54,7 +55,7 @@ def _scaled(value: dict, scale: float, units: str) -> dict:
     return _value(value["mean"] * scale, value["stderr"] * abs(scale), units)
 
 
-def _interval_rates(ts: dict, n_particles: int, Omega: float, area: float,
+def _interval_rates(ts: dict, n_particles: int, Omega: float, Lx: float, Ly: float,
                     surface_density: float) -> tuple[np.ndarray, np.ndarray]:
     """Collision frequency [1/orbit] and collisional viscosity [m^2/s] of every output
     interval, from the tested functions of ``analysis.snapshot`` (NaN for row 0, before
@@ -62,14 +63,13 @@ def _interval_rates(ts: dict, n_particles: int, Omega: float, area: float,
     t, plog = ts["t"], ts["collisions_plog"]
     frequency = np.full(t.size, np.nan)
     nu_col = np.full(t.size, np.nan)
-    Lx_Ly = (area, 1.0)
     for i in range(1, t.size):
         elapsed = float(t[i] - t[i - 1])
         if elapsed > 0:
             frequency[i] = snapshot.collision_frequency(float(ts["collisions"][i]), n_particles,
                                                         elapsed, Omega)
             nu_col[i] = snapshot.collisional_viscosity(float(plog[i] - plog[i - 1]), elapsed,
-                                                       *Lx_Ly, surface_density, Omega)
+                                                       Lx, Ly, surface_density, Omega)
     return frequency, nu_col
 
 
@@ -132,7 +132,7 @@ def equilibrium(run) -> dict:
     first = run.snapshot(0)
     radius, mass = first["radius"], first["mass"]
     r_mean = float(radius.mean())
-    area = float(run.attrs["Lx"]) * float(run.attrs["Ly"])
+    Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
 
     window = stationary_window(orbits, ts["velocity_dispersion"], ts["thickness"])
     start = window["start"]
@@ -145,7 +145,8 @@ def equilibrium(run) -> dict:
                                                 QUANTITIES["velocity_dispersion_rOmega"][1])
     out["thickness"] = h
     out["thickness_r"] = _scaled(h, 1.0 / r_mean, QUANTITIES["thickness_r"][1])
-    frequency, nu_col = _interval_rates(ts, radius.size, Omega, area, float(mass.sum()) / area)
+    frequency, nu_col = _interval_rates(ts, radius.size, Omega, Lx, Ly,
+                                        float(mass.sum()) / (Lx * Ly))
     for key, series in (("filling_factor", ts["filling_factor"]),
                         ("collision_frequency", frequency), ("mean_epsilon", ts["mean_epsilon"]),
                         ("translational_viscosity", ts["translational_viscosity"]),
@@ -194,8 +195,6 @@ def law_range(ts: dict, start: int, model: str) -> dict | None:
     """
     if "law_outside_speeds" not in ts:
         return None
-    from ringsim.physics.restitution import RESTITUTION
-
     measured = RESTITUTION[model].measured
     impacts = float(np.sum(ts["collisions"][start:]))
 

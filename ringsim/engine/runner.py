@@ -100,8 +100,6 @@ WRITE_INTERVAL = 2.0
 #: A commit copies the run file (crash consistency, ``store.runfile``): rows alone are
 #: written no more often than this share of wall time allows.
 COMMIT_COST_SHARE = 0.02
-#: In line mode ``dt: auto`` is re-estimated at every this many time-series outputs.
-LINE_DT_EVERY = 10
 #: With ``integration.until_equilibrium`` the run asks the equilibrium finder whether c and
 #: H are stationary at every this many time-series outputs.
 EQUILIBRIUM_CHECK_EVERY = 10
@@ -351,10 +349,8 @@ class Runner:
         # time step
         integ = self.scenario.integration
         # tree mode's bound follows the fastest particle and is checked at every output; line
-        # mode's (multiple encounters) changes slowly and costs a contact prediction, so it is
-        # re-estimated every LINE_DT_EVERY outputs
-        due = integ.collision_detection == "tree" or self.state.rows % LINE_DT_EVERY == 1
-        if integ.dt == "auto" and due:
+        # mode's dt: auto is the orbit limit, fixed when the sheet is built
+        if integ.dt == "auto" and integ.collision_detection == "tree":
             dt = timestep.auto_dt(arrays, self.Omega, integ.dt_safety, current=self.sim.dt,
                                collision_detection=integ.collision_detection)
             if dt != self.sim.dt:
