@@ -120,6 +120,25 @@ def check_simulation_struct_size(compiled_size: int, loaded_size: int) -> None:
             f"(`python setup.py build_ext --inplace`) against the installed REBOUND.")
 
 
+def _declare_setup(lib: ctypes.CDLL) -> None:
+    """Prototypes of the set-up functions (rs_setup.c): adding particles, the overlap grid."""
+    double_p = ctypes.POINTER(ctypes.c_double)
+    int64_p = ctypes.POINTER(ctypes.c_int64)
+    lib.rs_add_particles.restype = ctypes.c_int64
+    lib.rs_add_particles.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64] \
+        + [double_p] * 8
+    lib.rs_grid_create.restype = ctypes.c_void_p
+    lib.rs_grid_create.argtypes = [ctypes.c_int64, ctypes.c_int32,
+                                   ctypes.POINTER(ctypes.c_int32), double_p] \
+        + [ctypes.c_double] * 5 + [double_p] * 4
+    lib.rs_grid_free.restype = None
+    lib.rs_grid_free.argtypes = [ctypes.c_void_p]
+    lib.rs_grid_move.restype = None
+    lib.rs_grid_move.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p] + [double_p] * 3
+    lib.rs_grid_overlapping.restype = ctypes.c_int64
+    lib.rs_grid_overlapping.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p, int64_p]
+
+
 def _load_library() -> ctypes.CDLL:
     """Load the compiled resolver and check it matches the running REBOUND."""
     spec = importlib.util.find_spec("ringsim._resolver")
@@ -152,6 +171,7 @@ def _load_library() -> ctypes.CDLL:
     lib.rs_epsilon_array.restype = None
     lib.rs_epsilon_array.argtypes = [ctypes.c_void_p, ctypes.c_int64, double_p, double_p,
                                      double_p, double_p]
+    _declare_setup(lib)
     if hasattr(lib, "rs_sheet_step"):     # rs_sheet_detect.c compiled in
         if not hasattr(lib, "rs_sheet_max_shear_step"):
             raise ImportError("ringsim._resolver is out of date (no rs_sheet_max_shear_step); "

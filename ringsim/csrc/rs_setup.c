@@ -1,0 +1,322 @@
+/**
+ * @file    rs_setup.c
+ * @brief   Set-up of a sheet: all particles added to a REBOUND simulation in one call.
+ *
+ * | effect     | appends n particles, in index order, as REBOUND's Python `sim.add` does |
+ * |------------|--------------------------------------------------------------------------|
+ * | called by  | ringsim.engine.sheet.add_particles (ctypes)                              |
+ * | parameters | SI arrays of length n: m [kg], r [m], x y z [m], vx vy vz [m/s]          |
+ * | REBOUND    | reb_simulation_add, passed in as a pointer (librebound is loaded by      |
+ * |            | REBOUND's Python package with local symbols: this library cannot link it)|
+ *
+ * `sim.add(m=..., ...)` builds a Python Particle and calls reb_simulation_add for each
+ * particle (~20 us apiece, 20 s for 10^6 particles).  This loop makes the very same calls
+ * with particles whose other fields (accelerations, name, ap) are zero, so the simulation,
+ * its tree included, is the same bit for bit.
+ */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rebound.h"
+
+/** REBOUND's reb_simulation_add. */
+typedef void (*rs_add_function)(struct reb_simulation* const, struct reb_particle);
+
+/** Add n particles to r in index order with `add` (REBOUND's reb_simulation_add); returns
+ *  the number of particles afterwards. */
+int64_t rs_add_particles(struct reb_simulation* r, rs_add_function add, int64_t n,
+                         const double* m,
+                         const double* rad, const double* x, const double* y,
+                         const double* z, const double* vx, const double* vy,
+                         const double* vz) {
+    for (int64_t i = 0; i < n; i++) {
+        struct reb_particle p;
+        memset(&p, 0, sizeof(p));
+        p.m = m[i];
+        p.r = rad[i];
+        p.x = x[i];
+        p.y = y[i];
+        p.z = z[i];
+        p.vx = vx[i];
+        p.vy = vy[i];
+        p.vz = vz[i];
+        add(r, p);
+    }
+    return (int64_t)r->N;
+}
+
+/* --- overlap search of the initial placement ------------------------------------------- */
+
+/** Radius classes of the overlap grid at most (ringsim.engine.placement.MAX_CLASSES). */
+#define RS_MAX_CLASSES 32
+
+/** Cell index of a coordinate c >= 0 in cells of width w, clamped to [0, n). */
+static int64_t rs_cell(double c, double w, int64_t n) {
+    int64_t k = (int64_t)(c / w);
+    return k < 0 ? 0 : (k >= n ? n - 1 : k);
+}
+
+/** A particle of the overlap grid, stored in "slots" in the order of the cells it was
+ *  first placed in, so that neighbours in space are neighbours in memory. */
+struct rs_grid_particle {
+    double x, y, z, r;   /* x in [0, Lx), y in [0, Ly), z [m]; radius [m] (copies) */
+    int64_t next, prev;  /* next and previous slot in the same cell, -1: none */
+    int64_t cell;        /* its cell in the grid of its class */
+    int32_t index;       /* the particle's index */
+    int32_t searched;    /* searched in the present call of rs_grid_overlapping */
+};
+
+/** Particles found overlapping: flags by index, and the flagged indices in a list. */
+struct rs_found {
+    uint8_t* flag;   /* n entries, all 0 between calls */
+    int64_t* list;   /* n entries */
+    int64_t count;
+};
+
+/** Slots a and b overlap: the exact test of ringsim.engine.placement.overlapping_later
+ *  (lower index first, minimal image in x and y, squares summed x + y then + z, compared
+ *  with (r_lo + r_hi)^2); the higher index goes into `found`. */
+static void rs_test_pair(const struct rs_grid_particle* a, const struct rs_grid_particle* b,
+                         double Lx, double Ly, struct rs_found* found) {
+    const struct rs_grid_particle* lo = a->index < b->index ? a : b;
+    const struct rs_grid_particle* hi = a->index < b->index ? b : a;
+    double rr = lo->r + hi->r;
+    double dz = lo->z - hi->z;
+    /* exact shortcut: the sum of squares below is at least dz * dz */
+    if (dz * dz >= rr * rr) return;
+    double dx = lo->x - hi->x;
+    dx -= Lx * nearbyint(dx / Lx);
+    double dy = lo->y - hi->y;
+    dy -= Ly * nearbyint(dy / Ly);
+    double s = dx * dx + dy * dy;
+    s += dz * dz;
+    if (s < rr * rr && !found->flag[hi->index]) {
+        found->flag[hi->index] = 1;
+        found->list[found->count++] = hi->index;
+    }
+}
+
+/** The cells of one radius class: slots in linked lists per cell. */
+struct rs_class_grid {
+    int64_t nx, ny, nz;
+    double wx, wy, wz, largest;   /* cell widths [m], largest radius of the class [m] */
+    int64_t* head;                /* first slot of each cell, -1: empty */
+};
+
+/** One grid of cells per radius class over the box [0, Lx) x [0, Ly) x [z_lo, ...)
+ *  (periodic in x and y); a particle drawn again moves between cells in O(1). */
+struct rs_grid {
+    int64_t n;
+    int n_classes;
+    double Lx, Ly, z_lo, margin;
+    struct rs_class_grid classes[RS_MAX_CLASSES];
+    const int32_t* class_of;      /* class of each particle (the caller's array) */
+    struct rs_grid_particle* p;   /* by slot */
+    int64_t* slot_of;             /* slot of each particle */
+    uint8_t* flag;                /* scratch of rs_grid_overlapping, all 0 between calls */
+};
+
+void rs_grid_free(struct rs_grid* g) {
+    if (!g) return;
+    for (int c = 0; c < g->n_classes; c++) free(g->classes[c].head);
+    free(g->p); free(g->slot_of); free(g->flag);
+    free(g);
+}
+
+/** Cells of one class: at least 2 `largest` (1 + margin) wide, at most ~4 per particle of
+ *  the class (fewer layers in z first, then wider cells).  0, or -1 without memory. */
+static int rs_class_grid_init(struct rs_class_grid* cg, int64_t members, double largest,
+                              double Lx, double Ly, double z_extent, double margin) {
+    double w = 2.0 * largest * (1.0 + margin);
+    double cap = 4.0 * (double)members + 64.0;
+    if (!(w > 0.0)) w = 1.0;
+    for (;;) {
+        cg->nx = (int64_t)(Lx / w); cg->ny = (int64_t)(Ly / w);
+        cg->nx = cg->nx < 1 ? 1 : cg->nx; cg->ny = cg->ny < 1 ? 1 : cg->ny;
+        if ((double)cg->nx * cg->ny <= cap) break;
+        w *= 2.0;
+    }
+    int64_t nz = (int64_t)(z_extent / w) + 1;
+    int64_t room = (int64_t)(cap / ((double)cg->nx * cg->ny));
+    cg->nz = nz < room ? nz : (room < 1 ? 1 : room);
+    cg->wx = Lx / (double)cg->nx; cg->wy = Ly / (double)cg->ny;
+    cg->wz = z_extent / (double)cg->nz > w ? z_extent / (double)cg->nz : w;
+    cg->largest = largest;
+    int64_t n_cells = cg->nx * cg->ny * cg->nz;
+    cg->head = malloc((size_t)n_cells * sizeof(int64_t));
+    if (!cg->head) return -1;
+    for (int64_t c = 0; c < n_cells; c++) cg->head[c] = -1;
+    return 0;
+}
+
+/** Cell of a position in the grid of class grid cg. */
+static int64_t rs_cell_of(const struct rs_grid* g, const struct rs_class_grid* cg, double x,
+                          double y, double z) {
+    return (rs_cell(x, cg->wx, cg->nx) * cg->ny + rs_cell(y, cg->wy, cg->ny)) * cg->nz
+           + rs_cell(z - g->z_lo, cg->wz, cg->nz);
+}
+
+/** Link slot s into the cell list of its cell. */
+static void rs_link(struct rs_grid* g, int64_t s) {
+    struct rs_grid_particle* p = g->p;
+    int64_t* head = g->classes[g->class_of[p[s].index]].head;
+    p[s].prev = -1;
+    p[s].next = head[p[s].cell];
+    if (head[p[s].cell] >= 0) p[head[p[s].cell]].prev = s;
+    head[p[s].cell] = s;
+}
+
+/** A particle index with a sort key (its class and cell). */
+struct rs_keyed {
+    int64_t key, i;
+};
+
+static int rs_compare_keyed(const void* a, const void* b) {
+    const struct rs_keyed* ka = a;
+    const struct rs_keyed* kb = b;
+    if (ka->key != kb->key) return ka->key < kb->key ? -1 : 1;
+    return ka->i < kb->i ? -1 : (ka->i > kb->i ? 1 : 0);
+}
+
+/**
+ * Grids for n < 2^31 particles of radius classes class_of[i] in [0, n_classes) (the
+ * largest radius of class c is largest[c] [m]) at x in [0, Lx), y in [0, Ly) (periodic)
+ * and z [m], with radii rad [m]; the cells span heights [z_lo, z_hi] (heights outside go to
+ * the end cells, which keeps neighbours neighbours).  `margin` widens the searched
+ * distances against rounding.  Every particle is placed, slots in the order of the cells.
+ * NULL: no memory or bad arguments.
+ */
+struct rs_grid* rs_grid_create(int64_t n, int32_t n_classes, const int32_t* class_of,
+                               const double* largest, double Lx, double Ly, double z_lo,
+                               double z_hi, double margin, const double* x, const double* y,
+                               const double* z, const double* rad) {
+    if (n_classes < 1 || n_classes > RS_MAX_CLASSES || n < 0 || n >= INT32_MAX) return NULL;
+    struct rs_grid* g = calloc(1, sizeof(struct rs_grid));
+    if (!g) return NULL;
+    g->n = n; g->n_classes = n_classes; g->class_of = class_of;
+    g->Lx = Lx; g->Ly = Ly; g->z_lo = z_lo; g->margin = margin;
+    int64_t members[RS_MAX_CLASSES] = {0};
+    for (int64_t i = 0; i < n; i++) members[class_of[i]]++;
+    for (int c = 0; c < n_classes; c++) {
+        if (rs_class_grid_init(&g->classes[c], members[c], largest[c], Lx, Ly, z_hi - z_lo,
+                               margin)) { rs_grid_free(g); return NULL; }
+    }
+    size_t m = (size_t)(n > 0 ? n : 1);
+    g->p = malloc(m * sizeof(struct rs_grid_particle));
+    g->slot_of = malloc(m * sizeof(int64_t));
+    g->flag = calloc(m, 1);
+    struct rs_keyed* order = malloc(m * sizeof(struct rs_keyed));
+    if (!g->p || !g->slot_of || !g->flag || !order) { free(order); rs_grid_free(g); return NULL; }
+    for (int64_t i = 0; i < n; i++) {
+        order[i].key = ((int64_t)class_of[i] << 40)
+                       + rs_cell_of(g, &g->classes[class_of[i]], x[i], y[i], z[i]);
+        order[i].i = i;
+    }
+    qsort(order, m, sizeof(struct rs_keyed), rs_compare_keyed);
+    for (int64_t s = n - 1; s >= 0; s--) {   /* backwards: each cell's list in slot order */
+        int64_t i = order[s].i;
+        struct rs_grid_particle* q = &g->p[s];
+        q->x = x[i]; q->y = y[i]; q->z = z[i]; q->r = rad[i];
+        q->index = (int32_t)i;
+        q->searched = 0;
+        q->cell = order[s].key & (((int64_t)1 << 40) - 1);
+        g->slot_of[i] = s;
+        rs_link(g, s);
+    }
+    free(order);
+    return g;
+}
+
+/** Move particles idx[0..k) to their new positions (x, y, z [m] indexed by particle). */
+void rs_grid_move(struct rs_grid* g, int64_t k, const int64_t* idx, const double* x,
+                  const double* y, const double* z) {
+    struct rs_grid_particle* p = g->p;
+    for (int64_t l = 0; l < k; l++) {
+        int64_t i = idx[l], s = g->slot_of[i];
+        const struct rs_class_grid* cg = &g->classes[g->class_of[i]];
+        if (p[s].prev >= 0) p[p[s].prev].next = p[s].next;
+        else cg->head[p[s].cell] = p[s].next;
+        if (p[s].next >= 0) p[p[s].next].prev = p[s].prev;
+        p[s].x = x[i]; p[s].y = y[i]; p[s].z = z[i];
+        p[s].cell = rs_cell_of(g, cg, x[i], y[i], z[i]);
+        rs_link(g, s);
+    }
+}
+
+/** Cells within `reach` cells of cell index c0 along an axis of n cells: first offset and
+ *  count (all n cells once when the range covers a periodic axis). */
+static void rs_range(int64_t reach, int64_t n, int periodic, int64_t c0, int64_t* first,
+                     int64_t* count) {
+    if (periodic && 2 * reach + 1 >= n) { *first = 0; *count = n; return; }
+    int64_t lo = c0 - reach, hi = c0 + reach;
+    if (!periodic) { lo = lo < 0 ? 0 : lo; hi = hi >= n ? n - 1 : hi; }
+    *first = lo;
+    *count = hi - lo + 1;
+}
+
+/** Test slot s against every slot of class grid cg within reach; `all`: every particle is
+ *  searched (else those flagged `searched`); a pair of two searched ones is tested from its
+ *  lower index only. */
+static void rs_search_class(const struct rs_grid* g, const struct rs_class_grid* cg,
+                               int64_t s, int all, struct rs_found* found) {
+    const struct rs_grid_particle* p = g->p;
+    const struct rs_grid_particle* a = &p[s];
+    double reach = (a->r + cg->largest) * (1.0 + g->margin);
+    int64_t fx, nx, fy, ny, fz, nz;
+    rs_range((int64_t)ceil(reach / cg->wx), cg->nx, 1, rs_cell(a->x, cg->wx, cg->nx), &fx,
+             &nx);
+    rs_range((int64_t)ceil(reach / cg->wy), cg->ny, 1, rs_cell(a->y, cg->wy, cg->ny), &fy,
+             &ny);
+    rs_range((int64_t)ceil(reach / cg->wz), cg->nz, 0, rs_cell(a->z - g->z_lo, cg->wz, cg->nz),
+             &fz, &nz);
+    for (int64_t ix = fx; ix < fx + nx; ix++) {
+        int64_t cx = ((ix % cg->nx) + cg->nx) % cg->nx;
+        for (int64_t iy = fy; iy < fy + ny; iy++) {
+            int64_t cy = ((iy % cg->ny) + cg->ny) % cg->ny;
+            const int64_t* column = &cg->head[(cx * cg->ny + cy) * cg->nz];
+            for (int64_t cz = fz; cz < fz + nz; cz++) {
+                for (int64_t t = column[cz]; t >= 0; t = p[t].next) {
+                    const struct rs_grid_particle* b = &p[t];
+                    if (t == s || ((all || b->searched) && b->index < a->index)) continue;
+                    rs_test_pair(a, b, g->Lx, g->Ly, found);
+                }
+            }
+        }
+    }
+}
+
+static void rs_search(const struct rs_grid* g, int64_t s, int all, struct rs_found* found) {
+    for (int c = 0; c < g->n_classes; c++) rs_search_class(g, &g->classes[c], s, all, found);
+}
+
+/**
+ * The higher index of every overlapping pair with at least one of the k particles idx (all
+ * n particles if idx is NULL), each pair tested once, written to out[0..count) (unsorted,
+ * each once; out has room for n); returns count, or -1 without memory.  Particle i looks at
+ * the cells of class c within r_i + largest[c] (1 + margin).  Particles are searched in the
+ * order of their cells (neighbours stay in the cache).
+ */
+int64_t rs_grid_overlapping(struct rs_grid* g, int64_t k, const int64_t* idx, int64_t* out) {
+    struct rs_found found = {g->flag, out, 0};
+    if (!idx) {
+        for (int64_t s = 0; s < g->n; s++) rs_search(g, s, 1, &found);
+        for (int64_t l = 0; l < found.count; l++) g->flag[out[l]] = 0;
+        return found.count;
+    }
+    struct rs_keyed* order = malloc((size_t)(k > 0 ? k : 1) * sizeof(struct rs_keyed));
+    if (!order) return -1;
+    for (int64_t l = 0; l < k; l++) {   /* searched in the order of their present cells */
+        int64_t s = g->slot_of[idx[l]];
+        order[l].key = ((int64_t)g->class_of[idx[l]] << 40) + g->p[s].cell;
+        order[l].i = s;
+        g->p[s].searched = 1;
+    }
+    qsort(order, (size_t)k, sizeof(struct rs_keyed), rs_compare_keyed);
+    for (int64_t l = 0; l < k; l++) rs_search(g, order[l].i, 0, &found);
+    for (int64_t l = 0; l < k; l++) g->p[order[l].i].searched = 0;
+    free(order);
+    for (int64_t l = 0; l < found.count; l++) g->flag[out[l]] = 0;
+    return found.count;
+}

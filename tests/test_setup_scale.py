@@ -1,0 +1,111 @@
+"""Issue 16, set-up at scale: particles added in one C call, overlap-free placement on a grid.
+
+The placement's result is fixed by its rule (the higher index of each overlapping pair is
+drawn again) and the exact pair test, so the C grid search must find exactly the pairs a
+brute-force numpy search finds; the C add must build the simulation ``sim.add`` builds.
+"""
+
+import numpy as np
+import pytest
+import rebound
+
+from ringsim.config.scenario import scenario_from_dict
+from ringsim.engine import placement, sheet
+
+DENSE = {
+    "name": "dense", "seed": 5, "planet": {"Omega": 2.0e-4},
+    "particles": {"density": 900.0, "size_distribution": {
+        "kind": "powerlaw", "q": 3.0, "r_min": 0.5, "r_max": 5.0}},
+    "sheet": {"optical_depth": 1.5, "n_particles": 20000},
+    "restitution": {"model": "dilley", "kappa": 0.1},
+    "integration": {"collision_detection": "line"},
+}
+
+
+def _brute_force(x, y, z, radii, Lx, Ly, searched=None):
+    """Every pair (or every pair with a particle of ``searched``) by the numpy twin."""
+    n = radii.size
+    i, j = np.triu_indices(n, 1)
+    if searched is not None:
+        flag = np.zeros(n, bool)
+        flag[searched] = True
+        keep = flag[i] | flag[j]
+        i, j = i[keep], j[keep]
+    return placement.overlapping_later(x, y, z, radii, i, j, Lx, Ly)
+
+
+@pytest.mark.parametrize("Lx, Ly, radii_kind", [
+    (60.0, 90.0, "broad"),      # several cells along each axis
+    (9.0, 25.0, "broad"),       # fewer than 3 cells along x: the periodic range wraps
+    (40.0, 40.0, "equal"),      # one radius class
+])
+def test_grid_search_finds_exactly_the_brute_force_pairs(Lx, Ly, radii_kind):
+    rng = np.random.default_rng(3)
+    n = 700
+    radii = (np.full(n, 1.3) if radii_kind == "equal"
+             else 0.3 * np.exp(rng.uniform(0.0, np.log(12.0), n)))
+    pos = np.column_stack([rng.uniform(-Lx / 2, Lx / 2, n), rng.uniform(-Ly / 2, Ly / 2, n),
+                           rng.normal(0.0, 4.0, n)])
+    x, y = placement.wrap_horizontal(pos, Lx, Ly)
+    z = np.ascontiguousarray(pos[:, 2])
+    expected = _brute_force(x, y, z, radii, Lx, Ly)
+    assert expected.size > 50, "the configuration must be dense enough to test anything"
+    with placement.OverlapGrid(x, y, z, radii, Lx, Ly) as grid:
+        np.testing.assert_array_equal(grid.overlapping_later(), expected)
+        # move some particles (one far outside the initial height range) and search again
+        moved = np.sort(rng.choice(n, 120, replace=False))
+        pos[moved] = np.column_stack([rng.uniform(-Lx / 2, Lx / 2, moved.size),
+                                      rng.uniform(-Ly / 2, Ly / 2, moved.size),
+                                      rng.normal(0.0, 4.0, moved.size)])
+        pos[moved[0], 2] = 80.0
+        pos[moved[1]] = pos[moved[0]] + [0.1, 0.0, 0.2]   # overlapping above the grid's top
+        x[moved], y[moved] = placement.wrap_horizontal(pos[moved], Lx, Ly)
+        z[moved] = pos[moved, 2]
+        grid.move(moved, x, y, z)
+        found = grid.overlapping_later(moved)
+    np.testing.assert_array_equal(found, _brute_force(x, y, z, radii, Lx, Ly, moved))
+    assert max(moved[0], moved[1]) in found
+
+
+def test_dense_sheet_starts_without_overlaps():
+    # tau = 1.5 with radii spanning a factor 10: the densest set-up the issue asks for
+    built = sheet.build_sheet(scenario_from_dict(DENSE, source="<test>"))
+    arrays = sheet.particle_arrays(built.sim)
+    assert built.sim.N == 20000
+    assert sheet.count_overlaps(arrays, built.geometry, fraction=0.0) == 0
+
+
+def test_add_particles_builds_what_sim_add_builds():
+    sc = scenario_from_dict({**DENSE, "sheet": {"optical_depth": 0.3, "n_particles": 300}},
+                            source="<test>")
+    built = sheet.build_sheet(sc)
+    arrays = sheet.particle_arrays(built.sim)
+    sims = []
+    for by_c in (True, False):
+        sim = rebound.Simulation()
+        sheet.configure_simulation(sim, built.geometry, gravity=False, softening=0.0,
+                                   opening_angle=0.0, collision_detection="tree", rand_seed=1)
+        if by_c:
+            sheet.add_particles(sim, arrays, arrays["radius"], arrays["mass"])
+        else:
+            for k in range(arrays["radius"].size):
+                sim.add(m=float(arrays["mass"][k]), r=float(arrays["radius"][k]),
+                        **{key: float(arrays[key][k])
+                           for key in ("x", "y", "z", "vx", "vy", "vz")})
+        sim.collision_resolve = "hardsphere"   # the tree (built as particles arrive) matters
+        sim.dt = 1e-3 * built.geometry.orbit
+        sim.integrate(0.05 * built.geometry.orbit)
+        sims.append(sheet.particle_arrays(sim))
+    for key in sims[0]:
+        np.testing.assert_array_equal(sims[0][key], sims[1][key], err_msg=key)
+
+
+def test_add_particles_refuses_arrays_of_other_lengths():
+    sim = rebound.Simulation()
+    geometry = sheet.SheetGeometry(10.0, 1, 1, 1, 2.0e-4)
+    sheet.configure_simulation(sim, geometry, gravity=False, softening=0.0,
+                               opening_angle=0.0, collision_detection="tree", rand_seed=1)
+    state = {key: np.zeros(3) for key in ("x", "y", "z", "vx", "vy", "vz")}
+    with pytest.raises(ValueError, match="2 entries"):
+        sheet.add_particles(sim, state, np.ones(2), np.ones(3))
+    assert sim.N == 0
