@@ -204,11 +204,11 @@ def test_sweep_on_a_damaged_point_file_exits_2(good_run, sweep_files, tmp_path, 
 
 def test_new_files_carry_the_format_version(good_run):
     with h5py.File(good_run["path"], "r") as f:
-        assert f.attrs["format_version"] == runfile.FORMAT_VERSION == "1.1"
+        assert f.attrs["format_version"] == runfile.FORMAT_VERSION == "1.2"
         assert f["checkpoint"].attrs["sha256"] == hashlib.sha256(
             f["checkpoint"][...].tobytes()).hexdigest()
         assert runfile.CHECKPOINT_STATISTICS in f
-    assert ringsim.open_run(good_run["path"]).format_version == "1.1"
+    assert ringsim.open_run(good_run["path"]).format_version == "1.2"
 
 
 def test_format_1_0_file_still_opens(tmp_path, capsys):
@@ -227,7 +227,7 @@ def test_format_1_0_file_can_be_extended(tmp_path):
     sc = with_overrides(ringsim.open_run(path).scenario, {"integration.orbits": 0.5})
     ringsim.run(sc, output=path, resume=True, progress=False)
     run = ringsim.open_run(path)
-    assert run.format_version == "1.1" and run.attrs["status"] == "finished"
+    assert run.format_version == "1.2" and run.attrs["status"] == "finished"
     residual = run.timeseries["momentum_residual"]
     assert residual.size == run.timeseries["t"].size == 26
     assert np.all(np.isnan(residual[:21])) and np.all(np.isfinite(residual[21:]))

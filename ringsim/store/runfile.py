@@ -39,27 +39,29 @@ import h5py
 import numpy as np
 
 from ringsim.errors import InputError
+from ringsim.store.bulk import (  # noqa: F401 (the layout's names, declared in bulk)
+    CHECKPOINT_SPINS,
+    CHECKPOINT_STATISTICS,
+    EXTERNAL_BYTES,
+    SNAPSHOT_FIELDS,
+    SNAPSHOT_UNITS,
+    SPIN_FIELDS,
+    Parts,
+    linked_parts,
+)
+from ringsim.store.bulk import write_checkpoint as _write_checkpoint
+from ringsim.store.bulk import write_snapshot as _write_snapshot
 from ringsim.store.lock import writer_of
 
 #: Version of the run-file layout this ringsim writes (root attribute ``format_version``).
 #: A reader opens every file of the same MAJOR version (files without the attribute are
 #: "1.0") and refuses a newer major version.
-FORMAT_VERSION = "1.1"
+FORMAT_VERSION = "1.2"
 #: Version assumed for files written before ``format_version`` existed.
 UNVERSIONED = "1.0"
-#: Group holding the resolver's interval statistics at the checkpoint (format 1.1).
-CHECKPOINT_STATISTICS = "checkpoint_statistics"
 #: Checkpoint attributes the run loop needs to resume.
 CHECKPOINT_KEYS = ("rows", "snapshots", "guard_events", "dt_warned", "overlap_warned",
                    "rand_seed", "root_size", "N_root_x", "N_root_y", "N_root_z", "t")
-
-SNAPSHOT_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "radius", "mass")
-#: Spins [rad/s] relative to the rotating frame (w_z > 0 prograde), only in runs with friction.
-SPIN_FIELDS = ("wx", "wy", "wz")
-SNAPSHOT_UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m/s",
-                  "radius": "m", "mass": "kg", "wx": "rad/s", "wy": "rad/s", "wz": "rad/s"}
-#: Dataset of the spins at the checkpoint, (N, 3) [rad/s] (runs with friction only).
-CHECKPOINT_SPINS = "checkpoint_spins"
 
 #: Units of the time-series quantities (per-bin arrays share the units of their scalar).
 TIMESERIES_UNITS = {
@@ -218,65 +220,6 @@ def _append_guard_events(f: h5py.File, events: Sequence[tuple[float, float, str]
             ds[n + k] = event[column]
 
 
-def _write_snapshot(f: h5py.File, index: int, t: float,
-                    arrays: Mapping[str, np.ndarray]) -> None:
-    snaps = f["snapshots"]
-    name = f"{index:06d}"
-    if name in snaps:
-        del snaps[name]
-    g = snaps.create_group(name)
-    g.attrs["t"] = float(t)
-    g.attrs["units_t"] = "s"
-    for field_name in SNAPSHOT_FIELDS + SPIN_FIELDS:
-        if field_name not in arrays and field_name in SPIN_FIELDS:
-            continue
-        ds = g.create_dataset(field_name, data=np.asarray(arrays[field_name], dtype=float))
-        ds.attrs["units"] = SNAPSHOT_UNITS[field_name]
-
-
-def _overwrite(group: h5py.Group, name: str, data: np.ndarray) -> h5py.Dataset:
-    """Write ``data`` as ``group[name]``, in place when shape and type allow (no file growth)."""
-    data = np.asarray(data)
-    if name in group:
-        ds = group[name]
-        if ds.shape == data.shape and ds.dtype == data.dtype:
-            ds[...] = data
-            return ds
-        del group[name]
-    return group.create_dataset(name, data=data)
-
-
-def _write_checkpoint(f: h5py.File, checkpoint: Checkpoint) -> None:
-    data = np.frombuffer(checkpoint.binary, dtype=np.uint8)
-    if "checkpoint_new" in f:   # left by format 1.0's rename scheme
-        del f["checkpoint_new"]
-    ds = f.get("checkpoint")
-    if ds is None or ds.maxshape[0] is not None:   # absent, or contiguous (format 1.0)
-        if ds is not None:
-            del f["checkpoint"]
-        ds = f.create_dataset("checkpoint", shape=(0,), maxshape=(None,), dtype=np.uint8,
-                              chunks=(1 << 16,))
-    ds.resize(data.size, axis=0)
-    ds[...] = data
-    for key in list(ds.attrs):
-        del ds.attrs[key]
-    ds.attrs["units"] = "bytes (REBOUND simulation binary)"
-    ds.attrs["sha256"] = hashlib.sha256(checkpoint.binary).hexdigest()
-    for key, value in checkpoint.state.items():
-        ds.attrs[key] = value
-    if CHECKPOINT_SPINS in f:
-        del f[CHECKPOINT_SPINS]
-    if checkpoint.spins is not None:
-        spins = f.create_dataset(CHECKPOINT_SPINS, data=np.asarray(checkpoint.spins, float))
-        spins.attrs["units"] = "rad/s"
-    if checkpoint.statistics is not None:
-        g = f.require_group(CHECKPOINT_STATISTICS)
-        for name in set(g) - set(checkpoint.statistics):
-            del g[name]
-        for name, value in checkpoint.statistics.items():
-            _overwrite(g, name, value)
-
-
 def _truncate(f: h5py.File, rows: int, n_snapshots: int, n_guard_events: int) -> None:
     """Drop time-series rows, snapshots and guard events written after the checkpoint."""
     for ds in f["timeseries"].values():
@@ -295,30 +238,40 @@ class RunFileWriter:
 
     Every change is one :meth:`commit`: the file is copied to ``RUN.h5.tmp``, the copy is
     changed and flushed to disk, and renamed over the file.  Whatever happens to the process,
-    the file is either the state before a commit or the state after it.  The caller holds
-    the file's lock (``ringsim.store.lock.RunFileLock``).
+    the file is either the state before a commit or the state after it.  Large snapshots
+    and checkpoints go into part files beside it (``ringsim.store.bulk``), written and
+    flushed before the commit that links them, so that a commit does not copy them again.
+    The caller holds the file's lock (``ringsim.store.lock.RunFileLock``).
 
     Parameters
     ----------
     path : the run file
+    external_bytes : int
+        Snapshots and checkpoints larger than this [bytes] go into part files.
     """
 
-    def __init__(self, path: str | os.PathLike):
+    def __init__(self, path: str | os.PathLike, external_bytes: int = EXTERNAL_BYTES):
         self.path = Path(path)
         self.tmp = self.path.with_name(self.path.name + ".tmp")
+        self.external_bytes = int(external_bytes)
 
     @contextlib.contextmanager
-    def _replacing(self, copy: bool) -> Iterator[h5py.File]:
+    def _replacing(self, copy: bool) -> Iterator[tuple[h5py.File, Parts]]:
+        parts = Parts(self.path, self.external_bytes)
         if copy:
             shutil.copyfile(self.path, self.tmp)
         try:
             with h5py.File(self.tmp, "a" if copy else "w") as f:
-                yield f
+                yield f, parts
+                linked = linked_parts(f)
+            parts.flush()
             _fsync(self.tmp)
             os.replace(self.tmp, self.path)
         except BaseException:   # also KeyboardInterrupt: leave the file as it was
             self.tmp.unlink(missing_ok=True)
+            parts.discard_new()
             raise
+        parts.remove_unlinked(linked)   # those of earlier commits that are replaced now
 
     def create(self, *, scenario_yaml: str, seed: int, attributes: Mapping[str, object],
                size_bin_edges: np.ndarray | None,
@@ -343,7 +296,7 @@ class RunFileWriter:
         from ringsim import __version__
 
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        with self._replacing(copy=False) as f:
+        with self._replacing(copy=False) as (f, _parts):
             f.attrs["format_version"] = FORMAT_VERSION
             f.attrs["ringsim_version"] = __version__
             f.attrs["rebound_version"] = rebound.__version__
@@ -392,7 +345,7 @@ class RunFileWriter:
         truncate : ``(rows, snapshots, guard_events)``: first drop everything written
             after a checkpoint with these counters
         """
-        with self._replacing(copy=True) as f:
+        with self._replacing(copy=True) as (f, parts):
             f.attrs["format_version"] = FORMAT_VERSION
             if truncate is not None:
                 _truncate(f, *truncate)
@@ -401,9 +354,9 @@ class RunFileWriter:
             if events:
                 _append_guard_events(f, events)
             if snapshot is not None:
-                _write_snapshot(f, *snapshot)
+                _write_snapshot(f, *snapshot, parts)
             if checkpoint is not None:
-                _write_checkpoint(f, checkpoint)
+                _write_checkpoint(f, checkpoint, parts)
             for key, value in (attributes or {}).items():
                 f.attrs[key] = value
 

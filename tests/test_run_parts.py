@@ -1,0 +1,157 @@
+"""Issue 16, snapshot I/O at scale: large snapshots and checkpoints in part files.
+
+A run whose items all go into part files (``external_bytes=0``) must give the same datasets
+as the same run written in one file, resume bit for bit, survive a kill inside a commit
+with the previous state intact, and a missing part file is a damaged run file (exit 2).
+"""
+
+import hashlib
+import signal
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+import ringsim
+from ringsim.cli import main
+from ringsim.config.scenario import scenario_from_dict, with_overrides
+from ringsim.engine.runner import Runner
+from ringsim.store import bulk, runfile
+
+SCENARIO = {
+    "name": "parts", "seed": 3, "planet": {"Omega": 2.0e-4},
+    "particles": {"density": 900.0, "size_distribution": {
+        "kind": "powerlaw", "q": 3.0, "r_min": 1.0, "r_max": 3.0}},
+    "sheet": {"optical_depth": 0.25, "n_particles": 200},
+    "restitution": {"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.0},
+    "integration": {"orbits": 0.3, "collision_detection": "line"},
+    "output": {"timeseries_every": 0.02, "snapshot_every": 0.1, "checkpoint_every": 0.1},
+}
+
+
+def _run_in_parts(scenario, path):
+    """ringsim.run's steps, with every snapshot and checkpoint in a part file."""
+    runner = Runner(scenario, path, progress=False)
+    runner.writer = runfile.RunFileWriter(path, external_bytes=0)
+    runner.start_new()
+    assert runner.loop() == "finished"
+
+
+def _datasets(path):
+    """Every dataset's values (links followed), but the REBOUND binary (wall-clock fields)."""
+    out = {}
+    with h5py.File(path, "r") as f:
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset) and name != "checkpoint":
+                data = obj[...]
+                out[name] = repr(data.tolist()) if data.dtype.kind == "O" else data.tobytes()
+        f.visititems(visit)
+        for name in f["snapshots"]:   # visititems does not follow external links
+            f["snapshots"][name].visititems(
+                lambda key, obj, name=name: visit(f"snapshots/{name}/{key}", obj))
+    return out
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("parts")
+    sc = scenario_from_dict(SCENARIO, source="<test>")
+    ringsim.run(sc, output=folder / "one.h5", progress=False)
+    _run_in_parts(sc, folder / "parts.h5")
+    return {"scenario": sc, "one": folder / "one.h5", "parts": folder / "parts.h5"}
+
+
+def test_items_in_part_files_read_as_in_one_file(runs):
+    path = runs["parts"]
+    run = ringsim.open_run(path)
+    assert run.n_snapshots == 4
+    files = sorted(p.name for p in bulk.parts_folder(path).iterdir())
+    # one file per snapshot and only the last checkpoint's: the replaced ones were removed
+    assert len(files) == 5 and sum(name.startswith("checkpoint_") for name in files) == 1
+    with h5py.File(path, "r") as f:
+        assert isinstance(f.get("snapshots/000002", getlink=True), h5py.ExternalLink)
+        assert f["snapshots/000002/x"].compression == "gzip"
+    one, parts = _datasets(runs["one"]), _datasets(path)
+    assert one.keys() == parts.keys() and len([k for k in one if "snapshots/" in k]) == 32
+    for name in one:
+        assert one[name] == parts[name], name
+    assert runfile.read_checkpoint(path).state == runfile.read_checkpoint(runs["one"]).state
+
+
+def test_resume_from_part_files_is_bit_identical(runs, tmp_path):
+    path = tmp_path / "short.h5"
+    short = with_overrides(runs["scenario"], {"integration.orbits": 0.16})
+    _run_in_parts(short, path)
+    ringsim.run(runs["scenario"], output=path, resume=True, progress=False)
+    reference, resumed = _datasets(runs["one"]), _datasets(path)
+    assert reference.keys() == resumed.keys()
+    for name in reference:
+        if not name.startswith("guards/"):   # the extension is a guard event
+            assert reference[name] == resumed[name], f"{name} differs after --resume"
+    assert [m for _, m in ringsim.open_run(path).guard_events] == [
+        "run extended from 0.16 to 0.3 orbits"]
+
+
+DIE_INSIDE_A_COMMIT = """
+import os, signal, sys
+import numpy as np
+from ringsim.store import runfile
+path = sys.argv[1]
+original = runfile._write_checkpoint
+
+def dying(f, *args):
+    original(f, *args)            # the snapshot and checkpoint part files are complete
+    f.flush()
+    os.kill(os.getpid(), signal.SIGKILL)
+
+runfile._write_checkpoint = dying
+arrays = {k: np.full(60, 1.0) for k in runfile.SNAPSHOT_FIELDS}
+checkpoint = runfile.read_checkpoint(path)
+runfile.RunFileWriter(path, external_bytes=0).commit(
+    rows=[{"t": 1e9, "orbits": 99.0}], snapshot=(99, 1e9, arrays),
+    checkpoint=runfile.Checkpoint(b"new" * 1000, {**checkpoint.state, "rows": 999},
+                                  checkpoint.statistics))
+"""
+
+
+def _sha256(path):
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_killed_inside_a_commit_leaves_the_previous_state(runs, tmp_path):
+    path = tmp_path / "crash.h5"
+    _run_in_parts(runs["scenario"], path)
+    before = _sha256(path)
+    linked = sorted(p.name for p in bulk.parts_folder(path).iterdir())
+    proc = subprocess.run([sys.executable, "-c", DIE_INSIDE_A_COMMIT, str(path)],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr
+    assert _sha256(path) == before, "the run file is the state before the commit"
+    left = sorted(p.name for p in bulk.parts_folder(path).iterdir())
+    assert len(left) == len(linked) + 2, "the dead commit's two part files are left over"
+    run = ringsim.open_run(path)
+    assert run.n_snapshots == 4 and runfile.read_checkpoint(path).state["rows"] == 16
+    runfile.set_attributes(path, status="stopped")   # any later commit removes them
+    assert sorted(p.name for p in bulk.parts_folder(path).iterdir()) == linked
+
+
+def test_missing_part_file_is_a_damaged_run_file(runs, tmp_path, capsys):
+    path = tmp_path / "damaged.h5"
+    _run_in_parts(runs["scenario"], path)
+    victim = next(p for p in bulk.parts_folder(path).iterdir()
+                  if p.name.startswith("snapshot_000001"))
+    victim.unlink()
+    with pytest.raises(runfile.RunFileError, match="damaged"):
+        ringsim.open_run(path)
+    assert main(["analyze", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(path) in err[0], err
+
+
+def test_small_items_stay_in_the_run_file(runs):
+    assert not bulk.parts_folder(runs["one"]).exists()
+    with h5py.File(runs["one"], "r") as f:
+        assert isinstance(f.get("snapshots/000001", getlink=True), h5py.HardLink)
+        assert np.all(f["snapshots/000001/radius"][...] > 0)
