@@ -155,3 +155,25 @@ def test_small_items_stay_in_the_run_file(runs):
     with h5py.File(runs["one"], "r") as f:
         assert isinstance(f.get("snapshots/000001", getlink=True), h5py.HardLink)
         assert np.all(f["snapshots/000001/radius"][...] > 0)
+
+
+def test_commit_thread_keeps_the_order_and_hands_over_errors():
+    import time
+
+    from ringsim.store.background import CommitThread
+
+    writes, log = CommitThread(), []
+    writes.submit(lambda: (time.sleep(0.05), log.append(1)))
+    writes.submit(lambda: log.append(2))          # waits for the first
+    writes.wait()
+    assert log == [1, 2]
+
+    def failing():
+        raise OSError("No space left on device")
+
+    writes.submit(failing)
+    with pytest.raises(OSError, match="No space"):
+        writes.submit(lambda: log.append(3))      # the next commit reports the failure ...
+    assert log == [1, 2], "... and is not made after it"
+    writes.submit(lambda: log.append(4), wait=True)
+    assert log == [1, 2, 4]

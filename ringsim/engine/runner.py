@@ -43,6 +43,7 @@ from ringsim.engine.progress import progress_bar
 from ringsim.errors import InputError
 from ringsim.physics.gravity import toomre_q
 from ringsim.store import runfile
+from ringsim.store.background import CommitThread
 from ringsim.store.lock import RunFileLock
 
 
@@ -406,12 +407,16 @@ class Runner:
         return since > max(WRITE_INTERVAL, self.commit_cost / COMMIT_COST_SHARE)
 
     def _commit(self, **changes) -> None:
-        """One atomic write of the gathered rows and guard events plus ``changes``."""
-        start = time.perf_counter()
-        self.writer.commit(rows=self.pending_rows, events=self.pending_events, **changes)
+        """One atomic commit of the gathered rows and guard events plus ``changes``, made by
+        a writer thread while the integration goes on (``store.background``); one that sets
+        ``status`` (the end, a failure, a resumed start) is complete when this returns."""
+        rows, events = self.pending_rows, self.pending_events
         self.pending_rows, self.pending_events = [], []
         self.last_write = time.perf_counter()
-        self.commit_cost = self.last_write - start
+        self._writes = getattr(self, "_writes", None) or CommitThread()
+        self._writes.submit(lambda: self.writer.commit(rows=rows, events=events, **changes),
+                            wait="status" in (changes.get("attributes") or {}))
+        self.commit_cost = self._writes.last_cost
 
     def write_rows(self) -> None:
         """Write the time-series rows and guard events gathered since the last write."""
