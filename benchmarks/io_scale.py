@@ -11,6 +11,8 @@ Line mode, no gravity, power law 0.5-5 m (q = 3) as in the issue.  Four measurem
   apart): the run's wall time in each commit of a snapshot (its stall: commits are made by
   a writer thread, so this is the wait for the commit before), the writer's own time for
   it, and the integration between outputs.
+* ``million``: ``scenarios/million.yaml`` for a fraction of its orbit (``--orbits``), set-up,
+  steps and outputs timed apart; one orbit extrapolated from them.
 * ``memory``: peak RSS of a short run (set-up, two outputs with snapshots and checkpoints)
   in a fresh process per N, per particle.
 
@@ -18,6 +20,7 @@ Line mode, no gravity, power law 0.5-5 m (q = 3) as in the issue.  Four measurem
     python benchmarks/io_scale.py snapshot [--n 1e5 1e6] [--repeat 3]
     python benchmarks/io_scale.py run [--n 1e5 1e6] [--every 0.005]
     python benchmarks/io_scale.py memory [--n 1e3 1e5 1e6]
+    python benchmarks/io_scale.py million [--orbits 0.02]
 
 The machine is shared: CPU times are the steadier figure; wall times are medians.
 """
@@ -185,13 +188,53 @@ def measure_memory(ns) -> list[dict]:
     return rows
 
 
+def measure_million(orbits: float) -> dict:
+    """scenarios/million.yaml for ``orbits`` (a fraction of its one orbit): set-up, steps and
+    outputs timed apart, and the one-orbit time extrapolated from them."""
+    from ringsim.config.scenario import load_scenario, with_overrides
+    from ringsim.engine.runner import Runner
+
+    full = load_scenario(Path(__file__).resolve().parents[1] / "scenarios" / "million.yaml")
+    sc = with_overrides(full, {"integration.orbits": orbits})
+    with tempfile.TemporaryDirectory() as tmp:
+        runner = Runner(sc, Path(tmp) / "million.h5", progress=False)
+        integrate, outputs = [], []
+
+        def timed_advance(t_next, advance=runner._advance):
+            integrate.append(_timed(advance, t_next))
+
+        def timed_output(first=False, output=runner._output):
+            outputs.append(_timed(output, first))
+
+        runner._advance, runner._output = timed_advance, timed_output
+        setup = _timed(runner.start_new)
+        steps0 = runner.sim.t
+        loop = _timed(runner.loop)
+        steps = round((runner.sim.t - steps0) / runner.sim.dt)
+    per_step = sum(t[0] for t in integrate) / steps, sum(t[1] for t in integrate) / steps
+    steps_per_orbit = full.orbital_period / runner.sim.dt
+    n_outputs = full.integration.orbits / full.output.timeseries_every
+    per_output = statistics.median(t[0] for t in outputs[1:]) if len(outputs) > 1 else 0.0
+    out = {"orbits_run": orbits, "steps": steps, "setup_and_first_output_wall_s": setup[0],
+           "setup_and_first_output_cpu_s": setup[1], "loop_wall_s": loop[0],
+           "step_wall_s": per_step[0], "step_cpu_s": per_step[1],
+           "output_wall_s": per_output,
+           "one_orbit_wall_s_extrapolated": setup[0] + steps_per_orbit * per_step[0]
+           + n_outputs * per_output}
+    print(json.dumps(out), flush=True)
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("what", choices=["setup", "snapshot", "run", "memory", "_memory"])
+    parser.add_argument("what", choices=["setup", "snapshot", "run", "memory", "million",
+                                         "_memory"])
     parser.add_argument("n_child", nargs="?", type=int)
     parser.add_argument("--n", type=float, nargs="+")
     parser.add_argument("--tau", type=float, nargs="+", default=[0.25, 1.5])
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--orbits", type=float, default=0.02,
+                        help="million: orbits of scenarios/million.yaml to run")
     parser.add_argument("--every", type=float, default=0.005,
                         help="run: orbits between outputs (each with a snapshot)")
     args = parser.parse_args()
@@ -201,6 +244,8 @@ def main() -> None:
         measure_setup(args.n or [1e4, 1e5, 1e6], args.tau, args.repeat)
     elif args.what == "snapshot":
         measure_snapshot(args.n or [1e5, 1e6], args.repeat)
+    elif args.what == "million":
+        measure_million(args.orbits)
     elif args.what == "run":
         measure_run(args.n or [1e5, 1e6], args.every)
     else:
