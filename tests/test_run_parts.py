@@ -177,3 +177,22 @@ def test_commit_thread_keeps_the_order_and_hands_over_errors():
     assert log == [1, 2], "... and is not made after it"
     writes.submit(lambda: log.append(4), wait=True)
     assert log == [1, 2, 4]
+
+
+def test_commit_thread_join_waits_without_raising():
+    import time
+
+    from ringsim.store.background import CommitThread
+
+    writes, log = CommitThread(), []
+
+    def slow_failure():
+        time.sleep(0.05)
+        log.append("written")
+        raise OSError("late")
+
+    writes.submit(slow_failure)
+    writes.join()                     # leaving on another error: wait, do not mask it
+    assert log == ["written"]
+    with pytest.raises(OSError, match="late"):
+        writes.wait()

@@ -528,6 +528,8 @@ class Runner:
         finally:
             if bar is not None:
                 bar.close()
+            if getattr(self, "_writes", None) is not None:
+                self._writes.join()   # no commit outlives the loop (and the file's lock)
         return status
 
 

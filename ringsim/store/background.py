@@ -46,6 +46,13 @@ class CommitThread:
         if error is not None:
             raise error
 
+    def join(self) -> None:
+        """Wait for the commit in progress; its error, if any, is raised by the next
+        `wait` or `submit` (this is for leaving on another error)."""
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+
     def submit(self, commit: Callable[[], None], wait: bool = False) -> None:
         """Run ``commit`` after the one in progress, in the background unless ``wait``."""
         self.wait()
