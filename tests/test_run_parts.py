@@ -196,3 +196,39 @@ def test_commit_thread_join_waits_without_raising():
     assert log == ["written"]
     with pytest.raises(OSError, match="late"):
         writes.wait()
+
+
+def test_a_finished_run_is_packed_into_one_file(runs, tmp_path):
+    # ringsim.run copies the part files of a finished run into the run file itself, so the
+    # user keeps one file: same datasets as the run written in one file, no folder left
+    path = tmp_path / "parts.h5"   # links name the folder after the file: same name
+    path.write_bytes(runs["parts"].read_bytes())
+    folder = bulk.parts_folder(runs["parts"])
+    target = bulk.parts_folder(path)
+    target.mkdir()
+    for part in folder.iterdir():
+        (target / part.name).write_bytes(part.read_bytes())
+    assert runfile.pack(path) == 5     # 4 snapshots and the checkpoint (no spins)
+    assert not target.exists()
+    with h5py.File(path, "r") as f:
+        assert not bulk.linked_parts(f)
+        assert f["snapshots/000002/x"].compression == "gzip"
+    one, packed = _datasets(runs["one"]), _datasets(path)
+    assert one.keys() == packed.keys()
+    for name in one:
+        assert one[name] == packed[name], name
+    assert runfile.read_checkpoint(path).binary == runfile.read_checkpoint(runs["parts"]).binary
+    assert runfile.pack(path) == 0
+
+
+def test_ringsim_run_leaves_no_part_files(tmp_path, monkeypatch):
+    # a run whose snapshots go into part files while it runs ends as one file
+    monkeypatch.setattr(bulk, "EXTERNAL_BYTES", 0)   # every item in a part file
+    sc = scenario_from_dict(SCENARIO, source="<test>")
+    seen = []
+    monkeypatch.setattr(runfile, "pack", lambda p, pack=runfile.pack: seen.append(pack(p)))
+    path = ringsim.run(sc, output=tmp_path / "run.h5", progress=False)
+    assert seen == [5] and not bulk.parts_folder(path).exists()
+    with h5py.File(path, "r") as f:
+        assert f.attrs["status"] == "finished" and not bulk.linked_parts(f)
+        assert len(f["snapshots"]) == 4

@@ -550,6 +550,9 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
     progress : bool
         Show a progress bar.
 
+    A finished run is one HDF5 file: the snapshots and checkpoint a large run kept in part
+    files while it ran (``store.bulk``) are copied into it at the end.
+
     Returns the path whatever the run's end; the file's root attribute ``status`` says it:
     ``finished``, ``stopped`` (SIGINT/SIGTERM; a checkpoint was written, ``resume``
     continues) or ``failed`` (a runtime invariant broke, ``engine.invariants``; the message
@@ -575,6 +578,8 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
                                  "overwrite or --resume to continue it")
             runner.start_new()
         status = runner.loop(stop)
+        if status == "finished":   # one file to keep: the part files of a large run go in
+            runfile.pack(path)
     if status == "stopped":
         print(f"ringsim: stopped at orbit {runner.sim.t / runner.orbit:.3f}; checkpoint "
               f"written to {path}; continue with --resume")

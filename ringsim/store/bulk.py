@@ -234,3 +234,21 @@ def write_checkpoint(f: h5py.File, checkpoint, parts: Parts | None = None) -> No
             del g[name]
         for name, value in checkpoint.statistics.items():
             _overwrite(g, name, value)
+
+
+def pack_links(f: h5py.File, folder: Path) -> int:
+    """Copy every item ``f`` links in a part file into ``f`` itself (compression kept);
+    returns how many.  ``folder`` is the run file's folder (link targets are relative to
+    it).  The caller commits ``f`` and then removes the part files no longer linked."""
+    packed = 0
+    groups = [f] + ([f["snapshots"]] if "snapshots" in f else [])
+    for group in groups:
+        for key in list(group):
+            link = group.get(key, getlink=True)
+            if not isinstance(link, h5py.ExternalLink):
+                continue
+            del group[key]
+            with h5py.File(folder / link.filename, "r") as part:
+                group.copy(part[link.path], group, name=key)
+            packed += 1
+    return packed

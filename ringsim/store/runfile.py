@@ -39,6 +39,7 @@ import h5py
 import numpy as np
 
 from ringsim.errors import InputError
+from ringsim.store import bulk
 from ringsim.store.bulk import (  # noqa: F401 (the layout's names, declared in bulk)
     CHECKPOINT_SPINS,
     CHECKPOINT_STATISTICS,
@@ -250,10 +251,11 @@ class RunFileWriter:
         Snapshots and checkpoints larger than this [bytes] go into part files.
     """
 
-    def __init__(self, path: str | os.PathLike, external_bytes: int = EXTERNAL_BYTES):
+    def __init__(self, path: str | os.PathLike, external_bytes: int | None = None):
         self.path = Path(path)
         self.tmp = self.path.with_name(self.path.name + ".tmp")
-        self.external_bytes = int(external_bytes)
+        self.external_bytes = int(bulk.EXTERNAL_BYTES if external_bytes is None
+                                  else external_bytes)
 
     @contextlib.contextmanager
     def _replacing(self, copy: bool) -> Iterator[tuple[h5py.File, Parts]]:
@@ -359,6 +361,20 @@ class RunFileWriter:
                 _write_checkpoint(f, checkpoint, parts)
             for key, value in (attributes or {}).items():
                 f.attrs[key] = value
+
+
+def pack(path: str | os.PathLike) -> int:
+    """Make a run file whole again: copy the snapshots and the checkpoint it keeps in part
+    files (``RUN.h5.parts/``, written while it ran) into the file itself, in one atomic
+    commit, and remove the part files.  Returns the number of items copied (0 and the file
+    untouched when it has no part files).  The caller holds the file's lock."""
+    path = Path(path)
+    if not bulk.parts_folder(path).is_dir():
+        return 0
+    writer = RunFileWriter(path)
+    with writer._replacing(copy=True) as (f, _parts):
+        packed = bulk.pack_links(f, path.parent)
+    return packed
 
 
 def set_attributes(path: str | os.PathLike, **attributes: object) -> None:
