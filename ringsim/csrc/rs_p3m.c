@@ -262,16 +262,17 @@ void rs_p3m_mean_vertical(struct reb_simulation* const r, struct rs_p3m* p){
     free(mass);
 }
 
-/* Short-range acceleration [m/s^2] on (xi, yi, zi) from the sorted sources [b, e). */
+/* Short-range acceleration [m/s^2] on (xi, yi, zi) from the sorted sources [b, e), each at
+ * (x_j + offx, y_j + offy, z_j). */
 static void rs_p3m_pairs(const struct rs_p3m* p, const double* sx, const double* sy,
                          const double* sz, const double* sm, size_t b, size_t e, double xi,
-                         double yi, double zi, double Ly, double offx, double offy,
-                         double inv_step, double* acc){
+                         double yi, double zi, double offx, double offy, double inv_step,
+                         double* acc){
     const double rc2 = p->cutoff * p->cutoff, b2 = p->softening * p->softening;
+    const double xs = xi - offx, ys = yi - offy;
     for (size_t j = b; j < e; j++){
-        const double dx = xi - sx[j] - offx;
-        double dy = yi - sy[j] - offy;
-        dy -= Ly * round(dy / Ly);
+        const double dx = xs - sx[j];
+        const double dy = ys - sy[j];
         const double dz = zi - sz[j];
         const double r2 = dx * dx + dy * dy + dz * dz;
         if (r2 >= rc2 || r2 == 0.0){
@@ -293,8 +294,9 @@ static void rs_p3m_all_images(const struct rs_p3m* p, const double* sx, const do
                               double inv_step, double* acc){
     for (size_t j = 0; j < n; j++){
         const double nimg = round((xi - sx[j]) / Lx);
-        rs_p3m_pairs(p, sx, sy, sz, sm, j, j + 1, xi, yi, zi, Ly, nimg * Lx, -nimg * s,
-                     inv_step, acc);
+        const double dy = yi - sy[j] + nimg * s;
+        rs_p3m_pairs(p, sx, sy, sz, sm, j, j + 1, xi, yi, zi, nimg * Lx,
+                     -nimg * s + Ly * round(dy / Ly), inv_step, acc);
     }
 }
 
@@ -360,9 +362,11 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
                 const double yc = ps[k].y + nimg * s + 0.5 * Ly;
                 const int lo = (int)floor((yc - rc) / hy), hi = (int)floor((yc + rc) / hy);
                 for (int qy = lo; qy <= hi; qy++){
-                    const size_t c = (size_t)qx * (size_t)ncy + (size_t)(((qy % ncy) + ncy) % ncy);
+                    /* a cell index outside [0, ncy) is that cell one box period away */
+                    const int wy = (int)floor((double)qy / (double)ncy);
+                    const size_t c = (size_t)qx * (size_t)ncy + (size_t)(qy - wy * ncy);
                     rs_p3m_pairs(p, sx, sy, sz, sm, start[c], start[c + 1], ps[k].x, ps[k].y,
-                                 ps[k].z, Ly, nimg * Lx, -nimg * s, inv_step, acc);
+                                 ps[k].z, nimg * Lx, -nimg * s + wy * Ly, inv_step, acc);
                 }
             }
         }
