@@ -32,12 +32,12 @@
  * alpha = s / Lx; the box is doubly periodic there) and horizontal layers z0 + l dz that span
  * the particles' z range (rs_p3m_prepare sets z0 and nz at each call).
  *
- * Validity.  r_c < min(Lx, Ly) / 2 (checked by the Python side), boundary "shear", particles
+ * Validity.  r_c < min(Lx, Ly) (checked by the Python side), boundary "shear", particles
  * inside the box (REBOUND wraps them before the force evaluation), N_var = 0.  Each pair is
  * evaluated from both sides (gather): the pair forces are antisymmetric to round-off, so
  * the total momentum of the short-range forces vanishes to round-off.  Cost: an O(N) cell
- * list with cells of at least r_c (9 or 12 cells searched per particle; boxes narrower
- * than 3 r_c fall back to all pairs, for small tests).
+ * list with cells of at least r_c (9 to 12 cells searched per particle; boxes narrower
+ * than 3 r_c fall back to all pairs and their 3 x 3 nearest images).
  */
 #include <math.h>
 #include <stddef.h>
@@ -142,14 +142,15 @@ static void rs_p3m_cic(const struct rs_p3m* p, const struct reb_particle* q, dou
     *j0 %= p->ny;
 }
 
-/* Mass [kg] on the nodes, array (nx, ny, nz) in C order, zeroed here. */
+/* Mass [kg] on the nodes, array (nz, nx, ny) in C order (layers outermost, so that the
+ * horizontal FFTs run over contiguous planes), zeroed here. */
 void rs_p3m_assign(struct reb_simulation* const r, const struct rs_p3m* p, double* mass){
     const size_t n = r->N - r->N_var;
     const struct reb_particle* const ps = r->particles;
     const double Lx = r->root_size * (double)r->N_root_x;
     const double Ly = r->root_size * (double)r->N_root_y;
-    const size_t nz = (size_t)p->nz, ny = (size_t)p->ny;
-    const size_t cells = (size_t)p->nx * ny * nz;
+    const size_t nz = (size_t)p->nz, ny = (size_t)p->ny, nxs = (size_t)p->nx;
+    const size_t plane = nxs * ny, cells = plane * nz;
     for (size_t c = 0; c < cells; c++){
         mass[c] = 0.0;
     }
@@ -162,16 +163,16 @@ void rs_p3m_assign(struct reb_simulation* const r, const struct rs_p3m* p, doubl
         const double wx[2] = {1.0 - fx, fx}, wy[2] = {1.0 - fy, fy}, wz[2] = {1.0 - fz, fz};
         for (int a = 0; a < 2; a++){
             for (int b = 0; b < 2; b++){
-                const size_t base = (is[a] * ny + js[b]) * nz + (size_t)l0;
+                const size_t base = ((size_t)l0 * nxs + is[a]) * ny + js[b];
                 const double w = ps[k].m * wx[a] * wy[b];
                 mass[base] += w * wz[0];
-                mass[base + 1] += w * wz[1];
+                mass[base + plane] += w * wz[1];
             }
         }
     }
 }
 
-/* Add the mesh field [m/s^2] (three arrays (nx, ny, nz), C order) interpolated with the
+/* Add the mesh field [m/s^2] (three arrays (nz, nx, ny), C order) interpolated with the
  * same cloud-in-cell kernel to every particle's acceleration. */
 void rs_p3m_interpolate(struct reb_simulation* const r, const struct rs_p3m* p,
                         const double* gx, const double* gy, const double* gz){
@@ -179,7 +180,7 @@ void rs_p3m_interpolate(struct reb_simulation* const r, const struct rs_p3m* p,
     struct reb_particle* const ps = r->particles;
     const double Lx = r->root_size * (double)r->N_root_x;
     const double Ly = r->root_size * (double)r->N_root_y;
-    const size_t nz = (size_t)p->nz, ny = (size_t)p->ny;
+    const size_t ny = (size_t)p->ny, nxs = (size_t)p->nx;
     for (size_t k = 0; k < n; k++){
         int i0, j0, l0;
         double fx, fy, fz;
@@ -191,7 +192,7 @@ void rs_p3m_interpolate(struct reb_simulation* const r, const struct rs_p3m* p,
         for (int a = 0; a < 2; a++){
             for (int b = 0; b < 2; b++){
                 for (int c = 0; c < 2; c++){
-                    const size_t node = (is[a] * ny + js[b]) * nz + (size_t)l0 + (size_t)c;
+                    const size_t node = (((size_t)l0 + (size_t)c) * nxs + is[a]) * ny + js[b];
                     const double w = wx[a] * wy[b] * wz[c];
                     ax += w * gx[node];
                     ay += w * gy[node];
@@ -286,17 +287,21 @@ static void rs_p3m_pairs(const struct rs_p3m* p, const double* sx, const double*
     }
 }
 
-/* Short-range acceleration [m/s^2] on (xi, yi, zi) from all n sources, each at its
- * nearest shear-periodic image (boxes too small for the cell list). */
+/* Short-range acceleration [m/s^2] on (xi, yi, zi) from all n sources, each at every image
+ * within r_c (boxes too small for the cell list; r_c < min(Lx, Ly): 3 x 3 images suffice). */
 static void rs_p3m_all_images(const struct rs_p3m* p, const double* sx, const double* sy,
                               const double* sz, const double* sm, size_t n, double xi,
                               double yi, double zi, double Lx, double Ly, double s,
                               double inv_step, double* acc){
     for (size_t j = 0; j < n; j++){
-        const double nimg = round((xi - sx[j]) / Lx);
-        const double dy = yi - sy[j] + nimg * s;
-        rs_p3m_pairs(p, sx, sy, sz, sm, j, j + 1, xi, yi, zi, nimg * Lx,
-                     -nimg * s + Ly * round(dy / Ly), inv_step, acc);
+        const double n0 = round((xi - sx[j]) / Lx);
+        for (double nimg = n0 - 1.0; nimg <= n0 + 1.0; nimg += 1.0){
+            const double m0 = round((yi - sy[j] + nimg * s) / Ly);
+            for (double m = m0 - 1.0; m <= m0 + 1.0; m += 1.0){
+                rs_p3m_pairs(p, sx, sy, sz, sm, j, j + 1, xi, yi, zi, nimg * Lx,
+                             -nimg * s + m * Ly, inv_step, acc);
+            }
+        }
     }
 }
 

@@ -19,21 +19,17 @@ import weakref
 
 import numpy as np
 import rebound
+import scipy.fft
 
 from ringsim.engine.native import _LIB, _POST_TIMESTEP, HAS_P3M, P3MStruct
 from ringsim.physics.constants import G_SI
-from ringsim.physics.selfgravity import P3MMesh
-
-#: Default split scale r_s as a multiple of the mean particle radius (chosen by
-#: benchmarks/gravity.py: the cheapest setting with < 1 % rms force error).
-DEFAULT_SPLIT_RADII = 1.5
-#: Default cutoff of the pair sum as a multiple of r_s (1 - L(r_c) = 3.6e-3 at 5 r_s).
-DEFAULT_CUTOFF_SPLITS = 5.0
-#: Default horizontal mesh cell as a multiple of r_s (GADGET-2 uses r_s = 1.25 cells).
-DEFAULT_CELL_SPLITS = 0.8
-#: Default layer spacing as a multiple of r_s.
-DEFAULT_LAYER_SPLITS = 1.0
-
+from ringsim.physics.selfgravity import (
+    P3M_CELL_SPLITS,
+    P3M_CUTOFF_SPLITS,
+    P3M_LAYER_SPLITS,
+    P3M_SPLIT_RADII,
+    P3MMesh,
+)
 
 #: Installed solvers by the address of their callback (REBOUND keeps the callback object in
 #: ``sim._afp``, and the callback keeps its solver alive).
@@ -41,7 +37,48 @@ _SOLVERS: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
 
 
 def _even_cells(length, cell):
-    return max(4, 2 * int(math.ceil(length / cell / 2.0)))
+    """An even number of cells of at most ``cell`` [m] with only small prime factors."""
+    n = max(4, int(math.ceil(length / cell)))
+    while True:
+        n = scipy.fft.next_fast_len(n, real=True)
+        if n % 2 == 0:
+            return n
+        n += 1
+
+
+def p3m_parameters(Lx, Ly, split, cutoff=None, cell=None, dz=None) -> dict:
+    """The P3M solver's parameters for a box: ``split``, ``cutoff``, ``cell``, ``dz`` [m]
+    (defaults: the P3M_*_SPLITS multiples of ``split``) and the mesh ``nx``, ``ny``.
+
+    Parameters
+    ----------
+    Lx, Ly, split : float [m]
+    cutoff, cell, dz : float [m], optional
+    """
+    cutoff = P3M_CUTOFF_SPLITS * split if cutoff is None else cutoff
+    cell = P3M_CELL_SPLITS * split if cell is None else cell
+    dz = P3M_LAYER_SPLITS * split if dz is None else dz
+    return {"split": float(split), "cutoff": float(cutoff), "dz": float(dz),
+            "nx": _even_cells(Lx, cell), "ny": _even_cells(Ly, cell)}
+
+
+def describe(Lx, Ly, softening, split) -> dict:
+    """Root attributes of a run file for the P3M solver at its defaults, each with
+    ``units_<name>`` beside it.
+
+    Parameters
+    ----------
+    Lx, Ly, softening, split : float [m]
+    """
+    p = p3m_parameters(Lx, Ly, split)
+    return {"gravity_solver": "p3m",
+            "p3m_split": p["split"], "units_p3m_split": "m",
+            "p3m_cutoff": p["cutoff"], "units_p3m_cutoff": "m",
+            "p3m_mesh": np.array([p["nx"], p["ny"]], dtype=np.int64),
+            "units_p3m_mesh": "cells (x, y)",
+            "p3m_cell": np.array([Lx / p["nx"], Ly / p["ny"]]), "units_p3m_cell": "m",
+            "p3m_layer_spacing": p["dz"], "units_p3m_layer_spacing": "m",
+            "softening": float(softening), "units_softening": "m"}
 
 
 class P3MSolver:
@@ -55,12 +92,12 @@ class P3MSolver:
     split : float [m]
         r_s of the Gaussian split.
     cutoff : float [m]
-        r_c of the pair sum (default DEFAULT_CUTOFF_SPLITS r_s); must be < min(Lx, Ly) / 2.
+        r_c of the pair sum (default P3M_CUTOFF_SPLITS r_s); must be < min(Lx, Ly).
     cell : float [m]
         Target horizontal mesh cell (rounded to an even number of cells; default
-        DEFAULT_CELL_SPLITS r_s).
+        P3M_CELL_SPLITS r_s).
     dz : float [m]
-        Layer spacing (default DEFAULT_LAYER_SPLITS r_s).
+        Layer spacing (default P3M_LAYER_SPLITS r_s).
     workers : int
         scipy.fft threads.
     """
@@ -70,39 +107,25 @@ class P3MSolver:
         if not HAS_P3M:
             raise ImportError("ringsim._resolver was built without rs_p3m.c; rebuild the "
                               "extension (`python setup.py build_ext --inplace`)")
-        cutoff = DEFAULT_CUTOFF_SPLITS * split if cutoff is None else cutoff
-        cell = DEFAULT_CELL_SPLITS * split if cell is None else cell
-        dz = DEFAULT_LAYER_SPLITS * split if dz is None else dz
-        if not 0.0 < cutoff < 0.5 * min(Lx, Ly):
-            raise ValueError(f"P3M cutoff {cutoff:.3g} m must be below half the box "
-                             f"({0.5 * min(Lx, Ly):.3g} m)")
+        par = p3m_parameters(Lx, Ly, split, cutoff, cell, dz)
+        cutoff, dz = par["cutoff"], par["dz"]
+        if not 0.0 < cutoff < min(Lx, Ly):
+            raise ValueError(f"P3M cutoff {cutoff:.3g} m must be below the box's width "
+                             f"({min(Lx, Ly):.3g} m)")
         self.Lx, self.Ly, self.G = float(Lx), float(Ly), float(G)
         self.params = P3MStruct(split=split, cutoff=cutoff, softening=softening, dz=dz,
-                                nx=_even_cells(Lx, cell), ny=_even_cells(Ly, cell))
+                                nx=par["nx"], ny=par["ny"])
         _LIB.rs_p3m_init(ctypes.byref(self.params))
         self.mesh = P3MMesh(Lx, Ly, self.params.nx, self.params.ny, dz, split, G=G,
                             workers=workers)
         self.error: BaseException | None = None
         self._callback = _POST_TIMESTEP(self._additional_forces)
 
-    def describe(self) -> dict:
-        """The solver's parameters with units (for the run file's root attributes)."""
-        p = self.params
-        return {"gravity_solver": "p3m",
-                "p3m_split": p.split, "units_p3m_split": "m",
-                "p3m_cutoff": p.cutoff, "units_p3m_cutoff": "m",
-                "p3m_mesh": np.array([p.nx, p.ny], dtype=np.int64),
-                "units_p3m_mesh": "cells (x, y)",
-                "p3m_cell": np.array([self.Lx / p.nx, self.Ly / p.ny]),
-                "units_p3m_cell": "m",
-                "p3m_layer_spacing": p.dz, "units_p3m_layer_spacing": "m",
-                "softening": p.softening, "units_softening": "m"}
-
     def apply(self, sim_address: int) -> None:
         """Add the P3M accelerations [m/s^2] to the simulation at ``sim_address``."""
         p = self.params
         nz = _LIB.rs_p3m_prepare(sim_address, ctypes.byref(p))
-        mass = np.empty((p.nx, p.ny, nz))
+        mass = np.empty((nz, p.nx, p.ny))
         _LIB.rs_p3m_assign(sim_address, ctypes.byref(p), mass)
         gx, gy, gz = self.mesh.fields(mass, p.alpha)
         _LIB.rs_p3m_interpolate(sim_address, ctypes.byref(p), gx, gy, gz)
@@ -148,7 +171,7 @@ def raise_pending(sim: rebound.Simulation) -> None:
 
 def p3m_simulation(sheet, t=0.0, split=None, softening=None, G=G_SI, **kwargs):
     """A REBOUND shearing sheet holding ``sheet`` (``engine.gravity.random_sheet``) with P3M
-    gravity; ``split`` [m] defaults to DEFAULT_SPLIT_RADII x the mean radius, softening [m]
+    gravity; ``split`` [m] defaults to P3M_SPLIT_RADII x the mean radius, softening [m]
     to engine.gravity.DEFAULT_SOFTENING_FRACTION x the smallest radius; ``t`` [s]."""
     from ringsim.engine.gravity import DEFAULT_SOFTENING_FRACTION
     from ringsim.engine.sheet import configure_box
@@ -160,7 +183,7 @@ def p3m_simulation(sheet, t=0.0, split=None, softening=None, G=G_SI, **kwargs):
     sim.N_ghost_x, sim.N_ghost_y, sim.N_ghost_z = 1, 1, 0
     b = (DEFAULT_SOFTENING_FRACTION * float(np.min(sheet["radius"])) if softening is None
          else softening)
-    rs = DEFAULT_SPLIT_RADII * float(np.mean(sheet["radius"])) if split is None else split
+    rs = P3M_SPLIT_RADII * float(np.mean(sheet["radius"])) if split is None else split
     install_p3m(sim, P3MSolver(sheet["Lx"], sheet["Ly"], b, rs, G=G, **kwargs))
     sim.t = t
     for p, v, m, r in zip(sheet["pos"], sheet["vel"], sheet["mass"], sheet["radius"],

@@ -324,6 +324,18 @@ def pm_accelerations(pos, mass, Lx, Ly, shift, cell, dz=None, G=G_SI):
 
 # --- P3M: Gaussian force split (the mesh part; the pair part is ringsim/csrc/rs_p3m.c) ----------
 
+#: Self-gravity solvers of ``sheet.gravity_solver``: REBOUND's tree with the ghost-box
+#: truncation field, or the P3M solver (docs/gravity.md).
+GRAVITY_SOLVERS = ("tree", "p3m")
+#: P3M split scale r_s as a multiple of the mean particle radius, and the pair-sum cutoff,
+#: horizontal mesh cell and layer spacing as multiples of r_s: the cheapest setting found
+#: with < 1 % rms force error on a tau = 0.5 sheet (benchmarks/gravity.py, docs/gravity.md).
+#: GADGET-2 uses r_s = 1.25 cells and r_c = 4.5 r_s; 1 - L(5 r_s) = 3.6e-3.
+P3M_SPLIT_RADII = 2.5
+P3M_CUTOFF_SPLITS = 5.0
+P3M_CELL_SPLITS = 0.8
+P3M_LAYER_SPLITS = 0.5
+
 def long_range_fraction(r, split):
     """L(r): the fraction of the Newtonian pair force G m / r^2 carried by the mesh [-].
 
@@ -415,40 +427,60 @@ class P3MMesh:
         wx = np.sinc(np.fft.fftfreq(self.nx))
         wy = np.sinc(np.fft.rfftfreq(self.ny))
         self.inverse_window = 1.0 / ((wx[:, None] * wy[None, :]) ** 2) ** deconvolve
+        # the largest physical |k| on the sheared mesh (|alpha| <= Ly / (2 Lx))
+        k_max = np.hypot(np.abs(self.kx).max() + 0.5 * Ly / Lx * self.ky.max(), self.ky.max())
+        self._ktab = np.linspace(0.0, 1.001 * k_max, 8193)
+        self._tables: dict = {}
+
+    def _kernel_tables(self, nz):
+        """k phi and g_z of :func:`split_layer_kernels` on a fine |k| grid, layers 0..nz-1
+        (cached per nz; linear interpolation in |k| is accurate to < 1e-4 of the kernel)."""
+        if nz not in self._tables:
+            d = np.arange(nz)[:, None] * self.dz
+            phi, gz = split_layer_kernels(self._ktab[None, :], d, self.split, self.G)
+            kphi = phi * self._ktab[None, :]
+            kphi[:, 0] = -2.0 * np.pi * self.G          # the k -> 0 limit of k phi
+            self._tables[nz] = (kphi, gz)
+        return self._tables[nz]
 
     def fields(self, mass, alpha):
-        """Mesh fields (gx, gy, gz) [m/s^2] on the nodes, arrays (nx, ny, nz).
+        """Mesh fields (gx, gy, gz) [m/s^2] on the nodes, arrays (nz, nx, ny).
 
         Parameters
         ----------
-        mass : array (nx, ny, nz) [kg]
-            Cloud-in-cell mass on the nodes (layers dz apart).
+        mass : array (nz, nx, ny) [kg]
+            Cloud-in-cell mass on the nodes (layers dz apart, outermost axis).
         alpha : float
             Shear of the coordinates, s / Lx [-].
         """
-        nx, ny, nz = mass.shape
+        nz, nx, ny = mass.shape
         workers = self.workers
         cell = self.Lx / nx * self.Ly / ny
-        s_hat = scipy.fft.rfft2(mass / cell, axes=(0, 1), workers=workers)
-        s_hat *= self.inverse_window[:, :, None]
+        s_hat = scipy.fft.rfft2(mass / cell, axes=(1, 2), workers=workers)
+        s_hat *= self.inverse_window
         kxp = self.kx[:, None] + alpha * self.ky[None, :]
         ky = np.broadcast_to(self.ky[None, :], kxp.shape)
         k = np.hypot(kxp, ky)
+        # vertical coupling along the last (contiguous) axis: layout (nx, nky, nz)
+        kphi_tab, gz_tab = self._kernel_tables(nz)
+        kflat = k.ravel()
         n_pad = 2 * nz
-        phi_k, gz_k = split_layer_kernels(k[:, :, None], np.arange(nz) * self.dz, self.split,
-                                          self.G)
-        # padded offsets: 0..nz-1, (slot nz unused), -(nz-1)..-1
-        phi_pad = np.concatenate([phi_k, np.zeros_like(phi_k[:, :, :1]),
-                                  phi_k[:, :, :0:-1]], axis=2)
-        gz_pad = np.concatenate([gz_k, np.zeros_like(gz_k[:, :, :1]), -gz_k[:, :, :0:-1]],
-                                axis=2)
+        kern = np.zeros((2, kflat.size, n_pad))
+        for layer in range(nz):
+            kern[0, :, layer] = np.interp(kflat, self._ktab, kphi_tab[layer])
+            kern[1, :, layer] = np.interp(kflat, self._ktab, gz_tab[layer])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            kern[0] = np.where(kflat[:, None] > 0.0, kern[0] / kflat[:, None], 0.0)
         if not self.mean_vertical:
-            gz_pad[0, 0, :] = 0.0     # the k = 0 vertical field is added on fine layers in C
-        s_z = scipy.fft.fft(s_hat, n=n_pad, axis=2, workers=workers)
-        pot_hat = scipy.fft.ifft(s_z * scipy.fft.fft(phi_pad, axis=2, workers=workers),
-                                 axis=2, workers=workers)[:, :, :nz]
-        gz_hat = scipy.fft.ifft(s_z * scipy.fft.fft(gz_pad, axis=2, workers=workers),
-                                axis=2, workers=workers)[:, :, :nz]
+            kern[1, 0, :] = 0.0     # the k = 0 vertical field is added on fine layers in C
+        # padded offsets 0..nz-1, (nz unused), -(nz-1)..-1: phi even, g_z odd in the offset
+        kern[0, :, nz + 1:] = kern[0, :, nz - 1:0:-1]
+        kern[1, :, nz + 1:] = -kern[1, :, nz - 1:0:-1]
+        kern_z = scipy.fft.fft(kern, axis=-1, workers=workers)
+        s_t = np.moveaxis(s_hat, 0, -1).reshape(kflat.size, nz)
+        s_z = scipy.fft.fft(s_t, n=n_pad, axis=-1, workers=workers)
+        conv = scipy.fft.ifft(s_z[None] * kern_z, axis=-1, workers=workers)[:, :, :nz]
+        pot_hat, gz_hat = (np.moveaxis(c.reshape(nx, -1, nz), -1, 0) for c in conv)
         deriv_x = -1j * kxp
         deriv_y = -1j * ky
         if nx % 2 == 0:
@@ -459,6 +491,6 @@ class P3MMesh:
             deriv_x[:, -1] = 0.0
             deriv_y[:, -1] = 0.0
         shape = (nx, ny)
-        out = [scipy.fft.irfft2(h, s=shape, axes=(0, 1), workers=workers)
-               for h in (deriv_x[:, :, None] * pot_hat, deriv_y[:, :, None] * pot_hat, gz_hat)]
+        out = [scipy.fft.irfft2(h, s=shape, axes=(1, 2), workers=workers)
+               for h in (deriv_x * pot_hat, deriv_y * pot_hat, gz_hat)]
         return [np.ascontiguousarray(g) for g in out]
