@@ -36,8 +36,8 @@
  * inside the box (REBOUND wraps them before the force evaluation), N_var = 0.  Each pair is
  * evaluated from both sides (gather): the pair forces are antisymmetric to round-off, so
  * the total momentum of the short-range forces vanishes to round-off.  Cost: an O(N) cell
- * list with cells of at least r_c (9 to 12 cells searched per particle; boxes narrower
- * than 3 r_c fall back to all pairs and their 3 x 3 nearest images).
+ * list with cells of at least r_c / 2 (an area of about (2.5 r_c)^2 searched per particle;
+ * boxes narrower than 2.5 r_c fall back to all pairs and their 3 x 3 nearest images).
  */
 #include <math.h>
 #include <stddef.h>
@@ -305,7 +305,36 @@ static void rs_p3m_all_images(const struct rs_p3m* p, const double* sx, const do
     }
 }
 
-/* Add the short-range pair forces (see the file header) to every particle. */
+/* Cells per cutoff of the pair sum's cell list (cells of at least r_c / 2). */
+#define RS_P3M_CELLS_PER_CUTOFF 2
+
+/* Short-range acceleration [m/s^2] on target (xi, yi, zi) (wrapped into the box) from the
+ * cell list: cells [x-range] x [y-range] within r_c, each with its image offsets. */
+static void rs_p3m_cells(const struct rs_p3m* p, const double* sx, const double* sy,
+                         const double* sz, const double* sm, const size_t* start, int ncx,
+                         int ncy, double Lx, double Ly, double s, double xi, double yi,
+                         double zi, double inv_step, double* acc){
+    const double rc = p->cutoff, hx = Lx / ncx, hy = Ly / ncy;
+    const int xlo = (int)floor((xi - rc + 0.5 * Lx) / hx);
+    const int xhi = (int)floor((xi + rc + 0.5 * Lx) / hx);
+    for (int qx = xlo; qx <= xhi; qx++){
+        /* a column outside [0, ncx) is the image n boxes out: sources at (x + n Lx, y - n s) */
+        const int nimg = (int)floor((double)qx / (double)ncx);
+        const size_t col = (size_t)(qx - nimg * ncx);
+        const double yc = yi + nimg * s + 0.5 * Ly;
+        const int ylo = (int)floor((yc - rc) / hy), yhi = (int)floor((yc + rc) / hy);
+        for (int qy = ylo; qy <= yhi; qy++){
+            const int wy = (int)floor((double)qy / (double)ncy);
+            const size_t c = col * (size_t)ncy + (size_t)(qy - wy * ncy);
+            rs_p3m_pairs(p, sx, sy, sz, sm, start[c], start[c + 1], xi, yi, zi,
+                         nimg * Lx, -nimg * s + wy * Ly, inv_step, acc);
+        }
+    }
+}
+
+/* Add the short-range pair forces (see the file header) to every particle.  Positions are
+ * first wrapped into the box with the shear (REBOUND evaluates forces at mid-step, before
+ * its boundary check), so that every pair is found from both sides with the same image. */
 void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
     const size_t n = r->N - r->N_var;
     struct reb_particle* const ps = r->particles;
@@ -313,15 +342,18 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
     const double Ly = r->root_size * (double)r->N_root_y;
     const double rc = p->cutoff, s = p->shift, G = r->G;
     const double inv_step = (double)RS_P3M_TABLE / (rc * rc);
-    int ncx = (int)(Lx / rc), ncy = (int)(Ly / rc);
-    if (ncx < 3 || ncy < 3){
-        ncx = 1;       /* one cell: every pair, each with its nearest image */
+    int ncx = (int)(RS_P3M_CELLS_PER_CUTOFF * Lx / rc);
+    int ncy = (int)(RS_P3M_CELLS_PER_CUTOFF * Ly / rc);
+    const int all_pairs = ncx < 2 * RS_P3M_CELLS_PER_CUTOFF + 1
+                          || ncy < 2 * RS_P3M_CELLS_PER_CUTOFF + 1;
+    if (all_pairs){
+        ncx = 1;       /* one cell: every pair, at each image within r_c */
         ncy = 1;
     }
     const size_t cells = (size_t)ncx * (size_t)ncy;
     size_t* start = calloc(cells + 1, sizeof(size_t));
-    size_t* cell_of = malloc(n * sizeof(size_t));
-    double* buf = malloc(4 * n * sizeof(double));
+    size_t* cell_of = malloc(2 * n * sizeof(size_t));
+    double* buf = malloc(6 * n * sizeof(double));
     if (start == NULL || cell_of == NULL || buf == NULL){
         free(start);
         free(cell_of);
@@ -329,12 +361,20 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
         p->error = 1;
         return;
     }
+    size_t* order = cell_of + n;
     double *sx = buf, *sy = buf + n, *sz = buf + 2 * n, *sm = buf + 3 * n;
+    double *wxs = buf + 4 * n, *wys = buf + 5 * n;
     const double hx = Lx / ncx, hy = Ly / ncy;
-    for (size_t k = 0; k < n; k++){   /* counting sort into cells (x-major) */
-        int cx = (int)floor((ps[k].x + 0.5 * Lx) / hx), cy = (int)floor((ps[k].y + 0.5 * Ly) / hy);
+    for (size_t k = 0; k < n; k++){   /* wrap, then counting sort into cells (x-major) */
+        const double nx_img = floor((ps[k].x + 0.5 * Lx) / Lx);
+        const double x = ps[k].x - nx_img * Lx;
+        double y = ps[k].y + nx_img * s;
+        y -= Ly * floor((y + 0.5 * Ly) / Ly);
+        wxs[k] = x;
+        wys[k] = y;
+        int cx = (int)floor((x + 0.5 * Lx) / hx), cy = (int)floor((y + 0.5 * Ly) / hy);
         cx = cx < 0 ? 0 : (cx >= ncx ? ncx - 1 : cx);
-        cy = ((cy % ncy) + ncy) % ncy;
+        cy = cy < 0 ? 0 : (cy >= ncy ? ncy - 1 : cy);
         cell_of[k] = (size_t)cx * (size_t)ncy + (size_t)cy;
         start[cell_of[k] + 1]++;
     }
@@ -343,8 +383,9 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
     }
     for (size_t k = 0; k < n; k++){
         const size_t slot = start[cell_of[k]]++;
-        sx[slot] = ps[k].x;
-        sy[slot] = ps[k].y;
+        order[slot] = k;
+        sx[slot] = wxs[k];
+        sy[slot] = wys[k];
         sz[slot] = ps[k].z;
         sm[slot] = ps[k].m;
     }
@@ -352,32 +393,19 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
         start[c] = start[c - 1];
     }
     start[0] = 0;
-    for (size_t k = 0; k < n; k++){
-        const int cx = (int)(cell_of[k] / (size_t)ncy);
+    for (size_t slot = 0; slot < n; slot++){   /* targets in cell order: sources cached */
         double acc[3] = {0.0, 0.0, 0.0};
-        if (ncx == 1){
-            rs_p3m_all_images(p, sx, sy, sz, sm, n, ps[k].x, ps[k].y, ps[k].z, Lx, Ly, s,
+        if (all_pairs){
+            rs_p3m_all_images(p, sx, sy, sz, sm, n, sx[slot], sy[slot], sz[slot], Lx, Ly, s,
                               inv_step, acc);
         }else{
-            for (int dcx = -1; dcx <= 1; dcx++){
-                int qx = cx + dcx, nimg = 0;
-                if (qx < 0){ qx += ncx; nimg = -1; }
-                if (qx >= ncx){ qx -= ncx; nimg = 1; }
-                /* source image (x_j + n Lx, y_j - n s): sources with y_j near y_i + n s */
-                const double yc = ps[k].y + nimg * s + 0.5 * Ly;
-                const int lo = (int)floor((yc - rc) / hy), hi = (int)floor((yc + rc) / hy);
-                for (int qy = lo; qy <= hi; qy++){
-                    /* a cell index outside [0, ncy) is that cell one box period away */
-                    const int wy = (int)floor((double)qy / (double)ncy);
-                    const size_t c = (size_t)qx * (size_t)ncy + (size_t)(qy - wy * ncy);
-                    rs_p3m_pairs(p, sx, sy, sz, sm, start[c], start[c + 1], ps[k].x, ps[k].y,
-                                 ps[k].z, nimg * Lx, -nimg * s + wy * Ly, inv_step, acc);
-                }
-            }
+            rs_p3m_cells(p, sx, sy, sz, sm, start, ncx, ncy, Lx, Ly, s, sx[slot], sy[slot],
+                         sz[slot], inv_step, acc);
         }
-        ps[k].ax += G * acc[0];
-        ps[k].ay += G * acc[1];
-        ps[k].az += G * acc[2];
+        struct reb_particle* const q = &ps[order[slot]];
+        q->ax += G * acc[0];
+        q->ay += G * acc[1];
+        q->az += G * acc[2];
     }
     free(start);
     free(cell_of);
