@@ -309,7 +309,8 @@ static void rs_p3m_all_images(const struct rs_p3m* p, const double* sx, const do
 #define RS_P3M_CELLS_PER_CUTOFF 2
 
 /* Short-range acceleration [m/s^2] on target (xi, yi, zi) (wrapped into the box) from the
- * cell list: cells [x-range] x [y-range] within r_c, each with its image offsets. */
+ * cell list: cells [x-range] x [y-range] within r_c, each with its image offsets; the cells
+ * of one column and one y image are contiguous in the sorted arrays (one run each). */
 static void rs_p3m_cells(const struct rs_p3m* p, const double* sx, const double* sy,
                          const double* sz, const double* sm, const size_t* start, int ncx,
                          int ncy, double Lx, double Ly, double s, double xi, double yi,
@@ -320,14 +321,16 @@ static void rs_p3m_cells(const struct rs_p3m* p, const double* sx, const double*
     for (int qx = xlo; qx <= xhi; qx++){
         /* a column outside [0, ncx) is the image n boxes out: sources at (x + n Lx, y - n s) */
         const int nimg = (int)floor((double)qx / (double)ncx);
-        const size_t col = (size_t)(qx - nimg * ncx);
+        const size_t col = (size_t)(qx - nimg * ncx) * (size_t)ncy;
         const double yc = yi + nimg * s + 0.5 * Ly;
         const int ylo = (int)floor((yc - rc) / hy), yhi = (int)floor((yc + rc) / hy);
-        for (int qy = ylo; qy <= yhi; qy++){
-            const int wy = (int)floor((double)qy / (double)ncy);
-            const size_t c = col * (size_t)ncy + (size_t)(qy - wy * ncy);
-            rs_p3m_pairs(p, sx, sy, sz, sm, start[c], start[c + 1], xi, yi, zi,
+        for (int q0 = ylo; q0 <= yhi;){
+            const int wy = (int)floor((double)q0 / (double)ncy);   /* y image of this run */
+            const int q1 = yhi < (wy + 1) * ncy - 1 ? yhi : (wy + 1) * ncy - 1;
+            const size_t c0 = col + (size_t)(q0 - wy * ncy), c1 = col + (size_t)(q1 - wy * ncy);
+            rs_p3m_pairs(p, sx, sy, sz, sm, start[c0], start[c1 + 1], xi, yi, zi,
                          nimg * Lx, -nimg * s + wy * Ly, inv_step, acc);
+            q0 = q1 + 1;
         }
     }
 }

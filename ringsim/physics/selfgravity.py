@@ -331,10 +331,10 @@ GRAVITY_SOLVERS = ("tree", "p3m")
 #: horizontal mesh cell and layer spacing as multiples of r_s: the cheapest setting found
 #: with < 1 % rms force error on a tau = 0.5 sheet (benchmarks/gravity.py, docs/gravity.md).
 #: GADGET-2 uses r_s = 1.25 cells and r_c = 4.5 r_s; 1 - L(5 r_s) = 3.6e-3.
-P3M_SPLIT_RADII = 2.5
+P3M_SPLIT_RADII = 3.0
 P3M_CUTOFF_SPLITS = 5.0
-P3M_CELL_SPLITS = 0.8
-P3M_LAYER_SPLITS = 0.5
+P3M_CELL_SPLITS = 1.0
+P3M_LAYER_SPLITS = 0.75
 
 def long_range_fraction(r, split):
     """L(r): the fraction of the Newtonian pair force G m / r^2 carried by the mesh [-].
@@ -418,8 +418,9 @@ class P3MMesh:
     """
 
     def __init__(self, Lx, Ly, nx, ny, dz, split, G=G_SI, workers=1, deconvolve=2,
-                 mean_vertical=False):
+                 mean_vertical=False, layer_correction=True):
         self.mean_vertical = mean_vertical
+        self.layer_correction = layer_correction
         self.Lx, self.Ly, self.nx, self.ny = Lx, Ly, int(nx), int(ny)
         self.dz, self.split, self.G, self.workers = float(dz), float(split), G, workers
         self.kx = 2.0 * np.pi * np.fft.fftfreq(self.nx, Lx / self.nx)
@@ -438,6 +439,16 @@ class P3MMesh:
         if nz not in self._tables:
             d = np.arange(nz)[:, None] * self.dz
             phi, gz = split_layer_kernels(self._ktab[None, :], d, self.split, self.G)
+            if self.layer_correction:
+                # cloud-in-cell assignment and interpolation between layers each smooth a
+                # kernel K into K + dz^2 / 12 K'' on average over the particles' positions within
+                # their layers (linear interpolation): K - dz^2 / 6 K'' undoes it on average
+                h = 1e-3 * self.split
+                up = split_layer_kernels(self._ktab[None, :], d + h, self.split, self.G)
+                down = split_layer_kernels(self._ktab[None, :], d - h, self.split, self.G)
+                c = -self.dz**2 / 6.0 / h**2
+                phi = phi + c * (up[0] - 2.0 * phi + down[0])
+                gz = gz + c * (up[1] - 2.0 * gz + down[1])
             kphi = phi * self._ktab[None, :]
             kphi[:, 0] = -2.0 * np.pi * self.G          # the k -> 0 limit of k phi
             self._tables[nz] = (kphi, gz)
