@@ -172,8 +172,9 @@ def test_energy_budget_of_a_clump_over_one_orbit(solver, mesh):
     work the forces exchange, itself of order the potential depth |W|; (2) the kick-drift
     splitting, O((Omega dt)^2) ~ 4e-5 of |W|; (3) the images beyond the nearest one, which
     the integral leaves out but the solvers include: measured 5.7e-3 |W| in a 97 m box,
-    2.2e-3 in this one (falling with the box).  Measured drift 2.2e-3 |W| (P3M) and 1.3e-3
-    |W| (tree); bound 1e-2 |W|, the force-error term.  The clump must stay clear of the x
+    ~1.5e-3 in this one (falling with the box).  Measured drift 1.3e-3 |W| (tree), 1.6e-3 |W|
+    (P3M at its defaults, the same at dt = 2.5e-4 orbit), -6e-4 |W| (P3M on the 5 m mesh);
+    bound 1e-2 |W|, the force-error term.  The clump must stay clear of the x
     edges, where REBOUND's shear-periodic wrap changes v_y and so the integral."""
     s = clump(n=60, sigma=2.0, box_tau=0.005)
     Omega = s["geometry"].Omega
@@ -189,3 +190,57 @@ def test_energy_budget_of_a_clump_over_one_orbit(solver, mesh):
         assert np.max(np.abs(x)) < 0.4 * s["Lx"], "the clump must stay clear of the edges"
     e1, _ = jacobi_energy(sim, b, Omega, s["Lx"], s["Ly"])
     assert abs(e1 - e0) < 1e-2 * depth, (e1 - e0) / depth
+
+
+# --- the scenario key and the run file ---------------------------------------------------------
+
+def _gravitating(**sheet_keys):
+    from ringsim.config.scenario import scenario_from_dict
+
+    return {
+        "name": "grav", "seed": 3, "planet": {"GM": 3.7931e16, "a": 1.0e8},
+        "particles": {"density": 900.0,
+                      "size_distribution": {"kind": "monodisperse", "radius": 1.0}},
+        "sheet": {"optical_depth": 0.5, "n_particles": 200, "gravity": True, **sheet_keys},
+        "restitution": {"model": "bridges", "v_c": 7.7e-5, "exponent": 0.234},
+        "integration": {"orbits": 0.05},
+        "output": {"path": "runs/grav.h5", "timeseries_every": 0.025, "snapshot_every": 0.05},
+    }, scenario_from_dict
+
+
+@pytest.mark.parametrize("sheet_keys, key", [
+    ({"gravity_solver": "fmm"}, "sheet.gravity_solver"),
+    ({"gravity_solver": "p3m", "opening_angle": 0.3}, "sheet.opening_angle"),
+    ({"gravity_solver": "p3m", "n_particles": 20}, "sheet.gravity_solver"),
+])
+def test_bad_gravity_solver_keys_exit_2_naming_the_key(tmp_path, capsys, sheet_keys, key):
+    """A bad solver, a tree key with P3M, or a box narrower than P3M's cutoff (20 particles
+    make 11 m, the cutoff is 15 m): exit 2, one line naming file and key, no run file."""
+    import yaml
+
+    from ringsim.cli import main
+
+    data, _ = _gravitating(**sheet_keys)
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert main(["run", str(path), "-o", str(tmp_path / "r.h5"), "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and key in err[0] and "s.yaml" in err[0], err
+    assert not (tmp_path / "r.h5").exists()
+
+
+def test_solver_defaults_and_the_run_file_records_the_solver(tmp_path):
+    import ringsim
+
+    data, build = _gravitating()
+    assert build(data, source="<t>").sheet.gravity_solver == "p3m"
+    tree_by_angle, _ = _gravitating(opening_angle=0.5)
+    assert build(tree_by_angle, source="<t>").sheet.gravity_solver == "tree"
+    path = ringsim.run(build(data, source="<t>"), output=tmp_path / "g.h5", progress=False)
+    attrs = ringsim.open_run(path).attrs
+    assert attrs["gravity_solver"] == "p3m"
+    assert attrs["p3m_split"] == pytest.approx(3.0) and attrs["units_p3m_split"] == "m"
+    assert attrs["p3m_cutoff"] == pytest.approx(15.0) and attrs["units_p3m_cutoff"] == "m"
+    assert list(attrs["p3m_mesh"]) == [p3m.p3m_parameters(attrs["Lx"], attrs["Ly"], 3.0)[k]
+                                       for k in ("nx", "ny")]
+    assert attrs["softening"] == pytest.approx(0.1) and attrs["units_softening"] == "m"

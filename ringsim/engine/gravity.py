@@ -13,7 +13,10 @@ falls only as 1 / N_ghost (rms error 23 % of the field at N_ghost = 1, 13 % at 2
 a tau = 0.5 sheet).  :func:`ghost_truncation_field` supplies the missing field analytically;
 with it the tree's error is its own multipole error, set by the opening angle.
 
-Wiring into runs: :func:`install_ghost_field` puts the C twin of
+Wiring into runs: :func:`install_gravity` sets up the scenario's solver, ``tree`` (below) or
+``p3m`` (``engine.p3m``, the default of ``sheet.gravity_solver``, chosen by
+benchmarks/gravity.py); :func:`solver_attributes` names it and its parameters in the run
+file.  For the tree, :func:`install_ghost_field` puts the C twin of
 :func:`ghost_truncation_field` (``rs_ghost_field`` in ``ringsim/csrc/rs_gravity.c``) into
 REBOUND's ``additional_forces`` (``engine.sheet.configure_simulation`` does it for every
 gravitating sheet, the run loop again after loading a checkpoint, since REBOUND does not save
