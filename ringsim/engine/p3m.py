@@ -132,7 +132,7 @@ class P3MSolver:
         _LIB.rs_p3m_mean_vertical(sim_address, ctypes.byref(p))
         _LIB.rs_p3m_short(sim_address, ctypes.byref(p))
         if p.error:
-            raise MemoryError("rs_p3m_short: out of memory for the cell list")
+            raise MemoryError("rs_p3m: out of memory (cell list or fine vertical layers)")
 
     def _additional_forces(self, sim_pointer) -> None:
         if self.error is not None:
