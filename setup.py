@@ -19,7 +19,8 @@ setup(
         Extension(
             "ringsim._resolver",
             sources=["ringsim/csrc/rs_resolver.c", "ringsim/csrc/rs_sheet_detect.c",
-                     "ringsim/csrc/rs_gravity.c", "ringsim/csrc/rs_setup.c"],
+                     "ringsim/csrc/rs_gravity.c", "ringsim/csrc/rs_setup.c",
+                     "ringsim/csrc/rs_p3m.c"],
             include_dirs=[REBOUND_INCLUDE],
             libraries=["m"],
             extra_compile_args=["-O3", "-std=c99", "-fno-fast-math", "-ffp-contract=off"],

@@ -87,14 +87,15 @@ def test_momentum_of_a_gravitating_sheet_without_collisions():
 # --- the sheet and the run --------------------------------------------------------------------
 
 def test_gravitating_sheet_has_one_ghost_ring_the_field_and_opening_angle_0_3():
-    sc = gravitating_scenario()
+    sc = gravitating_scenario(**{"sheet.gravity_solver": "tree"})
     sim, geometry, radii, masses = sheet.new_simulation(sc)
     assert sim.gravity == "tree"
     assert (sim.N_ghost_x, sim.N_ghost_y, sim.N_ghost_z) == (1, 1, 0)
     assert sim.opening_angle2 == pytest.approx(0.09)
     assert sim.softening == pytest.approx(0.1)
     assert eg.has_ghost_field(sim)
-    plain, *_ = sheet.new_simulation(with_overrides(sc, {"sheet.gravity": False}))
+    plain, *_ = sheet.new_simulation(with_overrides(gravitating_scenario(),
+                                                    {"sheet.gravity": False}))
     assert not eg.has_ghost_field(plain)
 
 

@@ -70,6 +70,7 @@ def test_gravity_sets_tree_gravity_one_ghost_ring_and_the_field_beyond():
     from ringsim.engine.gravity import has_ghost_field
 
     sc = with_overrides(scenario_from_dict(BASE), {"sheet.gravity": True,
+                                                   "sheet.gravity_solver": "tree",
                                                    "sheet.n_particles": 50})
     sim = sheet.build_sheet(sc).sim
     assert sim.gravity == "tree" and sim.N_ghost_x == 1 and sim.N_ghost_y == 1

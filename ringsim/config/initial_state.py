@@ -61,8 +61,10 @@ def sheet_dict_with_file(sheet, d: dict[str, Any]) -> dict[str, Any]:
     for name in _REPLACED_BY_FILE[sheet.initial_state.kind]:
         d.pop(name, None)
     if sheet.gravity:
+        d["gravity_solver"] = sheet.gravity_solver
         d["softening"] = sheet.softening
-        d["opening_angle"] = sheet.opening_angle
+        if sheet.opening_angle is not None:
+            d["opening_angle"] = sheet.opening_angle
     d["z_box"] = sheet.z_box
     d["initial_state"] = sheet.initial_state.to_dict()
     return d

@@ -38,6 +38,7 @@ from typing import Any
 
 import yaml
 
+from ringsim.config.gravity_keys import check_p3m_box, read_gravity_keys
 from ringsim.config.initial_state import (
     read_initial_state,
 )
@@ -109,8 +110,8 @@ _SECTION_KEYS: dict[str, tuple[str, ...]] = {
          "friction", "integration", "output"),
     "planet": ("Omega", "GM", "a"),
     "particles": ("density", "size_distribution", "inertia_factor"),
-    "sheet": ("optical_depth", "n_particles", "aspect", "gravity", "softening",
-              "opening_angle", "initial_dispersion", "z_box", "initial_state"),
+    "sheet": ("optical_depth", "n_particles", "aspect", "gravity", "gravity_solver",
+              "softening", "opening_angle", "initial_dispersion", "z_box", "initial_state"),
     "integration": ("orbits", "dt", "dt_safety", "collision_detection", "until_equilibrium"),
     "output": ("path", "timeseries_every", "snapshot_every", "checkpoint_every",
                "log_collisions"),
@@ -120,7 +121,6 @@ _SIZE_KINDS: dict[str, tuple[str, ...]] = {
     "powerlaw": ("q", "r_min", "r_max"),
     "mixture": ("components",),
 }
-_GRAVITY_ONLY_KEYS = ("softening", "opening_angle")
 _COLLISION_DETECTIONS = ("tree", "line")
 
 #: Defaults of the optional keys (restitution defaults: ringsim.physics.restitution.RESTITUTION).
@@ -131,6 +131,9 @@ DEFAULTS: dict[str, Any] = {
     "sheet.n_particles": 1000,
     "sheet.aspect": 1.0,
     "sheet.gravity": False,
+    # chosen by benchmarks/gravity.py: equal force accuracy (< 1 % rms) at a fraction of
+    # the tree's cost (docs/performance.md, "Self-gravity")
+    "sheet.gravity_solver": "p3m",
     "sheet.softening": "auto",
     # 0.3: < 1 % rms force error with the ghost-box truncation field, 0.5 gives 2 %
     # (docs/gravity.md); engine.gravity.DEFAULT_OPENING_ANGLE is this value
@@ -341,27 +344,20 @@ def _read_sheet(top: Section) -> SheetConfig:
     sec = top.section("sheet", keys=_SECTION_KEYS["sheet"])
     sec.check_keys(_SECTION_KEYS["sheet"])
     d = DEFAULTS
-    gravity = sec.boolean("gravity", d["sheet.gravity"])
-    if not gravity:
-        for name in _GRAVITY_ONLY_KEYS:
-            if sec.has(name):
-                raise sec.error(name, "only used with self-gravity",
-                                "set sheet.gravity: true, or remove the key")
+    grav = read_gravity_keys(sec, d)
     initial_state = read_initial_state(sec)
     return SheetConfig(
         optical_depth=sec.number("optical_depth", d["sheet.optical_depth"], gt=0.0,
                                  le=MAX_OPTICAL_DEPTH),
         n_particles=sec.integer("n_particles", d["sheet.n_particles"], ge=2),
         aspect=sec.number("aspect", d["sheet.aspect"], gt=0.0),
-        gravity=gravity,
-        softening=(sec.number_or_auto("softening", d["sheet.softening"], unit="m", ge=0.0)
-                   if gravity else None),
-        opening_angle=(sec.number("opening_angle", d["sheet.opening_angle"], unit="rad",
-                                  gt=0.0, le=1.0) if gravity else None),
+        gravity=grav["gravity"], softening=grav["softening"],
+        opening_angle=grav["opening_angle"],
         initial_dispersion=sec.number("initial_dispersion", d["sheet.initial_dispersion"],
                                       unit="mean radius x Omega", ge=0.0),
         z_box=sec.number_or_auto("z_box", d["sheet.z_box"], unit="mean radii", gt=0.0),
         initial_state=initial_state,
+        gravity_solver=grav["gravity_solver"],
     )
 
 
@@ -468,6 +464,7 @@ def _check_geometry(top: Section, particles: Particles, sheet: SheetConfig,
                         f"{sheet.n_particles} particles make a {lx:.3g} m x {ly:.3g} m box, "
                         f"not wider than the largest particle (diameter {2 * r_max:g} m)",
                         "more particles, a lower optical depth or an aspect nearer 1")
+    check_p3m_box(top, sheet, particles.size_distribution.mean_radius, lx, ly)
     if sheet.z_box != "auto":
         r_mean = particles.size_distribution.mean_radius
         if sheet.z_box * r_mean <= 2.0 * r_max:

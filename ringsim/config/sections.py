@@ -97,12 +97,15 @@ class SheetConfig:
     aspect : float [dimensionless]
         Ly / Lx (y along the orbit, x radial).
     gravity : bool
-        Self-gravity with REBOUND's tree code.
+        Self-gravity (solver: ``gravity_solver``).
+    gravity_solver : "tree" or "p3m" or None
+        REBOUND's tree plus the field beyond its ghost boxes, or ringsim's P3M solver
+        (physics.selfgravity.GRAVITY_SOLVERS); None without gravity.
     softening : float [m] or "auto" or None
         Gravitational softening length; "auto" = 0.1 x smallest radius; None without gravity.
     opening_angle : float [rad] or None
         Barnes-Hut opening angle of the tree (REBOUND's opening_angle2 is its square);
-        None without gravity.
+        None without the tree.
     initial_dispersion : float [mean radius x Omega]
         Initial 1-D velocity dispersion relative to the shear flow.
     z_box : float [mean radii] or "auto"
@@ -120,6 +123,7 @@ class SheetConfig:
     initial_dispersion: float
     z_box: float | str
     initial_state: InitialStateFile | None = None
+    gravity_solver: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"optical_depth": self.optical_depth,
@@ -128,8 +132,10 @@ class SheetConfig:
         if self.initial_state is not None:
             return sheet_dict_with_file(self, d)
         if self.gravity:
+            d["gravity_solver"] = self.gravity_solver
             d["softening"] = self.softening
-            d["opening_angle"] = self.opening_angle
+            if self.opening_angle is not None:
+                d["opening_angle"] = self.opening_angle
         d["initial_dispersion"] = self.initial_dispersion
         d["z_box"] = self.z_box
         return d

@@ -13,7 +13,10 @@ falls only as 1 / N_ghost (rms error 23 % of the field at N_ghost = 1, 13 % at 2
 a tau = 0.5 sheet).  :func:`ghost_truncation_field` supplies the missing field analytically;
 with it the tree's error is its own multipole error, set by the opening angle.
 
-Wiring into runs: :func:`install_ghost_field` puts the C twin of
+Wiring into runs: :func:`install_gravity` sets up the scenario's solver, ``tree`` (below) or
+``p3m`` (``engine.p3m``, the default of ``sheet.gravity_solver``, chosen by
+benchmarks/gravity.py); :func:`solver_attributes` names it and its parameters in the run
+file.  For the tree, :func:`install_ghost_field` puts the C twin of
 :func:`ghost_truncation_field` (``rs_ghost_field`` in ``ringsim/csrc/rs_gravity.c``) into
 REBOUND's ``additional_forces`` (``engine.sheet.configure_simulation`` does it for every
 gravitating sheet, the run loop again after loading a checkpoint, since REBOUND does not save
@@ -31,7 +34,7 @@ import rebound
 from ringsim.config.scenario import DEFAULTS
 from ringsim.physics import gravity as patch
 from ringsim.physics.constants import G_SI
-from ringsim.physics.selfgravity import direct_accelerations, shear_offset
+from ringsim.physics.selfgravity import P3M_SPLIT_RADII, direct_accelerations, shear_offset
 
 #: Default opening angle [rad] of REBOUND's tree for ``gravity: true``: the largest that keeps
 #: the rms relative force error below 1 % with :func:`ghost_truncation_field` (docs/gravity.md).
@@ -263,6 +266,65 @@ def install_ghost_field(sim: rebound.Simulation) -> None:
     sim._afp = fp    # REBOUND's slot that keeps the ctypes object alive with the simulation
 
 
+def install_gravity(sim: rebound.Simulation, solver: str, *, softening: float,
+                    opening_angle: float | None = None, p3m_split: float | None = None) -> None:
+    """Switch self-gravity on in a configured shearing sheet (before or after adding
+    particles; again after loading one from a file).
+
+    Parameters
+    ----------
+    solver : "tree" or "p3m"
+        "tree": REBOUND's tree at ``opening_angle`` [rad], DEFAULT_GHOST_BOXES rings of ghost
+        boxes and the field of the sheet beyond them (:func:`install_ghost_field`).
+        "p3m": ``engine.p3m`` with split scale ``p3m_split`` [m] and the other parameters
+        at their defaults (``physics.selfgravity.P3M_*``).
+    softening : float [m]
+        Plummer softening.
+    """
+    from ringsim.engine import p3m
+
+    sim.G = G_SI
+    sim.softening = softening
+    if solver == "tree":
+        sim.gravity = "tree"
+        sim.opening_angle2 = opening_angle**2
+        # one ring of ghost boxes plus the analytic field of the sheet beyond them
+        # (rs_gravity.c): deeper rings change the force error by < 0.1 % (docs/gravity.md)
+        sim.N_ghost_x, sim.N_ghost_y = DEFAULT_GHOST_BOXES, DEFAULT_GHOST_BOXES
+        install_ghost_field(sim)
+    elif solver == "p3m":
+        Lx = sim.root_size * sim.N_root_x
+        Ly = sim.root_size * sim.N_root_y
+        p3m.install_p3m(sim, p3m.P3MSolver(Lx, Ly, softening, p3m_split, G=G_SI))
+    else:
+        raise ValueError(f"unknown gravity solver {solver!r}")
+
+
+def install_scenario_gravity(sim: rebound.Simulation, scenario) -> None:
+    """:func:`install_gravity` with a scenario's solver and parameters (function pointers
+    are not saved by REBOUND: the run loop calls this after loading a checkpoint)."""
+    sheet = scenario.sheet
+    install_gravity(sim, sheet.gravity_solver or "tree", softening=scenario.softening_length,
+                    opening_angle=sheet.opening_angle,
+                    p3m_split=P3M_SPLIT_RADII * scenario.mean_radius)
+
+
+def solver_attributes(scenario, geometry) -> dict:
+    """Root attributes of a run file naming the scenario's gravity solver and its parameters,
+    each with ``units_<name>`` beside it."""
+    from ringsim.engine import p3m
+
+    sheet = scenario.sheet
+    if sheet.gravity_solver == "p3m":
+        return p3m.describe(geometry.Lx, geometry.Ly, scenario.softening_length,
+                            P3M_SPLIT_RADII * scenario.mean_radius)
+    return {"gravity_solver": "tree",
+            "tree_opening_angle": float(sheet.opening_angle), "units_tree_opening_angle": "rad",
+            "tree_ghost_boxes": DEFAULT_GHOST_BOXES,
+            "units_tree_ghost_boxes": "rings (x and y), plus the field beyond them",
+            "softening": float(scenario.softening_length), "units_softening": "m"}
+
+
 def sheet_gravity(radii, masses, density: float, Lx: float, Ly: float, Omega: float,
                   GM: float | None = None, a: float | None = None) -> dict:
     """The dimensionless numbers of a self-gravitating sheet that ``ringsim run`` prints
@@ -318,5 +380,8 @@ def scenario_gravity(scenario, radii, masses, geometry) -> dict:
     geometry : SheetGeometry
     """
     planet = scenario.planet
-    return sheet_gravity(radii, masses, scenario.particles.density, geometry.Lx, geometry.Ly,
-                         scenario.orbital_frequency, planet.GM, planet.a)
+    out = sheet_gravity(radii, masses, scenario.particles.density, geometry.Lx, geometry.Ly,
+                        scenario.orbital_frequency, planet.GM, planet.a)
+    out["attributes"].update(solver_attributes(scenario, geometry))
+    out["message"] += f"; solver {scenario.sheet.gravity_solver or 'tree'}"
+    return out

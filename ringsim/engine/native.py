@@ -248,3 +248,50 @@ def _function_address(pointer: Any) -> int | None:
     return ctypes.cast(pointer, ctypes.c_void_p).value
 
 
+
+
+# --- P3M self-gravity (ringsim/csrc/rs_p3m.c) ---------------------------------------------------
+
+#: Nodes of the tabulated long-range pair force (RS_P3M_TABLE in rs_p3m.c).
+P3M_TABLE = 4096
+
+
+class P3MStruct(ctypes.Structure):
+    """Mirror of ``struct rs_p3m`` (split, cutoff, softening, dz [m]; mesh; per-call
+    layer geometry and shear offset)."""
+    _fields_ = [
+        ("split", ctypes.c_double),
+        ("cutoff", ctypes.c_double),
+        ("softening", ctypes.c_double),
+        ("dz", ctypes.c_double),
+        ("nx", ctypes.c_int),
+        ("ny", ctypes.c_int),
+        ("nz", ctypes.c_int),
+        ("error", ctypes.c_int),
+        ("z0", ctypes.c_double),
+        ("shift", ctypes.c_double),
+        ("alpha", ctypes.c_double),
+        ("table", ctypes.c_double * (P3M_TABLE + 2)),
+    ]
+
+
+def _declare_p3m(lib: ctypes.CDLL) -> bool:
+    """Declare the P3M functions' prototypes; False if the library was built without them."""
+    if not hasattr(lib, "rs_p3m_short"):
+        return False
+    sim_p, p3m_p = ctypes.c_void_p, ctypes.POINTER(P3MStruct)
+    double_p = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
+    for name, args, res in (("rs_p3m_init", [p3m_p], None),
+                            ("rs_p3m_prepare", [sim_p, p3m_p], ctypes.c_int),
+                            ("rs_p3m_assign", [sim_p, p3m_p, double_p], None),
+                            ("rs_p3m_interpolate", [sim_p, p3m_p, double_p, double_p, double_p],
+                             None),
+                            ("rs_p3m_short", [sim_p, p3m_p], None),
+                            ("rs_p3m_mean_vertical", [sim_p, p3m_p], None)):
+        getattr(lib, name).argtypes = args
+        getattr(lib, name).restype = res
+    return True
+
+
+#: True if ringsim._resolver has the P3M solver.
+HAS_P3M = _declare_p3m(_LIB)

@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from ringsim.analysis import snapshot
-from ringsim.engine import gravity, invariants, sheet, timestep
+from ringsim.engine import gravity, invariants, p3m, sheet, timestep
 from ringsim.engine.binary import simulation_binary, simulation_from_binary
 from ringsim.engine.progress import progress_bar
 from ringsim.errors import InputError
@@ -227,7 +227,7 @@ class Runner:
         sim.rand_seed = rand_seed
         self.sim = sim
         if self.scenario.sheet.gravity:   # REBOUND does not save function pointers
-            gravity.install_ghost_field(sim)
+            gravity.install_scenario_gravity(sim, self.scenario)
             arrays = sheet.particle_arrays(sim)
             self.gravity = gravity.scenario_gravity(self.scenario, arrays["radius"],
                                                     arrays["mass"], self.geometry)
@@ -451,6 +451,7 @@ class Runner:
     def _advance(self, t_next: float) -> None:
         """Integrate to the first step end at or after ``t_next`` [s]."""
         self.sim.integrate(t_next, exact_finish_time=0)
+        p3m.raise_pending(self.sim)   # an error in the P3M callback, which ctypes swallows
 
     def equilibrium_reached(self) -> str | None:
         """With ``integration.until_equilibrium``: the reason to stop if the equilibrium

@@ -21,7 +21,8 @@ import rebound
 
 from ringsim.engine.placement import OverlapGrid, wrap_horizontal
 from ringsim.engine.timestep import choose_dt
-from ringsim.physics.constants import G_SI, SHEAR
+from ringsim.physics.constants import SHEAR
+from ringsim.physics.selfgravity import P3M_SPLIT_RADII
 from ringsim.physics.sizes import size_bin_edges
 
 #: A particle's vertical amplitude may reach this fraction of the half z period.
@@ -237,15 +238,18 @@ def configure_box(sim: rebound.Simulation, geometry: SheetGeometry) -> None:
 
 def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gravity: bool,
                          softening: float, opening_angle: float,
-                         collision_detection: str, rand_seed: int) -> None:
+                         collision_detection: str, rand_seed: int,
+                         gravity_solver: str = "tree", p3m_split: float | None = None) -> None:
     """Set a REBOUND simulation up as a shearing sheet (no particles added).
 
     Parameters
     ----------
     geometry : SheetGeometry
     gravity : bool
-        Tree self-gravity with ``softening`` [m] and ``opening_angle`` [rad], one ring of
-        ghost boxes and the field of the sheet beyond them (``engine.gravity``).
+        Self-gravity with ``softening`` [m] by ``gravity_solver``: "tree" (REBOUND's tree at
+        ``opening_angle`` [rad], one ring of ghost boxes and the field of the sheet beyond
+        them) or "p3m" (ringsim's P3M solver of split scale ``p3m_split`` [m]); see
+        ``engine.gravity.install_gravity``.
     collision_detection : "tree" (overlaps at step ends) or "line" (swept paths: REBOUND's
         linetree here; ``install_resolver`` replaces it by ringsim's sheet detector)
     rand_seed : int
@@ -253,20 +257,14 @@ def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gr
     """
     configure_box(sim, geometry)
     sim.collision = "linetree" if collision_detection == "line" else "tree"
+    sim.N_ghost_x, sim.N_ghost_y = 1, 1
     if gravity:
-        from ringsim.engine.gravity import DEFAULT_GHOST_BOXES, install_ghost_field
+        from ringsim.engine.gravity import install_gravity
 
-        sim.G = G_SI
-        sim.gravity = "tree"
-        sim.softening = softening
-        sim.opening_angle2 = opening_angle**2
-        # one ring of ghost boxes plus the analytic field of the sheet beyond them
-        # (rs_gravity.c): deeper rings change the force error by < 0.1 % (docs/gravity.md)
-        sim.N_ghost_x, sim.N_ghost_y = DEFAULT_GHOST_BOXES, DEFAULT_GHOST_BOXES
-        install_ghost_field(sim)
+        install_gravity(sim, gravity_solver, softening=softening, opening_angle=opening_angle,
+                        p3m_split=p3m_split)
     else:
         sim.gravity = "none"
-        sim.N_ghost_x, sim.N_ghost_y = 1, 1
     sim.N_ghost_z = 0
     sim.rand_seed = int(rand_seed)
 
@@ -394,7 +392,9 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
                          softening=scenario.softening_length or 0.0,
                          opening_angle=sheet_cfg.opening_angle or 0.0,
                          collision_detection=scenario.integration.collision_detection,
-                         rand_seed=scenario.seed)
+                         rand_seed=scenario.seed,
+                         gravity_solver=sheet_cfg.gravity_solver or "tree",
+                         p3m_split=P3M_SPLIT_RADII * scenario.mean_radius)
     add_particles(sim, state, radii, masses)
     sim.t = t0
     sim.minimum_collision_velocity = minimum_collision_velocity(radii, Omega)
@@ -557,11 +557,15 @@ def enlarged_copy(sim: rebound.Simulation, geometry: SheetGeometry,
     """
     new_geometry = SheetGeometry(geometry.root_size, geometry.n_root_x, geometry.n_root_y,
                                  n_root_z, geometry.Omega)
+    from ringsim.engine.p3m import installed_solver
+
+    p3m = installed_solver(sim)
     new = rebound.Simulation()
-    configure_simulation(new, new_geometry, gravity=sim.gravity == "tree",
+    configure_simulation(new, new_geometry, gravity=sim.gravity == "tree" or p3m is not None,
                          softening=sim.softening, opening_angle=math.sqrt(sim.opening_angle2),
                          collision_detection="tree" if sim.collision == "tree" else "line",
-                         rand_seed=0)
+                         rand_seed=0, gravity_solver="tree" if p3m is None else "p3m",
+                         p3m_split=None if p3m is None else p3m.params.split)
     arrays = particle_arrays(sim)
     add_particles(new, arrays, arrays["radius"], arrays["mass"])
     new.t = sim.t

@@ -1,0 +1,416 @@
+/**
+ * @file    rs_p3m.c
+ * @brief   Shear-periodic P3M self-gravity: mesh assignment/interpolation and the
+ *          short-range pair sum (ringsim, issue 12).
+ *
+ * | effect     | self-gravity of a shear-periodic sheet, particle-particle particle-mesh  |
+ * |------------|--------------------------------------------------------------------------|
+ * | installed  | ringsim.engine.p3m.install_p3m: a Python additional_forces that calls     |
+ * |            | rs_p3m_prepare, rs_p3m_assign, (numpy FFT), rs_p3m_interpolate,          |
+ * |            | rs_p3m_short, with REBOUND's gravity = "none"                              |
+ * | parameters | struct rs_p3m: split scale r_s [m], cutoff r_c [m], Plummer softening b   |
+ * |            | [m], mesh nx x ny, layer spacing dz [m]; G, Omega, box and t from the sim |
+ * | Python twin| ringsim.physics.selfgravity.short_range_factor, P3MMesh (numpy)          |
+ *
+ * Physics.  Force split of Hockney & Eastwood / GADGET-2 (Springel 2005, eq. 21-22): the
+ * Newtonian pair force is cut into a long-range part, the force between Gaussian clouds
+ * (the potential multiplied by exp(-k^2 r_s^2) in Fourier space), solved on the mesh by
+ * numpy FFTs, and the short-range rest, summed here over pairs closer than r_c:
+ *
+ *     a_i += -G m_j d [ (|d|^2 + b^2)^(-3/2) - L(|d|) / |d|^3 ],
+ *     L(r) = erf(u) - (2 u / sqrt(pi)) exp(-u^2),   u = r / (2 r_s),
+ *
+ * so that mesh + pair sum is the Plummer force (REBOUND's softening b) within r_c and the
+ * Newtonian force beyond it, up to the mesh's error and the neglected short-range rest
+ * beyond r_c (1 - L(r_c) = 3.6e-3 at r_c = 5 r_s).  d = r_i - r_j is the nearest
+ * shear-periodic image: j's images sit at (x_j + n Lx, y_j - n s + m Ly), s = 1.5 Omega Lx t
+ * (REBOUND's ghost-box convention, ringsim.physics.selfgravity.shear_offset).  L(r)/r^3 is
+ * tabulated in r^2 (RS_P3M_TABLE nodes, linear interpolation: relative error < 1e-6 of the
+ * long-range pair force); the Plummer term is computed exactly.
+ *
+ * Mesh.  Cloud-in-cell onto nx x ny x nz nodes in sheared coordinates (x, y' = y + alpha x,
+ * alpha = s / Lx; the box is doubly periodic there) and horizontal layers z0 + l dz that span
+ * the particles' z range (rs_p3m_prepare sets z0 and nz at each call).
+ *
+ * Validity.  r_c < min(Lx, Ly) (checked by the Python side), boundary "shear", particles
+ * inside the box (REBOUND wraps them before the force evaluation), N_var = 0.  Each pair is
+ * evaluated from both sides (gather): the pair forces are antisymmetric to round-off, so
+ * the total momentum of the short-range forces vanishes to round-off.  Cost: an O(N) cell
+ * list with cells of at least r_c / 2 (an area of about (2.5 r_c)^2 searched per particle;
+ * boxes narrower than 2.5 r_c fall back to all pairs and their 3 x 3 nearest images).
+ */
+#include <math.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include "rebound.h"
+
+#define RS_P3M_TABLE 4096
+
+/* P3M parameters and per-call mesh geometry; mirrored by ringsim.engine.native._P3M. */
+struct rs_p3m {
+    double split;          /* r_s [m] */
+    double cutoff;         /* r_c [m] */
+    double softening;      /* Plummer b [m] */
+    double dz;             /* layer spacing [m] */
+    int nx, ny;            /* horizontal mesh */
+    int nz;                /* layers (set by rs_p3m_prepare) */
+    int error;             /* nonzero: allocation failed in the last call */
+    double z0;             /* height of layer 0 [m] (set by rs_p3m_prepare) */
+    double shift;          /* shear offset s [m] at the call's time (rs_p3m_prepare) */
+    double alpha;          /* s / Lx */
+    double table[RS_P3M_TABLE + 2];   /* L(r)/r^3 [1/m^3] at r^2 = k rc^2 / RS_P3M_TABLE */
+};
+
+/* L(r)/r^3 [1/m^3] of the Gaussian split (series below u = 0.05, where the difference of
+ * erf and its tangent loses digits). */
+static double rs_p3m_long_over_r3(double r, double rs){
+    const double u = r / (2.0 * rs);
+    const double two_over_sqrt_pi = 1.1283791670955126;
+    if (u < 0.05){
+        const double u2 = u * u;
+        /* (2/sqrt(pi)) (2/3 u^3 - 2/5 u^5 + 1/7 u^7) / r^3, r = 2 rs u */
+        return two_over_sqrt_pi * (2.0 / 3.0 - 0.4 * u2 + u2 * u2 / 7.0)
+               / (8.0 * rs * rs * rs);
+    }
+    return (erf(u) - two_over_sqrt_pi * u * exp(-u * u)) / (r * r * r);
+}
+
+/* Fill the table of L(r)/r^3 for the struct's split and cutoff. */
+void rs_p3m_init(struct rs_p3m* p){
+    const double rc2 = p->cutoff * p->cutoff;
+    for (int k = 0; k < RS_P3M_TABLE + 2; k++){
+        const double r = sqrt(rc2 * (double)k / (double)RS_P3M_TABLE);
+        p->table[k] = rs_p3m_long_over_r3(r, p->split);
+    }
+    p->error = 0;
+}
+
+/* Table lookup of L(r)/r^3 at r^2 = r2 < rc^2. */
+static double rs_p3m_lookup(const struct rs_p3m* p, double r2, double inv_step){
+    const double f = r2 * inv_step;
+    const int k = (int)f;
+    const double w = f - (double)k;
+    return p->table[k] + w * (p->table[k + 1] - p->table[k]);
+}
+
+/* Shear offset s [m] at time t, wrapped into [-Ly/2, Ly/2) (as shear_offset in Python). */
+static double rs_p3m_shift(double Omega, double Lx, double Ly, double t){
+    double s = fmod(1.5 * Omega * Lx * t, Ly);
+    if (s < 0.0){
+        s += Ly;
+    }
+    return s >= 0.5 * Ly ? s - Ly : s;
+}
+
+/* Set shift, alpha, z0 and nz for the current state; returns nz. */
+int rs_p3m_prepare(struct reb_simulation* const r, struct rs_p3m* p){
+    const size_t n = r->N - r->N_var;
+    const struct reb_particle* const ps = r->particles;
+    const double Lx = r->root_size * (double)r->N_root_x;
+    const double Ly = r->root_size * (double)r->N_root_y;
+    p->shift = rs_p3m_shift(r->OMEGA, Lx, Ly, r->t);
+    p->alpha = p->shift / Lx;
+    double zmin = 0.0, zmax = 0.0;
+    for (size_t k = 0; k < n; k++){
+        if (k == 0 || ps[k].z < zmin) zmin = ps[k].z;
+        if (k == 0 || ps[k].z > zmax) zmax = ps[k].z;
+    }
+    const double l0 = floor(zmin / p->dz);
+    p->z0 = l0 * p->dz;
+    p->nz = (int)(floor(zmax / p->dz) - l0) + 2;
+    return p->nz;
+}
+
+/* Cloud-in-cell weights of particle k: lower node indices and fractions. */
+static void rs_p3m_cic(const struct rs_p3m* p, const struct reb_particle* q, double Lx,
+                       double Ly, int* i0, int* j0, int* l0, double* fx, double* fy,
+                       double* fz){
+    double gx = (q->x + 0.5 * Lx) / Lx;
+    double gy = (q->y + p->alpha * q->x + 0.5 * Ly) / Ly;
+    gx = (gx - floor(gx)) * (double)p->nx;
+    gy = (gy - floor(gy)) * (double)p->ny;
+    double gz = (q->z - p->z0) / p->dz;
+    *i0 = (int)floor(gx);
+    *j0 = (int)floor(gy);
+    *l0 = (int)floor(gz);
+    if (*l0 > p->nz - 2) *l0 = p->nz - 2;
+    if (*l0 < 0) *l0 = 0;
+    *fx = gx - (double)*i0;
+    *fy = gy - (double)*j0;
+    *fz = gz - (double)*l0;
+    *i0 %= p->nx;
+    *j0 %= p->ny;
+}
+
+/* Mass [kg] on the nodes, array (nz, nx, ny) in C order (layers outermost, so that the
+ * horizontal FFTs run over contiguous planes), zeroed here. */
+void rs_p3m_assign(struct reb_simulation* const r, const struct rs_p3m* p, double* mass){
+    const size_t n = r->N - r->N_var;
+    const struct reb_particle* const ps = r->particles;
+    const double Lx = r->root_size * (double)r->N_root_x;
+    const double Ly = r->root_size * (double)r->N_root_y;
+    const size_t nz = (size_t)p->nz, ny = (size_t)p->ny, nxs = (size_t)p->nx;
+    const size_t plane = nxs * ny, cells = plane * nz;
+    for (size_t c = 0; c < cells; c++){
+        mass[c] = 0.0;
+    }
+    for (size_t k = 0; k < n; k++){
+        int i0, j0, l0;
+        double fx, fy, fz;
+        rs_p3m_cic(p, &ps[k], Lx, Ly, &i0, &j0, &l0, &fx, &fy, &fz);
+        const size_t is[2] = {(size_t)i0, (size_t)((i0 + 1) % p->nx)};
+        const size_t js[2] = {(size_t)j0, (size_t)((j0 + 1) % p->ny)};
+        const double wx[2] = {1.0 - fx, fx}, wy[2] = {1.0 - fy, fy}, wz[2] = {1.0 - fz, fz};
+        for (int a = 0; a < 2; a++){
+            for (int b = 0; b < 2; b++){
+                const size_t base = ((size_t)l0 * nxs + is[a]) * ny + js[b];
+                const double w = ps[k].m * wx[a] * wy[b];
+                mass[base] += w * wz[0];
+                mass[base + plane] += w * wz[1];
+            }
+        }
+    }
+}
+
+/* Add the mesh field [m/s^2] (three arrays (nz, nx, ny), C order) interpolated with the
+ * same cloud-in-cell kernel to every particle's acceleration. */
+void rs_p3m_interpolate(struct reb_simulation* const r, const struct rs_p3m* p,
+                        const double* gx, const double* gy, const double* gz){
+    const size_t n = r->N - r->N_var;
+    struct reb_particle* const ps = r->particles;
+    const double Lx = r->root_size * (double)r->N_root_x;
+    const double Ly = r->root_size * (double)r->N_root_y;
+    const size_t ny = (size_t)p->ny, nxs = (size_t)p->nx;
+    for (size_t k = 0; k < n; k++){
+        int i0, j0, l0;
+        double fx, fy, fz;
+        rs_p3m_cic(p, &ps[k], Lx, Ly, &i0, &j0, &l0, &fx, &fy, &fz);
+        const size_t is[2] = {(size_t)i0, (size_t)((i0 + 1) % p->nx)};
+        const size_t js[2] = {(size_t)j0, (size_t)((j0 + 1) % p->ny)};
+        const double wx[2] = {1.0 - fx, fx}, wy[2] = {1.0 - fy, fy}, wz[2] = {1.0 - fz, fz};
+        double ax = 0.0, ay = 0.0, az = 0.0;
+        for (int a = 0; a < 2; a++){
+            for (int b = 0; b < 2; b++){
+                for (int c = 0; c < 2; c++){
+                    const size_t node = (((size_t)l0 + (size_t)c) * nxs + is[a]) * ny + js[b];
+                    const double w = wx[a] * wy[b] * wz[c];
+                    ax += w * gx[node];
+                    ay += w * gy[node];
+                    az += w * gz[node];
+                }
+            }
+        }
+        ps[k].ax += ax;
+        ps[k].ay += ay;
+        ps[k].az += az;
+    }
+}
+
+/* Fine layers per r_s of the mean (k = 0) vertical field. */
+#define RS_P3M_MEAN_LAYERS 16.0
+
+/* Add the horizontally averaged long-range vertical field [m/s^2],
+ *     g_z(z) = -(2 pi G / (Lx Ly)) sum_j m_j erf((z - z_j) / (2 r_s)),
+ * the k = 0 mode of the mesh, which the coarse layers would smooth (it is the largest part
+ * of the vertical field): cloud-in-cell onto fine layers r_s / 16 apart, the exact erf
+ * kernel between them, linear interpolation (error ~ (dz_fine / r_s)^2 / 8 of the local
+ * field curvature: < 1e-3).  O(N + n_fine^2). */
+void rs_p3m_mean_vertical(struct reb_simulation* const r, struct rs_p3m* p){
+    const size_t n = r->N - r->N_var;
+    struct reb_particle* const ps = r->particles;
+    const double Lx = r->root_size * (double)r->N_root_x;
+    const double Ly = r->root_size * (double)r->N_root_y;
+    const double h = p->split / RS_P3M_MEAN_LAYERS;
+    double zmin = 0.0, zmax = 0.0;
+    for (size_t k = 0; k < n; k++){
+        if (k == 0 || ps[k].z < zmin) zmin = ps[k].z;
+        if (k == 0 || ps[k].z > zmax) zmax = ps[k].z;
+    }
+    const size_t nf = (size_t)((zmax - zmin) / h) + 2;
+    double* mass = calloc(2 * nf + 1, sizeof(double));
+    if (mass == NULL){
+        p->error = 1;
+        return;
+    }
+    double* field = mass + nf;
+    double* kernel = field + nf;   /* unused slot keeps the allocation non-empty */
+    (void)kernel;
+    for (size_t k = 0; k < n; k++){
+        const double f = (ps[k].z - zmin) / h;
+        size_t l = (size_t)f;
+        if (l > nf - 2) l = nf - 2;
+        const double w = f - (double)l;
+        mass[l] += ps[k].m * (1.0 - w);
+        mass[l + 1] += ps[k].m * w;
+    }
+    const double c = -6.283185307179586 * r->G / (Lx * Ly);
+    for (size_t a = 0; a < nf; a++){
+        double g = 0.0;
+        for (size_t b = 0; b < nf; b++){
+            if (mass[b] != 0.0){
+                g += mass[b] * erf(((double)a - (double)b) * h / (2.0 * p->split));
+            }
+        }
+        field[a] = c * g;
+    }
+    for (size_t k = 0; k < n; k++){
+        const double f = (ps[k].z - zmin) / h;
+        size_t l = (size_t)f;
+        if (l > nf - 2) l = nf - 2;
+        const double w = f - (double)l;
+        ps[k].az += (1.0 - w) * field[l] + w * field[l + 1];
+    }
+    free(mass);
+}
+
+/* Short-range acceleration [m/s^2] on (xi, yi, zi) from the sorted sources [b, e), each at
+ * (x_j + offx, y_j + offy, z_j). */
+static void rs_p3m_pairs(const struct rs_p3m* p, const double* sx, const double* sy,
+                         const double* sz, const double* sm, size_t b, size_t e, double xi,
+                         double yi, double zi, double offx, double offy, double inv_step,
+                         double* acc){
+    const double rc2 = p->cutoff * p->cutoff, b2 = p->softening * p->softening;
+    const double xs = xi - offx, ys = yi - offy;
+    for (size_t j = b; j < e; j++){
+        const double dx = xs - sx[j];
+        const double dy = ys - sy[j];
+        const double dz = zi - sz[j];
+        const double r2 = dx * dx + dy * dy + dz * dz;
+        if (r2 >= rc2 || r2 == 0.0){
+            continue;
+        }
+        const double s2 = r2 + b2;
+        const double f = sm[j] * (1.0 / (s2 * sqrt(s2)) - rs_p3m_lookup(p, r2, inv_step));
+        acc[0] -= f * dx;
+        acc[1] -= f * dy;
+        acc[2] -= f * dz;
+    }
+}
+
+/* Short-range acceleration [m/s^2] on (xi, yi, zi) from all n sources, each at every image
+ * within r_c (boxes too small for the cell list; r_c < min(Lx, Ly): 3 x 3 images suffice). */
+static void rs_p3m_all_images(const struct rs_p3m* p, const double* sx, const double* sy,
+                              const double* sz, const double* sm, size_t n, double xi,
+                              double yi, double zi, double Lx, double Ly, double s,
+                              double inv_step, double* acc){
+    for (size_t j = 0; j < n; j++){
+        const double n0 = round((xi - sx[j]) / Lx);
+        for (double nimg = n0 - 1.0; nimg <= n0 + 1.0; nimg += 1.0){
+            const double m0 = round((yi - sy[j] + nimg * s) / Ly);
+            for (double m = m0 - 1.0; m <= m0 + 1.0; m += 1.0){
+                rs_p3m_pairs(p, sx, sy, sz, sm, j, j + 1, xi, yi, zi, nimg * Lx,
+                             -nimg * s + m * Ly, inv_step, acc);
+            }
+        }
+    }
+}
+
+/* Cells per cutoff of the pair sum's cell list (cells of at least r_c / 2). */
+#define RS_P3M_CELLS_PER_CUTOFF 2
+
+/* Short-range acceleration [m/s^2] on target (xi, yi, zi) (wrapped into the box) from the
+ * cell list: cells [x-range] x [y-range] within r_c, each with its image offsets; the cells
+ * of one column and one y image are contiguous in the sorted arrays (one run each). */
+static void rs_p3m_cells(const struct rs_p3m* p, const double* sx, const double* sy,
+                         const double* sz, const double* sm, const size_t* start, int ncx,
+                         int ncy, double Lx, double Ly, double s, double xi, double yi,
+                         double zi, double inv_step, double* acc){
+    const double rc = p->cutoff, hx = Lx / ncx, hy = Ly / ncy;
+    const int xlo = (int)floor((xi - rc + 0.5 * Lx) / hx);
+    const int xhi = (int)floor((xi + rc + 0.5 * Lx) / hx);
+    for (int qx = xlo; qx <= xhi; qx++){
+        /* a column outside [0, ncx) is the image n boxes out: sources at (x + n Lx, y - n s) */
+        const int nimg = (int)floor((double)qx / (double)ncx);
+        const size_t col = (size_t)(qx - nimg * ncx) * (size_t)ncy;
+        const double yc = yi + nimg * s + 0.5 * Ly;
+        const int ylo = (int)floor((yc - rc) / hy), yhi = (int)floor((yc + rc) / hy);
+        for (int q0 = ylo; q0 <= yhi;){
+            const int wy = (int)floor((double)q0 / (double)ncy);   /* y image of this run */
+            const int q1 = yhi < (wy + 1) * ncy - 1 ? yhi : (wy + 1) * ncy - 1;
+            const size_t c0 = col + (size_t)(q0 - wy * ncy), c1 = col + (size_t)(q1 - wy * ncy);
+            rs_p3m_pairs(p, sx, sy, sz, sm, start[c0], start[c1 + 1], xi, yi, zi,
+                         nimg * Lx, -nimg * s + wy * Ly, inv_step, acc);
+            q0 = q1 + 1;
+        }
+    }
+}
+
+/* Add the short-range pair forces (see the file header) to every particle.  Positions are
+ * first wrapped into the box with the shear (REBOUND evaluates forces at mid-step, before
+ * its boundary check), so that every pair is found from both sides with the same image. */
+void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
+    const size_t n = r->N - r->N_var;
+    struct reb_particle* const ps = r->particles;
+    const double Lx = r->root_size * (double)r->N_root_x;
+    const double Ly = r->root_size * (double)r->N_root_y;
+    const double rc = p->cutoff, s = p->shift, G = r->G;
+    const double inv_step = (double)RS_P3M_TABLE / (rc * rc);
+    int ncx = (int)(RS_P3M_CELLS_PER_CUTOFF * Lx / rc);
+    int ncy = (int)(RS_P3M_CELLS_PER_CUTOFF * Ly / rc);
+    const int all_pairs = ncx < 2 * RS_P3M_CELLS_PER_CUTOFF + 1
+                          || ncy < 2 * RS_P3M_CELLS_PER_CUTOFF + 1;
+    if (all_pairs){
+        ncx = 1;       /* one cell: every pair, at each image within r_c */
+        ncy = 1;
+    }
+    const size_t cells = (size_t)ncx * (size_t)ncy;
+    size_t* start = calloc(cells + 1, sizeof(size_t));
+    size_t* cell_of = malloc(2 * n * sizeof(size_t));
+    double* buf = malloc(6 * n * sizeof(double));
+    if (start == NULL || cell_of == NULL || buf == NULL){
+        free(start);
+        free(cell_of);
+        free(buf);
+        p->error = 1;
+        return;
+    }
+    size_t* order = cell_of + n;
+    double *sx = buf, *sy = buf + n, *sz = buf + 2 * n, *sm = buf + 3 * n;
+    double *wxs = buf + 4 * n, *wys = buf + 5 * n;
+    const double hx = Lx / ncx, hy = Ly / ncy;
+    for (size_t k = 0; k < n; k++){   /* wrap, then counting sort into cells (x-major) */
+        const double nx_img = floor((ps[k].x + 0.5 * Lx) / Lx);
+        const double x = ps[k].x - nx_img * Lx;
+        double y = ps[k].y + nx_img * s;
+        y -= Ly * floor((y + 0.5 * Ly) / Ly);
+        wxs[k] = x;
+        wys[k] = y;
+        int cx = (int)floor((x + 0.5 * Lx) / hx), cy = (int)floor((y + 0.5 * Ly) / hy);
+        cx = cx < 0 ? 0 : (cx >= ncx ? ncx - 1 : cx);
+        cy = cy < 0 ? 0 : (cy >= ncy ? ncy - 1 : cy);
+        cell_of[k] = (size_t)cx * (size_t)ncy + (size_t)cy;
+        start[cell_of[k] + 1]++;
+    }
+    for (size_t c = 0; c < cells; c++){
+        start[c + 1] += start[c];
+    }
+    for (size_t k = 0; k < n; k++){
+        const size_t slot = start[cell_of[k]]++;
+        order[slot] = k;
+        sx[slot] = wxs[k];
+        sy[slot] = wys[k];
+        sz[slot] = ps[k].z;
+        sm[slot] = ps[k].m;
+    }
+    for (size_t c = cells; c > 0; c--){   /* restore the starts */
+        start[c] = start[c - 1];
+    }
+    start[0] = 0;
+    for (size_t slot = 0; slot < n; slot++){   /* targets in cell order: sources cached */
+        double acc[3] = {0.0, 0.0, 0.0};
+        if (all_pairs){
+            rs_p3m_all_images(p, sx, sy, sz, sm, n, sx[slot], sy[slot], sz[slot], Lx, Ly, s,
+                              inv_step, acc);
+        }else{
+            rs_p3m_cells(p, sx, sy, sz, sm, start, ncx, ncy, Lx, Ly, s, sx[slot], sy[slot],
+                         sz[slot], inv_step, acc);
+        }
+        struct reb_particle* const q = &ps[order[slot]];
+        q->ax += G * acc[0];
+        q->ay += G * acc[1];
+        q->az += G * acc[2];
+    }
+    free(start);
+    free(cell_of);
+    free(buf);
+}

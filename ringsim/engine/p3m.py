@@ -1,0 +1,202 @@
+"""Shear-periodic P3M self-gravity installed in REBOUND (``sheet.gravity_solver: p3m``).
+
+The solver (docs/gravity.md, section "P3M"): Gaussian force split of scale r_s; the long-
+range part on a mesh of horizontal cells and layers in sheared coordinates, solved with
+scipy.fft (:class:`ringsim.physics.selfgravity.P3MMesh`); mass assignment, interpolation and
+the short-range pair sum within r_c in C (``ringsim/csrc/rs_p3m.c``).  REBOUND's own gravity
+is off (``sim.gravity = "none"``); one Python ``additional_forces`` callback per force
+evaluation (SEI: once per step, at the half-step positions, time ``sim.t`` of mid-step) does
+prepare -> assign -> FFT solve -> interpolate -> pair sum.  ctypes swallows exceptions raised
+in a callback, so the callback stores the first one and :func:`raise_pending` re-raises it
+after the step (the run loop calls it after every chunk of steps).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import weakref
+
+import numpy as np
+import rebound
+import scipy.fft
+
+from ringsim.engine.native import _LIB, _POST_TIMESTEP, HAS_P3M, P3MStruct
+from ringsim.physics.constants import G_SI
+from ringsim.physics.selfgravity import (
+    P3M_CELL_SPLITS,
+    P3M_CUTOFF_SPLITS,
+    P3M_LAYER_SPLITS,
+    P3M_SPLIT_RADII,
+    P3MMesh,
+)
+
+#: Installed solvers by the address of their callback (REBOUND keeps the callback object in
+#: ``sim._afp``, and the callback keeps its solver alive).
+_SOLVERS: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
+
+
+def _even_cells(length, cell):
+    """An even number of cells of at most ``cell`` [m] with only small prime factors."""
+    n = max(4, int(math.ceil(length / cell)))
+    while True:
+        n = scipy.fft.next_fast_len(n, real=True)
+        if n % 2 == 0:
+            return n
+        n += 1
+
+
+def p3m_parameters(Lx, Ly, split, cutoff=None, cell=None, dz=None) -> dict:
+    """The P3M solver's parameters for a box: ``split``, ``cutoff``, ``cell``, ``dz`` [m]
+    (defaults: the P3M_*_SPLITS multiples of ``split``) and the mesh ``nx``, ``ny``.
+
+    Parameters
+    ----------
+    Lx, Ly, split : float [m]
+    cutoff, cell, dz : float [m], optional
+    """
+    cutoff = P3M_CUTOFF_SPLITS * split if cutoff is None else cutoff
+    cell = P3M_CELL_SPLITS * split if cell is None else cell
+    dz = P3M_LAYER_SPLITS * split if dz is None else dz
+    return {"split": float(split), "cutoff": float(cutoff), "dz": float(dz),
+            "nx": _even_cells(Lx, cell), "ny": _even_cells(Ly, cell)}
+
+
+def describe(Lx, Ly, softening, split) -> dict:
+    """Root attributes of a run file for the P3M solver at its defaults, each with
+    ``units_<name>`` beside it.
+
+    Parameters
+    ----------
+    Lx, Ly, softening, split : float [m]
+    """
+    p = p3m_parameters(Lx, Ly, split)
+    return {"gravity_solver": "p3m",
+            "p3m_split": p["split"], "units_p3m_split": "m",
+            "p3m_cutoff": p["cutoff"], "units_p3m_cutoff": "m",
+            "p3m_mesh": np.array([p["nx"], p["ny"]], dtype=np.int64),
+            "units_p3m_mesh": "cells (x, y)",
+            "p3m_cell": np.array([Lx / p["nx"], Ly / p["ny"]]), "units_p3m_cell": "m",
+            "p3m_layer_spacing": p["dz"], "units_p3m_layer_spacing": "m",
+            "softening": float(softening), "units_softening": "m"}
+
+
+class P3MSolver:
+    """P3M gravity of one shear-periodic box (the callback REBOUND calls).
+
+    Parameters
+    ----------
+    Lx, Ly : float [m]
+    softening : float [m]
+        Plummer softening b (as REBOUND's ``softening``).
+    split : float [m]
+        r_s of the Gaussian split.
+    cutoff : float [m]
+        r_c of the pair sum (default P3M_CUTOFF_SPLITS r_s); must be < min(Lx, Ly).
+    cell : float [m]
+        Target horizontal mesh cell (rounded to an even number of cells; default
+        P3M_CELL_SPLITS r_s).
+    dz : float [m]
+        Layer spacing (default P3M_LAYER_SPLITS r_s).
+    workers : int
+        scipy.fft threads.
+    """
+
+    def __init__(self, Lx, Ly, softening, split, cutoff=None, cell=None, dz=None, G=G_SI,
+                 workers=1):
+        if not HAS_P3M:
+            raise ImportError("ringsim._resolver was built without rs_p3m.c; rebuild the "
+                              "extension (`python setup.py build_ext --inplace`)")
+        par = p3m_parameters(Lx, Ly, split, cutoff, cell, dz)
+        cutoff, dz = par["cutoff"], par["dz"]
+        if not 0.0 < cutoff < min(Lx, Ly):
+            raise ValueError(f"P3M cutoff {cutoff:.3g} m must be below the box's width "
+                             f"({min(Lx, Ly):.3g} m)")
+        self.Lx, self.Ly, self.G = float(Lx), float(Ly), float(G)
+        self.params = P3MStruct(split=split, cutoff=cutoff, softening=softening, dz=dz,
+                                nx=par["nx"], ny=par["ny"])
+        _LIB.rs_p3m_init(ctypes.byref(self.params))
+        self.mesh = P3MMesh(Lx, Ly, self.params.nx, self.params.ny, dz, split, G=G,
+                            workers=workers)
+        self.error: BaseException | None = None
+        self._callback = _POST_TIMESTEP(self._additional_forces)
+
+    def apply(self, sim_address: int) -> None:
+        """Add the P3M accelerations [m/s^2] to the simulation at ``sim_address``."""
+        p = self.params
+        nz = _LIB.rs_p3m_prepare(sim_address, ctypes.byref(p))
+        mass = np.empty((nz, p.nx, p.ny))
+        _LIB.rs_p3m_assign(sim_address, ctypes.byref(p), mass)
+        gx, gy, gz = self.mesh.fields(mass, p.alpha)
+        _LIB.rs_p3m_interpolate(sim_address, ctypes.byref(p), gx, gy, gz)
+        _LIB.rs_p3m_mean_vertical(sim_address, ctypes.byref(p))
+        _LIB.rs_p3m_short(sim_address, ctypes.byref(p))
+        if p.error:
+            raise MemoryError("rs_p3m: out of memory (cell list or fine vertical layers)")
+
+    def _additional_forces(self, sim_pointer) -> None:
+        if self.error is not None:
+            return
+        try:
+            self.apply(ctypes.cast(sim_pointer, ctypes.c_void_p).value)
+        except Exception as exc:  # noqa: BLE001 - ctypes would swallow it; re-raised later
+            self.error = exc
+
+
+def install_p3m(sim: rebound.Simulation, solver: P3MSolver) -> None:
+    """Make ``solver`` the self-gravity of ``sim``: REBOUND's gravity off, the solver as
+    ``additional_forces``.  REBOUND does not save function pointers: install again after
+    loading a simulation from a file."""
+    sim.gravity = "none"
+    sim.softening = solver.params.softening
+    sim._additional_forces = solver._callback
+    sim._afp = solver._callback     # REBOUND's slot that keeps the ctypes object alive
+    _SOLVERS[ctypes.cast(solver._callback, ctypes.c_void_p).value] = solver
+
+
+def installed_solver(sim: rebound.Simulation) -> P3MSolver | None:
+    """The P3M solver installed in ``sim`` (None if none)."""
+    address = ctypes.cast(sim._additional_forces, ctypes.c_void_p).value
+    return None if address is None else _SOLVERS.get(address)
+
+
+def raise_pending(sim: rebound.Simulation) -> None:
+    """Re-raise an exception the P3M callback caught during the last steps (ctypes cannot
+    propagate it through REBOUND)."""
+    solver = installed_solver(sim)
+    if solver is not None and solver.error is not None:
+        exc, solver.error = solver.error, None
+        raise RuntimeError(f"P3M self-gravity failed during a step: {exc}") from exc
+
+
+def p3m_simulation(sheet, t=0.0, split=None, softening=None, G=G_SI, **kwargs):
+    """A REBOUND shearing sheet holding ``sheet`` (``engine.gravity.random_sheet``) with P3M
+    gravity; ``split`` [m] defaults to P3M_SPLIT_RADII x the mean radius, softening [m]
+    to engine.gravity.DEFAULT_SOFTENING_FRACTION x the smallest radius; ``t`` [s]."""
+    from ringsim.engine.gravity import DEFAULT_SOFTENING_FRACTION
+    from ringsim.engine.sheet import configure_box
+
+    sim = rebound.Simulation()
+    configure_box(sim, sheet["geometry"])
+    sim.collision = "none"
+    sim.G = G
+    sim.N_ghost_x, sim.N_ghost_y, sim.N_ghost_z = 1, 1, 0
+    b = (DEFAULT_SOFTENING_FRACTION * float(np.min(sheet["radius"])) if softening is None
+         else softening)
+    rs = P3M_SPLIT_RADII * float(np.mean(sheet["radius"])) if split is None else split
+    install_p3m(sim, P3MSolver(sheet["Lx"], sheet["Ly"], b, rs, G=G, **kwargs))
+    sim.t = t
+    for p, v, m, r in zip(sheet["pos"], sheet["vel"], sheet["mass"], sheet["radius"],
+                          strict=True):
+        sim.add(m=m, r=r, x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
+    return sim
+
+
+def accelerations(sim) -> np.ndarray:
+    """Accelerations [m/s^2] (N, 3) of the simulation's forces at its current state."""
+    rebound.clibrebound.reb_simulation_update_acceleration(ctypes.byref(sim))
+    raise_pending(sim)
+    acc = np.empty((sim.N, 3))
+    for i, p in enumerate(sim.particles):
+        acc[i] = (p.ax, p.ay, p.az)
+    return acc
