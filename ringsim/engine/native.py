@@ -143,6 +143,12 @@ def _load_library() -> ctypes.CDLL:
                                              ctypes.c_double, ctypes.c_double, ctypes.c_double]
     lib.rs_spin_reserve.restype = ctypes.c_int
     lib.rs_spin_reserve.argtypes = [ctypes.c_void_p, ctypes.c_int64]
+    lib.rs_spin_frame_angle.restype = ctypes.c_double
+    lib.rs_spin_frame_angle.argtypes = [ctypes.c_void_p, ctypes.c_double]
+    for name in ("rs_spins_read", "rs_spins_write"):
+        getattr(lib, name).restype = None if name == "rs_spins_read" else ctypes.c_int
+        getattr(lib, name).argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_int64,
+                                       ctypes.c_void_p]
     lib.rs_resolver_reset_stats.restype = None
     lib.rs_resolver_reset_stats.argtypes = [ctypes.c_void_p]
     double_p = ctypes.POINTER(ctypes.c_double)

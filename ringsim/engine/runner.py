@@ -247,7 +247,7 @@ class Runner:
                                            f"/{runfile.CHECKPOINT_STATISTICS}") from None
         if self.handle.friction is not None:
             try:
-                self.handle.set_spins(checkpoint.spins)
+                self.handle.set_spin_state(checkpoint.spins)
             except ValueError as exc:
                 raise runfile.RunFileError(self.path, f"cannot restore the spins ({exc})",
                                            f"/{runfile.CHECKPOINT_SPINS}") from None
@@ -431,7 +431,7 @@ class Runner:
         self._commit(snapshot=snapshot, attributes=attributes,
                      checkpoint=runfile.Checkpoint(
                          simulation_binary(self.sim), state, self.handle.stats_state(),
-                         None if self.handle.friction is None else self.handle.spins()))
+                         None if self.handle.friction is None else self.handle.spin_state()))
 
     def fail(self, violation: Exception) -> None:
         """Stop a run that broke an invariant: keep the last (good) checkpoint, write the

@@ -58,8 +58,11 @@ SNAPSHOT_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "radius", "mass")
 SPIN_FIELDS = ("wx", "wy", "wz")
 SNAPSHOT_UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m/s",
                   "radius": "m", "mass": "kg", "wx": "rad/s", "wy": "rad/s", "wz": "rad/s"}
-#: Dataset of the spins at the checkpoint, (N, 3) [rad/s] (runs with friction only).
+#: Dataset of the stored spins at the checkpoint, (N, 3) [rad/s], x, y in the axes of the
+#: rotating frame at t = 0 (``ResolverHandle.spin_state``; runs with friction only).
 CHECKPOINT_SPINS = "checkpoint_spins"
+SPIN_STATE_FRAME = ("rotating frame of the sheet; x, y in its axes at t = 0 (rotate by "
+                    "-Omega t for its axes at t), z along the orbital angular momentum")
 
 #: Units of the time-series quantities (per-bin arrays share the units of their scalar).
 TIMESERIES_UNITS = {
@@ -167,7 +170,9 @@ class Checkpoint:
     statistics : dict of arrays, or None
         ``ResolverHandle.stats_state()`` (None in format-1.0 files).
     spins : array (N, 3) [rad/s], or None
-        ``ResolverHandle.spins()`` of a run with friction (None without).
+        ``ResolverHandle.spin_state()`` of a run with friction (None without): the
+        stored spins, x, y in the axes the rotating frame had at t = 0 (restored bit for
+        bit; ``spins()`` turns them by Omega t to the frame's axes).
     """
 
     binary: bytes
@@ -269,6 +274,7 @@ def _write_checkpoint(f: h5py.File, checkpoint: Checkpoint) -> None:
     if checkpoint.spins is not None:
         spins = f.create_dataset(CHECKPOINT_SPINS, data=np.asarray(checkpoint.spins, float))
         spins.attrs["units"] = "rad/s"
+        spins.attrs["frame"] = SPIN_STATE_FRAME
     if checkpoint.statistics is not None:
         g = f.require_group(CHECKPOINT_STATISTICS)
         for name in set(g) - set(checkpoint.statistics):
