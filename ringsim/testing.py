@@ -63,6 +63,7 @@ class PythonReferenceResolver:
         #: the axes it had at t = 0 (rows of 3; as the C's array; :meth:`rotating_spins`).
         self.spins: list[list[float]] = []
         self.tangential_dissipation = 0.0
+        self.normal_dissipation = 0.0
         self.n_sliding = 0
         # The law, evaluated by the C library (never installed in a simulation).
         self._law = ResolverHandle({"model": self.model, **self.parameters})
@@ -179,6 +180,8 @@ class PythonReferenceResolver:
         floored = separation_change < v_floor
         if floored:
             separation_change = v_floor
+        self.normal_dissipation += 0.5 * M_bar * separation_change * (
+            2.0 * impact_speed - separation_change)
 
         old_vy_outer = p1.vy if dx > 0.0 else p2.vy
         jx = separation_change * (dx / distance)
@@ -289,6 +292,7 @@ class PythonReferenceResolver:
             "log": np.array(self.log, dtype=LOG_DTYPE),
             "tangential_dissipation": self.tangential_dissipation,
             "n_sliding": self.n_sliding,
+            "normal_dissipation": self.normal_dissipation,
         }
 
 

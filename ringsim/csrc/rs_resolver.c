@@ -770,6 +770,8 @@ static int rs_apply_impulse(struct reb_simulation* const r, struct rs_resolver* 
         separation_change = v_floor;
         floored = 1;
     }
+    res->stats.normal_dissipation += 0.5 * M_bar * separation_change
+                                     * (2.0 * impact_speed - separation_change);
 
     const double old_vy_outer = dx > 0.0 ? p1->vy : p2->vy;
     double jx = separation_change * (dx / distance);

@@ -46,6 +46,10 @@ struct rs_stats {
     double tangential_dissipation;          /* [J] kinetic energy (translation + rotation)
                                                the tangential impulses dissipated */
     int64_t n_sliding;                      /* collisions on which Coulomb's bound acted */
+    double normal_dissipation;              /* [J] kinetic energy the normal impulses
+                                               dissipated, 1/2 M_bar J (2 v_n - J) with
+                                               J the separation-speed change (floor
+                                               included) */
 };
 
 /* Pairs resolved in the current step of the swept-path modes (open-addressing set), and

@@ -28,7 +28,7 @@ PARAMETER_ORDER = {law.name: tuple(p.name for p in sorted(law.parameters, key=la
 FRICTION_CODES = {"none": 0, **{law.name: law.code for law in FRICTION}}
 #: Statistics fields appended for friction: a checkpoint written before them restores them
 #: as zero.
-FRICTION_STATISTICS = ("tangential_dissipation", "n_sliding")
+FRICTION_STATISTICS = ("tangential_dissipation", "n_sliding", "normal_dissipation")
 
 #: Bin edges of the normal-impact-speed histogram [m/s].
 VN_BIN_EDGES = np.logspace(-7.0, 2.0, 91)
@@ -69,6 +69,7 @@ class _Stats(ctypes.Structure):
         ("outside_sizes", ctypes.c_int64),
         ("tangential_dissipation", ctypes.c_double),
         ("n_sliding", ctypes.c_int64),
+        ("normal_dissipation", ctypes.c_double),
     ]
 
 

@@ -69,6 +69,7 @@ from ringsim.engine.native import (
     COLLISION_DETECTIONS,
     COLLISION_DTYPE,
     DETECTOR_ERRORS,
+    FRICTION_STATISTICS,
     LOG_DTYPE,
     MODEL_CODES,
     ONE_MINUS_EPSILON_BIN_EDGES,
@@ -345,11 +346,8 @@ class ResolverHandle:
             "log": self._read_log(int(s.log_written)),
             "log_written": int(s.log_written),
             "log_every": self.log_every,
-            "multi_encounters": int(s.multi_encounters),
-            "outside_speeds": int(s.outside_speeds),
-            "outside_sizes": int(s.outside_sizes),
-            "tangential_dissipation": float(s.tangential_dissipation),
-            "n_sliding": int(s.n_sliding),
+            **{name: getattr(s, name) for name in ("multi_encounters", "outside_speeds",
+                                                   "outside_sizes", *FRICTION_STATISTICS)},
         }
 
     def order_stats(self) -> dict[str, int]:
@@ -446,7 +444,7 @@ class ResolverHandle:
         dict of numpy arrays: one per field of the C ``struct rs_stats`` (``count``,
         ``n_floored``, ``sum_epsilon`` [1], ``sum_vn`` [m/s], ``vn_underflow``,
         ``vn_overflow``, ``vn_hist``, ``eps_underflow``, ``eps_hist``, ``log_written``,
-        ``multi_encounters``, ..., ``tangential_dissipation`` [J], ``n_sliding``; scalars
+        ``multi_encounters``, ..., ``tangential_dissipation``, ``normal_dissipation`` [J]; scalars
         as 0-d arrays) and ``log``, the whole ring buffer
         (:data:`LOG_DTYPE`, ``log_capacity`` entries in memory order).  :meth:`set_stats`
         restores them bit for bit.

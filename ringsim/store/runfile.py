@@ -58,8 +58,7 @@ SNAPSHOT_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "radius", "mass")
 SPIN_FIELDS = ("wx", "wy", "wz")
 SNAPSHOT_UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m/s",
                   "radius": "m", "mass": "kg", "wx": "rad/s", "wy": "rad/s", "wz": "rad/s"}
-#: Dataset of the stored spins at the checkpoint, (N, 3) [rad/s], x, y in the axes of the
-#: rotating frame at t = 0 (``ResolverHandle.spin_state``; runs with friction only).
+#: Stored spins at the checkpoint, (N, 3) [rad/s] (runs with friction; SPIN_STATE_FRAME).
 CHECKPOINT_SPINS = "checkpoint_spins"
 SPIN_STATE_FRAME = ("rotating frame of the sheet; x, y in its axes at t = 0 (rotate by "
                     "-Omega t for its axes at t), z along the orbital angular momentum")
@@ -98,6 +97,11 @@ TIMESERIES_UNITS = {
     "size_bin_n": "count",
     "one_minus_epsilon_histogram": "count",
     "impact_speed_histogram": "count",
+    "normal_dissipation": "J",
+    # runs with friction only (physics.friction.SPIN_ROW_UNITS, spins in the rotating frame)
+    "rotational_energy": "J", "rotational_energy_ratio": "dimensionless",
+    "mean_spin_z": "Omega", "rms_spin": "Omega", "tangential_dissipation": "J",
+    "sliding_collisions": "count",
 }
 
 #: Bin edges stored beside the histogram time series: name -> (edges dataset, units).
@@ -170,9 +174,8 @@ class Checkpoint:
     statistics : dict of arrays, or None
         ``ResolverHandle.stats_state()`` (None in format-1.0 files).
     spins : array (N, 3) [rad/s], or None
-        ``ResolverHandle.spin_state()`` of a run with friction (None without): the
-        stored spins, x, y in the axes the rotating frame had at t = 0 (restored bit for
-        bit; ``spins()`` turns them by Omega t to the frame's axes).
+        ``ResolverHandle.spin_state()`` of a run with friction (None without), see
+        :data:`SPIN_STATE_FRAME`.
     """
 
     binary: bytes
