@@ -269,6 +269,7 @@ def test_c_and_python_twin_agree_bit_for_bit(friction):
     assert np.any(handle.spins() != 0.0)
     assert sim_c.collisions_plog == sim_py.collisions_plog
     assert stats["tangential_dissipation"] == twin.tangential_dissipation > 0.0
+    assert stats["normal_dissipation"] == twin.normal_dissipation > 0.0
     assert stats["n_sliding"] == twin.n_sliding
     if friction["model"] == "coulomb":
         assert 0 < stats["n_sliding"] < stats["count"]
