@@ -55,3 +55,32 @@ def test_the_same_scenario_with_good_friction_runs(tmp_path):
                           timeout=300, cwd=tempfile.gettempdir())
     assert proc.returncode == 0, proc.stderr
     assert out.exists()
+
+
+def test_resume_refuses_spins_written_before_the_precession(tmp_path):
+    """A checkpoint whose spins have no ``frame`` attribute holds rotating-frame spins of
+    the checkpoint time (ringsim before the precession was followed): resuming it would
+    turn them by Omega t, so it is refused as bad input, the file unchanged."""
+    import h5py
+
+    from ringsim.store import runfile
+
+    scenario = tmp_path / "rough.yaml"
+    scenario.write_text(SCENARIO.format(inertia="", friction="friction: {model: constant, "
+                                        "beta: 0.0}"))
+    out = tmp_path / "rough.h5"
+
+    def cli(*args):
+        return subprocess.run([sys.executable, "-m", "ringsim.cli", *args], capture_output=True,
+                              text=True, timeout=300, cwd=tempfile.gettempdir())
+
+    assert cli("run", str(scenario), "-o", str(out), "--no-progress").returncode == 0
+    with h5py.File(out, "r+") as f:
+        del f[runfile.CHECKPOINT_SPINS].attrs["frame"]
+    before = out.read_bytes()
+    scenario.write_text(scenario.read_text().replace("orbits: 0.1", "orbits: 0.2"))
+    proc = cli("run", str(scenario), "-o", str(out), "--resume", "--no-progress")
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"/{runfile.CHECKPOINT_SPINS}" in lines[0], proc.stderr
+    assert out.read_bytes() == before

@@ -59,9 +59,9 @@ SPIN_FIELDS = ("wx", "wy", "wz")
 SNAPSHOT_UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m/s",
                   "radius": "m", "mass": "kg", "wx": "rad/s", "wy": "rad/s", "wz": "rad/s"}
 #: Stored spins at the checkpoint, (N, 3) [rad/s] (runs with friction; SPIN_STATE_FRAME).
-CHECKPOINT_SPINS = "checkpoint_spins"
-SPIN_STATE_FRAME = ("rotating frame of the sheet; x, y in its axes at t = 0 (rotate by "
-                    "-Omega t for its axes at t), z along the orbital angular momentum")
+CHECKPOINT_SPINS, SPIN_STATE_FRAME = "checkpoint_spins", (
+    "rotating frame of the sheet; x, y in its axes at t = 0 (rotate by -Omega t for its "
+    "axes at t), z along the orbital angular momentum")
 
 #: Units of the time-series quantities (per-bin arrays share the units of their scalar).
 TIMESERIES_UNITS = {
@@ -97,11 +97,9 @@ TIMESERIES_UNITS = {
     "size_bin_n": "count",
     "one_minus_epsilon_histogram": "count",
     "impact_speed_histogram": "count",
-    "normal_dissipation": "J",
-    # runs with friction only (physics.friction.SPIN_ROW_UNITS, spins in the rotating frame)
-    "rotational_energy": "J", "rotational_energy_ratio": "dimensionless",
-    "mean_spin_z": "Omega", "rms_spin": "Omega", "tangential_dissipation": "J",
-    "sliding_collisions": "count",
+    "normal_dissipation": "J",  # all runs; the rest with friction only (SPIN_ROW_UNITS)
+    "tangential_dissipation": "J", "sliding_collisions": "count", "rotational_energy": "J",
+    "rotational_energy_ratio": "dimensionless", "mean_spin_z": "Omega", "rms_spin": "Omega",
 }
 
 #: Bin edges stored beside the histogram time series: name -> (edges dataset, units).
@@ -518,10 +516,12 @@ def read_checkpoint(path: str | os.PathLike) -> Checkpoint | None:
         if missing:
             raise RunFileError(path, f"is incomplete (no {', '.join(missing)})",
                                "/checkpoint")
-        statistics = None
-        if CHECKPOINT_STATISTICS in f:
-            statistics = {name: d[...] for name, d in f[CHECKPOINT_STATISTICS].items()}
+        statistics = ({name: d[...] for name, d in f[CHECKPOINT_STATISTICS].items()}
+                      if CHECKPOINT_STATISTICS in f else None)
         spins = f[CHECKPOINT_SPINS][...] if CHECKPOINT_SPINS in f else None
+        if spins is not None and "frame" not in f[CHECKPOINT_SPINS].attrs:
+            raise RunFileError(path, "spins written before their precession was followed "
+                               "(no 'frame'): rerun", f"/{CHECKPOINT_SPINS}")
         return Checkpoint(binary=binary, state=state, statistics=statistics, spins=spins)
 
 
