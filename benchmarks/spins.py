@@ -8,8 +8,9 @@ Times ``ResolverHandle.resolve_batch`` over fresh two-sphere collisions (those o
 ``benchmarks/resolver.py``, each reported twice as the tree search does) in four set-ups
 interleaved, and prints the median cost per collision and the median of its ratio to the
 smooth resolver in the same repeat: smooth spheres; beta = 0 in an inertial box
-(REBOUND's OMEGA = 0: the frame angle is 0); beta = 0 in a rotating frame at t = 10 orbits (one cos and sin per
-collision turn the spins to the frame's axes and back); Coulomb mu = 0.5 there.
+(REBOUND's OMEGA = 0: the frame angle is 0); beta = 0 in a rotating frame at t = 10
+orbits (one cos and sin per collision turn the spins to the frame's axes and back);
+Coulomb mu = 0.5 there.
 """
 
 from __future__ import annotations
