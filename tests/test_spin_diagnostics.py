@@ -76,7 +76,8 @@ def test_dissipation_counters_close_the_energy_of_a_box(friction):
 @pytest.fixture(scope="module")
 def rough_run(tmp_path_factory):
     path = tmp_path_factory.mktemp("rough") / "rough.h5"
-    sc = rough_scenario({"model": "constant", "beta": 0.0}, **{"integration.orbits": 1.0})
+    # 0.8 orbit: the last snapshot, written with the final checkpoint, is 288 degrees on
+    sc = rough_scenario({"model": "constant", "beta": 0.0}, **{"integration.orbits": 0.8})
     return ringsim.run(sc, output=path, progress=False)
 
 
@@ -129,3 +130,27 @@ def test_analyze_reports_spins_and_the_energy_budget(rough_run, tmp_path, capsys
     budget = eq["energy_budget"]
     for key in ("heating", "normal_dissipation", "tangential_dissipation"):
         assert budget[key]["units"] == "W/m^2" and budget[key]["mean"] > 0
+
+
+def test_snapshot_spins_are_the_checkpoint_state_turned_by_the_frame_angle(rough_run):
+    """The run file's two views of the spins at the last output: the checkpoint keeps the
+    stored state (x, y in the frame's axes at t = 0), the snapshot the spins in the
+    frame's axes at t: w_x + i w_y = (s_x + i s_y) exp(-i Omega t), bit for bit (the C's
+    operations, no FMA), w_z equal."""
+    import math
+
+    from ringsim.store import runfile
+
+    run = ringsim.open_run(rough_run)
+    checkpoint = runfile.read_checkpoint(rough_run)
+    t = float(checkpoint.state["t"])
+    snap = run.snapshot(-1)
+    assert snap["t"] == t
+    theta = run.scenario.orbital_frequency * t
+    assert abs(math.sin(theta)) > 0.5, "a rotation the test can see"
+    c, s = math.cos(theta), math.sin(theta)
+    stored = checkpoint.spins
+    assert np.any(stored[:, :2] != 0.0)
+    assert np.array_equal(snap["wx"], c * stored[:, 0] + s * stored[:, 1])
+    assert np.array_equal(snap["wy"], c * stored[:, 1] - s * stored[:, 0])
+    assert np.array_equal(snap["wz"], stored[:, 2])
