@@ -99,9 +99,9 @@ FRICTION_EXPLANATION = [
     "and 0.72 (kappa = 0.1), the rest through eps_n, and part of the impact energy is held "
     "as rotation (E_rot/E_tr ~ 0.23-0.25, slightly above the closed form 2/9). The rings "
     "need much less normal dissipation: the mean applied eps_n rises to 0.87 (kappa = 0) and "
-    "0.93 (kappa = 0.1), i.e. Dilley's law is evaluated much closer to eps_n = 1, at 3-9 times "
-    "lower impact speeds, and both rings are far cooler (c/(<r> Omega) 15 and 25 instead of "
-    "50 and 224). The kappa effect shrinks to the ratio above because the two rings no "
+    "0.93 (kappa = 0.1), i.e. Dilley's law is evaluated much closer to eps_n = 1, and both "
+    "rings are far cooler: c is 3.4 (kappa = 0) and 8.8 (kappa = 0.1) times lower than "
+    "without friction (c/(<r> Omega) 15 and 25 instead of 50 and 224). The kappa effect shrinks to the ratio above because the two rings no "
     "longer need the same eps_n: were the ring scale free (dilute, c >> r Omega), the "
     "tangential channel would take the same share in both and the speeds would again scale "
     "as (M/60 g)^(kappa/p); but the kappa = 0 ring at c ~ 15 r Omega is close to the "
@@ -119,7 +119,7 @@ FRICTION_EXPLANATION = [
     "friction (line vs tree, analysis/data/line_mode_validation.json): a tree reference of "
     "these rings was not run (about 16 CPU-minutes per run). The twelve runs (six for the "
     "ratio, six method variants) took 1530 s of wall time in one process when first made; "
-    "'Generated ... in' below counts only the invocation that wrote this file.",
+    "the 'Generated ... in' line above counts only the invocation that wrote this file.",
 ]
 
 
