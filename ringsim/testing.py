@@ -59,9 +59,11 @@ class PythonReferenceResolver:
         self.model, self.parameters = _validated(restitution)
         self.friction_model, self.friction_parameters, self.inertia_factor = \
             checked_friction(friction, inertia_factor)
-        #: Spins [rad/s] by particle index, relative to the rotating frame (rows of 3).
+        #: Stored spins [rad/s] by particle index, relative to the rotating frame, x, y in
+        #: the axes it had at t = 0 (rows of 3; as the C's array; :meth:`rotating_spins`).
         self.spins: list[list[float]] = []
         self.tangential_dissipation = 0.0
+        self.normal_dissipation = 0.0
         self.n_sliding = 0
         # The law, evaluated by the C library (never installed in a simulation).
         self._law = ResolverHandle({"model": self.model, **self.parameters})
@@ -178,6 +180,8 @@ class PythonReferenceResolver:
         floored = separation_change < v_floor
         if floored:
             separation_change = v_floor
+        self.normal_dissipation += 0.5 * M_bar * separation_change * (
+            2.0 * impact_speed - separation_change)
 
         old_vy_outer = p1.vy if dx > 0.0 else p2.vy
         jx = separation_change * (dx / distance)
@@ -188,9 +192,15 @@ class PythonReferenceResolver:
         if self.friction_model != "none":
             while len(self.spins) < sim.N:
                 self.spins.append([0.0, 0.0, 0.0])
+            theta = sim.OMEGA * (sim.t - back_time)     # rs_spin_frame_angle
+            cos, sin = math.cos(theta), math.sin(theta)
+            w1 = _to_rotating(self.spins[c.p1], cos, sin)
+            w2 = _to_rotating(self.spins[c.p2], cos, sin)
             jtx, jty, jtz = self._tangential_impulse(
-                self.spins[c.p1], self.spins[c.p2], p1.r, p2.r, share1, share2, M_bar,
+                w1, w2, p1.r, p2.r, share1, share2, M_bar,
                 separation_change, dx, dy, dz, distance, dvx, dvy, dvz)
+            self.spins[c.p1] = _from_rotating(w1, cos, sin)
+            self.spins[c.p2] = _from_rotating(w2, cos, sin)
             jx += jtx
             jy += jty
             jz += jtz
@@ -263,6 +273,14 @@ class PythonReferenceResolver:
             2.0 - coefficient / f_t) * gt2
         return jtx, jty, jtz
 
+    def rotating_spins(self, sim: rebound.Simulation) -> np.ndarray:
+        """Spins of all particles in the rotating frame's axes at ``sim.t``, (N, 3)
+        [rad/s], as ``rs_spins_read`` computes them."""
+        theta = sim.OMEGA * sim.t
+        cos, sin = math.cos(theta), math.sin(theta)
+        stored = self.spins + [[0.0, 0.0, 0.0]] * (sim.N - len(self.spins))
+        return np.array([_to_rotating(w, cos, sin) for w in stored[:sim.N]]).reshape(-1, 3)
+
     def stats(self) -> dict[str, Any]:
         """count, n_floored, mean_epsilon, mean_vn [m/s] and the full log (LOG_DTYPE)."""
         count = self.count
@@ -274,4 +292,15 @@ class PythonReferenceResolver:
             "log": np.array(self.log, dtype=LOG_DTYPE),
             "tangential_dissipation": self.tangential_dissipation,
             "n_sliding": self.n_sliding,
+            "normal_dissipation": self.normal_dissipation,
         }
+
+
+def _to_rotating(s: list[float], cos: float, sin: float) -> list[float]:
+    """rs_spin_to_rotating: stored spin -> the rotating frame's axes at angle theta."""
+    return [cos * s[0] + sin * s[1], cos * s[1] - sin * s[0], s[2]]
+
+
+def _from_rotating(w: list[float], cos: float, sin: float) -> list[float]:
+    """rs_spin_from_rotating, the inverse of :func:`_to_rotating`."""
+    return [cos * w[0] - sin * w[1], cos * w[1] + sin * w[0], w[2]]

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ringsim.analysis import snapshot, timeseries
+from ringsim.analysis import snapshot, spins, timeseries
 from ringsim.physics import kinetic
 from ringsim.physics.restitution import RESTITUTION
 
@@ -123,7 +123,9 @@ def equilibrium(run) -> dict:
         these plain numbers and of the per-size-bin edges), ``size_ratio`` (small / large
         velocity dispersion with its bins and the equipartition value for the same bins,
         `size_dispersion_ratio`) and ``kinetic_estimate`` (the dilute-ring energy balance
-        of the scenario's law, ``kinetic.kinetic_dispersion_estimate``).
+        of the scenario's law, ``kinetic.kinetic_dispersion_estimate``), ``energy_budget``
+        and, with friction, ``spin`` and ``rotational_energy_fraction``
+        (``analysis.spins``).
     """
     ts = run.timeseries
     sc = run.scenario
@@ -157,6 +159,10 @@ def equilibrium(run) -> dict:
     out["per_size_bin"] = _per_size_bin(ts, start, radius, mass)
     out["size_ratio"] = size_dispersion_ratio(out["per_size_bin"])
     out["law_range"] = law_range(ts, start, sc.restitution.model)
+    out["energy_budget"] = spins.energy_budget(run, start)
+    out["spin"] = spins.spin_equilibrium(run, start, ts.get("size_bin_edges"))
+    if out["spin"]:
+        out["rotational_energy_fraction"] = out["spin"]["rotational_energy_fraction"]
     if sc.sheet.gravity:
         from ringsim.analysis.gravitating import gravity_equilibrium
 
@@ -369,4 +375,5 @@ def equilibrium_table(eq: dict) -> str:
         if line:
             lines.append("  " + line)
     lines += ["  " + line for line in law_range_lines(eq)]
+    lines += spins.spin_table_lines(eq)
     return "\n".join(lines)

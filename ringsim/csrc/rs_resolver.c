@@ -62,7 +62,9 @@
  * friction[0]   double    coulomb          mu, Coulomb friction coefficient  -
  * friction[1]   double    coulomb          beta0, sticking restitution       -
  * inertia_factor double   friction         k in I = k m R^2, (0, 2/3]        -
- * spin          double*   friction         3 per particle (rotating frame)   rad/s
+ * spin          double*   friction         3 per particle; x, y in the axes   rad/s
+ *                                          the rotating frame had at t = 0
+ *                                          (rs_spin_to_rotating), z as is
  * log_every     int64_t   all              log every n-th collision          -
  * REBOUND's own field used: minimum_collision_velocity [1/s], see below.
  *
@@ -129,9 +131,12 @@
  *   (multi_encounters measures how often).  sheet: in time order (rs_sheet_detect.c).
  * - Without friction (friction_model = RS_FRICTION_NONE, the default) the normal impulse
  *   only: no spin.  With friction, rough spheres as in ringsim/physics/friction.py
- *   (rs_tangential_impulse below): spins [rad/s] relative to the rotating frame, kept
- *   constant between collisions (the slow precession of w_x, w_y at Omega in the rotating
- *   frame is not followed).  No adhesion, no rolling resistance.
+ *   (rs_tangential_impulse below): spins [rad/s] relative to the rotating frame.  A
+ *   torque-free spin is constant in inertial space, so between collisions its x, y
+ *   components in the rotating frame's axes turn at -Omega (w_z is unchanged): exactly
+ *   followed by keeping x, y in the axes the frame had at t = 0 and turning them by
+ *   the frame angle Omega t at each collision (t = the contact time) and at each read
+ *   (rs_spin_to_rotating).  Omega is REBOUND's OMEGA (0 by default: an inertial box).  No adhesion, no rolling resistance.
  * - eps depends on the normal speed only through the laws above; the Dilley law is a
  *   fit to 2.5-20 cm ice spheres at 0.01-5 cm/s and its size/mass scaling is a model.
  * - Returns 0 (keep both particles) always.  If sim->extras does not point to a
@@ -606,6 +611,60 @@ int rs_spin_reserve(struct rs_resolver* res, int64_t n){
     return 1;
 }
 
+/* Frame angle [rad] of the rotating frame at time t [s]: REBOUND's OMEGA t (the frame of
+ * Hill's equations that the SEI integrator and the shear boundary use; OMEGA = 0, its
+ * default, is an inertial frame). */
+double rs_spin_frame_angle(const struct reb_simulation* const r, double t){
+    return r->OMEGA * t;
+}
+
+/* Stored spin s (x, y in the axes of the frame at t = 0) -> spin w in the rotating frame's
+ * axes at frame angle theta, given c = cos(theta), sn = sin(theta): (w_x + i w_y) =
+ * (s_x + i s_y) exp(-i theta), w_z = s_z.  rs_spin_from_rotating is its inverse. */
+static void rs_spin_to_rotating(const double* const s, double c, double sn, double* const w){
+    w[0] = c * s[0] + sn * s[1];
+    w[1] = c * s[1] - sn * s[0];
+    w[2] = s[2];
+}
+
+static void rs_spin_from_rotating(const double* const w, double c, double sn, double* const s){
+    s[0] = c * w[0] - sn * w[1];
+    s[1] = c * w[1] + sn * w[0];
+    s[2] = w[2];
+}
+
+/* Spins of particles 0..n-1 in the rotating frame at frame angle theta [rad] into out
+ * (3 n doubles, [rad/s]; zero where never set). */
+void rs_spins_read(const struct rs_resolver* const res, double theta, int64_t n,
+                   double* const out){
+    const double c = cos(theta);
+    const double sn = sin(theta);
+    for (int64_t i = 0; i < n; i++){
+        if (i < res->spin_capacity){
+            rs_spin_to_rotating(&res->spin[3 * i], c, sn, &out[3 * i]);
+        }else{
+            out[3 * i] = out[3 * i + 1] = out[3 * i + 2] = 0.0;
+        }
+    }
+}
+
+/* Set the spins of particles 0..n-1 from values in the rotating frame at frame angle
+ * theta [rad] (3 n doubles [rad/s]); the rest of the array is zeroed.  0 if memory ran
+ * out. */
+int rs_spins_write(struct rs_resolver* const res, double theta, int64_t n,
+                   const double* const values){
+    if (!rs_spin_reserve(res, n > 0 ? n : 1)){
+        return 0;
+    }
+    const double c = cos(theta);
+    const double sn = sin(theta);
+    for (int64_t i = 0; i < n; i++){
+        rs_spin_from_rotating(&values[3 * i], c, sn, &res->spin[3 * i]);
+    }
+    memset(res->spin + 3 * n, 0, (size_t)(res->spin_capacity - n) * 3 * sizeof(double));
+    return 1;
+}
+
 /* The tangential impulse of rough spheres per reduced mass, jt [m/s], and the spin changes
  * it causes (applied to w1, w2 [rad/s]), in the order of operations of
  * ringsim/physics/friction.py::collision_impulse (the tested reference):
@@ -711,6 +770,8 @@ static int rs_apply_impulse(struct reb_simulation* const r, struct rs_resolver* 
         separation_change = v_floor;
         floored = 1;
     }
+    res->stats.normal_dissipation += 0.5 * M_bar * separation_change
+                                     * (2.0 * impact_speed - separation_change);
 
     const double old_vy_outer = dx > 0.0 ? p1->vy : p2->vy;
     double jx = separation_change * (dx / distance);
@@ -727,10 +788,18 @@ static int rs_apply_impulse(struct reb_simulation* const r, struct rs_resolver* 
             r->status = REB_STATUS_GENERIC_ERROR;   /* out of memory */
             return 0;
         }
-        double jt[3];
-        rs_tangential_impulse(res, &res->spin[3 * i1], &res->spin[3 * i2], p1->r, p2->r,
-                              share1, share2, M_bar, separation_change, dx, dy, dz, distance,
-                              dvx, dvy, dvz, jt);
+        /* The spins in the rotating frame's axes at the contact time (they precess at
+         * -Omega there between collisions), turned, and stored back. */
+        const double theta = rs_spin_frame_angle(r, r->t - back_time);
+        const double c = cos(theta);
+        const double sn = sin(theta);
+        double w1[3], w2[3], jt[3];
+        rs_spin_to_rotating(&res->spin[3 * i1], c, sn, w1);
+        rs_spin_to_rotating(&res->spin[3 * i2], c, sn, w2);
+        rs_tangential_impulse(res, w1, w2, p1->r, p2->r, share1, share2, M_bar,
+                              separation_change, dx, dy, dz, distance, dvx, dvy, dvz, jt);
+        rs_spin_from_rotating(w1, c, sn, &res->spin[3 * i1]);
+        rs_spin_from_rotating(w2, c, sn, &res->spin[3 * i2]);
         jx += jt[0];
         jy += jt[1];
         jz += jt[2];

@@ -46,6 +46,10 @@ struct rs_stats {
     double tangential_dissipation;          /* [J] kinetic energy (translation + rotation)
                                                the tangential impulses dissipated */
     int64_t n_sliding;                      /* collisions on which Coulomb's bound acted */
+    double normal_dissipation;              /* [J] kinetic energy the normal impulses
+                                               dissipated, 1/2 M_bar J (2 v_n - J) with
+                                               J the separation-speed change (floor
+                                               included) */
 };
 
 /* Pairs resolved in the current step of the swept-path modes (open-addressing set), and
@@ -82,7 +86,11 @@ struct rs_resolver {
                                ringsim.physics.friction.FRICTION) */
     double inertia_factor;  /* k in I = k m R^2 (0 < k <= 2/3) */
     double* spin;           /* [rad/s] 3 per particle, by particle index, relative to the
-                               rotating frame of the sheet; NULL until needed */
+                               rotating frame of the sheet; x, y in the axes the frame
+                               had at t = 0 (a torque-free spin is constant in inertial
+                               space, so in the frame's axes it turns at -Omega): read
+                               with rs_spins_read, set with rs_spins_write at the frame
+                               angle rs_spin_frame_angle; NULL until needed */
     int64_t spin_capacity;  /* particles spin has room for */
 };
 
@@ -93,6 +101,15 @@ struct rs_resolver {
 
 /* Room for the spins of n particles (zeros for new ones); 0 if memory ran out. */
 int rs_spin_reserve(struct rs_resolver* res, int64_t n);
+
+/* Frame angle [rad] at time t [s]: REBOUND's OMEGA t (0 by default: an inertial frame). */
+double rs_spin_frame_angle(const struct reb_simulation* r, double t);
+
+/* Spins of particles 0..n-1 in the rotating frame's axes at frame angle theta [rad]
+ * (w_x + i w_y = (s_x + i s_y) exp(-i theta)), 3 n doubles [rad/s], zero where never set;
+ * rs_spins_write sets them from such values (rest zeroed; 0 if memory ran out). */
+void rs_spins_read(const struct rs_resolver* res, double theta, int64_t n, double* out);
+int rs_spins_write(struct rs_resolver* res, double theta, int64_t n, const double* values);
 
 /* The resolver installed in r (through r->extras), or NULL. */
 struct rs_resolver* rs_resolver_of(const struct reb_simulation* r);

@@ -28,7 +28,7 @@ PARAMETER_ORDER = {law.name: tuple(p.name for p in sorted(law.parameters, key=la
 FRICTION_CODES = {"none": 0, **{law.name: law.code for law in FRICTION}}
 #: Statistics fields appended for friction: a checkpoint written before them restores them
 #: as zero.
-FRICTION_STATISTICS = ("tangential_dissipation", "n_sliding")
+FRICTION_STATISTICS = ("tangential_dissipation", "n_sliding", "normal_dissipation")
 
 #: Bin edges of the normal-impact-speed histogram [m/s].
 VN_BIN_EDGES = np.logspace(-7.0, 2.0, 91)
@@ -69,6 +69,7 @@ class _Stats(ctypes.Structure):
         ("outside_sizes", ctypes.c_int64),
         ("tangential_dissipation", ctypes.c_double),
         ("n_sliding", ctypes.c_int64),
+        ("normal_dissipation", ctypes.c_double),
     ]
 
 
@@ -162,6 +163,12 @@ def _load_library() -> ctypes.CDLL:
                                              ctypes.c_double, ctypes.c_double, ctypes.c_double]
     lib.rs_spin_reserve.restype = ctypes.c_int
     lib.rs_spin_reserve.argtypes = [ctypes.c_void_p, ctypes.c_int64]
+    lib.rs_spin_frame_angle.restype = ctypes.c_double
+    lib.rs_spin_frame_angle.argtypes = [ctypes.c_void_p, ctypes.c_double]
+    for name in ("rs_spins_read", "rs_spins_write"):
+        getattr(lib, name).restype = None if name == "rs_spins_read" else ctypes.c_int
+        getattr(lib, name).argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_int64,
+                                       ctypes.c_void_p]
     lib.rs_resolver_reset_stats.restype = None
     lib.rs_resolver_reset_stats.argtypes = [ctypes.c_void_p]
     double_p = ctypes.POINTER(ctypes.c_double)

@@ -35,22 +35,15 @@ Statistics (``ResolverHandle.stats``):
 
 * ``count``, ``n_floored`` (collisions whose impulse ``minimum_collision_velocity``
   raised), ``mean_epsilon`` and ``mean_vn`` [m/s] (NaN before the first collision);
-* ``histograms["v_n"]``: normal impact speed [m/s] in 90 logarithmic bins from 1e-7 to
-  1e2 m/s (10 per decade), with ``underflow``/``overflow`` counts;
-* ``histograms["one_minus_epsilon"]``: the dissipation 1 - eps in 40 logarithmic bins
-  from 1e-4 to 1 (10 per decade); collisions with 1 - eps < 1e-4 (eps = 1 included) are
-  the ``underflow``, eps = 0 falls in the last bin.  Bin edges hold up to round-off of
-  ``log10`` in C;
-* ``log``: a structured array (fields ``t`` [s], ``v_n`` [m/s], ``R_bar`` [m],
-  ``M_bar`` [kg], ``epsilon``) of every ``log_every``-th collision, the most recent
-  ``log_capacity`` of them, oldest first.  ``epsilon`` is the law's value, also when
-  the minimum collision velocity raised the impulse.
-* ``multi_encounters``: resolved collisions in which one of the two particles had already
-  been deflected earlier in the same step (by a partner carrying at least 10% of that
-  pair's mass, ``MULTI_ENCOUNTER_MASS_SHARE``: a boulder struck by a few grains keeps its
-  path).  With swept-path detection each contact is resolved on the straight path of the
-  velocities at the end of the step, so this count divided by ``count`` measures how often
-  that approximation is stretched; ``dt: auto`` keeps it near or below 1%.
+* ``histograms``: normal impact speed [m/s] (``v_n``, 90 log bins from 1e-7 to 1e2 m/s)
+  and dissipation 1 - eps (``one_minus_epsilon``, 40 log bins from 1e-4 to 1; eps = 1
+  in the underflow, eps = 0 in the last bin), with under/overflow counts;
+* ``log``: every ``log_every``-th collision (``t`` [s], ``v_n`` [m/s], ``R_bar`` [m],
+  ``M_bar`` [kg], the law's ``epsilon``), the most recent ``log_capacity``, oldest first.
+* ``multi_encounters``: resolved collisions in which one partner had already been
+  deflected earlier in the step (by a partner of at least 10% of that pair's mass,
+  ``MULTI_ENCOUNTER_MASS_SHARE``); over ``count``, how often swept-path detection's
+  straight paths are stretched (``dt: auto`` keeps it near or below 1%).
 """
 
 from __future__ import annotations
@@ -76,6 +69,7 @@ from ringsim.engine.native import (
     COLLISION_DETECTIONS,
     COLLISION_DTYPE,
     DETECTOR_ERRORS,
+    FRICTION_STATISTICS,
     LOG_DTYPE,
     MODEL_CODES,
     ONE_MINUS_EPSILON_BIN_EDGES,
@@ -275,24 +269,38 @@ class ResolverHandle:
     # -- spins ----------------------------------------------------------------------------
 
     def spins(self) -> np.ndarray:
-        """Spins of the simulation's particles, (N, 3) [rad/s], by particle index.
+        """Spins of the simulation's particles at ``sim.t``, (N, 3) [rad/s], by index.
 
-        Angular velocities about each centre relative to the rotating frame of the sheet
-        (``physics.friction``: w_z > 0 prograde; add Omega z for the inertial spin).  Zero
-        without friction.  Detached: every particle the resolver has room for.
+        Angular velocities about each centre relative to the rotating frame of the sheet,
+        in its axes (``physics.friction``: w_z > 0 prograde; add Omega z for the inertial
+        spin; between collisions w_x, w_y turn at -Omega).  Zero without friction.
+        Detached: every particle the resolver has room for, in the axes at t = 0.
         """
-        if self._struct is None:
-            raise ValueError("the resolver handle is closed")
-        n = self._sim.N if self._sim is not None else int(self._struct.spin_capacity)
-        return _spins.read_spins(self._struct, n)
+        return _spins.read_spins(self.address, self._n_spins(), _spins.frame_angle(self._sim))
 
     def set_spins(self, spins: Any) -> None:
-        """Set the spins of all particles, (N, 3) [rad/s] in the rotating frame (e.g. from
-        a checkpoint).  The shape must match the attached simulation's particle count."""
+        """Set the spins, (N, 3) [rad/s] in the rotating frame's axes at ``sim.t``."""
+        self._open()
+        _spins.write_spins(self.address, spins, self._sim.N if self._sim is not None
+                           else None, _spins.frame_angle(self._sim))
+
+    def spin_state(self) -> np.ndarray:
+        """The stored spins, (N, 3) [rad/s] (x, y in the frame's axes at t = 0), for
+        checkpoints: :meth:`set_spin_state` restores them bit for bit."""
+        return _spins.read_spin_state(self._open(), self._n_spins())
+
+    def set_spin_state(self, spins: Any) -> None:
+        """Restore :meth:`spin_state` (shape checked as for :meth:`set_spins`)."""
+        _spins.write_spin_state(self.address, self._open(), spins,
+                                self._sim.N if self._sim is not None else None)
+
+    def _open(self) -> Any:
         if self._struct is None:
             raise ValueError("the resolver handle is closed")
-        _spins.write_spins(self.address, self._struct, spins,
-                           self._sim.N if self._sim is not None else None)
+        return self._struct
+
+    def _n_spins(self) -> int:
+        return self._sim.N if self._sim is not None else int(self._open().spin_capacity)
 
     # -- statistics -----------------------------------------------------------------------
 
@@ -307,9 +315,7 @@ class ResolverHandle:
         ``overflow``, ``units``), ``log`` (structured array, :data:`LOG_DTYPE`),
         ``log_written`` (entries ever logged) and ``log_every``.
         """
-        if self._struct is None:
-            raise ValueError("the resolver handle is closed")
-        s = self._struct.stats
+        s = self._open().stats
         count = int(s.count)
         mean_eps = s.sum_epsilon / count if count else math.nan
         mean_vn = s.sum_vn / count if count else math.nan
@@ -340,11 +346,8 @@ class ResolverHandle:
             "log": self._read_log(int(s.log_written)),
             "log_written": int(s.log_written),
             "log_every": self.log_every,
-            "multi_encounters": int(s.multi_encounters),
-            "outside_speeds": int(s.outside_speeds),
-            "outside_sizes": int(s.outside_sizes),
-            "tangential_dissipation": float(s.tangential_dissipation),
-            "n_sliding": int(s.n_sliding),
+            **{name: getattr(s, name) for name in ("multi_encounters", "outside_speeds",
+                                                   "outside_sizes", *FRICTION_STATISTICS)},
         }
 
     def order_stats(self) -> dict[str, int]:
@@ -441,14 +444,12 @@ class ResolverHandle:
         dict of numpy arrays: one per field of the C ``struct rs_stats`` (``count``,
         ``n_floored``, ``sum_epsilon`` [1], ``sum_vn`` [m/s], ``vn_underflow``,
         ``vn_overflow``, ``vn_hist``, ``eps_underflow``, ``eps_hist``, ``log_written``,
-        ``multi_encounters``, ..., ``tangential_dissipation`` [J], ``n_sliding``; scalars
+        ``multi_encounters``, ..., ``tangential_dissipation``, ``normal_dissipation`` [J]; scalars
         as 0-d arrays) and ``log``, the whole ring buffer
         (:data:`LOG_DTYPE`, ``log_capacity`` entries in memory order).  :meth:`set_stats`
         restores them bit for bit.
         """
-        if self._struct is None:
-            raise ValueError("the resolver handle is closed")
-        state = _statistics.saved(self._struct.stats)
+        state = _statistics.saved(self._open().stats)
         state["log"] = self._raw_log().copy()
         return state
 
@@ -458,9 +459,7 @@ class ResolverHandle:
         Every field must be present with its shape, and the log must have this handle's
         ``log_capacity``; ValueError naming the field otherwise (nothing is changed then).
         """
-        if self._struct is None:
-            raise ValueError("the resolver handle is closed")
-        values = _statistics.checked(self._struct.stats, state)
+        values = _statistics.checked(self._open().stats, state)
         log = np.asarray(state.get("log", np.zeros(0, LOG_DTYPE)))
         if log.dtype != LOG_DTYPE or log.shape != (self.log_capacity,):
             raise ValueError(f"statistics: log must hold {self.log_capacity} entries of "

@@ -41,6 +41,7 @@ from ringsim.engine import gravity, invariants, p3m, sheet, timestep
 from ringsim.engine.binary import simulation_binary, simulation_from_binary
 from ringsim.engine.progress import progress_bar
 from ringsim.errors import InputError
+from ringsim.physics import friction
 from ringsim.physics.gravity import toomre_q
 from ringsim.store import runfile
 from ringsim.store.background import CommitThread
@@ -248,7 +249,7 @@ class Runner:
                                            f"/{runfile.CHECKPOINT_STATISTICS}") from None
         if self.handle.friction is not None:
             try:
-                self.handle.set_spins(checkpoint.spins)
+                self.handle.set_spin_state(checkpoint.spins)
             except ValueError as exc:
                 raise runfile.RunFileError(self.path, f"cannot restore the spins ({exc})",
                                            f"/{runfile.CHECKPOINT_SPINS}") from None
@@ -292,7 +293,16 @@ class Runner:
             "one_minus_epsilon_histogram": _with_outer_bins(stats["histograms"]
                                                             ["one_minus_epsilon"]),
             "impact_speed_histogram": _with_outer_bins(stats["histograms"]["v_n"]),
+            "normal_dissipation": float(stats["normal_dissipation"]),
         }
+        if self.handle.friction is not None:     # spins: physics.friction.SPIN_ROW_UNITS
+            row.update(friction.spin_row(
+                arrays["mass"], arrays["radius"], self.handle.spins(),
+                self.scenario.particles.inertia_factor, self.Omega,
+                1.5 * float(np.sum(arrays["mass"]))
+                * summary["velocity_dispersion_mass_weighted"] ** 2),
+                tangential_dissipation=float(stats["tangential_dissipation"]),
+                sliding_collisions=int(stats["n_sliding"]))
         for key in runfile.TIMESERIES_UNITS:
             if key not in row and key in summary:
                 if key.startswith("size_bin_") and self.edges is None:
@@ -436,7 +446,7 @@ class Runner:
         self._commit(snapshot=snapshot, attributes=attributes,
                      checkpoint=runfile.Checkpoint(
                          simulation_binary(self.sim), state, self.handle.stats_state(),
-                         None if self.handle.friction is None else self.handle.spins()))
+                         None if self.handle.friction is None else self.handle.spin_state()))
 
     def fail(self, violation: Exception) -> None:
         """Stop a run that broke an invariant: keep the last (good) checkpoint, write the

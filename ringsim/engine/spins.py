@@ -4,11 +4,16 @@ The glue between the declaration of the friction models (``physics.friction.FRIC
 ``INERTIA_FACTOR``) and the C library: checking and packing the parameters, and reading
 and writing the resolver's spin array (3 doubles per particle, by particle index, relative
 to the rotating frame of the sheet, [rad/s]; ``physics.friction`` states the conventions).
+The array keeps x, y in the axes the rotating frame had at t = 0 (a torque-free spin is
+constant in inertial space, so its components in the frame's axes turn at -Omega); the
+readers turn them to the frame's axes at a frame angle, the checkpoint keeps them as
+stored.
 ``engine.resolver.ResolverHandle`` calls these; nothing else should touch the C fields.
 """
 
 from __future__ import annotations
 
+import ctypes
 from collections.abc import Mapping
 from typing import Any
 
@@ -46,8 +51,37 @@ def install_friction(address: int, model: str, params: Mapping[str, float], k: f
                          f"and inertia_factor {k!r} (outside the declared ranges)")
 
 
-def read_spins(struct: Any, n: int) -> np.ndarray:
-    """Copy of the spins of particles 0..n-1, (n, 3) [rad/s] (zero where never set)."""
+def frame_angle(sim: Any) -> float:
+    """Angle [rad] of the rotating frame at ``sim.t`` (``rs_spin_frame_angle``): REBOUND's
+    ``OMEGA * t`` (the frame of Hill's equations; OMEGA = 0, its default: inertial)."""
+    if sim is None:
+        return 0.0
+    return float(_LIB.rs_spin_frame_angle(ctypes.addressof(sim), sim.t))
+
+
+def read_spins(address: int, n: int, theta: float) -> np.ndarray:
+    """Spins of particles 0..n-1 in the rotating frame's axes at frame angle ``theta``
+    [rad], (n, 3) [rad/s] (zero where never set; ``rs_spins_read``)."""
+    out = np.zeros((n, 3))
+    if n > 0:
+        _LIB.rs_spins_read(address, theta, n, out.ctypes.data)
+    return out
+
+
+def write_spins(address: int, spins: Any, n: int | None, theta: float) -> None:
+    """Set the spins of particles 0..len(spins)-1 from rotating-frame values [rad/s] at
+    frame angle ``theta`` [rad]; the rest of the array is zeroed (``rs_spins_write``).
+
+    ``n``: the particle count of the simulation, if attached (the shape must match it).
+    """
+    values = _checked_spins(spins, n)
+    if not _LIB.rs_spins_write(address, theta, values.shape[0], values.ctypes.data):
+        raise MemoryError(f"could not allocate spins for {values.shape[0]} particles")
+
+
+def read_spin_state(struct: Any, n: int) -> np.ndarray:
+    """Copy of the stored spins of particles 0..n-1, (n, 3) [rad/s]: x, y in the axes the
+    rotating frame had at t = 0, z as is (for checkpoints: restored bit for bit)."""
     out = np.zeros((n, 3))
     held = min(n, int(struct.spin_capacity))
     if held > 0:
@@ -55,20 +89,22 @@ def read_spins(struct: Any, n: int) -> np.ndarray:
     return out
 
 
-def write_spins(address: int, struct: Any, spins: Any, n: int | None) -> None:
-    """Set the spins of particles 0..len(spins)-1 [rad/s]; the rest of the array is zeroed.
-
-    ``n``: the particle count of the simulation, if attached (the shape must match it).
-    """
-    values = np.asarray(spins, dtype=float)
-    if values.ndim != 2 or values.shape[1] != 3 or (n is not None and values.shape[0] != n):
-        expected = f"({n}, 3)" if n is not None else "(N, 3)"
-        raise ValueError(f"spins: expected shape {expected}, got {values.shape}")
-    if not np.all(np.isfinite(values)):
-        raise ValueError("spins: must be finite")
+def write_spin_state(address: int, struct: Any, spins: Any, n: int | None) -> None:
+    """Set the stored spins (:func:`read_spin_state`) of particles 0..len(spins)-1; the
+    rest of the array is zeroed."""
+    values = _checked_spins(spins, n)
     if not _LIB.rs_spin_reserve(address, max(values.shape[0], 1)):
         raise MemoryError(f"could not allocate spins for {values.shape[0]} particles")
     buffer = np.ctypeslib.as_array(struct.spin, shape=(int(struct.spin_capacity), 3))
     buffer[:values.shape[0]] = values
     buffer[values.shape[0]:] = 0.0
 
+
+def _checked_spins(spins: Any, n: int | None) -> np.ndarray:
+    values = np.ascontiguousarray(spins, dtype=float)
+    if values.ndim != 2 or values.shape[1] != 3 or (n is not None and values.shape[0] != n):
+        expected = f"({n}, 3)" if n is not None else "(N, 3)"
+        raise ValueError(f"spins: expected shape {expected}, got {values.shape}")
+    if not np.all(np.isfinite(values)):
+        raise ValueError("spins: must be finite")
+    return values

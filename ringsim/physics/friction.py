@@ -533,3 +533,39 @@ def spin_statistics(w: ArrayLike, Omega: float, weights: ArrayLike | None = None
     return {"mean_abs": float(np.average(size, weights=weights)) / Omega,
             "rms": math.sqrt(float(np.average(size * size, weights=weights))) / Omega,
             "mean_z": float(np.average(w[:, 2], weights=weights)) / Omega}
+
+
+#: The spin rows of a run's time series (runs with friction): key -> unit.
+SPIN_ROW_UNITS = {"rotational_energy": "J", "rotational_energy_ratio": "dimensionless",
+                  "mean_spin_z": "Omega", "rms_spin": "Omega"}
+
+
+def spin_row(m: ArrayLike, R: ArrayLike, w: ArrayLike, k: float, Omega: float,
+             translational_energy: float) -> dict[str, float]:
+    """The spin numbers of one output (:data:`SPIN_ROW_UNITS`).
+
+    ``rotational_energy`` sum 1/2 k m R^2 |w|^2 [J] with w relative to the rotating frame
+    (so a sphere that keeps one face to the planet has none); ``rotational_energy_ratio``
+    that over ``translational_energy`` (0 if that is 0); ``mean_spin_z`` <w_z>/Omega and
+    ``rms_spin`` sqrt(<|w|^2>)/Omega, number-weighted (:func:`spin_statistics`: w_z > 0
+    prograde in the rotating frame, an inertially non-rotating particle shows -1).
+
+    Parameters
+    ----------
+    m : array (n,) [kg]
+    R : array (n,) [m]
+    w : array (n, 3) [rad/s]
+        Spins relative to the rotating frame, in its axes.
+    k : float [-]
+        Moment-of-inertia factor.
+    Omega : float [1/s]
+    translational_energy : float [J]
+        Kinetic energy of the velocities relative to the shear flow, e.g. 3/2 sum(m)
+        c_m^2 with c_m the mass-weighted velocity dispersion.
+    """
+    e_rot = float(np.sum(rotational_energy(m, R, w, k)))
+    stats = spin_statistics(w, Omega)
+    return {"rotational_energy": e_rot,
+            "rotational_energy_ratio": e_rot / translational_energy if translational_energy
+            > 0.0 else 0.0,
+            "mean_spin_z": stats["mean_z"], "rms_spin": stats["rms"]}

@@ -43,6 +43,10 @@ def run_figures(run, eq: dict) -> dict:
         f"{eq['name']}: last snapshot at {snap['t'] / period:.3g} orbits")
     if "lambda_cr" in eq:
         figures["wakes.png"] = _wake_figure(run, eq, snap)
+    if eq.get("spin"):
+        from ringsim.plots.spins import spin_figure
+
+        figures["spins.png"] = spin_figure(run, eq)
     return figures
 
 

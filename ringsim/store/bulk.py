@@ -34,8 +34,10 @@ SNAPSHOT_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "radius", "mass")
 SPIN_FIELDS = ("wx", "wy", "wz")
 SNAPSHOT_UNITS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m/s",
                   "radius": "m", "mass": "kg", "wx": "rad/s", "wy": "rad/s", "wz": "rad/s"}
-#: Dataset of the spins at the checkpoint, (N, 3) [rad/s] (runs with friction only).
-CHECKPOINT_SPINS = "checkpoint_spins"
+#: Stored spins at the checkpoint, (N, 3) [rad/s] (runs with friction; SPIN_STATE_FRAME).
+CHECKPOINT_SPINS, SPIN_STATE_FRAME = "checkpoint_spins", (
+    "rotating frame of the sheet; x, y in its axes at t = 0 (rotate by -Omega t for its "
+    "axes at t), z along the orbital angular momentum")
 #: Group holding the resolver's interval statistics at the checkpoint (format 1.1).
 CHECKPOINT_STATISTICS = "checkpoint_statistics"
 
@@ -199,6 +201,7 @@ def _checkpoint_dataset(f: h5py.File | h5py.Group, checkpoint) -> None:
 def _spins_dataset(f: h5py.File, spins: np.ndarray) -> None:
     ds = f.create_dataset(CHECKPOINT_SPINS, data=np.asarray(spins, float))
     ds.attrs["units"] = "rad/s"
+    ds.attrs["frame"] = SPIN_STATE_FRAME
 
 
 def write_checkpoint(f: h5py.File, checkpoint, parts: Parts | None = None) -> None:

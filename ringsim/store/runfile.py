@@ -47,6 +47,7 @@ from ringsim.store.bulk import (  # noqa: F401 (the layout's names, declared in 
     SNAPSHOT_FIELDS,
     SNAPSHOT_UNITS,
     SPIN_FIELDS,
+    SPIN_STATE_FRAME,
     Parts,
     linked_parts,
 )
@@ -98,6 +99,9 @@ TIMESERIES_UNITS = {
     "size_bin_n": "count",
     "one_minus_epsilon_histogram": "count",
     "impact_speed_histogram": "count",
+    "normal_dissipation": "J",  # all runs; the rest with friction only (SPIN_ROW_UNITS)
+    "tangential_dissipation": "J", "sliding_collisions": "count", "rotational_energy": "J",
+    "rotational_energy_ratio": "dimensionless", "mean_spin_z": "Omega", "rms_spin": "Omega",
 }
 
 #: Bin edges stored beside the histogram time series: name -> (edges dataset, units).
@@ -170,7 +174,8 @@ class Checkpoint:
     statistics : dict of arrays, or None
         ``ResolverHandle.stats_state()`` (None in format-1.0 files).
     spins : array (N, 3) [rad/s], or None
-        ``ResolverHandle.spins()`` of a run with friction (None without).
+        ``ResolverHandle.spin_state()`` of a run with friction (None without), see
+        :data:`SPIN_STATE_FRAME`.
     """
 
     binary: bytes
@@ -482,6 +487,9 @@ def read_checkpoint(path: str | os.PathLike) -> Checkpoint | None:
         if CHECKPOINT_STATISTICS in f:
             statistics = {name: d[...] for name, d in f[CHECKPOINT_STATISTICS].items()}
         spins = f[CHECKPOINT_SPINS][...] if CHECKPOINT_SPINS in f else None
+        if spins is not None and "frame" not in f[CHECKPOINT_SPINS].attrs:
+            raise RunFileError(path, "spins written before their precession was followed "
+                               "(no 'frame'): rerun", f"/{CHECKPOINT_SPINS}")
         return Checkpoint(binary=binary, state=state, statistics=statistics, spins=spins)
 
 
