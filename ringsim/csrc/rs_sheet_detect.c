@@ -230,8 +230,7 @@ struct rs_sheet_grid {
 struct rs_sheet_detector {
     int64_t particle_capacity;
     struct rs_sheet_particle* unsorted;     /* by particle index: the state before resolution */
-    struct rs_sheet_particle* sorted;       /* by cell */
-    struct rs_sheet_point* points;          /* by cell, as sorted */
+    struct rs_sheet_point* points;          /* by cell */
     struct rs_sheet_track* track;           /* by particle index */
     int64_t* cell_of;
     int64_t cell_capacity;
@@ -268,7 +267,6 @@ static void rs_sheet_detector_free(struct rs_sheet_detector* d){
         return;
     }
     free(d->unsorted);
-    free(d->sorted);
     free(d->points);
     free(d->track);
     free(d->cell_of);
@@ -509,24 +507,25 @@ static int64_t rs_span(double distance, double side){
  * the pre-test changes the cost only.  Its branch is taken rarely and predictably (the
  * j > i condition joins it without a branch of its own).  Returns 0 if memory ran out. */
 static int rs_cell_report(const struct rs_sheet_grid* g, const struct rs_sheet_detector* d,
-                          const struct rs_sheet_particle* pi, int64_t first, int64_t end,
+                          const struct rs_sheet_point* p, int64_t first, int64_t end,
                           double image_x, double gy_i, double image_vy,
                           struct rs_pair_list* out){
     const struct rs_sheet_point* const points = d->points;
-    const double xi = pi->xw + image_x;
-    const double yi = pi->yw + gy_i;
-    const double reach_i = pi->reach + g->slack;
+    const double xi = p->xw + image_x;
+    const double yi = p->yw + gy_i;
+    const double reach_i = p->reach + g->slack;
     for (int64_t b = first; b < end; b++){
         const struct rs_sheet_point* q = &points[b];
         const double dxw = xi - q->xw;
         const double dyw = yi - q->yw;
-        const double dzw = pi->z - q->z;
+        const double dzw = p->z - q->z;
         const double wide = reach_i + q->reach + g->shear_step * fabs(dxw);
         const int near = dxw * dxw + dyw * dyw + dzw * dzw <= wide * wide;
-        if (!(near & (q->index > pi->index))){
+        if (!(near & (q->index > p->index))){
             continue;
         }
-        const struct rs_sheet_particle* pj = &d->sorted[b];
+        const struct rs_sheet_particle* pi = &d->unsorted[p->index];
+        const struct rs_sheet_particle* pj = &d->unsorted[q->index];
         struct reb_vec6d gb;
         gb.x = pi->ox + image_x - pj->ox;
         gb.y = pi->oy + gy_i - pj->oy;
@@ -567,15 +566,27 @@ static int rs_cell_report(const struct rs_sheet_grid* g, const struct rs_sheet_d
  * the bound of Method 7 get their contacts within the last `window` of the step queued.
  * Returns 0 if memory ran out. */
 static int rs_cell_recheck(const struct reb_simulation* const r, struct rs_sheet_detector* d,
-                           const struct rs_sheet_particle* pi, int64_t first, int64_t end,
+                           const struct rs_sheet_point* p, int64_t first, int64_t end,
                            double image_x, double gy_i, double image_vy, double window){
+    const struct rs_sheet_point* const points = d->points;
+    const struct rs_sheet_particle* const pi = &d->unsorted[p->index];
     const double deviation_i = d->track[pi->index].deviation;
     const double shear_step = d->grid.shear_step;
+    const double xi = p->xw + image_x;
+    const double yi = p->yw + gy_i;
+    /* the pre-test of rs_cell_report, widened by the largest deviations */
+    const double reach_i = p->reach + d->grid.slack + deviation_i + d->deviation_max;
     for (int64_t b = first; b < end; b++){
-        const struct rs_sheet_particle* pj = &d->sorted[b];
-        if (pj->index == pi->index){
+        const struct rs_sheet_point* q = &points[b];
+        const double dxw = xi - q->xw;
+        const double dyw = yi - q->yw;
+        const double dzw = p->z - q->z;
+        const double wide = reach_i + q->reach + shear_step * fabs(dxw);
+        const int near = dxw * dxw + dyw * dyw + dzw * dzw <= wide * wide;
+        if (!(near & (q->index != p->index))){
             continue;
         }
+        const struct rs_sheet_particle* pj = &d->unsorted[q->index];
         struct reb_vec6d gb;
         gb.x = pi->ox + image_x - pj->ox;
         gb.y = pi->oy + gy_i - pj->oy;
@@ -610,7 +621,7 @@ enum RS_SCAN {
  * and writes to `out` (threads may scan different particles at once); RECHECK queues
  * contacts within the last `window` of the step.  Returns 0 if memory ran out. */
 static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detector* d,
-                   const struct rs_sheet_particle* pi, double distance, int mode,
+                   const struct rs_sheet_point* pi, double distance, int mode,
                    double window, struct rs_pair_list* out){
     const struct rs_sheet_grid* const g = &d->grid;
     const int64_t* const start = d->cell_start;
@@ -700,8 +711,9 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
     return 1;
 }
 
-/* Method 2: cells of at least s on every side, and the particles sorted into them by a
- * counting sort (stable: a cell holds its particles in index order) into d->sorted and
+/* Method 2: cells of at least s / RS_CELL_DIVISIONS on every side, and the particles sorted
+ * into them by a
+ * counting sort (stable: a cell holds its particles in index order) into
  * d->points.  Returns 0 if memory ran out. */
 static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
     struct rs_sheet_grid* const g = &d->grid;
@@ -764,7 +776,6 @@ static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
         /* start[c] is the next free slot of cell c during placement ... */
         const int64_t slot = start[d->cell_of[i]]++;
         const struct rs_sheet_particle* q = &d->unsorted[i];
-        d->sorted[slot] = *q;
         d->points[slot] = (struct rs_sheet_point){q->xw, q->yw, q->z, q->reach, q->index};
     }
     for (int64_t c = n_cells; c > 0; c--){
@@ -803,7 +814,7 @@ static int rs_search(struct rs_sheet_detector* d, int64_t n){
         struct rs_pair_list list = d->lists[rs_thread_id()];
 #pragma omp for schedule(static)
         for (int64_t a = 0; a < n; a++){
-            const struct rs_sheet_particle* pi = &d->sorted[a];
+            const struct rs_sheet_point* pi = &d->points[a];
             const double distance = (pi->reach + d->grid.reach_max)
                                     / (1.0 - d->grid.shear_step) * (1.0 + 1e-12)
                                     + d->grid.slack;
@@ -864,10 +875,6 @@ static int rs_sheet_find_pairs(struct reb_simulation* const r, struct rs_sheet_d
         return RS_DETECT_NO_MEMORY;
     }
     capacity = d->particle_capacity;
-    if (!rs_grow((void**)&d->sorted, &capacity, n, sizeof(struct rs_sheet_particle))){
-        return RS_DETECT_NO_MEMORY;
-    }
-    capacity = d->particle_capacity;
     if (!rs_grow((void**)&d->points, &capacity, n, sizeof(struct rs_sheet_point))){
         return RS_DETECT_NO_MEMORY;
     }
@@ -925,7 +932,9 @@ static int rs_after_collision(const struct reb_simulation* const r, struct rs_sh
     d->rechecks++;
     const double distance = fmin(needed, RS_MAX_SPAN * g->pair_reach) * (1.0 + 1e-12)
                             + g->slack;
-    return rs_scan(r, d, before, distance, RS_SCAN_RECHECK, window, NULL);
+    const struct rs_sheet_point point = {before->xw, before->yw, before->z, before->reach,
+                                         before->index};
+    return rs_scan(r, d, &point, distance, RS_SCAN_RECHECK, window, NULL);
 }
 
 static struct rs_sheet_detector* rs_detector_of(struct rs_resolver* res){
