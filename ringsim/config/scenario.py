@@ -111,7 +111,8 @@ _SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "particles": ("density", "size_distribution", "inertia_factor"),
     "sheet": ("optical_depth", "n_particles", "aspect", "gravity", "softening",
               "opening_angle", "initial_dispersion", "z_box", "initial_state"),
-    "integration": ("orbits", "dt", "dt_safety", "collision_detection", "until_equilibrium"),
+    "integration": ("orbits", "dt", "dt_safety", "collision_detection", "until_equilibrium",
+                    "threads"),
     "output": ("path", "timeseries_every", "snapshot_every", "checkpoint_every",
                "log_collisions"),
 }
@@ -142,6 +143,7 @@ DEFAULTS: dict[str, Any] = {
     "integration.dt_safety": 0.1,
     "integration.collision_detection": "tree",
     "integration.until_equilibrium": False,
+    "integration.threads": "auto",
     "output.timeseries_every": 0.1,
     "output.snapshot_every": 5.0,
     "output.log_collisions": 0,
@@ -419,7 +421,18 @@ def _read_integration(top: Section, planet: Planet, gravity: bool = False) -> In
         dt_safety=sec.number("dt_safety", d["integration.dt_safety"], gt=0.0, le=1.0),
         collision_detection=detection,
         until_equilibrium=sec.boolean("until_equilibrium", d["integration.until_equilibrium"]),
+        threads=_read_threads(sec, d["integration.threads"]),
     )
+
+
+def _read_threads(sec: Section, default: Any) -> int | str:
+    """``integration.threads``: "auto" or an integer >= 1."""
+    if sec.mapping.get("threads", default) == "auto":
+        return "auto"
+    try:
+        return sec.integer("threads", default, ge=1)
+    except ScenarioError as exc:
+        raise sec.error("threads", exc.problem, "auto, or an integer >= 1") from None
 
 
 def _check_line_dt(sec: Section, dt: float, Omega: float) -> None:

@@ -241,6 +241,7 @@ struct rs_sheet_detector {
     struct rs_pair_list* lists;             /* one per thread */
     int64_t list_capacity;
     int threads;                            /* OpenMP threads of the search (>= 1) */
+    int team_last;                          /* threads the last search ran on */
     int64_t event_capacity;
     int64_t n_events;
     struct rs_event* events;        /* binary heap, earliest contact at the root */
@@ -303,6 +304,15 @@ static int rs_thread_id(void){
     return omp_get_thread_num();
 #else
     return 0;
+#endif
+}
+
+/* Number of threads in the current OpenMP team (1 without OpenMP). */
+static int rs_team_threads(void){
+#ifdef _OPENMP
+    return omp_get_num_threads();
+#else
+    return 1;
 #endif
 }
 
@@ -625,8 +635,10 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
                    double window, struct rs_pair_list* out){
     const struct rs_sheet_grid* const g = &d->grid;
     const int64_t* const start = d->cell_start;
-    const int64_t span_x = rs_span(distance, g->sx);
-    const int64_t span_y = rs_span(distance, g->sy);
+    /* at most one box on each side (a box narrower than 2 s is outside the validity
+     * limits: images further away are not looked at, as before the cells were split) */
+    const int64_t span_x = rs_span(distance, g->sx) < g->nx ? rs_span(distance, g->sx) : g->nx;
+    const int64_t span_y = rs_span(distance, g->sy) < g->ny ? rs_span(distance, g->sy) : g->ny;
     const int64_t span_z = g->nz > 1 ? rs_span(distance, g->sz) : 0;
     const int64_t cx = rs_cell_coordinate(pi->xw, -0.5 * g->Lx, g->sx, g->nx);
     const int64_t cz = g->nz > 1 ? rs_cell_coordinate(pi->z, g->z_min, g->sz, g->nz) : 0;
@@ -808,8 +820,13 @@ static int rs_search(struct rs_sheet_detector* d, int64_t n){
         d->lists[k].candidates = 0;
         d->lists[k].ok = 1;
     }
+    d->team_last = 1;
 #pragma omp parallel num_threads(threads)
     {
+#pragma omp single nowait
+        {
+            d->team_last = rs_team_threads();
+        }
         /* a copy on this thread's stack: no false sharing of the counters */
         struct rs_pair_list list = d->lists[rs_thread_id()];
 #pragma omp for schedule(static)
@@ -1084,6 +1101,17 @@ int rs_sheet_set_threads(struct rs_resolver* res, int threads){
     }
     d->threads = threads >= 1 ? threads : 1;
     return d->threads;
+}
+
+/* Threads the last search of the resolver's detector ran on (0 before the first). */
+int rs_sheet_threads_used(const struct rs_resolver* res){
+    const struct rs_sheet_detector* d = res->detector;
+    return d == NULL ? 0 : d->team_last;
+}
+
+/* RS_PARTICLES_PER_THREAD: particles per thread at least before the search is split. */
+int64_t rs_sheet_particles_per_thread(void){
+    return RS_PARTICLES_PER_THREAD;
 }
 
 /* 1 if the library was compiled with OpenMP (threads > 1 split the search), else 0. */

@@ -184,6 +184,10 @@ def _load_library() -> ctypes.CDLL:
         lib.rs_sheet_set_threads.argtypes = [ctypes.c_void_p, ctypes.c_int]
         lib.rs_sheet_openmp.restype = ctypes.c_int
         lib.rs_sheet_openmp.argtypes = []
+        lib.rs_sheet_threads_used.restype = ctypes.c_int
+        lib.rs_sheet_threads_used.argtypes = [ctypes.c_void_p]
+        lib.rs_sheet_particles_per_thread.restype = ctypes.c_int64
+        lib.rs_sheet_particles_per_thread.argtypes = []
 
     librebound = rebound.clibrebound
     librebound.reb_simulation_struct_size.restype = size_t
@@ -258,6 +262,22 @@ def set_detector_threads(resolver_address: int, threads: int) -> int:
     if done < 1:
         raise MemoryError("could not allocate the sheet detector")
     return done
+
+
+def detector_threads_used(resolver_address: int) -> int:
+    """Threads the last search of the sheet detector ran on (0 before the first search;
+    fewer than asked where each would get fewer than `particles_per_thread`)."""
+    if not hasattr(_LIB, "rs_sheet_threads_used"):
+        return 0
+    return int(_LIB.rs_sheet_threads_used(resolver_address))
+
+
+def particles_per_thread() -> int:
+    """Particles per thread at least before the detector splits its search
+    (RS_PARTICLES_PER_THREAD; below, starting the threads costs more than they save)."""
+    if not hasattr(_LIB, "rs_sheet_particles_per_thread"):
+        return 1
+    return int(_LIB.rs_sheet_particles_per_thread())
 
 
 def _free_resolver(address: int) -> None:
