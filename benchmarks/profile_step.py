@@ -12,11 +12,12 @@ Splits the CPU time of the run loop (one thread) into
   per particle-step at the default cadence (an output every 0.1 orbit = 100 steps of
   1e-3 orbit).
 
-Scenario: line mode, no gravity, power law 0.5-5 m (q = 3), tau = 0.25, Bridges et al.
-(1984) law.  ``--setup scenario`` builds the sheet with ``ringsim.engine.sheet.build_sheet``
-(the run's set-up); ``--setup lattice`` places the particles on a jittered lattice with
-numpy (overlap-free by construction, 7 layers) and adds them with REBOUND, for sizes whose
-set-up through the scenario is slow.  Only the steps are timed.
+Scenario: benchmarks/scale.yaml (line mode, no gravity, power law 0.5-5 m, q = 3,
+tau = 0.25, Bridges et al. 1984 law).  ``--setup scenario`` builds the sheet with
+``ringsim.engine.sheet.build_sheet`` (the run's set-up); ``--setup lattice`` places the
+particles on a jittered lattice with numpy (overlap-free by construction, 7 layers) and
+adds them with REBOUND, for sizes whose set-up through the scenario is slow.  Only the
+steps are timed.
 
     python benchmarks/profile_step.py --sizes 10000 100000 [--steps 100] [--setup lattice]
 
@@ -30,11 +31,12 @@ import argparse
 import ctypes
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 import rebound
 
-from ringsim.config.scenario import scenario_from_dict
+from ringsim.config.scenario import load_scenario, with_overrides
 from ringsim.engine import invariants, native, sheet, timestep
 from ringsim.engine.resolver import install_resolver
 
@@ -42,16 +44,14 @@ from ringsim.engine.resolver import install_resolver
 STEPS_PER_OUTPUT = 100
 
 
-def scale_scenario(n_particles: int, seed: int = 1):
-    """The benchmark's scenario (docs/performance.md "Whole step" and "Scale")."""
-    return scenario_from_dict({
-        "name": "scale", "seed": seed, "planet": {"Omega": 2.0e-4},
-        "particles": {"density": 900.0, "size_distribution": {
-            "kind": "powerlaw", "q": 3.0, "r_min": 0.5, "r_max": 5.0}},
-        "sheet": {"optical_depth": 0.25, "n_particles": n_particles},
-        "restitution": {"model": "bridges"},
-        "integration": {"orbits": 1.0, "dt": "auto", "collision_detection": "line"},
-    }, source="<benchmark>")
+#: The benchmark's sheet (also benchmarks/scale.py's).
+SCENARIO = Path(__file__).with_name("scale.yaml")
+
+
+def scale_scenario(n_particles: int, **overrides):
+    """benchmarks/scale.yaml with ``n_particles`` and further dotted-key ``overrides``."""
+    return with_overrides(load_scenario(SCENARIO),
+                          {"sheet.n_particles": int(n_particles), **overrides})
 
 
 def lattice_sheet(sc):

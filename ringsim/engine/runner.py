@@ -162,8 +162,11 @@ class Runner:
 
     # -- set-up --------------------------------------------------------------------------------
 
-    def start_new(self) -> None:
-        built = sheet.build_sheet(self.scenario)
+    def start_new(self, built: sheet.BuiltSheet | None = None) -> None:
+        """Set the run up: ``built`` (a sheet of this scenario from ``sheet.build_sheet``,
+        e.g. to time the loop apart from the set-up), or a new one; first output."""
+        if built is None:
+            built = sheet.build_sheet(self.scenario)
         self.sim, self.geometry, self.handle = built.sim, built.geometry, built.resolver
         self._set_threads()
         self.edges = built.size_bin_edges
