@@ -171,13 +171,15 @@
 #endif
 
 struct rs_sheet_particle {
-    double x, y, z;         /* [m] current position */
+    /* first what the sort reads (one cache line of the two) */
+    double xw, yw;          /* [m] position wrapped into the primary box */
+    double z;               /* [m] current position */
+    double reach;           /* [m] radius + dt x speed relative to the shear flow */
+    int64_t index;          /* in r->particles */
+    double x, y;            /* [m] current position */
     double vx, vy, vz;      /* [m/s] current velocity */
     double radius;          /* [m] */
-    double reach;           /* [m] radius + dt x speed relative to the shear flow */
     double ox, oy, ovy;     /* [m], [m], [m/s] wrapped minus current coordinates */
-    double xw, yw;          /* [m] position wrapped into the primary box */
-    int64_t index;          /* in r->particles */
 };
 
 /* What the search's first test reads of a particle, in cell order: 40 bytes instead of the
