@@ -47,6 +47,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = Path(__file__).with_name("scale.yaml")
 DOC = ROOT / "docs" / "performance.md"
 FIGURE = ROOT / "docs" / "figures" / "scale.png"
+RESULTS = ROOT / "docs" / "figures" / "scale.json"     # what the figure shows
 HEADING = "## Scale"
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
 QUICK_SIZES = (1_000, 10_000, 100_000)
@@ -62,9 +63,9 @@ BEFORE_NS = {1_000: 540.0, 10_000: 600.0, 100_000: 1000.0}
 
 
 def steps_for(n: int) -> int:
-    """Steps of one timed loop: about 3e8 particle-steps, at least one output interval
-    (100 steps of 1e-3 orbit) and at most 30 of them."""
-    return int(min(3000, max(100, round(3e8 / n / 100) * 100)))
+    """Steps of one timed loop: about 1e7 particle-steps (a few seconds), at least one
+    output interval (100 steps of 1e-3 orbit) and at most 30 of them."""
+    return int(min(3000, max(100, round(1e7 / n / 100) * 100)))
 
 
 def _rss_bytes() -> int:
@@ -209,8 +210,10 @@ def plot(results: list[dict], path: Path) -> None:
         low = np.array([min(x["wall_ns"] for x in r["loops"][threads]) for r in results])
         high = np.array([max(x["wall_ns"] for x in r["loops"][threads]) for r in results])
         ax.errorbar(n, median, yerr=[median - low, high - median], marker=marker,
-                    capsize=3, label=f"{threads} thread{'s' if threads == '2' else ''} "
-                    "(median, range)")
+                    capsize=3, label=f"{threads} thread{'s' if threads == '2' else ''}, "
+                    "wall (median, range)")
+    ax.plot(n, [r["cpu_ns"]["1"] for r in results], "o-", color="C2", mfc="none",
+            label="1 thread, CPU time (less disturbed by other jobs)")
     before = sorted(BEFORE_NS.items())
     ax.plot([k for k, _ in before], [v for _, v in before], "x:", color="grey",
             label="before (issue 16, 1 thread)")
@@ -224,7 +227,7 @@ def plot(results: list[dict], path: Path) -> None:
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("particles N")
-    ax.set_ylabel("wall time per particle-step [ns]")
+    ax.set_ylabel("time per particle-step [ns]")
     ax.set_title("Whole run loop, line mode, tau = 0.25, 0.5-5 m")
     ax.legend(fontsize=7, loc="upper left")
     ax.grid(True, which="both", alpha=0.3)
@@ -234,8 +237,8 @@ def plot(results: list[dict], path: Path) -> None:
     plt.close(fig)
 
 
-def section(results: list[dict], command: str) -> str:
-    """The "Scale" section of docs/performance.md."""
+def section(results: list[dict], command: str, note: str = "") -> str:
+    """The "Scale" section of docs/performance.md (``note``: a paragraph after the table)."""
     import rebound
 
     from ringsim.engine.native import openmp_available
@@ -252,6 +255,7 @@ def section(results: list[dict], command: str) -> str:
                        f"{at_1e5['cpu_ns']['1']:.0f} ns CPU (target <= {TARGET_NS:.0f})")
         verdict.append(f"2 threads / 1 thread at N = 1e5: {at_1e5['thread_ratio']:.2f} "
                        f"(target <= {TARGET_THREAD_RATIO})")
+    note = f"\n{note}\n" if note else ""
     verdict.append("memory: " + ", ".join(f"{r['bytes_per_particle']:.0f} B at "
                                           f"{r['n']:.0e}" for r in results)
                    + f" per particle (target <= {TARGET_BYTES:.0f})")
@@ -273,17 +277,17 @@ the set-up, per particle.  Set-up and snapshot write are part A's (`build_sheet`
 
 {TABLE_HEAD}
 {rows}
-
+{note}
 {chr(10).join("- " + v for v in verdict)}
 
 ![cost per particle-step against N](figures/scale.png)
 """
 
 
-def write_doc(results: list[dict], command: str) -> None:
+def write_doc(results: list[dict], command: str, note: str = "") -> None:
     """Replace (or append) the "Scale" section of docs/performance.md; draw the figure."""
     text = DOC.read_text()
-    new = section(results, command)
+    new = section(results, command, note)
     start = text.find(HEADING + "\n")
     if start < 0:
         text = text.rstrip("\n") + "\n\n" + new
@@ -291,6 +295,8 @@ def write_doc(results: list[dict], command: str) -> None:
         end = text.find("\n## ", start + len(HEADING))
         text = text[:start] + new + ("" if end < 0 else text[end:])
     DOC.write_text(text)
+    RESULTS.write_text(json.dumps({"command": command, "note": note, "results": results},
+                                  indent=1))
     plot(results, FIGURE)
 
 
@@ -300,8 +306,14 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="N = 1e3, 1e4, 1e5")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--write-doc", action="store_true")
+    parser.add_argument("--replot", action="store_true",
+                        help="redraw the figure and the section from docs/figures/scale.json")
     parser.add_argument("--one", type=float, help=argparse.SUPPRESS)  # worker: one size
     args = parser.parse_args()
+    if args.replot:
+        stored = json.loads(RESULTS.read_text())
+        write_doc(stored["results"], stored["command"], stored.get("note", ""))
+        return
     if args.one is not None:
         print(json.dumps(measure_one(int(args.one), args.repeat)))
         return

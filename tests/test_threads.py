@@ -208,3 +208,17 @@ def test_run_gives_the_same_bits_on_1_and_2_threads(tmp_path):
             assert np.array_equal(a, b, equal_nan=True), key
         else:
             assert np.array_equal(a, b), key
+
+
+def test_resume_accepts_another_thread_count(tmp_path):
+    path = tmp_path / "resume.h5"
+    first = scenario_dict(1, 200)
+    first["integration"]["orbits"] = 0.02
+    run(scenario_from_dict(first, source="threads.yaml"), output=path, progress=False)
+    longer = scenario_dict(2, 200)
+    longer["integration"]["orbits"] = 0.04
+    run(scenario_from_dict(longer, source="threads.yaml"), output=path, resume=True,
+        progress=False)
+    with h5py.File(path, "r") as f:
+        assert f.attrs["status"] == "finished"
+        assert f["timeseries/orbits"][-1] == pytest.approx(0.04, abs=1e-3)  # one step

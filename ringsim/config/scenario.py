@@ -58,6 +58,7 @@ from ringsim.config.sections import (
     Planet,
     Restitution,
     SheetConfig,
+    read_threads,
 )
 from ringsim.physics.friction import FRICTION, INERTIA_FACTOR
 from ringsim.physics.laws import DIMENSIONLESS
@@ -421,18 +422,9 @@ def _read_integration(top: Section, planet: Planet, gravity: bool = False) -> In
         dt_safety=sec.number("dt_safety", d["integration.dt_safety"], gt=0.0, le=1.0),
         collision_detection=detection,
         until_equilibrium=sec.boolean("until_equilibrium", d["integration.until_equilibrium"]),
-        threads=_read_threads(sec, d["integration.threads"]),
+        threads=read_threads(sec, d["integration.threads"]),
     )
 
-
-def _read_threads(sec: Section, default: Any) -> int | str:
-    """``integration.threads``: "auto" or an integer >= 1."""
-    if sec.mapping.get("threads", default) == "auto":
-        return "auto"
-    try:
-        return sec.integer("threads", default, ge=1)
-    except ScenarioError as exc:
-        raise sec.error("threads", exc.problem, "auto, or an integer >= 1") from None
 
 
 def _check_line_dt(sec: Section, dt: float, Omega: float) -> None:

@@ -230,6 +230,19 @@ class Integration:
         return available_cores() if self.threads == "auto" else int(self.threads)
 
 
+def read_threads(sec, default: Any) -> int | str:
+    """``integration.threads`` of a scenario section (``config.schema.Section``): "auto" or
+    an integer >= 1; ScenarioError otherwise."""
+    from ringsim.config.schema import ScenarioError
+
+    if sec.mapping.get("threads", default) == "auto":
+        return "auto"
+    try:
+        return sec.integer("threads", default, ge=1)
+    except ScenarioError as exc:
+        raise sec.error("threads", exc.problem, "auto, or an integer >= 1") from None
+
+
 def available_cores() -> int:
     """Cores this process may run on (its CPU affinity; os.cpu_count where unknown)."""
     try:
