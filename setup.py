@@ -58,7 +58,7 @@ def openmp_works() -> bool:
 if openmp_works():
     PARALLEL = OPENMP_FLAGS
 else:
-    PARALLEL = []
+    PARALLEL = ["-Wno-unknown-pragmas"]    # the omp pragmas are then ignored, on purpose
     sys.stderr.write("ringsim: the C compiler has no OpenMP; building the sheet detector "
                      "for one thread\n")
 
@@ -71,7 +71,7 @@ setup(
             libraries=["m"],
             extra_compile_args=["-O3", "-std=c99", "-fno-fast-math", "-ffp-contract=off",
                                 *PARALLEL],
-            extra_link_args=PARALLEL,
+            extra_link_args=[flag for flag in PARALLEL if flag in OPENMP_FLAGS],
         )
     ]
 )
