@@ -167,7 +167,8 @@ def test_defaults_are_filled_and_published_dilley_values():
     assert d["sheet"] == {"optical_depth": 0.25, "n_particles": 1000, "aspect": 1.0,
                           "gravity": False, "initial_dispersion": 2.0, "z_box": "auto"}
     assert d["integration"] == {"orbits": 10.0, "dt": "auto", "dt_safety": 0.1,
-                                "collision_detection": "tree", "until_equilibrium": False}
+                                "collision_detection": "tree", "until_equilibrium": False,
+                                "threads": "auto"}
     assert d["output"] == {"path": "runs/minimal.h5", "timeseries_every": 0.1,
                            "snapshot_every": 5.0, "checkpoint_every": 5.0, "log_collisions": 0}
     assert sc.softening_length is None and sc.source_text is None

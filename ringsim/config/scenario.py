@@ -59,6 +59,7 @@ from ringsim.config.sections import (
     Planet,
     Restitution,
     SheetConfig,
+    read_threads,
 )
 from ringsim.physics.friction import FRICTION, INERTIA_FACTOR
 from ringsim.physics.laws import DIMENSIONLESS
@@ -112,7 +113,8 @@ _SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "particles": ("density", "size_distribution", "inertia_factor"),
     "sheet": ("optical_depth", "n_particles", "aspect", "gravity", "gravity_solver",
               "softening", "opening_angle", "initial_dispersion", "z_box", "initial_state"),
-    "integration": ("orbits", "dt", "dt_safety", "collision_detection", "until_equilibrium"),
+    "integration": ("orbits", "dt", "dt_safety", "collision_detection", "until_equilibrium",
+                    "threads"),
     "output": ("path", "timeseries_every", "snapshot_every", "checkpoint_every",
                "log_collisions"),
 }
@@ -145,6 +147,7 @@ DEFAULTS: dict[str, Any] = {
     "integration.dt_safety": 0.1,
     "integration.collision_detection": "tree",
     "integration.until_equilibrium": False,
+    "integration.threads": "auto",
     "output.timeseries_every": 0.1,
     "output.snapshot_every": 5.0,
     "output.log_collisions": 0,
@@ -415,7 +418,9 @@ def _read_integration(top: Section, planet: Planet, gravity: bool = False) -> In
         dt_safety=sec.number("dt_safety", d["integration.dt_safety"], gt=0.0, le=1.0),
         collision_detection=detection,
         until_equilibrium=sec.boolean("until_equilibrium", d["integration.until_equilibrium"]),
+        threads=read_threads(sec, d["integration.threads"]),
     )
+
 
 
 def _check_line_dt(sec: Section, dt: float, Omega: float) -> None:

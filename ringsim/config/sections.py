@@ -8,6 +8,7 @@ and checks the YAML into them and assembles the `Scenario`.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from typing import Any
 
@@ -213,6 +214,9 @@ class Integration:
     until_equilibrium : bool
         Stop once the equilibrium finder calls c and H stationary (``orbits`` is then the
         maximum).
+    threads : int >= 1 or "auto"
+        OpenMP threads of line detection's search; "auto": the cores this process may run
+        on (``available_cores``).  Results do not depend on it (same seed, same bits).
     """
 
     orbits: float
@@ -220,11 +224,37 @@ class Integration:
     dt_safety: float
     collision_detection: str
     until_equilibrium: bool = False
+    threads: int | str = "auto"
 
     def to_dict(self) -> dict[str, Any]:
         return {"orbits": self.orbits, "dt": self.dt, "dt_safety": self.dt_safety,
                 "collision_detection": self.collision_detection,
-                "until_equilibrium": self.until_equilibrium}
+                "until_equilibrium": self.until_equilibrium, "threads": self.threads}
+
+    def thread_count(self) -> int:
+        """The number of threads ``threads`` asks for (``auto`` resolved now)."""
+        return available_cores() if self.threads == "auto" else int(self.threads)
+
+
+def read_threads(sec, default: Any) -> int | str:
+    """``integration.threads`` of a scenario section (``config.schema.Section``): "auto" or
+    an integer >= 1; ScenarioError otherwise."""
+    from ringsim.config.schema import ScenarioError
+
+    if sec.mapping.get("threads", default) == "auto":
+        return "auto"
+    try:
+        return sec.integer("threads", default, ge=1)
+    except ScenarioError as exc:
+        raise sec.error("threads", exc.problem, "auto, or an integer >= 1") from None
+
+
+def available_cores() -> int:
+    """Cores this process may run on (its CPU affinity; os.cpu_count where unknown)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # no sched_getaffinity on this platform (macOS, Windows)
+        return max(1, os.cpu_count() or 1)
 
 
 @dataclass(frozen=True)

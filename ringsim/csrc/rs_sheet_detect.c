@@ -35,14 +35,29 @@
  *    |dr| <= 2 max(rho) / (1 - 1.5 Omega dt) = s.
  * 2. Particles, wrapped into the primary box as REBOUND's shear boundary would wrap them
  *    (x - m Lx, y + m a, vy + 1.5 m Omega Lx with a = 1.5 Omega Lx t mod Ly), are sorted
- *    into a grid of cells of at least s on each side (x, y over the box; z over the
- *    particles' range, not periodic), by a counting sort: O(N) per step.
- * 3. Each particle looks at the 27 cells around it.  Across the radial boundary the
- *    neighbouring column belongs to a ghost box sliding along y, so the particle's image
- *    is moved into that box's frame (x -+ Lx, y +- a, vy +- 1.5 Omega Lx, as REBOUND's
- *    reb_boundary_get_ghostbox) before its y cell is computed.  Only j > i is examined, so
- *    each pair is seen once; every (cell, image) combination is distinct, and when the
- *    box is at least 2 s wide at most one image of a pair can be within reach.
+ *    into a grid of cells of at least s / RS_CELL_DIVISIONS on each side (x, y over the
+ *    box; z over the particles' range, not periodic), by a counting sort: O(N) per step.
+ *    The sort is stable, so a cell holds its particles in index order.
+ * 3. Each particle i looks at the cells within d_i = (rho_i + max rho) / (1 - 1.5 Omega dt)
+ *    of it (the bound of step 1 with rho_j <= max rho): a small particle beside large ones
+ *    looks at fewer cells than the largest pair distance s would need.  The cells of one
+ *    row (same y and z cell, one box) are consecutive in the sorted order, so a row is one
+ *    run of particles.  Across the radial boundary the neighbouring columns belong to a
+ *    ghost box sliding along y, so the particle's image is moved into that box's frame
+ *    (x -+ Lx, y +- a, vy +- 1.5 Omega Lx, as REBOUND's reb_boundary_get_ghostbox) before
+ *    its y cell is computed.  Only j > i is examined, so each pair is seen once; every
+ *    (cell, image) combination is distinct, and when the box is at least 2 s wide at most
+ *    one image of a pair can be within reach.  A first test of the bound on a compact copy
+ *    of the wrapped positions (rs_cell_report) keeps the cells around a particle in the
+ *    cache; it is widened by round-off, so it passes every pair the exact test passes.
+ * 3a. Threads.  The particles are split over integration.threads OpenMP threads, each
+ *    with its own list of reports; the lists are joined in thread order (rs_search).  The
+ *    resolution below stays serial: its contacts are applied one after the other in time
+ *    order, and each one changes the paths, hence the contact times, of the pairs that
+ *    wait; resolving two contacts at once would need to know they share no particle and
+ *    no later contact of either, which is the serial order itself.  The contacts wait in
+ *    a heap ordered by a total order (step 5), so neither the thread count nor the order
+ *    of the reports changes any result: same seed, same bits.
  * 4. A candidate is reported (struct reb_collision, gb = ghost-box offset of p1 relative to
  *    the particles' current, unwrapped coordinates) if the closest approach of its straight
  *    relative path over the step is <= R_i + R_j: REBOUND's linetree criterion.
@@ -71,8 +86,7 @@
  *        |dr_0| <= rho_i + rho_j + 1.5 Omega dt |dx_0| + D_i + D_j
  *    (dr_0, dx_0, rho at the start of the resolution, as in step 1); the re-check tests
  *    this with the current D of both particles, in as many cells around the particle as
- *    (rho_i + D_i + max rho + max D) / (1 - 1.5 Omega dt) needs (one unless deflections
- *    are large).  D of a pair grows only when one of its particles collides, and that
+ *    (rho_i + D_i + max rho + max D) / (1 - 1.5 Omega dt) needs (at most RS_MAX_SPAN s).  D of a pair grows only when one of its particles collides, and that
  *    particle is then re-checked with the new D: no contact on the piecewise-straight
  *    paths is missed (but see the limits).
  * 8. Collisions of one pair.  After a collision (eps >= 0) the pair's normal velocity is
@@ -88,10 +102,12 @@
  * No shuffle and no random numbers: sim.rand_seed is not used and does not advance.
  *
  * Parameters: none beyond the simulation's (box, OMEGA, boundary, dt_last_done, t) and the
- * resolver's.  Counters (rs_sheet_detector_counters): steps, candidates (pairs whose path
- * was tested, also in re-checks), reports, cells and cell size of the last step; of the time
+ * resolver's, and the number of threads of the search (rs_sheet_set_threads; the library
+ * is compiled with OpenMP where the compiler has it, rs_sheet_openmp).  Counters
+ * (rs_sheet_detector_counters): steps, candidates (pairs whose path was tested, also in
+ * re-checks), reports, cells and cell size of the last step; of the time
  * order (rs_sheet_order_counters): contacts resolved, of which on a path changed earlier in
- * the step, re-checks, re-checks wider than one cell, re-checks cut at RS_MAX_SPAN cells,
+ * the step, re-checks, re-checks wider than s, re-checks cut at RS_MAX_SPAN s,
  * particles that reached RS_MAX_CONTACTS.
  *
  * Validity limits
@@ -104,7 +120,7 @@
  * - The box should be at least 2 s wide in x and y.  If not, several images of one pair
  *   may be in reach; all are queued, the first contact is resolved and the pair's other
  *   images wait, like any pair, for a third body's deflection.
- * - A re-check looks at most RS_MAX_SPAN cells away (counted when it would need more, i.e.
+ * - A re-check looks at most RS_MAX_SPAN s away (counted when it would need more, i.e.
  *   when collisions within one step have moved particles off their first paths by several
  *   times the largest reach); contacts beyond are found in the next step, as overlaps or
  *   crossings.  Measured in line-mode rings at 1e-3 orbit: never reached; one re-check in
@@ -127,6 +143,9 @@
 #include <string.h>
 #include "rebound.h"
 #include "rs_resolver.h"
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 /* Error codes of rs_sheet_find_pairs (also in ringsim/resolver.py). */
 #define RS_DETECT_OK 0
@@ -140,16 +159,34 @@
 #define RS_CELLS_PER_PARTICLE 4
 /* Contacts resolved per particle and step at most (cuts inelastic collapse). */
 #define RS_MAX_CONTACTS 32
-/* Cells a re-check looks at in each direction at most. */
+/* A re-check looks at most this many times s (Method 1) away. */
 #define RS_MAX_SPAN 3
+/* Particles per thread at least: below, the threads' start and join cost more than they
+ * save (the search of 4096 particles takes about a millisecond). */
+#define RS_PARTICLES_PER_THREAD 4096
+/* Cells per s (Method 1) along each side: each particle looks only as far as its own
+ * reach needs, so that small particles beside large ones look at fewer partners. */
+#ifndef RS_CELL_DIVISIONS
+#define RS_CELL_DIVISIONS 4
+#endif
 
 struct rs_sheet_particle {
-    double x, y, z;         /* [m] current position */
+    /* first what the sort reads (one cache line of the two) */
+    double xw, yw;          /* [m] position wrapped into the primary box */
+    double z;               /* [m] current position */
+    double reach;           /* [m] radius + dt x speed relative to the shear flow */
+    int64_t index;          /* in r->particles */
+    double x, y;            /* [m] current position */
     double vx, vy, vz;      /* [m/s] current velocity */
     double radius;          /* [m] */
-    double reach;           /* [m] radius + dt x speed relative to the shear flow */
     double ox, oy, ovy;     /* [m], [m], [m/s] wrapped minus current coordinates */
-    double xw, yw;          /* [m] position wrapped into the primary box */
+};
+
+/* What the search's first test reads of a particle, in cell order: 40 bytes instead of the
+ * 128 of rs_sheet_particle, so that the cells around a particle stay in the cache. */
+struct rs_sheet_point {
+    double xw, yw, z;       /* [m] position wrapped into the primary box */
+    double reach;           /* [m] */
     int64_t index;          /* in r->particles */
 };
 
@@ -167,6 +204,15 @@ struct rs_event {
     struct reb_collision c; /* p1 < p2, gb of p1 */
 };
 
+/* Pairs one thread found in its share of the search, in search order. */
+struct rs_pair_list {
+    int64_t n;
+    int64_t capacity;
+    struct reb_collision* items;
+    int64_t candidates;     /* pairs whose path was tested */
+    int ok;                 /* 0 if memory ran out */
+};
+
 /* The cell grid of the last search. */
 struct rs_sheet_grid {
     double Lx, Ly;          /* [m] box */
@@ -175,23 +221,29 @@ struct rs_sheet_grid {
     double shear_step;      /* 1.5 |Omega| dt */
     double dt;              /* [s] */
     double sx, sy, sz;      /* [m] cell sides (sz infinite with one layer) */
-    double side_min;        /* [m] smallest of them */
+    double pair_reach;      /* [m] s of Method 1: the largest distance of a pair in reach */
     double z_min;           /* [m] bottom of the lowest layer */
+    double z_range;         /* [m] height of the particles' range */
     double reach_max;       /* [m] */
+    double slack;           /* [m] widening of the wrapped-coordinate pre-test (rs_cell_report) */
     int64_t nx, ny, nz;
 };
 
 struct rs_sheet_detector {
     int64_t particle_capacity;
     struct rs_sheet_particle* unsorted;     /* by particle index: the state before resolution */
-    struct rs_sheet_particle* sorted;       /* by cell */
+    struct rs_sheet_point* points;          /* by cell */
     struct rs_sheet_track* track;           /* by particle index */
     int64_t* cell_of;
     int64_t cell_capacity;
     int64_t* cell_start;            /* n_cells + 1 entries */
-    int64_t collision_capacity;
     int64_t n_collisions;
-    struct reb_collision* collisions;
+    struct reb_collision* collisions;       /* the lists of all threads, in thread order */
+    int64_t collision_capacity;
+    struct rs_pair_list* lists;             /* one per thread */
+    int64_t list_capacity;
+    int threads;                            /* OpenMP threads of the search (>= 1) */
+    int team_last;                          /* threads the last search ran on */
     int64_t event_capacity;
     int64_t n_events;
     struct rs_event* events;        /* binary heap, earliest contact at the root */
@@ -208,8 +260,8 @@ struct rs_sheet_detector {
     int64_t resolved;               /* contacts resolved */
     int64_t rescheduled;            /* of which timed on a path changed earlier in the step */
     int64_t rechecks;               /* neighbour searches after a collision */
-    int64_t wide_rechecks;          /* of which over more than one cell */
-    int64_t span_limited;           /* of which cut at RS_MAX_SPAN cells */
+    int64_t wide_rechecks;          /* of which over more than s */
+    int64_t span_limited;           /* of which cut at RS_MAX_SPAN s */
     int64_t saturated;              /* particles that reached RS_MAX_CONTACTS in a step */
 };
 
@@ -218,11 +270,15 @@ static void rs_sheet_detector_free(struct rs_sheet_detector* d){
         return;
     }
     free(d->unsorted);
-    free(d->sorted);
+    free(d->points);
     free(d->track);
     free(d->cell_of);
     free(d->cell_start);
     free(d->collisions);
+    for (int64_t k = 0; k < d->list_capacity; k++){
+        free(d->lists[k].items);
+    }
+    free(d->lists);
     free(d->events);
     free(d);
 }
@@ -244,6 +300,32 @@ static int rs_grow(void** buffer, int64_t* capacity, int64_t needed, size_t item
     return 1;
 }
 
+/* Number of the calling thread in the current OpenMP team (0 without OpenMP). */
+static int rs_thread_id(void){
+#ifdef _OPENMP
+    return omp_get_thread_num();
+#else
+    return 0;
+#endif
+}
+
+/* Number of threads in the current OpenMP team (1 without OpenMP). */
+static int rs_team_threads(void){
+#ifdef _OPENMP
+    return omp_get_num_threads();
+#else
+    return 1;
+#endif
+}
+
+/* Threads for a loop over n particles: d->threads, fewer if each would get fewer than
+ * RS_PARTICLES_PER_THREAD particles. */
+static int rs_team_size(const struct rs_sheet_detector* d, int64_t n){
+    const int64_t useful = n / RS_PARTICLES_PER_THREAD;
+    const int64_t team = d->threads < useful ? d->threads : useful;
+    return team >= 1 ? (int)team : 1;
+}
+
 /* floor(a / b) for b > 0 and small |a| (cell offsets beyond the grid). */
 static int64_t rs_floor_div(int64_t a, int64_t b){
     const int64_t q = a / b;
@@ -258,16 +340,12 @@ static int64_t rs_cell_coordinate(double u, double low, double width, int64_t n)
     return c >= (double)n ? n - 1 : (int64_t)c;
 }
 
-static int rs_report(struct rs_sheet_detector* d, size_t p1, size_t p2, struct reb_vec6d gb){
-    if (d->n_collisions >= d->collision_capacity){
-        int64_t capacity = d->collision_capacity;
-        if (!rs_grow((void**)&d->collisions, &capacity, d->n_collisions + 1,
-                     sizeof(struct reb_collision))){
-            return 0;
-        }
-        d->collision_capacity = capacity;
+static int rs_report(struct rs_pair_list* out, size_t p1, size_t p2, struct reb_vec6d gb){
+    if (!rs_grow((void**)&out->items, &out->capacity, out->n + 1,
+                 sizeof(struct reb_collision))){
+        return 0;
     }
-    struct reb_collision* c = &d->collisions[d->n_collisions++];
+    struct reb_collision* c = &out->items[out->n++];
     c->p1 = p1;
     c->p2 = p2;
     c->gb = gb;
@@ -402,100 +480,386 @@ static int rs_recheck_pair(const struct reb_simulation* const r, struct rs_sheet
 /* ---------------------------------------------------------------------------------- */
 /* The search.                                                                        */
 
+/* The image of particle pi in the frame of the box of index box_x (0: the primary box) in x:
+ * its x, y offsets [m] and vy offset [m/s] (y wrapped back into the primary box's range:
+ * y), and the y cell of the image. */
+struct rs_image {
+    double x, y, vy;
+    int64_t cell_y;
+};
+
+static struct rs_image rs_image_of(const struct rs_sheet_grid* g, double yw, int64_t box_x){
+    struct rs_image im;
+    im.x = -(double)box_x * g->Lx;
+    im.vy = (double)box_x * g->box_speed;
+    double image_y = (double)box_x * g->slide;
+    double yq = yw + image_y;
+    const double wrap_y = floor((yq + 0.5 * g->Ly) / g->Ly);
+    yq -= wrap_y * g->Ly;
+    im.y = image_y - wrap_y * g->Ly;
+    im.cell_y = rs_cell_coordinate(yq, -0.5 * g->Ly, g->sy, g->ny);
+    return im;
+}
+
+/* Cells a search over `distance` [m] must look at on each side along a side of `side` [m]. */
+static int64_t rs_span(double distance, double side){
+    const double cells = ceil(distance / side);
+    return cells >= 1.0 ? (cells < 1e9 ? (int64_t)cells : 1000000000) : 1;
+}
+
+/* Method 3-4 in the cells [first, end) of the sorted particles (a run of cells of one
+ * row) for particle pi (image
+ * offsets image_x, gy_i, image_vy): every partner j > i within the bound of Method 1 whose
+ * straight relative path touched pi's within the step goes to `out`.
+ *
+ * The bound is first tested on the compact points in wrapped coordinates, widened by
+ * g->slack (1e-9 of the box) so that it passes every pair the exact test below passes:
+ * the wrapped and the unwrapped differences agree to round-off of the box size.  The exact
+ * test, and everything reported, is computed from the unwrapped coordinates as before, so
+ * the pre-test changes the cost only.  Its branch is taken rarely and predictably (the
+ * j > i condition joins it without a branch of its own).  Returns 0 if memory ran out. */
+static int rs_cell_report(const struct rs_sheet_grid* g, const struct rs_sheet_detector* d,
+                          const struct rs_sheet_point* p, int64_t first, int64_t end,
+                          double image_x, double gy_i, double image_vy,
+                          struct rs_pair_list* out){
+    const struct rs_sheet_point* const points = d->points;
+    const double xi = p->xw + image_x;
+    const double yi = p->yw + gy_i;
+    const double reach_i = p->reach + g->slack;
+    for (int64_t b = first; b < end; b++){
+        const struct rs_sheet_point* q = &points[b];
+        const double dxw = xi - q->xw;
+        const double dyw = yi - q->yw;
+        const double dzw = p->z - q->z;
+        const double wide = reach_i + q->reach + g->shear_step * fabs(dxw);
+        const int near = dxw * dxw + dyw * dyw + dzw * dzw <= wide * wide;
+        if (!(near & (q->index > p->index))){
+            continue;
+        }
+        const struct rs_sheet_particle* pi = &d->unsorted[p->index];
+        const struct rs_sheet_particle* pj = &d->unsorted[q->index];
+        struct reb_vec6d gb;
+        gb.x = pi->ox + image_x - pj->ox;
+        gb.y = pi->oy + gy_i - pj->oy;
+        gb.z = 0.0;
+        gb.vx = 0.0;
+        gb.vy = pi->ovy + image_vy - pj->ovy;
+        gb.vz = 0.0;
+        const double dx = pi->x + gb.x - pj->x;
+        const double dy = pi->y + gb.y - pj->y;
+        const double dz = pi->z - pj->z;
+        const double bound = pi->reach + pj->reach + g->shear_step * fabs(dx);
+        if (dx * dx + dy * dy + dz * dz > bound * bound){
+            continue;
+        }
+        out->candidates++;
+        const double dvx = pi->vx - pj->vx;
+        const double dvy = pi->vy + gb.vy - pj->vy;
+        const double dvz = pi->vz - pj->vz;
+        /* Closest approach on dr(s) = dr - s dv, 0 <= s <= dt. */
+        const double dv2 = dvx * dvx + dvy * dvy + dvz * dvz;
+        double s_closest = dv2 > 0.0 ? (dx * dvx + dy * dvy + dz * dvz) / dv2 : 0.0;
+        s_closest = s_closest < 0.0 ? 0.0 : (s_closest > g->dt ? g->dt : s_closest);
+        const double ex = dx - s_closest * dvx;
+        const double ey = dy - s_closest * dvy;
+        const double ez = dz - s_closest * dvz;
+        const double sum_radii = pi->radius + pj->radius;
+        if (ex * ex + ey * ey + ez * ez > sum_radii * sum_radii){
+            continue;
+        }
+        if (!rs_report(out, (size_t)pi->index, (size_t)pj->index, gb)){
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* Method 6-7 in the cells [first, end) of one row for particle pi: partners j != i within
+ * the bound of Method 7 get their contacts within the last `window` of the step queued.
+ * Returns 0 if memory ran out. */
+static int rs_cell_recheck(const struct reb_simulation* const r, struct rs_sheet_detector* d,
+                           const struct rs_sheet_point* p, int64_t first, int64_t end,
+                           double image_x, double gy_i, double image_vy, double window){
+    const struct rs_sheet_point* const points = d->points;
+    const struct rs_sheet_particle* const pi = &d->unsorted[p->index];
+    const double deviation_i = d->track[pi->index].deviation;
+    const double shear_step = d->grid.shear_step;
+    const double xi = p->xw + image_x;
+    const double yi = p->yw + gy_i;
+    /* the pre-test of rs_cell_report, widened by the largest deviations */
+    const double reach_i = p->reach + d->grid.slack + deviation_i + d->deviation_max;
+    for (int64_t b = first; b < end; b++){
+        const struct rs_sheet_point* q = &points[b];
+        const double dxw = xi - q->xw;
+        const double dyw = yi - q->yw;
+        const double dzw = p->z - q->z;
+        const double wide = reach_i + q->reach + shear_step * fabs(dxw);
+        const int near = dxw * dxw + dyw * dyw + dzw * dzw <= wide * wide;
+        if (!(near & (q->index != p->index))){
+            continue;
+        }
+        const struct rs_sheet_particle* pj = &d->unsorted[q->index];
+        struct reb_vec6d gb;
+        gb.x = pi->ox + image_x - pj->ox;
+        gb.y = pi->oy + gy_i - pj->oy;
+        gb.z = 0.0;
+        gb.vx = 0.0;
+        gb.vy = pi->ovy + image_vy - pj->ovy;
+        gb.vz = 0.0;
+        const double dx = pi->x + gb.x - pj->x;
+        const double dy = pi->y + gb.y - pj->y;
+        const double dz = pi->z - pj->z;
+        const double bound = (pi->reach + pj->reach + shear_step * fabs(dx))
+                             + (deviation_i + d->track[pj->index].deviation);
+        if (dx * dx + dy * dy + dz * dz > bound * bound){
+            continue;
+        }
+        if (!rs_recheck_pair(r, d, pi->index, pj->index, gb, window)){
+            return 0;
+        }
+    }
+    return 1;
+}
+
 enum RS_SCAN {
-    RS_SCAN_REPORT = 0,     /* Method 3-4: partners j > i, report swept contacts */
+    RS_SCAN_REPORT = 0,     /* Method 3-4: partners j > i, report swept contacts (to out) */
     RS_SCAN_RECHECK = 1,    /* Method 6-7: partners j != i, queue their next contacts */
 };
 
-/* Looks at the cells up to `span` cells around particle pi (state before the resolution)
- * for partners within the bound of Method 1 (REPORT) or 7 (RECHECK, contacts within the
- * last `window` of the step).  Returns 0 if memory ran out. */
+/* Looks at every cell within `distance` [m] of particle pi (state before the resolution)
+ * in x, y and z, each image of the shear-periodic box once.  The cells of one row (same y,
+ * z) that belong to one box are consecutive in the sorted particles, so a row is one run:
+ * the cost is per particle looked at, hardly per cell.  REPORT mode reads the detector only
+ * and writes to `out` (threads may scan different particles at once); RECHECK queues
+ * contacts within the last `window` of the step.  Returns 0 if memory ran out. */
 static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detector* d,
-                   const struct rs_sheet_particle pi, int64_t span, int mode, double window){
-    const struct rs_sheet_grid g = d->grid;     /* a copy: the loop below writes to d */
+                   const struct rs_sheet_point* pi, double distance, int mode,
+                   double window, struct rs_pair_list* out){
+    const struct rs_sheet_grid* const g = &d->grid;
     const int64_t* const start = d->cell_start;
-    const struct rs_sheet_particle* const sorted = d->sorted;
-    const double deviation_i = mode == RS_SCAN_RECHECK ? d->track[pi.index].deviation : 0.0;
-    const int64_t cx = rs_cell_coordinate(pi.xw, -0.5 * g.Lx, g.sx, g.nx);
-    const int64_t cz = g.nz > 1 ? rs_cell_coordinate(pi.z, g.z_min, g.sz, g.nz) : 0;
-    int64_t candidates = 0;
-    for (int64_t kx = -span; kx <= span; kx++){
-        const int64_t box_x = rs_floor_div(cx + kx, g.nx);
-        const int64_t column_x = cx + kx - box_x * g.nx;
-        /* Image of i in the frame of the box the column belongs to. */
-        const double image_x = -(double)box_x * g.Lx;
-        const double image_vy = (double)box_x * g.box_speed;
-        double image_y = (double)box_x * g.slide;
-        double yq = pi.yw + image_y;
-        const double wrap_y = floor((yq + 0.5 * g.Ly) / g.Ly);
-        yq -= wrap_y * g.Ly;
-        image_y -= wrap_y * g.Ly;
-        const int64_t cyq = rs_cell_coordinate(yq, -0.5 * g.Ly, g.sy, g.ny);
-        for (int64_t ky = -span; ky <= span; ky++){
-            const int64_t box_y = rs_floor_div(cyq + ky, g.ny);
-            const int64_t column_y = cyq + ky - box_y * g.ny;
-            const double gy_i = image_y - (double)box_y * g.Ly;
-            for (int64_t kz = -span; kz <= span; kz++){
-                const int64_t layer = cz + kz;
-                if (layer < 0 || layer >= g.nz){
-                    continue;
-                }
-                const int64_t cell = (layer * g.ny + column_y) * g.nx + column_x;
-                const int64_t end = start[cell + 1];
-                for (int64_t b = start[cell]; b < end; b++){
-                    const struct rs_sheet_particle* pj = &sorted[b];
-                    if (mode == RS_SCAN_REPORT ? pj->index <= pi.index
-                                               : pj->index == pi.index){
-                        continue;
-                    }
-                    struct reb_vec6d gb;
-                    gb.x = pi.ox + image_x - pj->ox;
-                    gb.y = pi.oy + gy_i - pj->oy;
-                    gb.z = 0.0;
-                    gb.vx = 0.0;
-                    gb.vy = pi.ovy + image_vy - pj->ovy;
-                    gb.vz = 0.0;
-                    const double dx = pi.x + gb.x - pj->x;
-                    const double dy = pi.y + gb.y - pj->y;
-                    const double dz = pi.z - pj->z;
-                    double bound = pi.reach + pj->reach + g.shear_step * fabs(dx);
-                    if (mode == RS_SCAN_RECHECK){
-                        bound += deviation_i + d->track[pj->index].deviation;
-                    }
-                    const double d2 = dx * dx + dy * dy + dz * dz;
-                    if (d2 > bound * bound){
-                        continue;
-                    }
-                    if (mode == RS_SCAN_RECHECK){
-                        if (!rs_recheck_pair(r, d, pi.index, pj->index, gb, window)){
-                            return 0;
-                        }
-                        continue;
-                    }
-                    candidates++;
-                    const double dvx = pi.vx - pj->vx;
-                    const double dvy = pi.vy + gb.vy - pj->vy;
-                    const double dvz = pi.vz - pj->vz;
-                    /* Closest approach on dr(s) = dr - s dv, 0 <= s <= dt. */
-                    const double dv2 = dvx * dvx + dvy * dvy + dvz * dvz;
-                    double s_closest = dv2 > 0.0 ? (dx * dvx + dy * dvy + dz * dvz) / dv2
-                                                 : 0.0;
-                    s_closest = s_closest < 0.0 ? 0.0 : (s_closest > g.dt ? g.dt : s_closest);
-                    const double ex = dx - s_closest * dvx;
-                    const double ey = dy - s_closest * dvy;
-                    const double ez = dz - s_closest * dvz;
-                    const double sum_radii = pi.radius + pj->radius;
-                    if (ex * ex + ey * ey + ez * ez > sum_radii * sum_radii){
-                        continue;
-                    }
-                    if (!rs_report(d, (size_t)pi.index, (size_t)pj->index, gb)){
-                        return 0;
-                    }
+    /* at most one box on each side (a box narrower than 2 s is outside the validity
+     * limits: images further away are not looked at, as before the cells were split) */
+    const int64_t span_x = rs_span(distance, g->sx) < g->nx ? rs_span(distance, g->sx) : g->nx;
+    const int64_t span_y = rs_span(distance, g->sy) < g->ny ? rs_span(distance, g->sy) : g->ny;
+    const int64_t span_z = g->nz > 1 ? rs_span(distance, g->sz) : 0;
+    const int64_t cx = rs_cell_coordinate(pi->xw, -0.5 * g->Lx, g->sx, g->nx);
+    const int64_t cz = g->nz > 1 ? rs_cell_coordinate(pi->z, g->z_min, g->sz, g->nz) : 0;
+    const int64_t layer_low = cz - span_z < 0 ? 0 : cz - span_z;
+    const int64_t layer_high = cz + span_z >= g->nz ? g->nz - 1 : cz + span_z;
+    for (int64_t kx = -span_x; kx <= span_x;){
+        /* the run of columns from cx + kx to the box's last column or cx + span_x */
+        const int64_t box_x = rs_floor_div(cx + kx, g->nx);
+        const int64_t first_x = cx + kx - box_x * g->nx;
+        const int64_t count = span_x - kx + 1 < g->nx - first_x ? span_x - kx + 1
+                                                               : g->nx - first_x;
+        const struct rs_image im = rs_image_of(g, pi->yw, box_x);
+        for (int64_t ky = -span_y; ky <= span_y; ky++){
+            const int64_t box_y = rs_floor_div(im.cell_y + ky, g->ny);
+            const int64_t column_y = im.cell_y + ky - box_y * g->ny;
+            const double gy_i = im.y - (double)box_y * g->Ly;
+            for (int64_t layer = layer_low; layer <= layer_high; layer++){
+                const int64_t row = (layer * g->ny + column_y) * g->nx;
+                const int64_t first = start[row + first_x];
+                const int64_t end = start[row + first_x + count];
+                const int ok = mode == RS_SCAN_REPORT
+                    ? rs_cell_report(g, d, pi, first, end, im.x, gy_i, im.vy, out)
+                    : rs_cell_recheck(r, d, pi, first, end, im.x, gy_i, im.vy, window);
+                if (!ok){
+                    return 0;
                 }
             }
         }
+        kx += count;
     }
-    d->candidates += candidates;
+    return 1;
+}
+
+/* Method 1: every particle's wrapped position, wrap offsets and reach (d->unsorted), and
+ * the grid's reach_max and vertical range.  Particles are independent: split over the
+ * threads; the maxima and minima do not depend on the order they are taken in.  Returns 0
+ * if the state is not finite. */
+static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detector* d){
+    struct rs_sheet_grid* const g = &d->grid;
+    const int64_t n = (int64_t)r->N;
+    const double Lx = g->Lx;
+    const double Ly = g->Ly;
+    const double Omega = r->boundary == REB_BOUNDARY_SHEAR ? r->OMEGA : 0.0;
+    double reach_max = 0.0;
+    double z_min = INFINITY;
+    double z_max = -INFINITY;
+#pragma omp parallel for schedule(static) num_threads(rs_team_size(d, n)) \
+        reduction(max:reach_max, z_max) reduction(min:z_min)
+    for (int64_t i = 0; i < n; i++){
+        const struct reb_particle p = r->particles[i];
+        struct rs_sheet_particle* q = &d->unsorted[i];
+        const double mx = floor((p.x + 0.5 * Lx) / Lx);
+        double xw = p.x - mx * Lx;
+        double yw = p.y + mx * g->slide;
+        yw -= Ly * floor((yw + 0.5 * Ly) / Ly);
+        q->x = p.x;
+        q->y = p.y;
+        q->z = p.z;
+        q->vx = p.vx;
+        q->vy = p.vy;
+        q->vz = p.vz;
+        q->radius = p.r;
+        const double wy = p.vy + 1.5 * Omega * p.x;
+        q->reach = p.r + g->dt * sqrt(p.vx * p.vx + wy * wy + p.vz * p.vz);
+        q->xw = xw;
+        q->yw = yw;
+        q->ox = xw - p.x;
+        q->oy = yw - p.y;
+        q->ovy = mx * g->box_speed;
+        q->index = i;
+        /* fmax/fmin skip NaN, as the comparisons did before */
+        reach_max = fmax(reach_max, q->reach);
+        z_min = fmin(z_min, p.z);
+        z_max = fmax(z_max, p.z);
+    }
+    if (!isfinite(reach_max) || !isfinite(z_min) || !isfinite(z_max)){
+        return 0;
+    }
+    g->reach_max = reach_max;
+    g->z_min = z_min;
+    g->z_range = z_max - z_min;
+    return 1;
+}
+
+/* Method 2: cells of at least s / RS_CELL_DIVISIONS on every side, and the particles sorted
+ * into them by a
+ * counting sort (stable: a cell holds its particles in index order) into
+ * d->points.  Returns 0 if memory ran out. */
+static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
+    struct rs_sheet_grid* const g = &d->grid;
+    const double Lx = g->Lx;
+    const double Ly = g->Ly;
+    /* s: the largest distance at which two particles can touch within the step */
+    double s = 2.0 * g->reach_max / (1.0 - g->shear_step);
+    s = s * (1.0 + 1e-12) + DBL_MIN;
+    g->pair_reach = s;
+    const double side = s / RS_CELL_DIVISIONS;
+    const int64_t cell_cap = RS_CELLS_PER_PARTICLE * n + 64;
+    int64_t nx = Lx / side >= (double)cell_cap ? cell_cap : (int64_t)floor(Lx / side);
+    int64_t ny = Ly / side >= (double)cell_cap ? cell_cap : (int64_t)floor(Ly / side);
+    nx = nx < 1 ? 1 : nx;
+    ny = ny < 1 ? 1 : ny;
+    while (nx * ny > cell_cap){
+        nx = nx > 1 ? (nx + 1) / 2 : 1;
+        ny = ny > 1 ? (ny + 1) / 2 : 1;
+    }
+    const double z_range = g->z_range;
+    int64_t nz = z_range / side >= (double)cell_cap ? cell_cap
+                                                    : (int64_t)floor(z_range / side) + 1;
+    if (nx * ny * nz > cell_cap){
+        nz = cell_cap / (nx * ny);
+        nz = nz < 1 ? 1 : nz;
+    }
+    g->nx = nx;
+    g->ny = ny;
+    g->nz = nz;
+    g->sx = Lx / (double)nx;
+    g->sy = Ly / (double)ny;
+    g->sz = nz > 1 ? fmax(side, z_range / (double)(nz - 1) * (1.0 + 1e-12)) : INFINITY;
+    /* round-off of coordinates of the box's size, far below any reach (rs_cell_report) */
+    g->slack = 1e-9 * (Lx + Ly + fabs(g->z_min) + z_range);
+    const int64_t n_cells = nx * ny * nz;
+    int64_t capacity = d->cell_capacity;
+    if (!rs_grow((void**)&d->cell_start, &capacity, n_cells + 1, sizeof(int64_t))){
+        return 0;
+    }
+    d->cell_capacity = capacity;
+    d->cells_last = n_cells;
+    d->cell_size_last = side;
+
+    int64_t* const start = d->cell_start;
+    memset(start, 0, (size_t)(n_cells + 1) * sizeof(int64_t));
+    for (int64_t i = 0; i < n; i++){
+        const struct rs_sheet_particle* q = &d->unsorted[i];
+        const int64_t cx = rs_cell_coordinate(q->xw, -0.5 * Lx, g->sx, nx);
+        const int64_t cy = rs_cell_coordinate(q->yw, -0.5 * Ly, g->sy, ny);
+        const int64_t cz = nz > 1 ? rs_cell_coordinate(q->z, g->z_min, g->sz, nz) : 0;
+        d->cell_of[i] = (cz * ny + cy) * nx + cx;
+    }
+    for (int64_t i = 0; i < n; i++){
+        start[d->cell_of[i] + 1]++;
+    }
+    for (int64_t c = 0; c < n_cells; c++){
+        start[c + 1] += start[c];
+    }
+    for (int64_t i = 0; i < n; i++){
+        /* start[c] is the next free slot of cell c during placement ... */
+        const int64_t slot = start[d->cell_of[i]]++;
+        const struct rs_sheet_particle* q = &d->unsorted[i];
+        d->points[slot] = (struct rs_sheet_point){q->xw, q->yw, q->z, q->reach, q->index};
+    }
+    for (int64_t c = n_cells; c > 0; c--){
+        start[c] = start[c - 1];    /* ... and is shifted back to the cell's first slot */
+    }
+    start[0] = 0;
+    return 1;
+}
+
+/* Method 3-4 for all particles.  The particles are split over d->threads OpenMP threads in
+ * contiguous shares (schedule static), each thread filling its own list; the lists are
+ * joined in thread order, which is the order of a serial search.  The result would not
+ * depend on the order anyway: the contacts are resolved in the total order of
+ * rs_event_before.  Returns 0 if memory ran out. */
+static int rs_search(struct rs_sheet_detector* d, int64_t n){
+    const int threads = rs_team_size(d, n);
+    if (d->list_capacity < threads){
+        struct rs_pair_list* grown = realloc(d->lists,
+                                             (size_t)threads * sizeof(struct rs_pair_list));
+        if (grown == NULL){
+            return 0;
+        }
+        memset(&grown[d->list_capacity], 0,
+               (size_t)(threads - d->list_capacity) * sizeof(struct rs_pair_list));
+        d->lists = grown;
+        d->list_capacity = threads;
+    }
+    for (int k = 0; k < threads; k++){
+        d->lists[k].n = 0;
+        d->lists[k].candidates = 0;
+        d->lists[k].ok = 1;
+    }
+    d->team_last = 1;
+#pragma omp parallel num_threads(threads)
+    {
+#pragma omp single nowait
+        {
+            d->team_last = rs_team_threads();
+        }
+        /* a copy on this thread's stack: no false sharing of the counters */
+        struct rs_pair_list list = d->lists[rs_thread_id()];
+#pragma omp for schedule(static)
+        for (int64_t a = 0; a < n; a++){
+            const struct rs_sheet_point* pi = &d->points[a];
+            const double distance = (pi->reach + d->grid.reach_max)
+                                    / (1.0 - d->grid.shear_step) * (1.0 + 1e-12)
+                                    + d->grid.slack;
+            if (list.ok && !rs_scan(NULL, d, pi, distance, RS_SCAN_REPORT, 0.0, &list)){
+                list.ok = 0;
+            }
+        }
+        d->lists[rs_thread_id()] = list;
+    }
+    int64_t total = 0;
+    int ok = 1;
+    for (int k = 0; k < threads; k++){
+        total += d->lists[k].n;
+        d->candidates += d->lists[k].candidates;
+        ok &= d->lists[k].ok;
+    }
+    if (!ok || !rs_grow((void**)&d->collisions, &d->collision_capacity, total,
+                        sizeof(struct reb_collision))){
+        return 0;
+    }
+    d->n_collisions = 0;
+    for (int k = 0; k < threads; k++){
+        memcpy(&d->collisions[d->n_collisions], d->lists[k].items,
+               (size_t)d->lists[k].n * sizeof(struct reb_collision));
+        d->n_collisions += d->lists[k].n;
+    }
     return 1;
 }
 
@@ -530,7 +894,7 @@ static int rs_sheet_find_pairs(struct reb_simulation* const r, struct rs_sheet_d
         return RS_DETECT_NO_MEMORY;
     }
     capacity = d->particle_capacity;
-    if (!rs_grow((void**)&d->sorted, &capacity, n, sizeof(struct rs_sheet_particle))){
+    if (!rs_grow((void**)&d->points, &capacity, n, sizeof(struct rs_sheet_point))){
         return RS_DETECT_NO_MEMORY;
     }
     capacity = d->particle_capacity;
@@ -543,111 +907,16 @@ static int rs_sheet_find_pairs(struct reb_simulation* const r, struct rs_sheet_d
     }
     d->particle_capacity = capacity;
 
-    /* 1. Wrap, reach, vertical range. */
-    double reach_max = 0.0;
-    double z_min = INFINITY;
-    double z_max = -INFINITY;
-    for (int64_t i = 0; i < n; i++){
-        const struct reb_particle p = r->particles[i];
-        struct rs_sheet_particle* q = &d->unsorted[i];
-        const double mx = floor((p.x + 0.5 * Lx) / Lx);
-        double xw = p.x - mx * Lx;
-        double yw = p.y + mx * g->slide;
-        yw -= Ly * floor((yw + 0.5 * Ly) / Ly);
-        q->x = p.x;
-        q->y = p.y;
-        q->z = p.z;
-        q->vx = p.vx;
-        q->vy = p.vy;
-        q->vz = p.vz;
-        q->radius = p.r;
-        const double wy = p.vy + 1.5 * Omega * p.x;
-        q->reach = p.r + g->dt * sqrt(p.vx * p.vx + wy * wy + p.vz * p.vz);
-        q->xw = xw;
-        q->yw = yw;
-        q->ox = xw - p.x;
-        q->oy = yw - p.y;
-        q->ovy = mx * g->box_speed;
-        q->index = i;
-        if (q->reach > reach_max){
-            reach_max = q->reach;
-        }
-        if (p.z < z_min){
-            z_min = p.z;
-        }
-        if (p.z > z_max){
-            z_max = p.z;
-        }
-    }
-    if (!isfinite(reach_max) || !isfinite(z_min) || !isfinite(z_max)){
+    /* 1. Wrap, reach, vertical range (rs_wrap); 2. grid and counting sort (rs_grid_sort);
+     * 3-4. neighbour cells, images, exact path test (rs_search). */
+    if (!rs_wrap(r, d)){
         return RS_DETECT_STEP_TOO_LONG;     /* non-finite state: nothing sensible to do */
     }
-    g->reach_max = reach_max;
-
-    /* 2. Grid: cells of at least s on every side. */
-    double s = 2.0 * reach_max / (1.0 - g->shear_step);
-    s = s * (1.0 + 1e-12) + DBL_MIN;
-    const int64_t cell_cap = RS_CELLS_PER_PARTICLE * n + 64;
-    int64_t nx = Lx / s >= (double)cell_cap ? cell_cap : (int64_t)floor(Lx / s);
-    int64_t ny = Ly / s >= (double)cell_cap ? cell_cap : (int64_t)floor(Ly / s);
-    nx = nx < 1 ? 1 : nx;
-    ny = ny < 1 ? 1 : ny;
-    while (nx * ny > cell_cap){
-        nx = nx > 1 ? (nx + 1) / 2 : 1;
-        ny = ny > 1 ? (ny + 1) / 2 : 1;
-    }
-    const double z_range = z_max - z_min;
-    int64_t nz = z_range / s >= (double)cell_cap ? cell_cap : (int64_t)floor(z_range / s) + 1;
-    if (nx * ny * nz > cell_cap){
-        nz = cell_cap / (nx * ny);
-        nz = nz < 1 ? 1 : nz;
-    }
-    g->nx = nx;
-    g->ny = ny;
-    g->nz = nz;
-    g->sx = Lx / (double)nx;
-    g->sy = Ly / (double)ny;
-    g->sz = nz > 1 ? fmax(s, z_range / (double)(nz - 1) * (1.0 + 1e-12)) : INFINITY;
-    g->side_min = fmin(fmin(g->sx, g->sy), g->sz);
-    g->z_min = z_min;
-    const int64_t n_cells = nx * ny * nz;
-    capacity = d->cell_capacity;
-    if (!rs_grow((void**)&d->cell_start, &capacity, n_cells + 1, sizeof(int64_t))){
+    if (!rs_grid_sort(d, n)){
         return RS_DETECT_NO_MEMORY;
     }
-    d->cell_capacity = capacity;
-    d->cells_last = n_cells;
-    d->cell_size_last = s;
-
-    /* Counting sort into cells. */
-    int64_t* const start = d->cell_start;
-    memset(start, 0, (size_t)(n_cells + 1) * sizeof(int64_t));
-    for (int64_t i = 0; i < n; i++){
-        const struct rs_sheet_particle* q = &d->unsorted[i];
-        const int64_t cx = rs_cell_coordinate(q->xw, -0.5 * Lx, g->sx, nx);
-        const int64_t cy = rs_cell_coordinate(q->yw, -0.5 * Ly, g->sy, ny);
-        const int64_t cz = nz > 1 ? rs_cell_coordinate(q->z, z_min, g->sz, nz) : 0;
-        const int64_t cell = (cz * ny + cy) * nx + cx;
-        d->cell_of[i] = cell;
-        start[cell + 1]++;
-    }
-    for (int64_t c = 0; c < n_cells; c++){
-        start[c + 1] += start[c];
-    }
-    for (int64_t i = 0; i < n; i++){
-        /* start[c] is the next free slot of cell c during placement ... */
-        d->sorted[start[d->cell_of[i]]++] = d->unsorted[i];
-    }
-    for (int64_t c = n_cells; c > 0; c--){
-        start[c] = start[c - 1];    /* ... and is shifted back to the cell's first slot */
-    }
-    start[0] = 0;
-
-    /* 3-4. Neighbour cells, images, exact path test. */
-    for (int64_t a = 0; a < n; a++){
-        if (!rs_scan(r, d, d->sorted[a], 1, RS_SCAN_REPORT, g->dt)){
-            return RS_DETECT_NO_MEMORY;
-        }
+    if (!rs_search(d, n)){
+        return RS_DETECT_NO_MEMORY;
     }
     d->reports += d->n_collisions;
     return RS_DETECT_OK;
@@ -675,20 +944,26 @@ static int rs_after_collision(const struct reb_simulation* const r, struct rs_sh
     const struct rs_sheet_grid* g = &d->grid;
     const double needed = (before->reach + t->deviation + g->reach_max + d->deviation_max)
                           / (1.0 - g->shear_step);
-    int64_t span = 1;
-    if (!(needed <= g->side_min)){
-        span = needed <= RS_MAX_SPAN * g->side_min ? (int64_t)ceil(needed / g->side_min)
-                                                   : RS_MAX_SPAN;
+    if (!(needed <= g->pair_reach)){
         d->wide_rechecks++;
-        d->span_limited += !(needed <= RS_MAX_SPAN * g->side_min);
+        d->span_limited += !(needed <= RS_MAX_SPAN * g->pair_reach);
     }
     d->rechecks++;
-    return rs_scan(r, d, *before, span, RS_SCAN_RECHECK, window);
+    const double distance = fmin(needed, RS_MAX_SPAN * g->pair_reach) * (1.0 + 1e-12)
+                            + g->slack;
+    const struct rs_sheet_point point = {before->xw, before->yw, before->z, before->reach,
+                                         before->index};
+    return rs_scan(r, d, &point, distance, RS_SCAN_RECHECK, window, NULL);
 }
 
 static struct rs_sheet_detector* rs_detector_of(struct rs_resolver* res){
     if (res->detector == NULL){
-        res->detector = calloc(1, sizeof(struct rs_sheet_detector));
+        struct rs_sheet_detector* d = calloc(1, sizeof(struct rs_sheet_detector));
+        if (d == NULL){
+            return NULL;
+        }
+        d->threads = 1;
+        res->detector = d;
         /* rs_resolver.c frees it through this pointer: no link-time dependency on this
          * file, so the resolver also builds and works without the detector */
         res->detector_free = rs_sheet_detector_free;
@@ -799,8 +1074,8 @@ int rs_sheet_detector_counters(const struct rs_resolver* res, int64_t* out,
 
 /* Counters of the time-ordered resolution since the detector was created: out[0] contacts
  * resolved, out[1] of which timed on a path changed earlier in the same step, out[2]
- * re-checks (one per particle and collision), out[3] of which over more than one cell,
- * out[4] of which cut at RS_MAX_SPAN cells, out[5] particles that reached RS_MAX_CONTACTS
+ * re-checks (one per particle and collision), out[3] of which over more than s,
+ * out[4] of which cut at RS_MAX_SPAN s, out[5] particles that reached RS_MAX_CONTACTS
  * contacts in a step.  Returns 0 (and zeros) if the detector has not run yet. */
 int rs_sheet_order_counters(const struct rs_resolver* res, int64_t* out){
     const struct rs_sheet_detector* d = res->detector;
@@ -815,6 +1090,39 @@ int rs_sheet_order_counters(const struct rs_resolver* res, int64_t* out){
     out[4] = d->span_limited;
     out[5] = d->saturated;
     return 1;
+}
+
+/* Sets the number of OpenMP threads of the search (ringsim's integration.threads), at
+ * least 1; more than 1 has an effect only if the library was compiled with OpenMP.  The
+ * contacts found and their resolution do not depend on it (rs_search).  Returns the
+ * number of threads the search will ask for, or 0 if memory ran out. */
+int rs_sheet_set_threads(struct rs_resolver* res, int threads){
+    struct rs_sheet_detector* const d = rs_detector_of(res);
+    if (d == NULL){
+        return 0;
+    }
+    d->threads = threads >= 1 ? threads : 1;
+    return d->threads;
+}
+
+/* Threads the last search of the resolver's detector ran on (0 before the first). */
+int rs_sheet_threads_used(const struct rs_resolver* res){
+    const struct rs_sheet_detector* d = res->detector;
+    return d == NULL ? 0 : d->team_last;
+}
+
+/* RS_PARTICLES_PER_THREAD: particles per thread at least before the search is split. */
+int64_t rs_sheet_particles_per_thread(void){
+    return RS_PARTICLES_PER_THREAD;
+}
+
+/* 1 if the library was compiled with OpenMP (threads > 1 split the search), else 0. */
+int rs_sheet_openmp(void){
+#ifdef _OPENMP
+    return 1;
+#else
+    return 0;
+#endif
 }
 
 /* Largest 1.5 Omega dt the detector accepts (exclusive), for ringsim's scenario validation:

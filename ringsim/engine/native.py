@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ctypes
 import importlib.util
+import os
 from typing import Any
 
 import numpy as np
@@ -140,8 +141,18 @@ def _declare_setup(lib: ctypes.CDLL) -> None:
     lib.rs_grid_overlapping.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p, int64_p]
 
 
+#: OpenMP threads that wait for the next parallel region sleep instead of spinning, unless
+#: the user chose otherwise: the detector's regions are short (one per step) and separated
+#: by serial work (REBOUND's drift and kick, the time-ordered resolution), and spinning
+#: threads took the core from that work on a shared machine (measured 3-5 times slower
+#: with 2 threads on 2 busy cores; docs/performance.md "Scale").  Read by the OpenMP
+#: runtime when the library is loaded, so it is set before.
+OPENMP_WAIT_POLICY = "passive"
+
+
 def _load_library() -> ctypes.CDLL:
     """Load the compiled resolver and check it matches the running REBOUND."""
+    os.environ.setdefault("OMP_WAIT_POLICY", OPENMP_WAIT_POLICY)
     spec = importlib.util.find_spec("ringsim._resolver")
     if spec is None or spec.origin is None:
         raise ImportError("ringsim._resolver is not built; run "
@@ -193,6 +204,17 @@ def _load_library() -> ctypes.CDLL:
         lib.rs_sheet_detector_counters.argtypes = [ctypes.c_void_p, int64_p, double_p]
         lib.rs_sheet_order_counters.restype = ctypes.c_int
         lib.rs_sheet_order_counters.argtypes = [ctypes.c_void_p, int64_p]
+        if not hasattr(lib, "rs_sheet_set_threads"):
+            raise ImportError("ringsim._resolver is out of date (no rs_sheet_set_threads); "
+                              "rebuild the extension (`python setup.py build_ext --inplace`)")
+        lib.rs_sheet_set_threads.restype = ctypes.c_int
+        lib.rs_sheet_set_threads.argtypes = [ctypes.c_void_p, ctypes.c_int]
+        lib.rs_sheet_openmp.restype = ctypes.c_int
+        lib.rs_sheet_openmp.argtypes = []
+        lib.rs_sheet_threads_used.restype = ctypes.c_int
+        lib.rs_sheet_threads_used.argtypes = [ctypes.c_void_p]
+        lib.rs_sheet_particles_per_thread.restype = ctypes.c_int64
+        lib.rs_sheet_particles_per_thread.argtypes = []
 
     librebound = rebound.clibrebound
     librebound.reb_simulation_struct_size.restype = size_t
@@ -244,6 +266,45 @@ def max_shear_step() -> float:
     if not hasattr(_LIB, "rs_sheet_max_shear_step"):
         return float("inf")
     return float(_LIB.rs_sheet_max_shear_step())
+
+
+def openmp_available() -> bool:
+    """True if the sheet detector was compiled with OpenMP (more than one thread helps)."""
+    return hasattr(_LIB, "rs_sheet_openmp") and bool(_LIB.rs_sheet_openmp())
+
+
+def set_detector_threads(resolver_address: int, threads: int) -> int:
+    """Let the sheet detector of the resolver at ``resolver_address`` search with ``threads``
+    OpenMP threads (``integration.threads``); returns the number it will ask for.
+
+    The contacts found and resolved, hence every result, do not depend on the number
+    (``rs_sheet_detect.c``, step 3a).  Without OpenMP in the build the search runs on one
+    thread whatever the number; without the detector (tree mode) nothing changes.
+    """
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ValueError(f"threads: must be an integer >= 1, got {threads!r}")
+    if not hasattr(_LIB, "rs_sheet_set_threads"):
+        return 1
+    done = int(_LIB.rs_sheet_set_threads(resolver_address, int(threads)))
+    if done < 1:
+        raise MemoryError("could not allocate the sheet detector")
+    return done
+
+
+def detector_threads_used(resolver_address: int) -> int:
+    """Threads the last search of the sheet detector ran on (0 before the first search;
+    fewer than asked where each would get fewer than `particles_per_thread`)."""
+    if not hasattr(_LIB, "rs_sheet_threads_used"):
+        return 0
+    return int(_LIB.rs_sheet_threads_used(resolver_address))
+
+
+def particles_per_thread() -> int:
+    """Particles per thread at least before the detector splits its search
+    (RS_PARTICLES_PER_THREAD; below, starting the threads costs more than they save)."""
+    if not hasattr(_LIB, "rs_sheet_particles_per_thread"):
+        return 1
+    return int(_LIB.rs_sheet_particles_per_thread())
 
 
 def _free_resolver(address: int) -> None:

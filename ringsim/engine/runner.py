@@ -164,9 +164,13 @@ class Runner:
 
     # -- set-up --------------------------------------------------------------------------------
 
-    def start_new(self) -> None:
-        built = sheet.build_sheet(self.scenario)
+    def start_new(self, built: sheet.BuiltSheet | None = None) -> None:
+        """Set the run up: ``built`` (a sheet of this scenario from ``sheet.build_sheet``,
+        e.g. to time the loop apart from the set-up), or a new one; first output."""
+        if built is None:
+            built = sheet.build_sheet(self.scenario)
         self.sim, self.geometry, self.handle = built.sim, built.geometry, built.resolver
+        self._set_threads()
         self.edges = built.size_bin_edges
         self.n_particles = self.sim.N
         self.momentum = invariants.sheet_momentum(sheet.particle_arrays(self.sim), self.Omega,
@@ -183,11 +187,22 @@ class Runner:
                            histogram_edges=_histogram_edges())
         self._output(first=True)
 
+    def _set_threads(self) -> None:
+        """Line detection's search on ``integration.threads`` threads (no effect on results)."""
+        if self.scenario.integration.collision_detection == "line":
+            from ringsim.engine.native import set_detector_threads
+
+            set_detector_threads(self.handle.address,
+                                 self.scenario.integration.thread_count())
+
     def _check_resumable(self, run) -> tuple[float, float]:
-        """Old and new ``integration.orbits``; InputError unless only they differ."""
+        """Old and new ``integration.orbits``; InputError unless only they (or the thread
+        count, which changes no result) differ."""
         old, new = run.scenario.to_dict(), self.scenario.to_dict()
         old_orbits = old["integration"].pop("orbits")
         new_orbits = new["integration"].pop("orbits")
+        old["integration"].pop("threads", None)
+        new["integration"].pop("threads", None)
         if old != new:
             raise InputError(str(self.path), "--resume",
                              "the scenario differs from the one the run file was made with "
@@ -241,6 +256,7 @@ class Runner:
             self.scenario.particles.inertia_factor,
             log_capacity=self.scenario.output.log_collisions,
             collision_detection=self.scenario.integration.collision_detection)
+        self._set_threads()
         if checkpoint.statistics is not None:
             try:
                 self.handle.set_stats(checkpoint.statistics)

@@ -1,0 +1,333 @@
+"""Benchmark: one sheet from 1e3 to 1e6 particles (issue 16): cost, memory, set-up, snapshots.
+
+For each N (one fresh process per N, so that its peak memory is its own):
+
+* **set-up** [s]: ``ringsim.engine.sheet.build_sheet`` of benchmarks/scale.yaml (line
+  mode, no gravity, power law 0.5-5 m, tau = 0.25, Bridges et al. 1984);
+* **snapshot write** [s]: one snapshot of the N particles through
+  ``ringsim.store.runfile.RunFileWriter.commit`` into a new run file, and the file's size;
+* **whole run loop** [ns per particle-step]: ``runner.Runner.loop`` (integration, time-series
+  outputs every 0.1 orbit with their diagnostics, invariants, guards and HDF5 rows, the
+  final checkpoint) from the built sheet, with ``integration.threads`` 1 and 2 alternately
+  on copies of the same state, ``--repeat`` times; wall and CPU time; the ratio 2 threads /
+  1 thread per pair (same process, same state: the figure least disturbed by other jobs);
+* **memory** [bytes per particle]: the process's peak resident set after all of the above,
+  less its resident set before the set-up (after a warm-up run of 200 particles has
+  imported and allocated what any run needs), over N.
+
+Medians of the repeats.  Targets (issue 16): <= 300 ns per particle-step at 1e5 on one
+thread, flat within 1.5x from 1e3 to 1e6; 2 threads <= 0.6x of one; <= 1 kB per particle;
+set-up of 1e6 <= 10 s.
+
+    python benchmarks/scale.py [--quick] [--sizes 1000 ...] [--repeat 3] [--write-doc]
+
+``--quick``: N = 1e3, 1e4, 1e5.  ``--write-doc`` replaces the section "Scale" of
+docs/performance.md and draws docs/figures/scale.png.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIO = Path(__file__).with_name("scale.yaml")
+DOC = ROOT / "docs" / "performance.md"
+FIGURE = ROOT / "docs" / "figures" / "scale.png"
+RESULTS = ROOT / "docs" / "figures" / "scale.json"     # what the figure shows
+HEADING = "## Scale"
+SIZES = (1_000, 10_000, 100_000, 1_000_000)
+QUICK_SIZES = (1_000, 10_000, 100_000)
+#: Targets of issue 16.
+TARGET_NS = 300.0
+TARGET_FLATNESS = 1.5
+TARGET_THREAD_RATIO = 0.6
+TARGET_BYTES = 1000.0
+#: Particles of the warm-up run before the memory baseline is taken.
+WARM_UP_PARTICLES = 200
+#: Measured before issue 16's part B (whole run loop, one thread; the issue's figures).
+BEFORE_NS = {1_000: 540.0, 10_000: 600.0, 100_000: 1000.0}
+
+
+def steps_for(n: int) -> int:
+    """Steps of one timed loop: about 1e7 particle-steps (a few seconds), at least one
+    output interval (100 steps of 1e-3 orbit) and at most 30 of them."""
+    return int(min(3000, max(100, round(1e7 / n / 100) * 100)))
+
+
+def _rss_bytes() -> int:
+    """Current resident set [bytes] (Linux /proc)."""
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def _peak_rss_bytes() -> int:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024   # kB on Linux
+
+
+def _copy_of(built, scenario):
+    """A sheet with a copy of ``built``'s simulation and a resolver of its own."""
+    from ringsim.engine.resolver import install_resolver
+    from ringsim.engine.sheet import BuiltSheet
+
+    sim = built.sim.copy()
+    handle = install_resolver(sim, scenario.restitution_dict(), scenario.friction_dict(),
+                              scenario.particles.inertia_factor,
+                              log_capacity=scenario.output.log_collisions,
+                              collision_detection="line")
+    return BuiltSheet(sim, built.geometry, built.radii, built.masses, built.size_bin_edges,
+                      handle)
+
+
+def _snapshot_write(built, scenario, directory: Path) -> tuple[float, int]:
+    """Wall time [s] of one snapshot commit of all particles, and the file's size [bytes]."""
+    from ringsim.engine.sheet import particle_arrays
+    from ringsim.store.runfile import RunFileWriter
+
+    path = directory / "snapshot.h5"
+    writer = RunFileWriter(path)
+    writer.create(scenario_yaml=scenario.yaml_text, seed=scenario.seed, attributes={},
+                  size_bin_edges=None, histogram_edges={})
+    arrays = particle_arrays(built.sim)
+    start = time.perf_counter()
+    writer.commit(snapshot=(0, built.sim.t, arrays))
+    return time.perf_counter() - start, path.stat().st_size
+
+
+def _timed_loop(built, scenario, threads: int, steps: int, directory: Path) -> dict:
+    """Wall and CPU time per particle-step [ns] of Runner.loop over ``steps`` steps."""
+    from ringsim.config.scenario import with_overrides
+    from ringsim.engine.runner import Runner
+
+    sc = with_overrides(scenario, {"integration.threads": threads,
+                                   "integration.orbits": steps * 1e-3})
+    copy = _copy_of(built, sc)
+    runner = Runner(sc, directory / f"loop{threads}.h5", progress=False)
+    runner.start_new(copy)
+    steps_before = copy.sim.steps_done
+    wall, cpu = time.perf_counter(), time.process_time()
+    status = runner.loop()
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    done = copy.sim.steps_done - steps_before
+    if status != "finished" or done < steps:
+        raise RuntimeError(f"the timed run ended {status} after {done} of {steps} steps")
+    per = 1e9 / (done * copy.sim.N)
+    return {"wall_ns": wall * per, "cpu_ns": cpu * per}
+
+
+def measure_one(n: int, repeat: int) -> dict:
+    """All measurements at N = n, in this process."""
+    from ringsim.config.scenario import load_scenario, with_overrides
+    from ringsim.engine.sheet import build_sheet
+
+    scenario = with_overrides(load_scenario(SCENARIO), {"sheet.n_particles": n})
+    # everything imported and allocated once on a small sheet, so that the memory counted
+    # below is what the N particles need
+    warm = with_overrides(scenario, {"sheet.n_particles": WARM_UP_PARTICLES})
+    with tempfile.TemporaryDirectory() as tmp:
+        _timed_loop(build_sheet(warm), warm, 1, 100, Path(tmp))
+    rss_before = _rss_bytes()
+    load_before = os.getloadavg()[0]
+    wall, cpu = time.perf_counter(), time.process_time()
+    built = build_sheet(scenario)
+    setup_wall, setup_cpu = time.perf_counter() - wall, time.process_time() - cpu
+    steps = steps_for(n)
+    loops = {1: [], 2: []}
+    with tempfile.TemporaryDirectory() as tmp:
+        snapshot_s, snapshot_bytes = _snapshot_write(built, scenario, Path(tmp))
+        for _ in range(repeat):
+            for threads in (1, 2):
+                loops[threads].append(_timed_loop(built, scenario, threads, steps, Path(tmp)))
+    ratios = [two["wall_ns"] / one["wall_ns"] for one, two in zip(loops[1], loops[2],
+                                                                   strict=True)]
+    return {
+        "n": n, "steps": steps, "repeat": repeat,
+        "setup_wall_s": setup_wall, "setup_cpu_s": setup_cpu,
+        "snapshot_write_s": snapshot_s, "snapshot_bytes": snapshot_bytes,
+        "loops": {str(k): v for k, v in loops.items()},
+        "wall_ns": {str(k): statistics.median(x["wall_ns"] for x in v)
+                    for k, v in loops.items()},
+        "cpu_ns": {str(k): statistics.median(x["cpu_ns"] for x in v)
+                   for k, v in loops.items()},
+        "thread_ratio": statistics.median(ratios), "thread_ratios": ratios,
+        "bytes_per_particle": (_peak_rss_bytes() - rss_before) / n,
+        "load_average": [load_before, os.getloadavg()[0]],
+    }
+
+
+def measure(sizes, repeat: int) -> list[dict]:
+    """measure_one for each size, each in a fresh process (its own peak memory)."""
+    results = []
+    for n in sizes:
+        proc = subprocess.run([sys.executable, __file__, "--one", str(n), "--repeat",
+                               str(repeat)], capture_output=True, text=True, check=False)
+        if proc.returncode != 0:
+            raise RuntimeError(f"N = {n}: {proc.stderr.strip()}")
+        results.append(json.loads(proc.stdout.splitlines()[-1]))
+        print(_row(results[-1]), flush=True)
+    return results
+
+
+def _row(r: dict) -> str:
+    return (f"| {r['n']:.0e} | {r['steps']} | {r['wall_ns']['1']:.0f} | {r['cpu_ns']['1']:.0f} "
+            f"| {r['wall_ns']['2']:.0f} | {r['thread_ratio']:.2f} "
+            f"({min(r['thread_ratios']):.2f}-{max(r['thread_ratios']):.2f}) "
+            f"| {r['bytes_per_particle']:.0f} | {r['setup_wall_s']:.2f} "
+            f"| {r['snapshot_write_s']:.3f} ({r['snapshot_bytes'] / r['n']:.0f} B/particle) "
+            f"| {r['load_average'][0]:.1f}-{r['load_average'][1]:.1f} |")
+
+
+TABLE_HEAD = ("| N | steps | 1 thread wall [ns] | 1 thread CPU [ns] | 2 threads wall [ns] | "
+              "2 / 1 threads (range) | memory [B/particle] | set-up [s] | "
+              "snapshot write [s] (file) | load average |\n"
+              "|---|---|---|---|---|---|---|---|---|---|")
+
+
+def plot(results: list[dict], path: Path) -> None:
+    """Log-log cost per particle-step against N, 1 and 2 threads, with the targets."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = np.array([r["n"] for r in results], float)
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    for threads, marker in (("1", "o"), ("2", "s")):
+        median = np.array([r["wall_ns"][threads] for r in results])
+        low = np.array([min(x["wall_ns"] for x in r["loops"][threads]) for r in results])
+        high = np.array([max(x["wall_ns"] for x in r["loops"][threads]) for r in results])
+        ax.errorbar(n, median, yerr=[median - low, high - median], marker=marker,
+                    capsize=3, label=f"{threads} thread{'s' if threads == '2' else ''}, "
+                    "wall (median, range)")
+    ax.plot(n, [r["cpu_ns"]["1"] for r in results], "o-", color="C2", mfc="none",
+            label="1 thread, CPU time (less disturbed by other jobs)")
+    before = sorted(BEFORE_NS.items())
+    ax.plot([k for k, _ in before], [v for _, v in before], "x:", color="grey",
+            label="before (issue 16, 1 thread)")
+    ax.axhline(TARGET_NS, color="k", ls="--", lw=1, label=f"target {TARGET_NS:.0f} ns")
+    first = results[0]["wall_ns"]["1"]
+    ax.axhline(TARGET_FLATNESS * first, color="k", ls=":", lw=1,
+               label=f"flat: {TARGET_FLATNESS}x the 1-thread cost at N = {n[0]:.0e}")
+    one = np.array([r["wall_ns"]["1"] for r in results])
+    ax.plot(n, TARGET_THREAD_RATIO * one, color="C1", ls="--", lw=1,
+            label=f"2-thread target: {TARGET_THREAD_RATIO} x 1 thread")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("particles N")
+    ax.set_ylabel("time per particle-step [ns]")
+    ax.set_title("Whole run loop, line mode, tau = 0.25, 0.5-5 m")
+    ax.legend(fontsize=7, loc="upper left")
+    ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def section(results: list[dict], command: str, note: str = "") -> str:
+    """The "Scale" section of docs/performance.md (``note``: a paragraph after the table)."""
+    import rebound
+
+    from ringsim.engine.native import openmp_available
+
+    now = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    rows = "\n".join(_row(r) for r in results)
+    costs = [r["wall_ns"]["1"] for r in results]
+    flat = max(costs) / min(costs)
+    at_1e5 = next((r for r in results if r["n"] == 100_000), None)
+    verdict = [f"flatness (largest / smallest 1-thread cost over N = {results[0]['n']:.0e}-"
+               f"{results[-1]['n']:.0e}): {flat:.2f} (target <= {TARGET_FLATNESS})"]
+    if at_1e5 is not None:
+        verdict.append(f"1 thread at N = 1e5: {at_1e5['wall_ns']['1']:.0f} ns wall, "
+                       f"{at_1e5['cpu_ns']['1']:.0f} ns CPU (target <= {TARGET_NS:.0f})")
+        verdict.append(f"2 threads / 1 thread at N = 1e5: {at_1e5['thread_ratio']:.2f} "
+                       f"(target <= {TARGET_THREAD_RATIO})")
+    note = f"\n{note}\n" if note else ""
+    verdict.append("memory: " + ", ".join(f"{r['bytes_per_particle']:.0f} B at "
+                                          f"{r['n']:.0e}" for r in results)
+                   + f" per particle (target <= {TARGET_BYTES:.0f})")
+    return f"""{HEADING}
+
+`benchmarks/scale.py` ({command}), run on {now}, {platform.machine()} {platform.system()},
+{os.cpu_count()} cores shared with other engineers' jobs (load averages in the table: the
+machine was busy, so wall times are noisy and 2 threads rarely got 2 free cores), REBOUND
+{rebound.__version__}, numpy {np.__version__}, ringsim built {"with" if openmp_available()
+else "without"} OpenMP.  Sheet: benchmarks/scale.yaml (line mode, no gravity, power law
+0.5-5 m, q = 3, tau = 0.25, Bridges et al. 1984), from `build_sheet`'s initial state.
+Whole run loop: `runner.Runner.loop` (integration, a time-series output every 0.1 orbit with
+its diagnostics, invariants, guards and HDF5 rows, the final checkpoint), ns per
+particle-step, median of the repeats; threads 1 and 2 alternate on copies of the same state
+in one process, and "2 / 1 threads" is the median of the per-pair wall-time ratios.  Memory:
+peak resident set of the process (set-up, snapshot, loops) less its resident set before
+the set-up, per particle.  Set-up and snapshot write are part A's (`build_sheet`,
+`RunFileWriter`), timed here through their public calls.
+
+{TABLE_HEAD}
+{rows}
+{note}
+{chr(10).join("- " + v for v in verdict)}
+
+![cost per particle-step against N](figures/scale.png)
+"""
+
+
+def write_doc(results: list[dict], command: str, note: str = "") -> None:
+    """Replace (or append) the "Scale" section of docs/performance.md; draw the figure."""
+    text = DOC.read_text()
+    new = section(results, command, note)
+    start = text.find(HEADING + "\n")
+    if start < 0:
+        text = text.rstrip("\n") + "\n\n" + new
+    else:
+        end = text.find("\n## ", start + len(HEADING))
+        text = text[:start] + new + ("" if end < 0 else text[end:])
+    DOC.write_text(text)
+    RESULTS.write_text(json.dumps({"command": command, "note": note, "results": results},
+                                  indent=1))
+    plot(results, FIGURE)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=float, nargs="+")
+    parser.add_argument("--quick", action="store_true", help="N = 1e3, 1e4, 1e5")
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--write-doc", action="store_true")
+    parser.add_argument("--replot", action="store_true",
+                        help="redraw the figure and the section from docs/figures/scale.json")
+    parser.add_argument("--one", type=float, help=argparse.SUPPRESS)  # worker: one size
+    args = parser.parse_args()
+    if args.replot:
+        stored = json.loads(RESULTS.read_text())
+        write_doc(stored["results"], stored["command"], stored.get("note", ""))
+        return
+    if args.one is not None:
+        print(json.dumps(measure_one(int(args.one), args.repeat)))
+        return
+    sizes = ([int(n) for n in args.sizes] if args.sizes
+             else list(QUICK_SIZES if args.quick else SIZES))
+    print(TABLE_HEAD)
+    results = measure(sizes, args.repeat)
+    if args.write_doc:
+        flags = " ".join(a for a in sys.argv[1:])
+        write_doc(results, f"`python benchmarks/scale.py {flags}`".replace("  ", " "))
+        print(f"wrote {DOC} and {FIGURE}")
+    if not math.isfinite(results[-1]["wall_ns"]["1"]):
+        raise SystemExit(1)
+
+
+if __name__ == "__main__":
+    main()
