@@ -28,7 +28,6 @@ from __future__ import annotations
 import contextlib
 import math
 import os
-import signal
 import sys
 import time
 from dataclasses import dataclass
@@ -40,6 +39,7 @@ from ringsim.analysis import snapshot
 from ringsim.engine import gravity, invariants, p3m, sheet, timestep
 from ringsim.engine.binary import simulation_binary, simulation_from_binary
 from ringsim.engine.progress import progress_bar
+from ringsim.engine.stop import StopRequest as _StopRequest
 from ringsim.errors import InputError
 from ringsim.physics import friction
 from ringsim.physics.gravity import toomre_q
@@ -62,38 +62,6 @@ class LoopState:
         return {"rows": self.rows, "snapshots": self.snapshots,
                 "guard_events": self.guard_events, "dt_warned": self.dt_warned,
                 "overlap_warned": self.overlap_warned}
-
-
-class _StopRequest:
-    """Turns SIGINT (Ctrl-C) and SIGTERM into a clean stop at the next output.
-
-    While REBOUND integrates, its own SIGINT handler stops the integration after the
-    current step and the Python wrapper raises KeyboardInterrupt (caught by the loop);
-    while ringsim's Python code runs (diagnostics, HDF5 writes), these handlers only set a
-    flag, so a signal never interrupts a half-written file.
-    """
-
-    SIGNALS = (signal.SIGINT, signal.SIGTERM)
-
-    def __init__(self):
-        self.requested = False
-        self._previous: dict = {}
-
-    def __enter__(self):
-        for sig in self.SIGNALS:
-            try:
-                self._previous[sig] = signal.signal(sig, self._handler)
-            except ValueError:  # not in the main thread: leave signals alone
-                break
-        return self
-
-    def _handler(self, signum, frame):
-        self.requested = True
-
-    def __exit__(self, *exc):
-        for sig, previous in self._previous.items():
-            signal.signal(sig, previous)
-        return False
 
 
 #: Time-series rows are written at most this often [s of wall time] (and at every checkpoint
