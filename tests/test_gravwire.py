@@ -163,7 +163,9 @@ def test_analyze_a_gravitating_run_reports_the_gravity_numbers(tmp_path):
     for key, units in (("r_h", "dimensionless"), ("toomre_Q", "dimensionless"),
                        ("lambda_cr", "m"), ("wake_wavelength", "m"),
                        ("wake_pitch_angle", "deg"), ("gravitational_viscosity", "m^2/s"),
-                       ("translational_viscosity", "m^2/s")):
+                       ("translational_viscosity", "m^2/s"), ("viscous_heating", "W/m^2"),
+                       ("collisional_dissipation", "W/m^2"), ("energy_closure", "dimensionless"),
+                       ("energy_closure_without_gravity", "dimensionless")):
         assert set(eq[key]) == {"mean", "stderr", "units"} and eq[key]["units"] == units, key
     run = ringsim.open_run(path)
     assert eq["lambda_cr"]["mean"] == run.attrs["lambda_cr"]
@@ -180,6 +182,12 @@ def test_analyze_a_gravitating_run_reports_the_gravity_numbers(tmp_path):
         np.mean([s["wavelength"] for s in stats]), rel=1e-12)
     assert eq["gravitational_viscosity"]["mean"] == pytest.approx(
         np.mean([s["gravitational_viscosity"] for s in stats]), rel=1e-12)
+    # the shear's work on all three stresses: (9/4) Omega^2 Sigma (nu_t + nu_c + nu_g)
+    Omega = run.scenario.orbital_frequency
+    nu = sum(eq[k]["mean"] for k in ("translational_viscosity", "collisional_viscosity",
+                                     "gravitational_viscosity"))
+    assert eq["viscous_heating"]["mean"] == pytest.approx(
+        2.25 * Omega**2 * float(run.attrs["Sigma"]) * nu, rel=1e-12)
     assert (tmp_path / "figs" / "wakes.png").stat().st_size > 10000
     plain = ringsim.run(gravitating_scenario(**{"sheet.gravity": False}),
                         output=tmp_path / "p.h5", progress=False)
