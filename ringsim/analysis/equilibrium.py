@@ -166,7 +166,7 @@ def equilibrium(run) -> dict:
     if sc.sheet.gravity:
         from ringsim.analysis.gravitating import gravity_equilibrium
 
-        out.update(gravity_equilibrium(run, start))
+        out.update(gravity_equilibrium(run, start, out))
     out["in_equilibrium"] = window["in_equilibrium"]
     out["reason"] = window["reason"]
     out["status"] = str(run.attrs.get("status", "unknown"))

@@ -15,7 +15,10 @@ What a ring dynamicist reads for a self-gravitating sheet, beside the equilibriu
   snapshots are ``output.snapshot_every`` apart, an orbit or more, while wakes live about an
   orbit); with one snapshot the stderr is that snapshot's own spread of the spectral peak;
 * ``gravitational_viscosity`` [m^2/s]: ``analysis.wakes.gravitational_viscosity`` of the same
-  snapshots, mean and stderr over them.
+  snapshots, mean and stderr over them;
+* ``energy_balance``: the sheet's energy balance with the gravitational viscosity
+  (:func:`energy_balance`): viscous heating by the shear, collisional dissipation, the rate
+  of change of the random kinetic energy, and their closure.
 
 A snapshot's wake is reported whether or not it is significant against Poisson noise;
 ``wake_significant_fraction`` says in how many of the window's snapshots it was.
@@ -29,6 +32,7 @@ import numpy as np
 
 from ringsim.analysis import timeseries, wakes
 from ringsim.physics import gravity as patch
+from ringsim.physics.restitution import epsilon_for_pair
 from ringsim.physics.selfgravity import shear_offset
 
 #: Gravity quantities of the equilibrium: key -> (label, JSON unit, unit shown, scale).
@@ -40,7 +44,18 @@ GRAVITY_QUANTITIES = {
     "wake_pitch_angle": ("wake pitch angle (trailing > 0)", "deg", "deg", 1.0),
     "wake_amplitude": ("wake amplitude (peak contrast)", "dimensionless", "", 1.0),
     "gravitational_viscosity": ("gravitational viscosity", "m^2/s", "m^2/s", 1.0),
+    "viscous_heating": ("viscous heating (nu_t + nu_c + nu_g)", "W/m^2", "W/m^2", 1.0),
+    "collisional_dissipation": ("collisional dissipation", "W/m^2", "W/m^2", 1.0),
+    "kinetic_energy_change": ("d/dt random kinetic energy", "W/m^2", "W/m^2", 1.0),
+    "energy_closure": ("heating / (dissipation + d/dt E_kin)", "dimensionless", "", 1.0),
+    "energy_closure_without_gravity": ("the same without nu_g", "dimensionless", "", 1.0),
 }
+#: The energy-balance keys of `GRAVITY_QUANTITIES` (NaN where they cannot be measured).
+ENERGY_KEYS = ("viscous_heating", "collisional_dissipation", "kinetic_energy_change",
+               "energy_closure", "energy_closure_without_gravity")
+#: Log-spaced points per impact-speed bin at which the restitution law is evaluated for the
+#: bin's mean dissipated energy (bins are a factor 10^0.1 wide; eps varies across them).
+BIN_SUBSAMPLES = 16
 
 
 def _value(mean: float, stderr: float, units: str) -> dict:
@@ -99,8 +114,139 @@ def snapshot_wakes(snap: dict, Lx: float, Ly: float, Omega: float) -> dict:
     return stats
 
 
-def gravity_equilibrium(run, start: int) -> dict:
+def bin_means(counts: np.ndarray, edges: np.ndarray, f) -> np.ndarray:
+    """Mean of f(v) over each bin of a speed histogram [units of f].
+
+    Within a bin the density per ln v is taken as a power law whose slope is that of the
+    neighbouring bins' counts (flat where they are empty), as the histogram's own best
+    guess; f is evaluated at `BIN_SUBSAMPLES` log-spaced points per bin.
+
+    Parameters
+    ----------
+    counts : array (n_bins,) of counts
+    edges : array (n_bins + 1,) [m/s], finite, > 0
+    f : callable, array of speeds [m/s] -> array
+    """
+    counts = np.asarray(counts, dtype=float)
+    lo, hi = edges[:-1], edges[1:]
+    width = np.log(hi / lo)
+    centre = 0.5 * (np.log(lo) + np.log(hi))
+    log_density = np.full(counts.size, np.nan)
+    filled = counts > 0
+    log_density[filled] = np.log(counts[filled] / width[filled])
+    left = np.concatenate([[0], np.arange(counts.size - 1)])
+    right = np.concatenate([np.arange(1, counts.size), [counts.size - 1]])
+    gap = centre[right] - centre[left]
+    slope = (log_density[right] - log_density[left]) / np.where(gap > 0, gap, 1.0)
+    slope = np.where(np.isfinite(slope), slope, 0.0)
+    u = (np.arange(BIN_SUBSAMPLES) + 0.5) / BIN_SUBSAMPLES
+    ln_v = np.log(lo)[:, None] + width[:, None] * u[None, :]
+    weight = np.exp(slope[:, None] * (ln_v - centre[:, None]))
+    return np.sum(weight * f(np.exp(ln_v)), axis=1) / np.sum(weight, axis=1)
+
+
+def dissipation_rates(ts: dict, restitution: dict, radius: np.ndarray, mass: np.ndarray,
+                      area: float) -> np.ndarray | None:
+    """Kinetic energy the collisions dissipate per unit area and time in every output
+    interval [W/m^2] (NaN for row 0); None unless the particles are identical.
+
+    A collision of identical particles at normal speed v_n dissipates (1 - eps^2) (M_bar/2)
+    v_n^2 with M_bar = m/2 the reduced mass, eps the scenario's law at (v_n, R_bar = r/2,
+    M_bar): summed over the interval's impact-speed histogram (``bin_means``; the underflow
+    bin [0, 1e-7 m/s] counts at v^2 = edge^2 / 3, the overflow bin at its lower edge).  With
+    a size distribution the histogram does not say which pair hit, so no rate is given.
+
+    Parameters
+    ----------
+    ts : the run's time series (``impact_speed_histogram`` and its bin edges [m/s], t [s])
+    restitution : the scenario's restitution section (``Scenario.restitution_dict``)
+    radius : array [m]
+    mass : array [kg]
+    area : float [m^2]
+    """
+    if np.ptp(radius) > 0 or np.ptp(mass) > 0:
+        return None
+    r, m = float(radius[0]), float(mass[0])
+
+    def loss(v):
+        eps = np.asarray(epsilon_for_pair(restitution, v, 0.5 * r, 0.5 * m), dtype=float)
+        return (1.0 - eps**2) * v**2
+
+    edges = np.asarray(ts["impact_speed_bin_edges"], dtype=float)
+    hist = np.asarray(ts["impact_speed_histogram"], dtype=float)
+    inner = bin_means(hist[:, 1:-1].sum(axis=0), edges[1:-1], loss)
+    per_bin = np.concatenate([loss(np.array([edges[1]])) / 3.0, inner,
+                              loss(np.array([edges[-2]]))])
+    dt = np.diff(np.asarray(ts["t"], dtype=float), prepend=np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return 0.25 * m * (hist @ per_bin) / (area * dt)
+
+
+def energy_balance(run, start: int, viscosities: dict) -> dict:
+    """The energy balance of a gravitating sheet over the window from row ``start``.
+
+    The shear does work on every stress that carries angular momentum outward: per unit
+    area (3/2 Omega) x (momentum flux Sigma nu (3/2) Omega) = (9/4) Omega^2 Sigma nu, with
+    nu = nu_trans + nu_coll + nu_grav (the gravitational torque, Daisaka, Tanaka & Ida
+    2001).  It goes into random motion and is dissipated by the collisions:
+
+        heating = dissipation + d/dt (random kinetic energy) + d/dt (self-gravity energy)
+
+    ``kinetic_energy_change`` is (3/2) Sigma d(c^2)/dt from a straight-line fit to the
+    window (its standard error from the fit's residuals, which are correlated: a lower
+    bound); the change of the self-gravity energy is not measured (zero in a steady
+    state).  ``energy_closure`` = heating / (dissipation + kinetic change);
+    ``energy_closure_without_gravity`` the same with nu_grav left out of the heating (what
+    a balance that ignored the gravitational torque would give).
+
+    Parameters
+    ----------
+    run : Run
+    start : int
+        First row of the window.
+    viscosities : dict with ``translational_viscosity``, ``collisional_viscosity``,
+        ``gravitational_viscosity``, each {"mean", "stderr"} [m^2/s]
+    """
+    ts = run.timeseries
+    sc = run.scenario
+    Omega = sc.orbital_frequency
+    first = run.snapshot(0)
+    area = float(run.attrs["Lx"]) * float(run.attrs["Ly"])
+    Sigma = float(np.sum(first["mass"])) / area
+    names = ("translational_viscosity", "collisional_viscosity", "gravitational_viscosity")
+    nu = sum(viscosities[k]["mean"] for k in names)
+    nu_err = math.sqrt(sum(viscosities[k]["stderr"] ** 2 for k in names))
+    factor = 2.25 * Omega**2 * Sigma
+    out = {"viscous_heating": _value(factor * nu, factor * nu_err, "W/m^2")}
+    rates = dissipation_rates(ts, sc.restitution_dict(), first["radius"], first["mass"], area)
+    rows = slice(max(start, 1), None)
+    t = np.asarray(ts["t"], dtype=float)[rows]
+    if rates is None or t.size < 3 or sc.friction is not None:
+        out.update({key: _value(math.nan, math.nan, GRAVITY_QUANTITIES[key][1])
+                    for key in ENERGY_KEYS[1:]})
+        return out
+    mean, stderr, _ = timeseries.autocorrelated_mean(rates[rows])
+    out["collisional_dissipation"] = _value(mean, stderr, "W/m^2")
+    energy = 1.5 * Sigma * np.asarray(ts["velocity_dispersion"], dtype=float)[rows] ** 2
+    coef, cov = np.polyfit(t - t.mean(), energy, 1, cov=True)
+    out["kinetic_energy_change"] = _value(coef[0], math.sqrt(cov[0, 0]), "W/m^2")
+    sink = mean + coef[0]
+    ratio = factor * nu / sink
+    ratio_err = abs(ratio) * math.hypot(nu_err / nu if nu else math.nan,
+                                        math.hypot(stderr, math.sqrt(cov[0, 0])) / sink)
+    out["energy_closure"] = _value(ratio, ratio_err, "dimensionless")
+    nu_local = nu - viscosities["gravitational_viscosity"]["mean"]
+    out["energy_closure_without_gravity"] = _value(factor * nu_local / sink,
+                                                   ratio_err * nu_local / nu, "dimensionless")
+    return out
+
+
+def gravity_equilibrium(run, start: int, viscosities: dict | None = None) -> dict:
     """The gravity entries of a run's equilibrium (module docstring), from row ``start``.
+
+    ``viscosities``: the equilibrium's ``translational_viscosity`` and
+    ``collisional_viscosity`` (window means {"mean", "stderr"} [m^2/s]) for the energy
+    balance; without them its entries are NaN.
 
     Returns
     -------
@@ -130,6 +276,12 @@ def gravity_equilibrium(run, start: int) -> dict:
                                             "dimensionless")
     out["gravitational_viscosity"] = _over_snapshots(
         [s["gravitational_viscosity"] for s in per], math.nan, "m^2/s")
+    if viscosities is not None:
+        out.update(energy_balance(run, start, {**viscosities, "gravitational_viscosity":
+                                               out["gravitational_viscosity"]}))
+    else:
+        out.update({key: _value(math.nan, math.nan, GRAVITY_QUANTITIES[key][1])
+                    for key in ENERGY_KEYS})
     out["wake_snapshots"] = len(per)
     out["wake_significant_fraction"] = float(np.mean([s["significant"] for s in per]))
     return out

@@ -150,6 +150,37 @@ def _declare_setup(lib: ctypes.CDLL) -> None:
 OPENMP_WAIT_POLICY = "passive"
 
 
+def _declare_detector(lib: ctypes.CDLL) -> None:
+    """Prototypes of the line detector (rs_sheet_detect.c), refusing an outdated build."""
+    double_p = ctypes.POINTER(ctypes.c_double)
+    int64_p = ctypes.POINTER(ctypes.c_int64)
+    if not hasattr(lib, "rs_sheet_step"):     # rs_sheet_detect.c not compiled in
+        return
+    if not hasattr(lib, "rs_sheet_max_shear_step"):
+        raise ImportError("ringsim._resolver is out of date (no rs_sheet_max_shear_step); "
+                          "rebuild the extension (`python setup.py build_ext --inplace`)")
+    lib.rs_sheet_max_shear_step.restype = ctypes.c_double
+    lib.rs_sheet_max_shear_step.argtypes = []
+    lib.rs_sheet_detect_pairs.restype = ctypes.c_int64
+    lib.rs_sheet_detect_pairs.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p,
+                                          double_p]
+    lib.rs_sheet_detector_counters.restype = ctypes.c_int
+    lib.rs_sheet_detector_counters.argtypes = [ctypes.c_void_p, int64_p, double_p]
+    lib.rs_sheet_order_counters.restype = ctypes.c_int
+    lib.rs_sheet_order_counters.argtypes = [ctypes.c_void_p, int64_p]
+    if not hasattr(lib, "rs_sheet_set_threads"):
+        raise ImportError("ringsim._resolver is out of date (no rs_sheet_set_threads); "
+                          "rebuild the extension (`python setup.py build_ext --inplace`)")
+    lib.rs_sheet_set_threads.restype = ctypes.c_int
+    lib.rs_sheet_set_threads.argtypes = [ctypes.c_void_p, ctypes.c_int]
+    lib.rs_sheet_openmp.restype = ctypes.c_int
+    lib.rs_sheet_openmp.argtypes = []
+    lib.rs_sheet_threads_used.restype = ctypes.c_int
+    lib.rs_sheet_threads_used.argtypes = [ctypes.c_void_p]
+    lib.rs_sheet_particles_per_thread.restype = ctypes.c_int64
+    lib.rs_sheet_particles_per_thread.argtypes = []
+
+
 def _load_library() -> ctypes.CDLL:
     """Load the compiled resolver and check it matches the running REBOUND."""
     os.environ.setdefault("OMP_WAIT_POLICY", OPENMP_WAIT_POLICY)
@@ -190,31 +221,7 @@ def _load_library() -> ctypes.CDLL:
     lib.rs_epsilon_array.argtypes = [ctypes.c_void_p, ctypes.c_int64, double_p, double_p,
                                      double_p, double_p]
     _declare_setup(lib)
-    if hasattr(lib, "rs_sheet_step"):     # rs_sheet_detect.c compiled in
-        if not hasattr(lib, "rs_sheet_max_shear_step"):
-            raise ImportError("ringsim._resolver is out of date (no rs_sheet_max_shear_step); "
-                              "rebuild the extension (`python setup.py build_ext --inplace`)")
-        lib.rs_sheet_max_shear_step.restype = ctypes.c_double
-        lib.rs_sheet_max_shear_step.argtypes = []
-        int64_p = ctypes.POINTER(ctypes.c_int64)
-        lib.rs_sheet_detect_pairs.restype = ctypes.c_int64
-        lib.rs_sheet_detect_pairs.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p,
-                                              double_p]
-        lib.rs_sheet_detector_counters.restype = ctypes.c_int
-        lib.rs_sheet_detector_counters.argtypes = [ctypes.c_void_p, int64_p, double_p]
-        lib.rs_sheet_order_counters.restype = ctypes.c_int
-        lib.rs_sheet_order_counters.argtypes = [ctypes.c_void_p, int64_p]
-        if not hasattr(lib, "rs_sheet_set_threads"):
-            raise ImportError("ringsim._resolver is out of date (no rs_sheet_set_threads); "
-                              "rebuild the extension (`python setup.py build_ext --inplace`)")
-        lib.rs_sheet_set_threads.restype = ctypes.c_int
-        lib.rs_sheet_set_threads.argtypes = [ctypes.c_void_p, ctypes.c_int]
-        lib.rs_sheet_openmp.restype = ctypes.c_int
-        lib.rs_sheet_openmp.argtypes = []
-        lib.rs_sheet_threads_used.restype = ctypes.c_int
-        lib.rs_sheet_threads_used.argtypes = [ctypes.c_void_p]
-        lib.rs_sheet_particles_per_thread.restype = ctypes.c_int64
-        lib.rs_sheet_particles_per_thread.argtypes = []
+    _declare_detector(lib)
 
     librebound = rebound.clibrebound
     librebound.reb_simulation_struct_size.restype = size_t

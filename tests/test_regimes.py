@@ -1,0 +1,63 @@
+"""The regimes of a self-gravitating ring against r_h (issue 12, item 5), as measured in
+docs/validation.md, "Self-gravity": no wakes at r_h = 0.6, aggregates at r_h = 1.3.
+
+Short single runs (slow: about one CPU-minute together): tau = 0.25, 1 m ice, Bridges law,
+r_h set by the orbital radius, dt fixed at 5e-4 orbit.
+"""
+
+import pytest
+
+import ringsim
+from ringsim.analysis.clumps import clump_statistics
+from ringsim.analysis.gravitating import snapshot_wakes
+from ringsim.config.scenario import scenario_from_dict
+from ringsim.physics import gravity as patch
+from ringsim.physics.selfgravity import shear_offset
+
+GM = 3.7931e16           # [m^3/s^2] Saturn
+
+
+def regime_run(r_h, n, orbits, path):
+    a = 1.0e8 * r_h / float(patch.hill_parameter(1.0, 1.0, 900.0, GM, 1.0e8))
+    sc = scenario_from_dict({
+        "name": f"regime-rh{r_h}", "seed": 1, "planet": {"GM": GM, "a": a},
+        "particles": {"density": 900.0, "size_distribution": {"kind": "monodisperse",
+                                                              "radius": 1.0}},
+        "sheet": {"optical_depth": 0.25, "n_particles": n, "aspect": 1.0, "gravity": True},
+        "restitution": {"model": "bridges", "v_c": 7.7e-5, "exponent": 0.234},
+        "integration": {"orbits": orbits, "dt": 5e-4, "dt_safety": 0.2,
+                        "collision_detection": "tree"},
+        "output": {"path": "runs/r.h5", "timeseries_every": 0.05, "snapshot_every": 0.25},
+    }, source="<test>")
+    run = ringsim.open_run(ringsim.run(sc, output=path, progress=False))
+    Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
+    Omega = sc.orbital_frequency
+    out = []
+    for i in range(1, run.n_snapshots):
+        s = run.snapshot(i)
+        shift = shear_offset(Omega, Lx, Ly, float(s["t"]))
+        out.append({**snapshot_wakes(s, Lx, Ly, Omega),
+                    **clump_statistics(s, Lx, Ly, shift, GM, a)})
+    return out
+
+
+@pytest.mark.slow
+def test_no_wakes_and_no_aggregates_at_r_h_0_6(tmp_path):
+    """Measured: no snapshot's wake significant (p >= 0.03), contrast at the Poisson level,
+    no group of 10 touching particles, no group inside its Hill sphere."""
+    stats = regime_run(0.6, 800, 1.0, tmp_path / "a.h5")
+    assert not any(s["significant"] for s in stats), [s["p_value"] for s in stats]
+    assert all(s["amplitude"] < 1.05 * s["poisson_amplitude"] for s in stats)
+    assert all(s["grouped"] == 0.0 and s["hill_groups"] == 0 for s in stats)
+
+
+@pytest.mark.slow
+def test_aggregates_at_r_h_1_3(tmp_path):
+    """Measured at orbit 0.75: 63 % of the mass in contact groups of >= 10 particles, 41 % in
+    groups that fit their Hill sphere (the largest 184 particles), surface-density contrast
+    1.45 times Poisson; bounds at about half of that."""
+    late = regime_run(1.3, 2000, 0.75, tmp_path / "b.h5")[-1]
+    assert late["significant"]
+    assert late["grouped"] > 0.3 and late["in_hill_groups"] > 0.2
+    assert late["largest_hill_group"] >= 50
+    assert late["amplitude"] > 1.2 * late["poisson_amplitude"]
