@@ -49,6 +49,7 @@ from ringsim.store.bulk import (  # noqa: F401 (the layout's names, declared in 
     SPIN_FIELDS,
     SPIN_STATE_FRAME,
     Parts,
+    _fsync,
     linked_parts,
 )
 from ringsim.store.bulk import write_checkpoint as _write_checkpoint
@@ -148,14 +149,6 @@ def _short(exc: BaseException) -> str:
 
 def _text(value: object) -> object:
     return value.decode() if isinstance(value, bytes) else value
-
-
-def _fsync(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 # --- writing ----------------------------------------------------------------------------------
