@@ -357,7 +357,7 @@ class ResolverHandle:
         -------
         dict with ``resolved`` (contacts resolved), ``rescheduled`` (of which timed on a
         path changed earlier in the same step), ``rechecks`` (one per particle and
-        collision), ``wide_rechecks`` (of which over more than one cell),
+        collision), ``wide_rechecks`` (of which wider than the largest pair distance s),
         ``span_limited`` (of which cut at the largest search span) and ``saturated``
         (particles that reached the most contacts per step).  All zero before the first
         search or without the sheet detector.
