@@ -93,8 +93,10 @@ def _copy_of(built, scenario):
 
 
 def _snapshot_write(built, scenario, directory: Path) -> tuple[float, int]:
-    """Wall time [s] of one snapshot commit of all particles, and the file's size [bytes]."""
+    """Wall time [s] of one snapshot commit of all particles, and the size [bytes] of the
+    file and its part files."""
     from ringsim.engine.sheet import particle_arrays
+    from ringsim.store.bulk import parts_folder
     from ringsim.store.runfile import RunFileWriter
 
     path = directory / "snapshot.h5"
@@ -104,7 +106,11 @@ def _snapshot_write(built, scenario, directory: Path) -> tuple[float, int]:
     arrays = particle_arrays(built.sim)
     start = time.perf_counter()
     writer.commit(snapshot=(0, built.sim.t, arrays))
-    return time.perf_counter() - start, path.stat().st_size
+    seconds = time.perf_counter() - start
+    parts = parts_folder(path)   # a large snapshot is in a part file beside the run file
+    size = path.stat().st_size + (sum(f.stat().st_size for f in parts.iterdir())
+                                  if parts.is_dir() else 0)
+    return seconds, size
 
 
 def _timed_loop(built, scenario, threads: int, steps: int, directory: Path) -> dict:
