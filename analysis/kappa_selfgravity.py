@@ -1,0 +1,338 @@
+"""PILOT: ring equilibria with kappa = 0 and kappa = 0.1 WITH self-gravity (issue 12, item 6).
+
+Runs (or reuses finished runs of) ``scenarios/kappa0-gravity.yaml`` and
+``scenarios/kappa0.1-gravity.yaml`` (1 m ice, tau = 0.5, a = 1e8 m, P3M, tree detection)
+and, as the baseline, the same two scenarios with ``sheet.gravity: false`` and line
+detection (same particles, same Omega, same tau), every run until the equilibrium finder
+calls c and H stationary or its maximum of orbits.  Writes ``analysis/kappa_selfgravity.md``
+(equilibria, the ratio kappa = 0.1 / kappa = 0 with and without gravity, the gravity
+numbers of ``ringsim analyze``: r_h, Q, lambda_cr, wake wavelength and amplitude,
+gravitational viscosity) and the figures of ``ringsim compare --plots`` into
+``analysis/figures/selfgravity/``.  The CPU time of every run is measured and reported
+(``time.process_time`` of this process: the runs run here, one at a time).
+
+    python analysis/kappa_selfgravity.py [--seeds 1] [--gravity-orbits 30]
+
+It is a pilot: one seed by default, no systematic budget; the document says what the full
+item 6 still needs.  Functions of ``analysis/kappa_comparison.py`` are imported, not copied.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from kappa_comparison import fmt, fmt_ratio, run_one
+
+from ringsim.analysis.compare import comparison
+from ringsim.analysis.equilibrium import TABLE_ROWS, equilibrium
+from ringsim.analysis.timeseries import autocorrelated_mean
+from ringsim.physics.gravity import toomre_q
+from ringsim.store.runfile import open_run
+
+ROOT = Path(__file__).resolve().parent.parent
+#: kappa (as written in the file names) -> scenario.
+SCENARIOS = {"0": ROOT / "scenarios" / "kappa0-gravity.yaml",
+             "0.1": ROOT / "scenarios" / "kappa0.1-gravity.yaml"}
+REPORT = ROOT / "analysis" / "kappa_selfgravity.md"
+FIGURES = ROOT / "analysis" / "figures" / "selfgravity"
+DATA = ROOT / "analysis" / "data" / "kappa_selfgravity.json"
+#: The no-gravity baseline: the same scenarios without self-gravity, line detection
+#: (cheap for hot rings, docs/validation.md), at most this many orbits.
+NOGRAV_OVERRIDES = {"sheet.gravity": False, "integration.collision_detection": "line"}
+NOGRAV_MAX_ORBITS = 200.0
+#: Rows of the gravity numbers of ``ringsim analyze``: key -> (label, unit shown, scale).
+GRAVITY_ROWS = {
+    "toomre_Q": ("Toomre Q (from sigma_x)", "", 1.0),
+    "wake_wavelength": ("wake wavelength", "m", 1.0),
+    "wake_amplitude": ("wake amplitude (peak contrast A)", "", 1.0),
+    "gravitational_viscosity": ("gravitational viscosity", "m^2/s", 1.0),
+}
+
+
+def jobs(case: str, args, runs_dir: Path) -> list[tuple]:
+    """(scenario, overrides, output) of one case and every seed: ``nograv`` (both kappa
+    values, no gravity, line detection), ``gravity`` (the scenarios as bundled, kappa values
+    ``args.gravity_kappas``) or ``probe`` (a cost probe of ``args.probe_orbits`` of the
+    scenarios of ``args.probe_kappas``, not an equilibrium)."""
+    kappas = {"nograv": list(SCENARIOS), "gravity": args.gravity_kappas,
+              "probe": args.probe_kappas}[case]
+    out = []
+    for kappa in kappas:
+        path = SCENARIOS[kappa]
+        for seed in args.seeds:
+            overrides: dict = {"seed": seed}
+            if case == "nograv":
+                overrides.update(NOGRAV_OVERRIDES)
+                overrides["integration.orbits"] = NOGRAV_MAX_ORBITS
+            elif case == "probe":
+                overrides.update({"integration.orbits": args.probe_orbits,
+                                  "integration.until_equilibrium": False,
+                                  "output.timeseries_every": args.probe_orbits / 2,
+                                  "output.snapshot_every": args.probe_orbits})
+            elif args.gravity_orbits is not None:
+                overrides["integration.orbits"] = args.gravity_orbits
+            out.append((str(path), overrides, str(runs_dir / f"{case}_{path.stem}_seed{seed}.h5")))
+    return out
+
+
+def run_timed(job_list: list[tuple], costs: dict) -> list[str]:
+    """Run the jobs one after the other in this process (the machine is shared); record
+    each run's CPU time [s] and orbits in ``costs`` (a finished run is reused, cost kept)."""
+    paths = []
+    for job in job_list:
+        t0 = time.process_time()
+        path, _wall = run_one(job)
+        cpu = time.process_time() - t0
+        if cpu > 1.0 or Path(path).name not in costs:
+            attrs = open_run(path).attrs
+            costs[Path(path).name] = {"cpu_s": cpu,
+                                      "stop_reason": str(attrs.get("stop_reason", "")),
+                                      "wall_s": float(attrs.get("wall_time_s", math.nan))}
+        paths.append(path)
+    return paths
+
+
+def load_costs() -> dict:
+    """Measured costs of earlier runs, by run-file name."""
+    costs = json.loads(DATA.read_text())["costs"] if DATA.exists() else {}
+    return {Path(key).name: value for key, value in costs.items()}
+
+
+def save_costs(costs: dict) -> None:
+    DATA.parent.mkdir(parents=True, exist_ok=True)
+    DATA.write_text(json.dumps({"costs": costs, "units": {"cpu_s": "s (CPU)",
+                                                          "wall_s": "s (wall)"}}, indent=1))
+
+
+HEADER = [
+    "# PILOT: ring equilibria with kappa = 0 and kappa = 0.1 with self-gravity",
+    "",
+    "**This is a pilot, not the measurement of issue 12 item 6.** One seed, one size "
+    "distribution (identical 1 m spheres), one distance (a = 1e8 m), one optical depth "
+    "(tau = 0.5), no systematic budget. Its numbers say what changes and what the full "
+    "measurement will cost; they are not yet results a referee should quote.",
+]
+
+
+def setup_lines(eqs: dict, attrs: dict) -> list[str]:
+    """The scenario and the numbers of the gravitating patch (``attrs``: of its run file)."""
+    e = eqs["gravity"][0]
+    sc = e["scenario"]
+    return [
+        "## Set-up", "",
+        f"`scenarios/kappa0-gravity.yaml` and `scenarios/kappa0.1-gravity.yaml`: "
+        f"{sc['particles']['size_distribution']}, density {sc['particles']['density']:g} "
+        f"kg/m^3, tau = {sc['sheet']['optical_depth']:g}, {sc['sheet']['n_particles']} "
+        f"particles, Saturn (GM = {sc['planet']['GM']:g} m^3/s^2) at a = "
+        f"{sc['planet']['a']:g} m, Dilley law xi0 = {sc['restitution']['xi0']:g}, "
+        f"p = {sc['restitution']['p']:g}, kappa 0 and 0.1, self-gravity by P3M, tree "
+        "detection, dt auto, until stationary. Patch: r_h = "
+        f"{e['r_h']:.3g}, lambda_cr = {e['lambda_cr']:.3g} m"
+        f", Sigma = {attrs['Sigma']:.3g} kg/m^2, box = {attrs['Lx']:.3g} m = "
+        f"{attrs['box_lambda_cr']:.3g} lambda_cr.",
+        "",
+        "No-gravity baseline: the same two scenarios with `sheet.gravity: false` and line "
+        "detection (same particles, Omega, tau and box), until stationary (at most "
+        f"{NOGRAV_MAX_ORBITS:g} orbits). The existing analysis/kappa_comparison.md cannot serve "
+        "as the baseline: it is at tau = 0.25 and Omega = 2e-4 1/s.",
+    ]
+
+
+#: "What changes and why", written from the measured numbers of the table above.
+EXPLANATION = ["## What changes and why", "", "(to be written from the measurement)"]
+
+
+def quotient(a: dict, b: dict) -> dict:
+    """a / b with its first-order statistical error (independent runs)."""
+    if not (math.isfinite(a["mean"]) and math.isfinite(b["mean"])) or b["mean"] == 0:
+        return {"mean": math.nan, "stderr": math.nan}
+    q = a["mean"] / b["mean"]
+    rel = math.hypot(a["stderr"] / a["mean"] if a["mean"] else 0.0, b["stderr"] / b["mean"])
+    return {"mean": q, "stderr": abs(q) * rel}
+
+
+def fmt_q(r: dict) -> str:
+    return "n/a" if not math.isfinite(r["mean"]) else f"**{r['mean']:.3g}** ± {r['stderr']:.2g}"
+
+
+def nograv_toomre_q(path: str, eq: dict, Sigma: float) -> dict:
+    """Toomre Q a run without self-gravity would have (from its sigma_x over its
+    equilibrium window; Sigma [kg/m^2] that of the gravitating twin)."""
+    run = open_run(path)
+    ts = run.timeseries
+    start = int(np.searchsorted(np.asarray(ts["orbits"]), eq["equilibrium_from_orbit"]))
+    q = toomre_q(np.sqrt(np.asarray(ts["sigma_xx"][start:])), Sigma, run.attrs["Omega"])
+    mean, stderr, _ = autocorrelated_mean(q)
+    return {"mean": float(mean), "stderr": float(stderr), "units": "dimensionless"}
+
+
+def ratio_cell(pair: list, key: str) -> str:
+    """The kappa = 0.1 / kappa = 0 cell of one case (pair: [eq0, eq0.1], None if not run)."""
+    if any(e is None for e in pair):
+        return "not measured"
+    if key in TABLE_ROWS:
+        return fmt_ratio(comparison(pair)["ratios"][0][key])
+    return fmt_q(quotient(pair[1][key], pair[0][key]))
+
+
+def pair_table(eqs: dict) -> list[str]:
+    """Markdown table: both kappa values without and with gravity, both ratios and the
+    effect of gravity (gravity / no gravity).  ``eqs``: case -> [eq kappa 0, eq kappa 0.1],
+    None where a run was not made."""
+    lines = ["| quantity | no gravity, kappa = 0 | no gravity, kappa = 0.1 | ratio 0.1 / 0, "
+             "no gravity | gravity, kappa = 0 | gravity, kappa = 0.1 | ratio 0.1 / 0, gravity "
+             "| kappa = 0: gravity / no gravity |", "|---|---|---|---|---|---|---|---|"]
+    for key, (label, unit, scale) in {**TABLE_ROWS, **GRAVITY_ROWS}.items():
+        cells = []
+        for case in ("nograv", "gravity"):
+            cells += [fmt(e[key], scale) if e is not None and key in e else
+                      ("not run (cost)" if e is None else "-") for e in eqs[case]]
+            cells.append(ratio_cell(eqs[case], key))
+        g0, n0 = eqs["gravity"][0], eqs["nograv"][0]
+        cells.append(fmt_q(quotient(g0[key], n0[key])) if g0 is not None and key in n0 else "")
+        lines.append(f"| {label}{f' [{unit}]' if unit else ''} | " + " | ".join(cells) + " |")
+    g = [e for e in eqs["gravity"] if e is not None]
+    lines.append("| wake wavelength / lambda_cr | | | | " + " | ".join(
+        f"{e['wake_wavelength']['mean'] / e['lambda_cr']:.3g} "
+        f"({100 * e['wake_significant_fraction']:.0f} % of {e['wake_snapshots']} snapshots "
+        "significant)" for e in g) + " |" * (4 - len(g)))
+    rows = (("stationary (equilibrium finder)", lambda e: str(bool(e["in_equilibrium"]))),
+            ("averaged over orbits",
+             lambda e: f"{e['equilibrium_from_orbit']:.3g}-{e['orbits']:.3g}"))
+    for label, show in rows:
+        cells = []
+        for case in ("nograv", "gravity"):
+            cells += [show(e) if e is not None else "" for e in eqs[case]] + [""]
+        lines.append(f"| {label} | " + " | ".join(cells) + " | |")
+    return lines
+
+
+def cost_lines(paths: dict, costs: dict) -> tuple[list[str], dict]:
+    """Markdown table of the measured cost of every run; returns it and the CPU seconds
+    per orbit of the gravity scenarios by kappa."""
+    lines = ["| run | orbits | CPU [s] | CPU per orbit [min] | stop reason |",
+             "|---|---|---|---|---|"]
+    per_orbit = {}
+    for case in ("nograv", "gravity", "probe"):
+        for path in paths[case]:
+            run = open_run(path)
+            orbits = float(np.asarray(run.timeseries["orbits"])[-1])
+            c = costs.get(Path(path).name, {"cpu_s": math.nan, "stop_reason": "?"})
+            rate = c["cpu_s"] / orbits
+            if case != "nograv":
+                per_orbit[run.scenario.restitution.kappa] = rate
+            lines.append(f"| {Path(path).name} | {orbits:.3g} | {c['cpu_s']:.0f} | "
+                         f"{rate / 60:.3g} | {c['stop_reason']} |")
+    return lines, per_orbit
+
+
+#: Issue 12 item 6 in full: distances x optical depths x size distributions x seeds
+#: (per kappa value), and the fewest orbits a hot-started run took to be called stationary
+#: here (the no-gravity pair, 10 orbits each).
+FULL_RUNS_PER_KAPPA = 2 * 2 * 2 * 3
+FEWEST_ORBITS = 10.0
+
+
+def full_item_lines(per_orbit: dict) -> list[str]:
+    """What the full item 6 still needs, with its CPU cost from the measured cost per orbit
+    (CPU seconds per orbit by kappa)."""
+    lines = ["## What the full item 6 still needs", "",
+             f"- The runs: {FULL_RUNS_PER_KAPPA} per kappa value (a = 1e8 m and 1.3e8 m, tau = "
+             "0.25 and 0.5, 1 m monodisperse and the 0.5-5 m power law, >= 3 seeds), every one "
+             "called stationary by the finder; with gravity none of this pilot's runs is.",
+             "- The error budget of analysis/kappa_comparison.md: statistical from the seeds "
+             "and the autocorrelation, systematic from measured method variants (particle "
+             "number, time step, box size; with gravity also the P3M parameters, force error "
+             "< 1 % rms, docs/gravity.md), and a box of >= 4 lambda_cr for the wake statistics "
+             "(this pilot: 2.08).", ""]
+    if per_orbit:
+        total = sum(FULL_RUNS_PER_KAPPA * FEWEST_ORBITS * rate for rate in per_orbit.values())
+        lines.append(
+            "- Cost, a LOWER bound: every run as cheap per orbit as this pilot's smallest box "
+            "(1200 particles, 1 m) and stationary after " f"{FEWEST_ORBITS:g} orbits: "
+            + ", ".join(f"kappa = {k:g}: {FULL_RUNS_PER_KAPPA} x {FEWEST_ORBITS:g} orbits x "
+                        f"{rate / 60:.3g} CPU-min" for k, rate in sorted(per_orbit.items()))
+            + f" = **{total / 3600:.3g} CPU-hours** in all. Larger boxes (4 lambda_cr: 4 times "
+            "the particles at a = 1e8 m, about 19 times at 1.3e8 m, where lambda_cr = 91.6 m), "
+            "the power law's 0.5 m particles (half the time step) and more seeds raise it.")
+    return lines
+
+
+def cli_compare(paths: list[str]) -> str:
+    """``ringsim compare --plots`` as a user runs it; returns its table."""
+    FIGURES.mkdir(parents=True, exist_ok=True)
+    done = subprocess.run(["ringsim", "compare", *paths, "--plots", str(FIGURES)],
+                          capture_output=True, text=True, check=True)
+    return done.stdout
+
+
+def by_kappa(paths: list[str]) -> list:
+    """[equilibrium of kappa = 0, of kappa = 0.1] of the first seed; None where not run."""
+    found = {}
+    for path in paths:
+        eq = equilibrium(open_run(path))
+        found.setdefault(eq["scenario"]["restitution"]["kappa"], (path, eq))
+    return [found.get(k, (None, None)) for k in (0.0, 0.1)]
+
+
+def write_report(args, paths: dict, costs: dict) -> None:
+    """analysis/kappa_selfgravity.md from the finished runs."""
+    found = {case: by_kappa(paths[case]) for case in ("nograv", "gravity")}
+    eqs = {case: [eq for _, eq in found[case]] for case in found}
+    attrs = open_run((paths["gravity"] + paths["probe"])[0]).attrs
+    for path, eq in found["nograv"]:
+        eq["toomre_Q"] = nograv_toomre_q(path, eq, attrs["Sigma"])
+    cost_table, per_orbit = cost_lines(paths, costs)
+    compared = [p for case in ("nograv", "gravity") for p, _ in found[case] if p]
+    text = cli_compare(compared)
+    figures = sorted(FIGURES.glob("*.png"))
+    lines = HEADER + ["", "Generated by `python analysis/kappa_selfgravity.py "
+                      + " ".join(args.argv) + "`.", "", *setup_lines(eqs, attrs), "",
+                      "## Equilibria and ratios (one seed)", "", *pair_table(eqs), "",
+                      *EXPLANATION, "", "## Cost (measured)", "", *cost_table, "",
+                      *full_item_lines(per_orbit), "", "## `ringsim compare` of the runs", "",
+                      "```", text.rstrip(), "```", "",
+                      *[f"![{f.stem}](figures/selfgravity/{f.name})" for f in figures], ""]
+    Path(args.report).write_text("\n".join(lines))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1])
+    parser.add_argument("--gravity-orbits", type=float, default=None,
+                        help="maximum orbits of the gravity runs (default: the scenarios')")
+    parser.add_argument("--gravity-kappas", nargs="*", default=list(SCENARIOS),
+                        choices=list(SCENARIOS), help="gravity scenarios run until stationary")
+    parser.add_argument("--probe-kappas", nargs="*", default=[], choices=list(SCENARIOS),
+                        help="gravity scenarios only probed for their cost")
+    parser.add_argument("--probe-orbits", type=float, default=0.01)
+    parser.add_argument("--cases", nargs="*", default=["nograv", "gravity", "probe"],
+                        choices=["nograv", "gravity", "probe"], help="which runs to run now "
+                        "(the others are read if their files exist)")
+    parser.add_argument("--runs", default=str(ROOT / "runs" / "kappa_selfgravity"))
+    parser.add_argument("--report", default=str(REPORT))
+    args = parser.parse_args()
+    args.argv = sys.argv[1:]
+    runs_dir = Path(args.runs)
+    runs_dir.mkdir(parents=True, exist_ok=True)
+    costs = load_costs()
+    paths = {}
+    for case in ("nograv", "gravity", "probe"):
+        case_jobs = jobs(case, args, runs_dir)
+        if case in args.cases:
+            paths[case] = run_timed(case_jobs, costs)
+            save_costs(costs)
+        else:
+            paths[case] = [out for _, _, out in case_jobs if Path(out).exists()]
+    write_report(args, paths, costs)
+
+
+if __name__ == "__main__":
+    main()
