@@ -290,7 +290,12 @@ def full_item_lines(per_orbit: dict) -> list[str]:
              "and the autocorrelation, systematic from measured method variants (particle "
              "number, time step, box size; with gravity also the P3M parameters, force error "
              "< 1 % rms, docs/gravity.md), and a box of >= 4 lambda_cr for the wake statistics "
-             "(this pilot: 2.08).", ""]
+             "(this pilot: 2.08).",
+             "- A way to afford the hot rings: with tree detection the automatic step follows "
+             "the fastest particles (1 s at kappa = 0, 0.25 s at kappa = 0.1, against 1e-3 "
+             "orbit = 32 s for line detection), and line detection is refused with gravity "
+             "(docs/gravity.md); P3M's layer count grows with the vertical extent (particles "
+             "500 m from the mid-plane at kappa = 0.1, layers 2.25 m apart).", ""]
     if per_orbit:
         total = sum(FULL_RUNS_PER_KAPPA * FEWEST_ORBITS * rate for rate in per_orbit.values())
         lines.append(
