@@ -9,6 +9,7 @@ scaled by the mean radius <r> or by <r> Omega say so in their label.
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -221,6 +222,12 @@ def equilibrium_note(equilibria: list[dict]) -> str:
         else:
             parts.append(f"{eq['name']}: equilibrium from orbit {start:.3g}")
     return "; ".join(parts)
+
+
+def wrapped(text: str, width: int = 100) -> str:
+    """``text`` broken into lines of at most ``width`` characters (existing breaks kept),
+    so that titles naming many runs stay inside the figure."""
+    return "\n".join(textwrap.fill(line, width) for line in text.split("\n"))
 
 
 def label_fontsize(n: int) -> float:

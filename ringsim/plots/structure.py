@@ -18,6 +18,7 @@ from ringsim.plots.common import (
     label_fontsize,
     pyplot,
     set_readable_axis,
+    wrapped,
 )
 from ringsim.plots.timeseries import size_bin_radii
 
@@ -196,8 +197,8 @@ def vertical_profile_figure(entries):
     ax.set_ylabel("density of particle centres [1/m]\n(normalised to 1)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=label_fontsize(2 * len(entries)), loc="upper right")
-    ax.set_title("Vertical profile (dotted: Gaussians of the measured rms thickness H)\n"
-                 + "; ".join(notes), fontsize=9)
+    ax.set_title(wrapped("Vertical profile (dotted: Gaussians of the measured rms thickness "
+                         "H)\n" + "; ".join(notes), width=80), fontsize=9)
     return fig
 
 

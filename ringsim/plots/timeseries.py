@@ -25,6 +25,7 @@ from ringsim.plots.common import (
     secondary_scaled_axis,
     set_readable_axis,
     shade_equilibrium,
+    wrapped,
 )
 
 
@@ -130,8 +131,8 @@ def timeseries_figure(entries, title: str):
     set_readable_axis(axes[3], "x", orbits, log=False, pad=0.0, include_zero=True, max_ticks=8)
     axes[3].set_xlabel("time [orbits]")
     axes[0].legend(fontsize=label_fontsize(len(entries)), loc="best")
-    fig.suptitle(f"{title}\nshaded: equilibrium window, dashed: its mean  "
-                 f"({equilibrium_note([eq for _r, eq, _s in entries])})", fontsize=9)
+    fig.suptitle(wrapped(f"{title}\nshaded: equilibrium window, dashed: its mean  "
+                         f"({equilibrium_note([eq for _r, eq, _s in entries])})"), fontsize=9)
     return fig
 
 
@@ -218,5 +219,5 @@ def per_size_timeseries_figure(run, eq: dict):
     ax_h.set_xlabel("time [orbits]")
     ax_c.legend(fontsize=label_fontsize(edges.size - 1), loc="upper left",
                 bbox_to_anchor=(1.01, 1.0), title="size bin")
-    fig.suptitle(f"{eq['name']}: per size bin ({equilibrium_note([eq])})", fontsize=9)
+    fig.suptitle(wrapped(f"{eq['name']}: per size bin ({equilibrium_note([eq])})"), fontsize=9)
     return fig
