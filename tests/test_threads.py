@@ -80,7 +80,8 @@ def test_bad_threads_exits_2_with_one_line_and_no_file(tmp_path):
     text = yaml.safe_dump(scenario_dict(0, 100))
     path.write_text(text)
     proc = subprocess.run([sys.executable, "-m", "ringsim.cli", "run", str(path), "-o",
-                           str(out)], capture_output=True, text=True, timeout=120)
+                           str(out)], capture_output=True, text=True, timeout=120,
+                          cwd=tmp_path)   # not the source tree: it would shadow the install
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "bad.yaml" in lines[0] and "integration.threads" in lines[0]
