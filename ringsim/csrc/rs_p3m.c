@@ -121,25 +121,43 @@ int rs_p3m_prepare(struct reb_simulation* const r, struct rs_p3m* p){
     return p->nz;
 }
 
-/* Cloud-in-cell weights of particle k: lower node indices and fractions. */
-static void rs_p3m_cic(const struct rs_p3m* p, const struct reb_particle* q, double Lx,
-                       double Ly, int* i0, int* j0, int* l0, double* fx, double* fy,
-                       double* fz){
+/* The cloud-in-cell stencil of one particle: its two node columns in x and y (periodic),
+ * the lower of its two layers, and the weights of both nodes along each axis.  Assignment
+ * and interpolation use the same stencil, so the mesh force is the exact adjoint of the
+ * mass assignment (no self-force, momentum conserved). */
+struct rs_cic {
+    size_t is[2], js[2];
+    size_t l0;
+    double wx[2], wy[2], wz[2];
+};
+
+static struct rs_cic rs_p3m_cic(const struct rs_p3m* p, const struct reb_particle* q,
+                                double Lx, double Ly){
     double gx = (q->x + 0.5 * Lx) / Lx;
     double gy = (q->y + p->alpha * q->x + 0.5 * Ly) / Ly;
     gx = (gx - floor(gx)) * (double)p->nx;
     gy = (gy - floor(gy)) * (double)p->ny;
     double gz = (q->z - p->z0) / p->dz;
-    *i0 = (int)floor(gx);
-    *j0 = (int)floor(gy);
-    *l0 = (int)floor(gz);
-    if (*l0 > p->nz - 2) *l0 = p->nz - 2;
-    if (*l0 < 0) *l0 = 0;
-    *fx = gx - (double)*i0;
-    *fy = gy - (double)*j0;
-    *fz = gz - (double)*l0;
-    *i0 %= p->nx;
-    *j0 %= p->ny;
+    int i0 = (int)floor(gx);
+    int j0 = (int)floor(gy);
+    int l0 = (int)floor(gz);
+    if (l0 > p->nz - 2) l0 = p->nz - 2;
+    if (l0 < 0) l0 = 0;
+    const double fx = gx - (double)i0;
+    const double fy = gy - (double)j0;
+    const double fz = gz - (double)l0;
+    i0 %= p->nx;
+    j0 %= p->ny;
+    struct rs_cic c;
+    c.is[0] = (size_t)i0;
+    c.is[1] = (size_t)((i0 + 1) % p->nx);
+    c.js[0] = (size_t)j0;
+    c.js[1] = (size_t)((j0 + 1) % p->ny);
+    c.l0 = (size_t)l0;
+    c.wx[0] = 1.0 - fx; c.wx[1] = fx;
+    c.wy[0] = 1.0 - fy; c.wy[1] = fy;
+    c.wz[0] = 1.0 - fz; c.wz[1] = fz;
+    return c;
 }
 
 /* Mass [kg] on the nodes, array (nz, nx, ny) in C order (layers outermost, so that the
@@ -155,18 +173,13 @@ void rs_p3m_assign(struct reb_simulation* const r, const struct rs_p3m* p, doubl
         mass[c] = 0.0;
     }
     for (size_t k = 0; k < n; k++){
-        int i0, j0, l0;
-        double fx, fy, fz;
-        rs_p3m_cic(p, &ps[k], Lx, Ly, &i0, &j0, &l0, &fx, &fy, &fz);
-        const size_t is[2] = {(size_t)i0, (size_t)((i0 + 1) % p->nx)};
-        const size_t js[2] = {(size_t)j0, (size_t)((j0 + 1) % p->ny)};
-        const double wx[2] = {1.0 - fx, fx}, wy[2] = {1.0 - fy, fy}, wz[2] = {1.0 - fz, fz};
+        const struct rs_cic st = rs_p3m_cic(p, &ps[k], Lx, Ly);
         for (int a = 0; a < 2; a++){
             for (int b = 0; b < 2; b++){
-                const size_t base = ((size_t)l0 * nxs + is[a]) * ny + js[b];
-                const double w = ps[k].m * wx[a] * wy[b];
-                mass[base] += w * wz[0];
-                mass[base + plane] += w * wz[1];
+                const size_t base = (st.l0 * nxs + st.is[a]) * ny + st.js[b];
+                const double w = ps[k].m * st.wx[a] * st.wy[b];
+                mass[base] += w * st.wz[0];
+                mass[base + plane] += w * st.wz[1];
             }
         }
     }
@@ -182,18 +195,13 @@ void rs_p3m_interpolate(struct reb_simulation* const r, const struct rs_p3m* p,
     const double Ly = r->root_size * (double)r->N_root_y;
     const size_t ny = (size_t)p->ny, nxs = (size_t)p->nx;
     for (size_t k = 0; k < n; k++){
-        int i0, j0, l0;
-        double fx, fy, fz;
-        rs_p3m_cic(p, &ps[k], Lx, Ly, &i0, &j0, &l0, &fx, &fy, &fz);
-        const size_t is[2] = {(size_t)i0, (size_t)((i0 + 1) % p->nx)};
-        const size_t js[2] = {(size_t)j0, (size_t)((j0 + 1) % p->ny)};
-        const double wx[2] = {1.0 - fx, fx}, wy[2] = {1.0 - fy, fy}, wz[2] = {1.0 - fz, fz};
+        const struct rs_cic st = rs_p3m_cic(p, &ps[k], Lx, Ly);
         double ax = 0.0, ay = 0.0, az = 0.0;
         for (int a = 0; a < 2; a++){
             for (int b = 0; b < 2; b++){
                 for (int c = 0; c < 2; c++){
-                    const size_t node = (((size_t)l0 + (size_t)c) * nxs + is[a]) * ny + js[b];
-                    const double w = wx[a] * wy[b] * wz[c];
+                    const size_t node = ((st.l0 + (size_t)c) * nxs + st.is[a]) * ny + st.js[b];
+                    const double w = st.wx[a] * st.wy[b] * st.wz[c];
                     ax += w * gx[node];
                     ay += w * gy[node];
                     az += w * gz[node];

@@ -507,6 +507,21 @@ static int64_t rs_span(double distance, double side){
     return cells >= 1.0 ? (cells < 1e9 ? (int64_t)cells : 1000000000) : 1;
 }
 
+/* The ghost-box offset REBOUND's collision record carries for the pair (pi, pj) seen
+ * through the image (image_x, gy_i, image_vy): the image plus the wraps of both particles. */
+static inline struct reb_vec6d rs_image_offset(const struct rs_sheet_particle* pi,
+                                               const struct rs_sheet_particle* pj,
+                                               double image_x, double gy_i, double image_vy){
+    struct reb_vec6d gb;
+    gb.x = pi->ox + image_x - pj->ox;
+    gb.y = pi->oy + gy_i - pj->oy;
+    gb.z = 0.0;
+    gb.vx = 0.0;
+    gb.vy = pi->ovy + image_vy - pj->ovy;
+    gb.vz = 0.0;
+    return gb;
+}
+
 /* Method 3-4 in the cells [first, end) of the sorted particles (a run of cells of one
  * row) for particle pi (image
  * offsets image_x, gy_i, image_vy): every partner j > i within the bound of Method 1 whose
@@ -538,13 +553,7 @@ static int rs_cell_report(const struct rs_sheet_grid* g, const struct rs_sheet_d
         }
         const struct rs_sheet_particle* pi = &d->unsorted[p->index];
         const struct rs_sheet_particle* pj = &d->unsorted[q->index];
-        struct reb_vec6d gb;
-        gb.x = pi->ox + image_x - pj->ox;
-        gb.y = pi->oy + gy_i - pj->oy;
-        gb.z = 0.0;
-        gb.vx = 0.0;
-        gb.vy = pi->ovy + image_vy - pj->ovy;
-        gb.vz = 0.0;
+        const struct reb_vec6d gb = rs_image_offset(pi, pj, image_x, gy_i, image_vy);
         const double dx = pi->x + gb.x - pj->x;
         const double dy = pi->y + gb.y - pj->y;
         const double dz = pi->z - pj->z;
@@ -599,13 +608,7 @@ static int rs_cell_recheck(const struct reb_simulation* const r, struct rs_sheet
             continue;
         }
         const struct rs_sheet_particle* pj = &d->unsorted[q->index];
-        struct reb_vec6d gb;
-        gb.x = pi->ox + image_x - pj->ox;
-        gb.y = pi->oy + gy_i - pj->oy;
-        gb.z = 0.0;
-        gb.vx = 0.0;
-        gb.vy = pi->ovy + image_vy - pj->ovy;
-        gb.vz = 0.0;
+        const struct reb_vec6d gb = rs_image_offset(pi, pj, image_x, gy_i, image_vy);
         const double dx = pi->x + gb.x - pj->x;
         const double dy = pi->y + gb.y - pj->y;
         const double dz = pi->z - pj->z;
