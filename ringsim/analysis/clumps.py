@@ -24,6 +24,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ringsim.physics.constants import G_SI
+from ringsim.physics.selfgravity import radial_images
 
 #: Centres closer than this times the sum of the radii are linked (touching, with room for
 #: the overlap and separation a step's detection leaves) [dimensionless].
@@ -34,14 +35,8 @@ MIN_GROUP = 10
 
 def _linked_pairs(x, y, z, radius, Lx, Ly, shift, link):
     """Linked pairs (i, j) of original indices and the separation vectors r_j - r_i [m]."""
-    n = radius.size
     reach = link * 2.0 * float(radius.max())
-    high = np.flatnonzero(x > 0.5 * Lx - reach)
-    low = np.flatnonzero(x < -0.5 * Lx + reach)
-    index = np.concatenate([np.arange(n), high, low])
-    px = np.concatenate([x, x[high] - Lx, x[low] + Lx])
-    py = np.concatenate([y, y[high] + shift, y[low] - shift])
-    pz = z[index]
+    index, px, py, pz = radial_images(x, y, z, Lx, shift, reach)
     tree = cKDTree(np.column_stack([px - px.min(), np.mod(py + 0.5 * Ly, Ly),
                                     pz - pz.min()]), boxsize=[1e300, Ly, 1e300])
     pairs = tree.query_pairs(reach, output_type="ndarray")

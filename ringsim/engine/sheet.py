@@ -22,7 +22,7 @@ import rebound
 from ringsim.engine.placement import OverlapGrid, wrap_horizontal
 from ringsim.engine.timestep import choose_dt
 from ringsim.physics.constants import SHEAR
-from ringsim.physics.selfgravity import P3M_SPLIT_RADII
+from ringsim.physics.selfgravity import P3M_SPLIT_RADII, radial_images
 from ringsim.physics.sizes import size_bin_edges
 
 #: A particle's vertical amplitude may reach this fraction of the half z period.
@@ -518,13 +518,7 @@ def count_overlaps(arrays: dict[str, np.ndarray], geometry: SheetGeometry, t: fl
     reach = 2.0 * float(r.max())
     x, y, z = arrays["x"], arrays["y"], arrays["z"]
     shift = 1.5 * geometry.Omega * Lx * t
-    # originals, then images of particles near the radial edges (index map back to them)
-    near_high = np.flatnonzero(x > 0.5 * Lx - reach)
-    near_low = np.flatnonzero(x < -0.5 * Lx + reach)
-    index = np.concatenate([np.arange(n), near_high, near_low])
-    px = np.concatenate([x, x[near_high] - Lx, x[near_low] + Lx])
-    py = np.concatenate([y, y[near_high] + shift, y[near_low] - shift])
-    pz = z[index]
+    index, px, py, pz = radial_images(x, y, z, Lx, shift, reach)
     pos = np.column_stack([px - px.min(), np.mod(py + 0.5 * Ly, Ly), pz - pz.min()])
     order = np.argsort(pos[:, 0], kind="stable")   # chunks of neighbours: compact trees
     tree = cKDTree(pos, boxsize=[1e300, Ly, 1e300])

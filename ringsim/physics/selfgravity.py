@@ -140,6 +140,30 @@ def minimum_image(d, Lx, Ly, shift):
     return d
 
 
+def radial_images(x: np.ndarray, y: np.ndarray, z: np.ndarray, Lx: float, shift: float,
+                  reach: float) -> tuple[np.ndarray, ...]:
+    """The particles, then the shear-periodic images of those within ``reach`` of a radial
+    edge, for pair searches across the boundary.
+
+    Parameters
+    ----------
+    x, y, z : arrays [m]
+    Lx : float [m]
+        Radial box width.
+    shift : float [m]
+        Azimuthal offset of the radial neighbour boxes (1.5 Omega Lx t).
+    reach : float [m]
+
+    Returns ``index`` (the original particle of each point) and the points' ``x, y, z`` [m].
+    """
+    near_high = np.flatnonzero(x > 0.5 * Lx - reach)
+    near_low = np.flatnonzero(x < -0.5 * Lx + reach)
+    index = np.concatenate([np.arange(x.size), near_high, near_low])
+    px = np.concatenate([x, x[near_high] - Lx, x[near_low] + Lx])
+    py = np.concatenate([y, y[near_high] + shift, y[near_low] - shift])
+    return index, px, py, z[index]
+
+
 def direct_accelerations(pos, mass, Lx, Ly, shift, softening, n_rows=4, G=G_SI,
                          targets=None, chunk=256):
     """Reference accelerations [m/s^2] of a shear-periodic sheet by direct summation.
