@@ -196,26 +196,6 @@ def test_analyze_a_gravitating_run_reports_the_gravity_numbers(tmp_path):
 
 
 
-def test_line_detection_with_self_gravity_is_refused_with_exit_2(tmp_path, capsys):
-    """Measured (docs/gravity.md): line mode misses 20 % of a self-gravitating sheet's
-    collisions; the scenario is refused naming integration.collision_detection."""
-    import yaml
-
-    from ringsim.cli import main
-    from ringsim.config.scenario import ScenarioError
-
-    with pytest.raises(ScenarioError, match="collision_detection"):
-        gravitating_scenario(**{"integration.collision_detection": "line"})
-    data = gravitating_scenario().to_dict()
-    data["integration"]["collision_detection"] = "line"
-    path = tmp_path / "s.yaml"
-    path.write_text(yaml.safe_dump(data))
-    assert main(["run", str(path), "-o", str(tmp_path / "r.h5"), "--no-progress"]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "integration.collision_detection" in err[0] and "s.yaml" in err[0]
-    assert not (tmp_path / "r.h5").exists()
-
-
 # --- the wake-forming scenario (slow: about 5 minutes of CPU, one run for both tests) -------
 
 #: Wakes are significant from orbit 0.5 on (docs/validation.md, "Self-gravity"); the tests

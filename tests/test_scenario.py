@@ -68,7 +68,7 @@ ROUND_TRIP_CASES = {
         "particles": {"density": 450.0, "size_distribution": {"kind": "mixture", "components": [
             {"radius": 0.3, "number_fraction": 0.7}, {"radius": 1.7, "number_fraction": 0.3}]}},
         "sheet": {"gravity": True, "softening": "auto", "opening_angle": 0.7},
-        "integration": {"dt": 1.0e-3, "collision_detection": "tree"},  # line: refused w. gravity
+        "integration": {"dt": 1.0e-3, "collision_detection": "tree"},
         "output": {"log_collisions": 1000, "checkpoint_every": 0.5},
     },
     "odd_floats": {**MINIMAL, "planet": {"Omega": 0.1 + 0.2},

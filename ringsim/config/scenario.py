@@ -392,19 +392,13 @@ def _read_friction(top: Section) -> Friction | None:
     return Friction(model=model, parameters=params)
 
 
-def _read_integration(top: Section, planet: Planet, gravity: bool = False) -> Integration:
+def _read_integration(top: Section, planet: Planet) -> Integration:
     sec = top.section("integration", keys=_SECTION_KEYS["integration"])
     sec.check_keys(_SECTION_KEYS["integration"])
     d = DEFAULTS
     orbits = sec.number("orbits", d["integration.orbits"], unit="orbits", gt=0.0)
     detection = sec.string("collision_detection", d["integration.collision_detection"],
                            choices=_COLLISION_DETECTIONS)
-    if detection == "line" and gravity:
-        # measured on a wake-forming sheet (docs/gravity.md): 20 % fewer collisions, 15 %
-        # faster impacts, 11 % multiple encounters per step against tree mode at small dt
-        raise sec.error("collision_detection", "line detection ignores the self-gravity "
-                        "kick within a step (20 % too few collisions in a self-gravitating "
-                        "sheet, docs/gravity.md)", "tree, with sheet.gravity: true")
     dt = sec.number_or_auto("dt", d["integration.dt"], unit="orbits", gt=0.0,
                             le=MAX_DT_ORBITS)
     if dt != "auto" and dt > orbits:
@@ -499,7 +493,7 @@ def _build(data: Any, source: str, source_text: str | None) -> Scenario:
     sheet = _read_sheet(top)
     restitution = _read_restitution(top)
     friction = _read_friction(top)
-    integration = _read_integration(top, planet, sheet.gravity)
+    integration = _read_integration(top, planet)
     output = _read_output(top, name)
     scenario = Scenario(name=name, seed=seed, description=description, planet=planet,
                         particles=particles, sheet=sheet, restitution=restitution,

@@ -914,16 +914,30 @@ int rs_resolve_pair(struct reb_simulation* const r, struct rs_resolver* const re
 }
 
 int rs_resolve_contact(struct reb_simulation* const r, struct rs_resolver* const res,
-                       struct reb_collision c, double back_time){
+                       struct reb_collision c, double back_time, double kick_time){
     struct reb_particle* const p1 = &r->particles[c.p1];
     struct reb_particle* const p2 = &r->particles[c.p2];
     const struct reb_vec6d gb = c.gb;
-    const double dvx = p1->vx + gb.vx - p2->vx;
-    const double dvy = p1->vy + gb.vy - p2->vy;
-    const double dvz = p1->vz + gb.vz - p2->vz;
-    const double cx = p1->x + gb.x - p2->x - back_time * dvx;
-    const double cy = p1->y + gb.y - p2->y - back_time * dvy;
-    const double cz = p1->z + gb.z - p2->z - back_time * dvz;
+    double dvx = p1->vx + gb.vx - p2->vx;
+    double dvy = p1->vy + gb.vy - p2->vy;
+    double dvz = p1->vz + gb.vz - p2->vz;
+    double cx = p1->x + gb.x - p2->x - back_time * dvx;
+    double cy = p1->y + gb.y - p2->y - back_time * dvy;
+    double cz = p1->z + gb.z - p2->z - back_time * dvz;
+    if (kick_time > 0.0 && back_time > kick_time){
+        /* before the kick: dr(s) = dr - s dv + (s - kick_time) dk, velocity dv - dk */
+        const double dt = r->dt_last_done;
+        const double dkx = (p1->ax - p2->ax) * dt;
+        const double dky = (p1->ay - p2->ay) * dt;
+        const double dkz = (p1->az - p2->az) * dt;
+        const double before = back_time - kick_time;
+        cx += before * dkx;
+        cy += before * dky;
+        cz += before * dkz;
+        dvx -= dkx;
+        dvy -= dky;
+        dvz -= dkz;
+    }
     const double contact = sqrt(cx * cx + cy * cy + cz * cz);
     rs_pair_memory_sync(&res->memory, r);
     if (!rs_apply_impulse(r, res, p1, p2, gb, cx, cy, cz, contact, dvx, dvy, dvz, back_time)){

@@ -121,13 +121,16 @@ int rs_resolve_pair(struct reb_simulation* r, struct rs_resolver* res, struct re
                     int swept);
 
 /* Resolve pair c at a contact found by the caller: back_time [s] before the end of the
- * step on the pair's current straight relative path (0 <= back_time <= dt_last_done).
- * Impulse along the separation there, both particles moved on with their new velocities
- * for back_time, multi_encounters counted; no per-step pair memory (the caller decides
- * which pairs may collide again).  Returns 1 if an impulse was applied (0: receding or
- * below round-off at that point). */
+ * step on the pair's current relative path (0 <= back_time <= dt_last_done).  The path is
+ * straight if kick_time = 0; with kick_time > 0 [s] it is kinked there by the kick of the
+ * step's accelerations (v changed by a dt_last_done at kick_time before the end, as SEI
+ * kicks at mid-step), so a contact earlier than the kick is met with the velocities before
+ * it.  Impulse along the separation there, both particles moved on with their new
+ * velocities for back_time (the kick is the same on either path), multi_encounters
+ * counted; no per-step pair memory (the caller decides which pairs may collide again).
+ * Returns 1 if an impulse was applied (0: receding or below round-off at that point). */
 int rs_resolve_contact(struct reb_simulation* r, struct rs_resolver* res, struct reb_collision c,
-                       double back_time);
+                       double back_time, double kick_time);
 
 
 #endif /* RS_RESOLVER_H */

@@ -33,6 +33,21 @@
  *    relative velocity dv = w_i - w_j - 1.5 Omega dx e_y can touch within the step only if
  *    |dr| <= rho_i + rho_j + 1.5 Omega dt |dx|  (exact bound), hence only if
  *    |dr| <= 2 max(rho) / (1 - 1.5 Omega dt) = s.
+ * 1a. Kicks (self-gravity).  REBOUND's SEI drifts dt/2, kicks every velocity by the
+ *    accelerations of the step, v += a dt (REBOUND leaves a in the particles), and drifts
+ *    dt/2.  A particle's path over the step is then two straight pieces (the epicyclic
+ *    curvature ignored as above): x(s) = x - s v for s <= kick_time = dt/2, and
+ *    x(s) = x - s v + (s - kick_time) a dt before the kick, with the velocity v - a dt.
+ *    When any particle has a != 0 (an exact zero without self-gravity: then nothing below
+ *    changes, bit for bit), the reach gets |a| dt (dt - kick_time), the path test of
+ *    step 4 and the contact times of step 5 use both pieces, and a contact before the kick
+ *    is resolved with the velocities before it (rs_resolve_contact).  A collision adds the
+ *    same impulse to both pieces, so the moves and deviations of steps 5-7 are unchanged.
+ *    The kick is the one REBOUND applied, computed from the positions at mid-step before
+ *    any collision of the step; a collision does not change it (as REBOUND would not).
+ *    Two particles that collided with each other before the kick may be turned back
+ *    towards each other by it (a pair resting in contact under its own gravity), so
+ *    Method 8's exemption holds only for collisions after the kick.
  * 2. Particles, wrapped into the primary box as REBOUND's shear boundary would wrap them
  *    (x - m Lx, y + m a, vy + 1.5 m Omega Lx with a = 1.5 Omega Lx t mod Ly), are sorted
  *    into a grid of cells of at least s / RS_CELL_DIVISIONS on each side (x, y over the
@@ -93,7 +108,7 @@
  *    >= 0 and, on straight paths, its distance can only grow: it can meet again in the same
  *    step only after a third body has deflected one of the two.  A pair is therefore not
  *    re-checked while the last collision of both its particles is the one between them
- *    (equal serials); once a third body deflected one of them it may collide again (e.g.
+ *    (equal serials) and came after the step's kick (Method 1a); once a third body deflected one of them it may collide again (e.g.
  *    re-approaching after the push).  This replaces rs_resolver.c's per-step pair memory,
  *    which allowed one resolution per pair and step, and keeps eps = 0 (grazing) pairs from
  *    resolving again and again.  Chains of contacts in one step, which for small eps can in
@@ -113,8 +128,8 @@
  * Validity limits
  * ---------------
  * - Paths are straight lines with the velocities after the last collision (epicyclic
- *   curvature ignored): valid for Omega dt << 1; 1.5 Omega dt < 0.5 is required (else the
- *   step is refused).
+ *   curvature ignored), kinked at mid-step by the kick (Method 1a): valid for
+ *   Omega dt << 1; 1.5 Omega dt < 0.5 is required (else the step is refused).
  * - Boundaries: shear (needs OMEGA) or periodic; z is never periodic here (REBOUND's box is
  *   periodic in z, ringsim's vertical guard keeps particles far from it).
  * - The box should be at least 2 s wide in x and y.  If not, several images of one pair
@@ -226,6 +241,7 @@ struct rs_sheet_grid {
     double z_range;         /* [m] height of the particles' range */
     double reach_max;       /* [m] */
     double slack;           /* [m] widening of the wrapped-coordinate pre-test (rs_cell_report) */
+    double kick_time;       /* [s] back time of the step's kick (Method 1a), 0: no kick */
     int64_t nx, ny, nz;
 };
 
@@ -248,6 +264,9 @@ struct rs_sheet_detector {
     int64_t n_events;
     struct rs_event* events;        /* binary heap, earliest contact at the root */
     struct rs_sheet_grid grid;
+    const struct reb_particle* particles;   /* r->particles of the last search (kicks) */
+    int straight_paths;             /* 1: ignore the kick (measurements only, Method 1a) */
+    double kick_max;                /* [m/s] largest |a| dt of the last step */
     double deviation_max;           /* [m] largest D of this step */
     int64_t serial;                 /* collisions resolved in this step */
     /* counters */
@@ -356,20 +375,11 @@ static int rs_report(struct rs_pair_list* out, size_t p1, size_t p2, struct reb_
 /* ---------------------------------------------------------------------------------- */
 /* Contacts in time order (Method 5-8).                                               */
 
-/* Back time [s] of pair c's next contact on the current straight paths within the last
- * `window` of the step: the entry into contact if it is in (0, window], `window` itself if
- * the pair touches then and approaches; 0 if none. */
-static double rs_contact_back_time(const struct reb_simulation* const r,
-                                   const struct reb_collision c, double window){
-    const struct reb_particle* const p1 = &r->particles[c.p1];
-    const struct reb_particle* const p2 = &r->particles[c.p2];
-    const double dx = p1->x + c.gb.x - p2->x;
-    const double dy = p1->y + c.gb.y - p2->y;
-    const double dz = p1->z + c.gb.z - p2->z;
-    const double dvx = p1->vx + c.gb.vx - p2->vx;
-    const double dvy = p1->vy + c.gb.vy - p2->vy;
-    const double dvz = p1->vz + c.gb.vz - p2->vz;
-    const double sum_radii = p1->r + p2->r;
+/* Back time [s] of the next contact of a pair on the straight relative path dr(s) = dr -
+ * s dv within the last `window` of it: the entry into contact if it is in (0, window],
+ * `window` itself if the pair touches then and approaches; 0 if none. */
+static double rs_line_contact(double dx, double dy, double dz, double dvx, double dvy,
+                              double dvz, double sum_radii, double window){
     const double a = dvx * dvx + dvy * dvy + dvz * dvz;
     const double b = dx * dvx + dy * dvy + dz * dvz;
     const double gap = dx * dx + dy * dy + dz * dz - sum_radii * sum_radii;
@@ -385,6 +395,36 @@ static double rs_contact_back_time(const struct reb_simulation* const r,
         return entry;
     }
     return window * a > b ? window : 0.0;   /* dr(window).dv < 0: still approaching */
+}
+
+/* Back time [s] of pair c's next contact on the current paths within the last `window` of
+ * the step (rs_line_contact's rule).  With a kick (Method 1a) the path is two straight
+ * pieces: dr - s dv after the kick (s <= kick_time), dr(kick_time) - (s - kick_time)
+ * (dv - dk) before it; the earlier piece is searched first. */
+static double rs_contact_back_time(const struct reb_simulation* const r,
+                                   const struct reb_collision c, double window,
+                                   double kick_time){
+    const struct reb_particle* const p1 = &r->particles[c.p1];
+    const struct reb_particle* const p2 = &r->particles[c.p2];
+    const double dx = p1->x + c.gb.x - p2->x;
+    const double dy = p1->y + c.gb.y - p2->y;
+    const double dz = p1->z + c.gb.z - p2->z;
+    const double dvx = p1->vx + c.gb.vx - p2->vx;
+    const double dvy = p1->vy + c.gb.vy - p2->vy;
+    const double dvz = p1->vz + c.gb.vz - p2->vz;
+    const double sum_radii = p1->r + p2->r;
+    if (kick_time > 0.0 && window > kick_time){
+        const double dt = r->dt_last_done;
+        const double before = rs_line_contact(
+            dx - kick_time * dvx, dy - kick_time * dvy, dz - kick_time * dvz,
+            dvx - (p1->ax - p2->ax) * dt, dvy - (p1->ay - p2->ay) * dt,
+            dvz - (p1->az - p2->az) * dt, sum_radii, window - kick_time);
+        if (before > 0.0){
+            return kick_time + before;
+        }
+        window = kick_time;
+    }
+    return rs_line_contact(dx, dy, dz, dvx, dvy, dvz, sum_radii, window);
 }
 
 /* a happens before b: larger back time, then smaller indices and offsets. */
@@ -408,7 +448,7 @@ static int rs_event_before(const struct rs_event* a, const struct rs_event* b){
  * Returns 0 if memory ran out. */
 static int rs_queue(const struct reb_simulation* const r, struct rs_sheet_detector* d,
                     const struct reb_collision c, double window){
-    const double back_time = rs_contact_back_time(r, c, window);
+    const double back_time = rs_contact_back_time(r, c, window, d->grid.kick_time);
     if (!(back_time > 0.0)){
         return 1;
     }
@@ -452,13 +492,16 @@ static struct rs_event rs_pop(struct rs_sheet_detector* d){
 }
 
 /* Method 6 for the pair of particle i and partner j (image offset gb of i): queued unless
- * their last collisions are the one between them, or either has its fill of contacts. */
+ * their last collisions are the one between them (Method 8; unless that collision came
+ * before the step's kick, which may turn them back towards each other: Method 1a), or
+ * either has its fill of contacts. */
 static int rs_recheck_pair(const struct reb_simulation* const r, struct rs_sheet_detector* d,
                            int64_t i, int64_t j, struct reb_vec6d gb, double window){
     const struct rs_sheet_track* ti = &d->track[i];
     const struct rs_sheet_track* tj = &d->track[j];
-    if ((ti->last == tj->last && ti->last != 0) || ti->contacts >= RS_MAX_CONTACTS
-        || tj->contacts >= RS_MAX_CONTACTS){
+    const int kicked_since = d->grid.kick_time > 0.0 && window > d->grid.kick_time;
+    if ((ti->last == tj->last && ti->last != 0 && !kicked_since)
+        || ti->contacts >= RS_MAX_CONTACTS || tj->contacts >= RS_MAX_CONTACTS){
         return 1;
     }
     d->candidates++;
@@ -522,6 +565,36 @@ static inline struct reb_vec6d rs_image_offset(const struct rs_sheet_particle* p
     return gb;
 }
 
+/* Closest approach of the straight relative path dr(s) = dr - s dv, 0 <= s <= duration,
+ * within sum_radii: REBOUND's linetree criterion. */
+static inline int rs_line_touches(double dx, double dy, double dz, double dvx, double dvy,
+                                  double dvz, double sum_radii, double duration){
+    const double dv2 = dvx * dvx + dvy * dvy + dvz * dvz;
+    double s_closest = dv2 > 0.0 ? (dx * dvx + dy * dvy + dz * dvz) / dv2 : 0.0;
+    s_closest = s_closest < 0.0 ? 0.0 : (s_closest > duration ? duration : s_closest);
+    const double ex = dx - s_closest * dvx;
+    const double ey = dy - s_closest * dvy;
+    const double ez = dz - s_closest * dvz;
+    return ex * ex + ey * ey + ez * ez <= sum_radii * sum_radii;
+}
+
+/* Method 4 on the step's paths: straight over dt without a kick; with one (Method 1a), the
+ * piece after the kick (s <= kick_time) and the piece before it, whose relative velocity
+ * lacks the kick difference (p1, p2: the particles, for their accelerations). */
+static int rs_path_touches(double dx, double dy, double dz, double dvx, double dvy,
+                           double dvz, double sum_radii, double dt, double kick_time,
+                           const struct reb_particle* p1, const struct reb_particle* p2){
+    if (!(kick_time > 0.0)){
+        return rs_line_touches(dx, dy, dz, dvx, dvy, dvz, sum_radii, dt);
+    }
+    if (rs_line_touches(dx, dy, dz, dvx, dvy, dvz, sum_radii, kick_time)){
+        return 1;
+    }
+    return rs_line_touches(dx - kick_time * dvx, dy - kick_time * dvy, dz - kick_time * dvz,
+                           dvx - (p1->ax - p2->ax) * dt, dvy - (p1->ay - p2->ay) * dt,
+                           dvz - (p1->az - p2->az) * dt, sum_radii, dt - kick_time);
+}
+
 /* Method 3-4 in the cells [first, end) of the sorted particles (a run of cells of one
  * row) for particle pi (image
  * offsets image_x, gy_i, image_vy): every partner j > i within the bound of Method 1 whose
@@ -565,15 +638,9 @@ static int rs_cell_report(const struct rs_sheet_grid* g, const struct rs_sheet_d
         const double dvx = pi->vx - pj->vx;
         const double dvy = pi->vy + gb.vy - pj->vy;
         const double dvz = pi->vz - pj->vz;
-        /* Closest approach on dr(s) = dr - s dv, 0 <= s <= dt. */
-        const double dv2 = dvx * dvx + dvy * dvy + dvz * dvz;
-        double s_closest = dv2 > 0.0 ? (dx * dvx + dy * dvy + dz * dvz) / dv2 : 0.0;
-        s_closest = s_closest < 0.0 ? 0.0 : (s_closest > g->dt ? g->dt : s_closest);
-        const double ex = dx - s_closest * dvx;
-        const double ey = dy - s_closest * dvy;
-        const double ez = dz - s_closest * dvz;
         const double sum_radii = pi->radius + pj->radius;
-        if (ex * ex + ey * ey + ez * ez > sum_radii * sum_radii){
+        if (!rs_path_touches(dx, dy, dz, dvx, dvy, dvz, sum_radii, g->dt, g->kick_time,
+                             &d->particles[pi->index], &d->particles[pj->index])){
             continue;
         }
         if (!rs_report(out, (size_t)pi->index, (size_t)pj->index, gb)){
@@ -688,10 +755,12 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
     const double Ly = g->Ly;
     const double Omega = r->boundary == REB_BOUNDARY_SHEAR ? r->OMEGA : 0.0;
     double reach_max = 0.0;
+    double kick_max = 0.0;
     double z_min = INFINITY;
     double z_max = -INFINITY;
+    const double kick_time = d->straight_paths ? 0.0 : 0.5 * g->dt;
 #pragma omp parallel for schedule(static) num_threads(rs_team_size(d, n)) \
-        reduction(max:reach_max, z_max) reduction(min:z_min)
+        reduction(max:reach_max, kick_max, z_max) reduction(min:z_min)
     for (int64_t i = 0; i < n; i++){
         const struct reb_particle p = r->particles[i];
         struct rs_sheet_particle* q = &d->unsorted[i];
@@ -708,6 +777,14 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
         q->radius = p.r;
         const double wy = p.vy + 1.5 * Omega * p.x;
         q->reach = p.r + g->dt * sqrt(p.vx * p.vx + wy * wy + p.vz * p.vz);
+        const double a2 = p.ax * p.ax + p.ay * p.ay + p.az * p.az;
+        if (a2 > 0.0){
+            /* Method 1a: the piece before the kick leaves the straight line by at most
+             * |a| dt (dt - kick_time) */
+            const double kick = sqrt(a2) * g->dt;
+            q->reach += kick_time > 0.0 ? kick * (g->dt - kick_time) : 0.0;
+            kick_max = fmax(kick_max, kick);
+        }
         q->xw = xw;
         q->yw = yw;
         q->ox = xw - p.x;
@@ -719,9 +796,11 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
         z_min = fmin(z_min, p.z);
         z_max = fmax(z_max, p.z);
     }
-    if (!isfinite(reach_max) || !isfinite(z_min) || !isfinite(z_max)){
+    if (!isfinite(reach_max) || !isfinite(z_min) || !isfinite(z_max) || !isfinite(kick_max)){
         return 0;
     }
+    d->kick_max = kick_max;
+    g->kick_time = kick_max > 0.0 ? kick_time : 0.0;
     g->reach_max = reach_max;
     g->z_min = z_min;
     g->z_range = z_max - z_min;
@@ -912,6 +991,7 @@ static int rs_sheet_find_pairs(struct reb_simulation* const r, struct rs_sheet_d
 
     /* 1. Wrap, reach, vertical range (rs_wrap); 2. grid and counting sort (rs_grid_sort);
      * 3-4. neighbour cells, images, exact path test (rs_search). */
+    d->particles = r->particles;
     if (!rs_wrap(r, d)){
         return RS_DETECT_STEP_TOO_LONG;     /* non-finite state: nothing sensible to do */
     }
@@ -1012,7 +1092,7 @@ void rs_sheet_step(struct reb_simulation* const r){
         if (d->track[p1].last != e.last1 || d->track[p2].last != e.last2){
             continue;   /* computed on a path that has changed since */
         }
-        if (!rs_resolve_contact(r, res, e.c, e.back_time)){
+        if (!rs_resolve_contact(r, res, e.c, e.back_time, d->grid.kick_time)){
             continue;   /* receding, or a normal speed below round-off */
         }
         d->serial++;
@@ -1109,6 +1189,18 @@ int rs_sheet_set_threads(struct rs_resolver* res, int threads){
 }
 
 /* Threads the last search of the resolver's detector ran on (0 before the first). */
+/* Method 1a off (straight = 1: paths straight over the whole step, the kick ignored, as
+ * before ringsim knew of it) or on (0, the default).  For measurements of what the kick
+ * changes (validation/kicked_paths.py); returns 0 if the detector cannot be made. */
+int rs_sheet_set_straight_paths(struct rs_resolver* res, int straight){
+    struct rs_sheet_detector* const d = res ? rs_detector_of(res) : NULL;
+    if (d == NULL){
+        return 0;
+    }
+    d->straight_paths = straight != 0;
+    return 1;
+}
+
 int rs_sheet_threads_used(const struct rs_resolver* res){
     const struct rs_sheet_detector* d = res->detector;
     return d == NULL ? 0 : d->team_last;
