@@ -1,0 +1,230 @@
+"""The report of ``analysis/kappa_selfgravity.py``: ``analysis/kappa_selfgravity.md``.
+
+Reads the runs of every case that exist, combines the seeds (``ringsim.analysis.compare``:
+replicas, statistical error the larger of the propagated one and the seed scatter), forms
+the ratio kappa = 0.1 / kappa = 0 with and without self-gravity with the systematic budget
+of ``analysis/data/kappa_selfgravity_budget.json`` (what is in it is said in the report),
+and writes the tables, the measured costs and what is not done.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+from kappa_comparison import fmt, fmt_ratio
+from kappa_selfgravity import (
+    BOX_LAMBDA,
+    CASES,
+    GRAVITY_ROWS,
+    MIN_PARTICLES,
+    REPORT,
+    ROOT,
+    SCENARIOS,
+    SIZES,
+    output,
+    patch,
+)
+
+from ringsim.analysis.budget import replica_mean
+from ringsim.analysis.compare import comparison
+from ringsim.analysis.equilibrium import TABLE_ROWS, equilibrium
+from ringsim.errors import InputError
+from ringsim.physics.gravity import mean_pair_hill_parameter
+from ringsim.store.runfile import open_run
+
+BUDGET = ROOT / "analysis" / "data" / "kappa_selfgravity_budget.json"
+EXPLANATION_FILE = ROOT / "analysis" / "data" / "kappa_selfgravity_explanation.md"
+#: The quantities of the headline table.
+HEADLINE = ("velocity_dispersion", "thickness")
+
+
+def load_group(runs: Path, case: str, kappa: float, gravity: bool, seeds) -> dict:
+    """Equilibria of one (case, kappa, gravity): ``kept`` (stationary), ``left_out`` (a line
+    per run the finder did not call stationary), ``missing`` (seeds without a run)."""
+    kept, left_out, missing = [], [], []
+    for seed in seeds:
+        path = output(runs, case, kappa, seed, gravity)
+        if not path.exists():
+            missing.append(seed)
+            continue
+        try:
+            run = open_run(path)
+        except (OSError, KeyError, InputError):   # being written, or damaged
+            missing.append(seed)
+            continue
+        if run.attrs.get("status") != "finished":
+            missing.append(seed)
+            continue
+        eq = equilibrium(run)
+        (kept if eq["in_equilibrium"] else left_out).append(eq)
+    return {"kept": kept, "left_out": [f"{e['name']} seed {e['scenario']['seed']}: "
+                                       f"{e['reason']}" for e in left_out],
+            "missing": missing}
+
+
+def ratio(groups: list[dict], budget: dict | None) -> dict | None:
+    """comparison() of [kappa 0, kappa 0.1] groups; None unless both have stationary runs."""
+    if not all(g["kept"] for g in groups):
+        return None
+    return comparison(groups[0]["kept"] + groups[1]["kept"], budget)
+
+
+def combined(group: dict, key: str) -> dict | None:
+    """Seed mean of one quantity of a group (gravity rows are not in comparison())."""
+    values = [e[key] for e in group["kept"] if key in e and math.isfinite(e[key]["mean"])]
+    return replica_mean(values) if values else None
+
+
+def quotient(a: dict | None, b: dict | None) -> dict | None:
+    """a / b with first-order error (independent runs)."""
+    if a is None or b is None or not b["mean"]:
+        return None
+    q = a["mean"] / b["mean"]
+    rel = math.hypot(a["stderr"] / a["mean"] if a["mean"] else 0.0, b["stderr"] / b["mean"])
+    return {"mean": q, "stderr": abs(q) * rel}
+
+
+def fmt_quotient(q: dict | None) -> str:
+    return "" if q is None else f"{q['mean']:.3g} ± {q['stderr']:.2g}"
+
+
+def case_table(groups: dict, comps: dict) -> list[str]:
+    """Markdown: the four groups, both ratios, gravity / no gravity for each kappa."""
+    head = ("| quantity | no gravity, kappa 0 | no gravity, kappa 0.1 | ratio, no gravity | "
+            "gravity, kappa 0 | gravity, kappa 0.1 | ratio, gravity | gravity / no gravity, "
+            "kappa 0 | gravity / no gravity, kappa 0.1 |")
+    lines = [head, "|" + "---|" * 9]
+    for key, (label, unit, scale) in {**TABLE_ROWS, **{k: (v[0], v[1], 1.0) for k, v in
+                                                       GRAVITY_ROWS.items()}}.items():
+        cells, means = [], {}
+        for gravity in (False, True):
+            for kappa in (0.0, 0.1):
+                value = combined(groups[(kappa, gravity)], key)
+                means[(kappa, gravity)] = value
+                cells.append(fmt(value, scale) if value is not None else "-")
+            comp = comps[gravity]
+            if comp is not None and key in TABLE_ROWS:
+                cells.append(fmt_ratio(comp["ratios"][0][key]))
+            else:
+                q = quotient(means[(0.1, gravity)], means[(0.0, gravity)])
+                cells.append(fmt_quotient(q) or "-")
+        cells += [fmt_quotient(quotient(means[(k, True)], means[(k, False)])) for k in (0.0, 0.1)]
+        lines.append(f"| {label}{f' [{unit}]' if unit else ''} | " + " | ".join(cells) + " |")
+    counts = [f"{len(groups[(k, g)]['kept'])}" for g in (False, True) for k in (0.0, 0.1)]
+    lines.append(f"| stationary seeds | {counts[0]} | {counts[1]} | | {counts[2]} | {counts[3]} "
+                 "| | | |")
+    return lines
+
+
+def setup_table(cases: list[str]) -> list[str]:
+    lines = ["| case | sizes | a [m] | tau | particles | box [m] | box / lambda_cr | r_h (mean "
+             "pair) | Sigma [kg/m^2] | lambda_cr [m] |", "|" + "---|" * 10]
+    for case in cases:
+        size, a, tau = CASES[case]
+        p = patch(case)
+        d = SIZES[size]
+        radii = (np.array([d["radius"]]) if d["kind"] == "monodisperse"
+                 else np.geomspace(d["r_min"], d["r_max"], 64))
+        r_h = mean_pair_hill_parameter(radii, 900.0, 3.7931e16, a)
+        sizes = ("1 m" if d["kind"] == "monodisperse"
+                 else f"{d['r_min']:g}-{d['r_max']:g} m, q = {d['q']:g}")
+        lines.append(f"| {case} | {sizes} | {a:.3g} | {tau:g} | {p['n_particles']} | "
+                     f"{p['box']:.0f} | {p['box'] / p['lambda_cr']:.2f} | {float(r_h):.2f} | "
+                     f"{p['Sigma']:.0f} | {p['lambda_cr']:.1f} |")
+    return lines
+
+
+def headline(rows: list[tuple[str, dict]]) -> list[str]:
+    """The ratio kappa 0.1 / 0 of c and H, with and without gravity, case by case."""
+    lines = ["| case | c: no gravity | c: gravity | H: no gravity | H: gravity |",
+             "|---|---|---|---|---|"]
+    for case, comps in rows:
+        cells = []
+        for key in HEADLINE:
+            for gravity in (False, True):
+                comp = comps[gravity]
+                cells.append(fmt_ratio(comp["ratios"][0][key]) if comp else "not run")
+        lines.append(f"| {case} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def budget_lines(budget: dict | None) -> list[str]:
+    if budget is None:
+        return ["No systematic budget file (`analysis/data/kappa_selfgravity_budget.json`): "
+                "the systematic parts are \"not measured\"."]
+    parts = "; ".join(f"{key}: " + ", ".join(f"{s} {v:.3g}" for s, v in d.items())
+                      for key, d in budget["relative"].items())
+    return [f"Systematic budget ({budget['measured_by']}): {budget['description']}",
+            "", f"Relative parts: {parts}."]
+
+
+def cost_lines(runs: Path, costs: dict) -> list[str]:
+    lines = ["| run | orbits | CPU [s] | CPU per orbit [s] | stop reason |",
+             "|---|---|---|---|---|"]
+    for path in sorted(runs.glob("*.h5")):
+        c = costs.get(path.name)
+        if c is None:
+            continue
+        try:
+            orbits = float(np.asarray(open_run(path).timeseries["orbits"])[-1])
+        except (OSError, KeyError, InputError):
+            continue
+        lines.append(f"| {path.name} | {orbits:.3g} | {c['cpu_s']:.0f} | "
+                     f"{c['cpu_s'] / max(orbits, 1e-9):.3g} | {c['stop_reason']} |")
+    return lines
+
+
+def write_report(args, runs: Path, costs: dict) -> None:
+    budget = json.loads(BUDGET.read_text()) if BUDGET.exists() else None
+    rows, sections, not_run = [], [], []
+    for case in CASES:
+        groups = {(k, g): load_group(runs, case, k, g, args.seeds)
+                  for k in SCENARIOS for g in (False, True)}
+        if not any(groups[(k, g)]["kept"] or groups[(k, g)]["left_out"]
+                   for k in SCENARIOS for g in (False, True)):
+            not_run.append(case)
+            continue
+        comps = {g: ratio([groups[(0.0, g)], groups[(0.1, g)]], budget if g else None)
+                 for g in (False, True)}
+        rows.append((case, comps))
+        left = [line for g in groups.values() for line in g["left_out"]]
+        missing = [f"{case} kappa {k:g} {'gravity' if g else 'no gravity'} seeds {v['missing']}"
+                   for (k, g), v in groups.items() if v["missing"]]
+        sections += [f"### {case}", "", *case_table(groups, comps), ""]
+        sections += [f"- not stationary, left out: {line}" for line in left]
+        sections += [f"- not run: {line}" for line in missing] + [""]
+    explanation = (EXPLANATION_FILE.read_text().splitlines() if EXPLANATION_FILE.exists()
+                   else ["(not written yet)"])
+    done = [case for case, _ in rows]
+    lines = [
+        "# Ring equilibria with kappa = 0 and kappa = 0.1 with self-gravity (issue 12, item 6)",
+        "", "Produced by `python analysis/kappa_selfgravity.py --cases ... --seeds "
+        + " ".join(str(s) for s in args.seeds) + "` (finished runs are reused; "
+        "`--report-only` rewrites this file). Each case: both kappa values, with and without "
+        "self-gravity, every seed run until the equilibrium finder calls c and H stationary "
+        "(at most 40 orbits with gravity, 200 without); the gravity runs start at the "
+        "velocity dispersion of their no-gravity twins. Self-gravity: REBOUND's tree "
+        "(opening angle 0.3, the field beyond the ghost boxes added; 0.5 % rms force error, "
+        "docs/gravity.md), softening 0.1 x the smallest radius. Collisions: line detection "
+        "with kicked paths at 1e-3 orbit (docs/gravity.md, \"Line detection with "
+        "self-gravity\"). Dilley law xi0 = 0.16, p = 0.65; solid ice, 900 kg/m^3. Boxes: at "
+        f"least {BOX_LAMBDA:g} lambda_cr on a side and {MIN_PARTICLES} particles.", "",
+        "## Set-up of the cases", "", *setup_table(done), "",
+        "## The answer: kappa = 0.1 / kappa = 0, without and with self-gravity", "",
+        *headline(rows), "",
+        "Errors: statistical (seeds and autocorrelation, `ringsim compare`) and, with "
+        "gravity, systematic (below); a ratio is formed only from runs the finder calls "
+        "stationary.", "",
+        "## What changes and why", "", *explanation, "",
+        "## Error budget", "", *budget_lines(budget), "",
+        "## Every case", "", *sections,
+        "## Not done", "",
+        *([f"- case {case}: not run (cost; see the cost table for the rate per particle)"
+           for case in not_run] or ["- every case was run"]), "",
+        "## Cost (measured, CPU of each run's worker process)", "",
+        *cost_lines(runs, costs), ""]
+    Path(args.report).write_text("\n".join(lines))
+    REPORT.parent.mkdir(parents=True, exist_ok=True)
