@@ -244,3 +244,42 @@ def test_solver_defaults_and_the_run_file_records_the_solver(tmp_path):
     assert list(attrs["p3m_mesh"]) == [p3m.p3m_parameters(attrs["Lx"], attrs["Ly"], 3.0)[k]
                                        for k in ("nx", "ny")]
     assert attrs["softening"] == pytest.approx(0.1) and attrs["units_softening"] == "m"
+
+
+def test_p3m_gives_the_same_bits_on_one_and_two_threads():
+    """Interpolation and pair sum are gathers per particle (each sum in a fixed order) and
+    scipy's FFTs split independent transforms: the accelerations are identical (==) on
+    1 and 2 threads.  5000 particles: above the 2048 per thread at which a second thread
+    starts (RS_P3M_PARTICLES_PER_THREAD)."""
+    s = eg.random_sheet(5000, seed=8)
+    results = []
+    for threads in (1, 2):
+        sim = p3m.p3m_simulation(s, t=T_REF)
+        p3m.installed_solver(sim).set_threads(threads)
+        results.append(p3m.accelerations(sim))
+    assert np.array_equal(results[0], results[1])
+
+
+def test_mean_vertical_field_of_a_thick_ring_is_the_direct_erf_sum():
+    """rs_p3m_mean_vertical sums the exact erf kernel over a window of 12 r_s and the masses
+    beyond it as +-1 (erf(6) = 1 in double), so a ring hundreds of r_s thick costs O(n x
+    window).  Against the direct sum -(2 pi G / Lx Ly) sum_j m_j erf((z_i - z_j) / 2 r_s)
+    over the particles: within the fine layers' interpolation error (layers r_s / 16
+    apart: < 1e-3 of the field's scale, docs/gravity.md 4b); a window cut too short (or a
+    wrong sign of the far masses) is off by up to the whole field."""
+    s = eg.random_sheet(400, dispersion=0.05, seed=9)   # 1 m ice, z scale height 250 m
+    sim = p3m.p3m_simulation(s)
+    solver = p3m.installed_solver(sim)
+    rs = solver.params.split
+    z = s["pos"][:, 2]
+    assert np.ptp(z) > 200 * rs                          # hundreds of r_s thick
+    for particle in sim.particles:
+        particle.ax = particle.ay = particle.az = 0.0
+    _LIB.rs_p3m_mean_vertical(ctypes.byref(sim), ctypes.byref(solver.params))
+    got = np.array([particle.az for particle in sim.particles])
+    from math import erf
+    scale = 2 * math.pi * G_SI * float(np.sum(s["mass"])) / (s["Lx"] * s["Ly"])
+    direct = np.array([-scale / np.sum(s["mass"]) * sum(
+        m * erf((zi - zj) / (2 * rs)) for zj, m in zip(z, s["mass"], strict=True))
+        for zi in z])
+    assert np.max(np.abs(got - direct)) < 1e-3 * scale, np.max(np.abs(got - direct)) / scale

@@ -55,6 +55,8 @@ struct rs_p3m {
     int nx, ny;            /* horizontal mesh */
     int nz;                /* layers (set by rs_p3m_prepare) */
     int error;             /* nonzero: allocation failed in the last call */
+    int threads;           /* OpenMP threads of interpolation and pair sum (<= 1: one) */
+    int reserved;
     double z0;             /* height of layer 0 [m] (set by rs_p3m_prepare) */
     double shift;          /* shear offset s [m] at the call's time (rs_p3m_prepare) */
     double alpha;          /* s / Lx */
@@ -100,6 +102,16 @@ static double rs_p3m_shift(double Omega, double Lx, double Ly, double t){
         s += Ly;
     }
     return s >= 0.5 * Ly ? s - Ly : s;
+}
+
+/* Particles per thread below which the loops run on one thread. */
+#define RS_P3M_PARTICLES_PER_THREAD 2048
+
+/* Threads of a loop over n particles: p->threads, fewer for small n. */
+static int rs_p3m_threads(const struct rs_p3m* p, size_t n){
+    const size_t most = n / RS_P3M_PARTICLES_PER_THREAD;
+    const int wanted = p->threads > 1 ? p->threads : 1;
+    return most < (size_t)wanted ? (most > 1 ? (int)most : 1) : wanted;
 }
 
 /* Set shift, alpha, z0 and nz for the current state; returns nz. */
@@ -194,6 +206,8 @@ void rs_p3m_interpolate(struct reb_simulation* const r, const struct rs_p3m* p,
     const double Lx = r->root_size * (double)r->N_root_x;
     const double Ly = r->root_size * (double)r->N_root_y;
     const size_t ny = (size_t)p->ny, nxs = (size_t)p->nx;
+    /* a gather per particle: the same sums, in the same order, on any number of threads */
+#pragma omp parallel for schedule(static) num_threads(rs_p3m_threads(p, n))
     for (size_t k = 0; k < n; k++){
         const struct rs_cic st = rs_p3m_cic(p, &ps[k], Lx, Ly);
         double ax = 0.0, ay = 0.0, az = 0.0;
@@ -216,13 +230,15 @@ void rs_p3m_interpolate(struct reb_simulation* const r, const struct rs_p3m* p,
 
 /* Fine layers per r_s of the mean (k = 0) vertical field. */
 #define RS_P3M_MEAN_LAYERS 16.0
+/* Separation [r_s] beyond which erf(d / 2 r_s) is exactly 1 in double (erf(6) = 1). */
+#define RS_P3M_MEAN_REACH 12.0
 
 /* Add the horizontally averaged long-range vertical field [m/s^2],
  *     g_z(z) = -(2 pi G / (Lx Ly)) sum_j m_j erf((z - z_j) / (2 r_s)),
  * the k = 0 mode of the mesh, which the coarse layers would smooth (it is the largest part
  * of the vertical field): cloud-in-cell onto fine layers r_s / 16 apart, the exact erf
  * kernel between them, linear interpolation (error ~ (dz_fine / r_s)^2 / 8 of the local
- * field curvature: < 1e-3).  O(N + n_fine^2). */
+ * field curvature: < 1e-3).  O(N + n_fine x 2 RS_P3M_MEAN_REACH RS_P3M_MEAN_LAYERS). */
 void rs_p3m_mean_vertical(struct reb_simulation* const r, struct rs_p3m* p){
     const size_t n = r->N - r->N_var;
     struct reb_particle* const ps = r->particles;
@@ -252,15 +268,40 @@ void rs_p3m_mean_vertical(struct reb_simulation* const r, struct rs_p3m* p){
         mass[l + 1] += ps[k].m * w;
     }
     const double c = -6.283185307179586 * r->G / (Lx * Ly);
+    /* erf((a - b) h / 2 r_s) is exactly +-1 in double beyond RS_P3M_MEAN_REACH r_s / h
+     * layers: those layers enter through the masses below and above the window (prefix
+     * sums), so the cost is O(n_fine x window), not O(n_fine^2) (a hot ring is hundreds of
+     * r_s thick) */
+    const size_t reach = (size_t)ceil(RS_P3M_MEAN_REACH * RS_P3M_MEAN_LAYERS);
+    double* erf_of = malloc((2 * reach + 1) * sizeof(double));
+    double* below = malloc((nf + 1) * sizeof(double));
+    if (erf_of == NULL || below == NULL){
+        free(erf_of);
+        free(below);
+        free(mass);
+        p->error = 1;
+        return;
+    }
+    for (size_t d = 0; d <= 2 * reach; d++){
+        erf_of[d] = erf(((double)d - (double)reach) * h / (2.0 * p->split));
+    }
+    below[0] = 0.0;
+    for (size_t b = 0; b < nf; b++){
+        below[b + 1] = below[b] + mass[b];
+    }
     for (size_t a = 0; a < nf; a++){
-        double g = 0.0;
-        for (size_t b = 0; b < nf; b++){
+        const size_t lo = a > reach ? a - reach : 0;
+        const size_t hi = a + reach < nf - 1 ? a + reach : nf - 1;
+        double g = below[lo] - (below[nf] - below[hi + 1]);   /* erf = +1 below, -1 above */
+        for (size_t b = lo; b <= hi; b++){
             if (mass[b] != 0.0){
-                g += mass[b] * erf(((double)a - (double)b) * h / (2.0 * p->split));
+                g += mass[b] * erf_of[a + reach - b];
             }
         }
         field[a] = c * g;
     }
+    free(erf_of);
+    free(below);
     for (size_t k = 0; k < n; k++){
         const double f = (ps[k].z - zmin) / h;
         size_t l = (size_t)f;
@@ -404,7 +445,10 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
         start[c] = start[c - 1];
     }
     start[0] = 0;
-    for (size_t slot = 0; slot < n; slot++){   /* targets in cell order: sources cached */
+    /* targets in cell order (sources cached); each target's sum is its own, in a fixed
+     * order: the same bits on any number of threads */
+#pragma omp parallel for schedule(dynamic, 256) num_threads(rs_p3m_threads(p, n))
+    for (size_t slot = 0; slot < n; slot++){
         double acc[3] = {0.0, 0.0, 0.0};
         if (all_pairs){
             rs_p3m_all_images(p, sx, sy, sz, sm, n, sx[slot], sy[slot], sz[slot], Lx, Ly, s,

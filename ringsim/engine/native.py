@@ -357,6 +357,8 @@ class P3MStruct(ctypes.Structure):
         ("ny", ctypes.c_int),
         ("nz", ctypes.c_int),
         ("error", ctypes.c_int),
+        ("threads", ctypes.c_int),
+        ("reserved", ctypes.c_int),
         ("z0", ctypes.c_double),
         ("shift", ctypes.c_double),
         ("alpha", ctypes.c_double),

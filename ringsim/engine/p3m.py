@@ -121,6 +121,15 @@ class P3MSolver:
         self.error: BaseException | None = None
         self._callback = _POST_TIMESTEP(self._additional_forces)
 
+    def set_threads(self, threads: int) -> None:
+        """Interpolation, pair sum (OpenMP) and FFTs (scipy.fft workers) on ``threads``
+        threads; every result is the same on any number (each particle's sums keep their
+        order, and scipy's FFTs split independent transforms)."""
+        if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+            raise ValueError(f"threads: must be an integer >= 1, got {threads!r}")
+        self.params.threads = threads
+        self.mesh.workers = threads
+
     def apply(self, sim_address: int) -> None:
         """Add the P3M accelerations [m/s^2] to the simulation at ``sim_address``."""
         p = self.params

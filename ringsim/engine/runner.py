@@ -156,12 +156,18 @@ class Runner:
         self._output(first=True)
 
     def _set_threads(self) -> None:
-        """Line detection's search on ``integration.threads`` threads (no effect on results)."""
+        """Line detection's search and P3M on ``integration.threads`` threads (no effect on
+        results)."""
+        from ringsim.engine.p3m import installed_solver
+
+        threads = self.scenario.integration.thread_count()
         if self.scenario.integration.collision_detection == "line":
             from ringsim.engine.native import set_detector_threads
 
-            set_detector_threads(self.handle.address,
-                                 self.scenario.integration.thread_count())
+            set_detector_threads(self.handle.address, threads)
+        solver = installed_solver(self.sim)
+        if solver is not None:
+            solver.set_threads(threads)
 
     def _check_resumable(self, run) -> tuple[float, float]:
         """Old and new ``integration.orbits``; InputError unless only they (or the thread
@@ -337,6 +343,7 @@ class Runner:
             new_sim, new_geometry = sheet.enlarged_copy(self.sim, g, n_root_z)
             self.handle.reinstall(new_sim)
             self.sim, self.geometry = new_sim, new_geometry
+            self._set_threads()     # a new P3M solver was made for the new box
             self._guard_event(f"vertical guard: largest vertical amplitude {amplitude:.4g} m "
                               f"reached 0.4 of the half z period; box enlarged from "
                               f"{g.n_root_z} to {n_root_z} root boxes in z "
