@@ -320,3 +320,174 @@ int64_t rs_grid_overlapping(struct rs_grid* g, int64_t k, const int64_t* idx, in
     for (int64_t l = 0; l < found.count; l++) g->flag[out[l]] = 0;
     return found.count;
 }
+
+/* --- overlap count of a time-series output --------------------------------------------- */
+
+/** A deeply overlapping pair, lower index first. */
+struct rs_pair {
+    int64_t i, j;
+};
+
+/** The deep pairs found so far (a growing array; duplicates are removed at the end). */
+struct rs_deep {
+    struct rs_pair* pairs;
+    int64_t count, capacity;
+    int failed;   /* 1: no memory */
+};
+
+static void rs_deep_add(struct rs_deep* deep, int64_t i, int64_t j) {
+    if (deep->count == deep->capacity) {
+        int64_t capacity = deep->capacity ? 2 * deep->capacity : 64;
+        struct rs_pair* grown = realloc(deep->pairs, (size_t)capacity * sizeof(struct rs_pair));
+        if (!grown) { deep->failed = 1; return; }
+        deep->pairs = grown;
+        deep->capacity = capacity;
+    }
+    deep->pairs[deep->count].i = i;
+    deep->pairs[deep->count].j = j;
+    deep->count++;
+}
+
+static int rs_compare_pairs(const void* a, const void* b) {
+    const struct rs_pair* pa = a;
+    const struct rs_pair* pb = b;
+    if (pa->i != pb->i) return pa->i < pb->i ? -1 : 1;
+    return pa->j < pb->j ? -1 : (pa->j > pb->j ? 1 : 0);
+}
+
+/** What the overlap count reads beside the grid: the caller's positions and radii (the
+ *  exact test uses them as they are), the box, the shear offset and the depth. */
+struct rs_overlap_query {
+    const double *x, *y, *z, *rad;   /* [m], by particle index */
+    double Lx, Ly;                   /* box [m] */
+    double shift;                    /* shear offset 1.5 Omega Lx t [m], as given */
+    double shift_wrapped;            /* the same in [0, Ly) [m], to choose cells */
+    double fraction;                 /* depth counted, of the smaller radius */
+    double tolerance;                /* [m]: the grid's copies are within this of exact */
+};
+
+/** The exact test of ringsim.testing.count_overlaps_numpy for particles i < j, j seen as
+ *  its image w (0: itself; +1: at x + Lx, y - shift; -1: at x - Lx, y + shift), with the
+ *  same operations in the same order (no contraction: -ffp-contract=off). */
+static int rs_deep_pair(const struct rs_overlap_query* q, int64_t i, int64_t j, int w) {
+    double bx = q->x[j], by = q->y[j];
+    if (w > 0) { bx = bx + q->Lx; by = by - q->shift; }
+    if (w < 0) { bx = bx - q->Lx; by = by + q->shift; }
+    double dx = q->x[i] - bx;
+    double dy = q->y[i] - by;
+    double dz = q->z[i] - q->z[j];
+    dy -= q->Ly * nearbyint(dy / q->Ly);
+    double dist = sqrt(dx * dx + dy * dy + dz * dz);
+    double ri = q->rad[i], rj = q->rad[j];
+    return ri + rj - dist > q->fraction * (ri < rj ? ri : rj);
+}
+
+/** Pairs of slot s (the lower index) with the particles of class grid cg, each image w of
+ *  the partner in the cells where it can be within reach; the grid's copies (x + Lx/2, y in
+ *  [0, Ly)) choose candidates with `tolerance` to spare, rs_deep_pair decides. */
+static void rs_overlaps_class(const struct rs_grid* g, const struct rs_class_grid* cg,
+                              int64_t s, const struct rs_overlap_query* q,
+                              struct rs_deep* deep) {
+    const struct rs_grid_particle* p = g->p;
+    const struct rs_grid_particle* a = &p[s];
+    double reach = a->r + cg->largest + q->tolerance;
+    int64_t kx = (int64_t)ceil(reach / cg->wx), c0 = rs_cell(a->x, cg->wx, cg->nx);
+    int64_t fz, nz;
+    rs_range((int64_t)ceil(reach / cg->wz), cg->nz, 0, rs_cell(a->z - g->z_lo, cg->wz, cg->nz),
+             &fz, &nz);
+    for (int64_t ix = c0 - kx; ix <= c0 + kx; ix++) {
+        int w = ix < 0 ? -1 : (ix >= cg->nx ? 1 : 0);
+        int64_t cx = ix - w * cg->nx;
+        if (cx < 0 || cx >= cg->nx) continue;   /* a second image: never within reach */
+        double bx_offset = w * q->Lx;
+        double yc = a->y + w * q->shift_wrapped;   /* where the partner's copy must be */
+        yc -= q->Ly * floor(yc / q->Ly);
+        int64_t fy, ny;
+        rs_range((int64_t)ceil(reach / cg->wy), cg->ny, 1, rs_cell(yc, cg->wy, cg->ny), &fy,
+                 &ny);
+        for (int64_t iy = fy; iy < fy + ny; iy++) {
+            int64_t cy = ((iy % cg->ny) + cg->ny) % cg->ny;
+            const int64_t* column = &cg->head[(cx * cg->ny + cy) * cg->nz];
+            for (int64_t cz = fz; cz < fz + nz; cz++) {
+                for (int64_t t = column[cz]; t >= 0; t = p[t].next) {
+                    const struct rs_grid_particle* b = &p[t];
+                    if (b->index <= a->index) continue;
+                    double limit = a->r + b->r
+                                   - q->fraction * (a->r < b->r ? a->r : b->r) + q->tolerance;
+                    double dz = a->z - b->z;
+                    if (limit <= 0.0 || dz * dz >= limit * limit) continue;
+                    double dx = a->x - (b->x + bx_offset);
+                    double dy = a->y - (b->y - w * q->shift_wrapped);
+                    dy -= q->Ly * nearbyint(dy / q->Ly);
+                    if (dx * dx + dy * dy + dz * dz >= limit * limit) continue;
+                    if (rs_deep_pair(q, a->index, b->index, w))
+                        rs_deep_add(deep, a->index, b->index);
+                }
+            }
+        }
+    }
+}
+
+/**
+ * Pairs of the n particles (positions x, y, z [m] centred on the box, radii rad [m]) that
+ * overlap by more than `fraction` of the smaller radius, each physical pair once: periodic
+ * in y (Ly [m]); across the radial boundary the partner's image at x +- Lx is shifted in y
+ * by -+ shift [m] (1.5 Omega Lx t: the shear flow carries the neighbouring boxes along); not
+ * periodic in z.  The same count as ringsim.testing.count_overlaps_numpy (positions in the
+ * box, as REBOUND keeps them at the end of a step).  Searched on the per-radius-class grids
+ * of the placement (radii within a factor 2 a class), each particle looking at the cells of
+ * a class within its radius plus the class's largest radius.  Returns the count, or -1
+ * without memory.
+ */
+int64_t rs_count_overlaps(int64_t n, const double* x, const double* y, const double* z,
+                          const double* rad, double Lx, double Ly, double shift,
+                          double fraction) {
+    if (n < 2) return 0;
+    double r_min = rad[0], r_max = rad[0], z_lo = z[0], z_hi = z[0];
+    for (int64_t i = 1; i < n; i++) {
+        r_min = rad[i] < r_min ? rad[i] : r_min;
+        r_max = rad[i] > r_max ? rad[i] : r_max;
+        z_lo = z[i] < z_lo ? z[i] : z_lo;
+        z_hi = z[i] > z_hi ? z[i] : z_hi;
+    }
+    int32_t* class_of = malloc((size_t)n * sizeof(int32_t));
+    double* gx = malloc((size_t)n * sizeof(double));
+    double* gy = malloc((size_t)n * sizeof(double));
+    if (!class_of || !gx || !gy) { free(class_of); free(gx); free(gy); return -1; }
+    /* classes: radii within a factor 2 (the last class takes any beyond 2^31) */
+    int32_t label_top = 0;
+    for (int64_t i = 0; i < n; i++) {
+        double octaves = r_min > 0.0 ? floor(log2(rad[i] / r_min)) : 0.0;
+        class_of[i] = octaves < RS_MAX_CLASSES - 1 ? (int32_t)octaves : RS_MAX_CLASSES - 1;
+        label_top = class_of[i] > label_top ? class_of[i] : label_top;
+        gx[i] = x[i] + 0.5 * Lx;
+        gy[i] = y[i] + 0.5 * Ly;
+        gy[i] -= Ly * floor(gy[i] / Ly);
+    }
+    double largest[RS_MAX_CLASSES] = {0.0};
+    for (int64_t i = 0; i < n; i++)
+        largest[class_of[i]] = rad[i] > largest[class_of[i]] ? rad[i] : largest[class_of[i]];
+    for (int c = 0; c <= label_top; c++)    /* an empty class: no neighbours, small cells */
+        if (!(largest[c] > 0.0)) largest[c] = r_max > 0.0 ? r_max : 1.0;
+    struct rs_overlap_query q = {x, y, z, rad, Lx, Ly, shift, 0.0, fraction, 0.0};
+    q.shift_wrapped = shift - Ly * floor(shift / Ly);
+    /* copies and the exact image coordinates differ by rounding of values up to this */
+    q.tolerance = 1e-9 * (Lx + Ly + fabs(shift) + (z_hi - z_lo) + r_max);
+    struct rs_grid* g = rs_grid_create(n, label_top + 1, class_of, largest, Lx, Ly, z_lo,
+                                       z_hi, 0.0, gx, gy, z, rad);
+    free(gx); free(gy);
+    if (!g) { free(class_of); return -1; }
+    struct rs_deep deep = {NULL, 0, 0, 0};
+    for (int64_t s = 0; s < n; s++)
+        for (int c = 0; c < g->n_classes; c++)
+            rs_overlaps_class(g, &g->classes[c], s, &q, &deep);
+    rs_grid_free(g);
+    free(class_of);
+    if (deep.failed) { free(deep.pairs); return -1; }
+    qsort(deep.pairs, (size_t)deep.count, sizeof(struct rs_pair), rs_compare_pairs);
+    int64_t unique = 0;
+    for (int64_t k = 0; k < deep.count; k++)
+        if (k == 0 || rs_compare_pairs(&deep.pairs[k], &deep.pairs[k - 1])) unique++;
+    free(deep.pairs);
+    return unique;
+}
