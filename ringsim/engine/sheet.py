@@ -20,6 +20,7 @@ from fractions import Fraction
 import numpy as np
 import rebound
 
+from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.placement import OverlapGrid, wrap_horizontal
 from ringsim.engine.timestep import choose_dt
 from ringsim.physics.constants import SHEAR
@@ -325,6 +326,7 @@ def particle_arrays(sim: rebound.Simulation) -> dict[str, np.ndarray]:
             "vy": vxyz[:, 1], "vz": vxyz[:, 2], "radius": r, "mass": m}
 
 
+@one_blas_thread   # the centre of mass at rest: sums of N terms, same bits on any machine
 def build_sheet(scenario) -> BuiltSheet:
     """Scenario -> ready-to-run shearing sheet with ringsim's native resolver installed.
 
