@@ -7,10 +7,13 @@ Splits the CPU time of the run loop (one thread) into
 * ringsim's detector search (``rs_sheet_detect.c``: wrap, grid, candidate search; timed
   through its test entry ``rs_sheet_detect_pairs``, which searches without resolving),
 * the time-ordered resolution (the whole step minus the two above),
-* the Python work of a time-series output (``runner.Runner._output``'s pieces: particle
-  copies out of REBOUND, invariants, diagnostics, overlap count, guards), per output and
-  per particle-step at the default cadence (an output every 0.1 orbit = 100 steps of
-  1e-3 orbit).
+* the work of a time-series output: the whole of ``runner.Runner._output`` (without the
+  commits, which a writer thread makes while the integration goes on) and its pieces
+  (particle copies out of REBOUND, invariants, diagnostics, overlap count in C, guards),
+  with BLAS on one thread as in a run (``engine.blas``), per output and per particle-step
+  at the default cadence (an output every 0.1 orbit = 100 steps of 1e-3 orbit); and, as the
+  baseline in the same process, the overlap count of its numpy twin (the engine's count
+  before issue 16 part C, ``testing.count_overlaps_numpy``).
 
 Scenario: benchmarks/scale.yaml (line mode, no gravity, power law 0.5-5 m, q = 3,
 tau = 0.25, Bridges et al. 1984 law).  ``--setup scenario`` builds the sheet with
@@ -30,6 +33,7 @@ from __future__ import annotations
 import argparse
 import ctypes
 import math
+import tempfile
 import time
 from pathlib import Path
 
@@ -38,7 +42,11 @@ import rebound
 
 from ringsim.config.scenario import load_scenario, with_overrides
 from ringsim.engine import invariants, native, sheet, timestep
+from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.resolver import install_resolver
+from ringsim.engine.runner import Runner
+from ringsim.physics.sizes import size_bin_edges
+from ringsim.testing import count_overlaps_numpy
 
 #: Default cadence: steps of 1e-3 orbit between outputs every 0.1 orbit.
 STEPS_PER_OUTPUT = 100
@@ -55,7 +63,7 @@ def scale_scenario(n_particles: int, **overrides):
 
 
 def lattice_sheet(sc):
-    """(sim, geometry, handle): the scenario's particles on a jittered lattice.
+    """A ``sheet.BuiltSheet`` of the scenario's particles on a jittered lattice.
 
     Lattice spacing a = 2.2 r_max in x and y, layers a apart in z: each particle moves by
     at most a / 2 - r from its site, so no two overlap.  Velocities: the shear flow plus
@@ -87,7 +95,8 @@ def lattice_sheet(sc):
     sim.minimum_collision_velocity = sheet.minimum_collision_velocity(radii, Omega)
     sim.dt = timestep.choose_dt(sc.integration, sheet.particle_arrays(sim), Omega)
     handle = install_resolver(sim, sc.restitution_dict(), collision_detection="line")
-    return sim, geometry, handle
+    return sheet.BuiltSheet(sim, geometry, radii, masses,
+                            size_bin_edges(sc.particles.size_distribution), handle)
 
 
 def _cpu_per(function, repeat: int) -> float:
@@ -100,8 +109,10 @@ def _cpu_per(function, repeat: int) -> float:
     return float(np.median(times))
 
 
+@one_blas_thread
 def output_work(sim, geometry, handle, Omega: float, repeat: int) -> dict[str, float]:
-    """CPU time [s] of the pieces of one time-series output (runner.Runner._output)."""
+    """CPU time [s] of the pieces of one time-series output (runner.Runner._output), and of
+    the numpy twin of the overlap count."""
     from ringsim.analysis.snapshot import snapshot_summary
 
     arrays = sheet.particle_arrays(sim)
@@ -124,9 +135,25 @@ def output_work(sim, geometry, handle, Omega: float, repeat: int) -> dict[str, f
         "diagnostics": _cpu_per(diagnostics, repeat),
         "overlap count": _cpu_per(lambda: sheet.count_overlaps(arrays, geometry, sim.t),
                                   repeat),
+        "overlap count, numpy twin (before)": _cpu_per(
+            lambda: count_overlaps_numpy(arrays, geometry.Lx, geometry.Ly,
+                                         1.5 * Omega * geometry.Lx * sim.t,
+                                         sheet.OVERLAP_REPORT_FRACTION), repeat),
         "guards": _cpu_per(lambda: sheet.max_vertical_amplitude(arrays, Omega), repeat),
         "resolver statistics": _cpu_per(handle.stats, repeat),
     }
+
+
+def whole_output(sc, built: sheet.BuiltSheet, repeat: int) -> float:
+    """CPU time [s] of ``runner.Runner._output`` at the sheet's present state, without the
+    commits (no snapshot, checkpoint or row write falls due while it is timed)."""
+    with tempfile.TemporaryDirectory() as folder:
+        runner = Runner(sc, Path(folder) / "profile.h5", progress=False)
+        runner.start_new(built)   # the first output, committed with a checkpoint
+        runner._writes.join()
+        runner.snap_every = runner.ckpt_every = math.inf
+        runner.last_write = math.inf
+        return _cpu_per(runner._output, repeat)
 
 
 def search_only(sim, steps: int) -> float:
@@ -147,18 +174,16 @@ def search_only(sim, steps: int) -> float:
 def profile(n: int, steps: int, setup: str) -> dict[str, float]:
     """ns of CPU per particle-step of each part, for ``n`` particles."""
     sc = scale_scenario(n)
-    if setup == "lattice":
-        sim, geometry, handle = lattice_sheet(sc)
-    else:
-        built = sheet.build_sheet(sc)
-        sim, geometry, handle = built.sim, built.geometry, built.resolver
+    built = lattice_sheet(sc) if setup == "lattice" else sheet.build_sheet(sc)
+    sim, geometry, handle = built.sim, built.geometry, built.resolver
     sim.integrate(sim.t + 10 * sim.dt, exact_finish_time=0)   # first contacts of the set-up
     per = 1e9 / (n * steps)
     start = time.process_time()
     sim.integrate(sim.t + steps * sim.dt, exact_finish_time=0)
     whole = (time.process_time() - start) * per
     search = search_only(sim, steps) * per
-    work = output_work(sim, geometry, handle, sc.orbital_frequency, repeat=3)
+    work = {"whole output (Runner._output, no commits)": whole_output(sc, built, repeat=3)}
+    work.update(output_work(sim, geometry, handle, sc.orbital_frequency, repeat=3))
     handle.close()  # REBOUND alone from here
     start = time.process_time()
     sim.integrate(sim.t + steps * sim.dt, exact_finish_time=0)
@@ -168,6 +193,7 @@ def profile(n: int, steps: int, setup: str) -> dict[str, float]:
               "resolution (rest)": whole - rebound_only - search}
     for key, seconds in work.items():
         result[f"output: {key}"] = seconds * 1e9 / (n * STEPS_PER_OUTPUT)
+        result[f"output: {key} [ms per output]"] = seconds * 1e3
     return result
 
 
@@ -179,11 +205,12 @@ def main() -> None:
     args = parser.parse_args()
     rows = {int(n): profile(int(n), args.steps, args.setup) for n in args.sizes}
     print(f"CPU ns per particle-step ({args.steps} steps, setup {args.setup}; outputs at "
-          f"one per {STEPS_PER_OUTPUT} steps)")
+          f"one per {STEPS_PER_OUTPUT} steps), and CPU ms per output")
     print("| part | " + " | ".join(f"N = {n:.0e}" for n in rows) + " |")
     print("|---|" + "---|" * len(rows))
     for key in next(iter(rows.values())):
-        print(f"| {key} | " + " | ".join(f"{r[key]:.0f}" for r in rows.values()) + " |")
+        digits = ".1f" if key.endswith("[ms per output]") else ".0f"
+        print(f"| {key} | " + " | ".join(f"{r[key]:{digits}}" for r in rows.values()) + " |")
 
 
 if __name__ == "__main__":

@@ -1,4 +1,6 @@
-"""The pure-Python twin of the C resolver, for tests (``sim.collision_resolve = twin``).
+"""Pure-Python twins of the C code, for tests: the resolver (``sim.collision_resolve =
+twin``) and the overlap count of the outputs (`count_overlaps_numpy`); and
+`run_file_datasets`, with which tests compare run files bit for bit.
 
 What the twin checks, and what it does not: it re-implements, operation by operation, the
 C resolver's collision geometry (overlap and approach tests, the contact on the swept
@@ -21,12 +23,14 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+import h5py
 import numpy as np
 import rebound
 
 from ringsim.engine.native import _LIB, LOG_DTYPE
 from ringsim.engine.resolver import ResolverHandle, _validated
 from ringsim.engine.spins import checked_friction
+from ringsim.physics.selfgravity import radial_images
 
 # Normal speeds below this many round-off units of the summed |velocity components| are
 # treated as not approaching (as in the C; keeps eps = 0 pairs from resolving twice).
@@ -304,3 +308,78 @@ def _to_rotating(s: list[float], cos: float, sin: float) -> list[float]:
 def _from_rotating(w: list[float], cos: float, sin: float) -> list[float]:
     """rs_spin_from_rotating, the inverse of :func:`_to_rotating`."""
     return [cos * w[0] - sin * w[1], cos * w[1] + sin * w[0], w[2]]
+
+
+#: Particles searched at once by `count_overlaps_numpy`: bounds its transient memory (150
+#: bytes per particle at N = 3e5 against 940 when all were searched at once).
+OVERLAP_CHUNK = 1 << 13
+
+
+def count_overlaps_numpy(arrays: dict[str, np.ndarray], Lx: float, Ly: float, shift: float,
+                         fraction: float) -> int:
+    """Pairs overlapping by more than ``fraction`` of the smaller radius (the numpy twin of
+    ``rs_count_overlaps``, behind ``engine.sheet.count_overlaps``; the engine's count until
+    issue 16).
+
+    Candidates within twice the largest radius come from scipy's cKDTree over the particles
+    and their shear-periodic radial images (`physics.selfgravity.radial_images`; periodic in
+    y); a pair is tested as the C tests it: the lower index's particle against the higher
+    index's particle or image, differences of the coordinates as given, y wrapped, the
+    squares summed x + y + z.
+
+    Parameters
+    ----------
+    arrays : particle arrays: x, y, z [m], radius [m]
+    Lx, Ly : float [m]
+    shift : float [m]
+        Shear offset of the radial images, 1.5 Omega Lx t.
+    fraction : float [dimensionless]
+    """
+    from scipy.spatial import cKDTree
+
+    r = arrays["radius"]
+    if r.size < 2:
+        return 0
+    reach = 2.0 * float(r.max())
+    index, px, py, pz = radial_images(arrays["x"], arrays["y"], arrays["z"], Lx, shift, reach)
+    pos = np.column_stack([px - px.min(), np.mod(py + 0.5 * Ly, Ly), pz - pz.min()])
+    order = np.argsort(pos[:, 0], kind="stable")   # chunks of neighbours: compact trees
+    tree = cKDTree(pos, boxsize=[1e300, Ly, 1e300])
+    deep_pairs = [np.zeros((0, 2), dtype=np.int64)]
+    for start in range(0, order.size, OVERLAP_CHUNK):
+        chunk = order[start:start + OVERLAP_CHUNK]
+        found = cKDTree(pos[chunk], boxsize=[1e300, Ly, 1e300]).sparse_distance_matrix(
+            tree, reach, output_type="ndarray")
+        p, q = chunk[found["i"]], found["j"]
+        once = p < q   # each tree pair once (it is found from both of its chunks)
+        p, q = p[once], q[once]
+        keep = index[p] < index[q]  # the lower index's particle first (originals come first)
+        p, q = p[keep], q[keep]
+        dx, dy, dz = px[p] - px[q], py[p] - py[q], pz[p] - pz[q]
+        dy -= Ly * np.round(dy / Ly)
+        dist = np.sqrt(dx * dx + dy * dy + dz * dz)
+        ri, rj = r[index[p]], r[index[q]]
+        deep = ri + rj - dist > fraction * np.minimum(ri, rj)
+        deep_pairs.append(np.column_stack([index[p][deep], index[q][deep]]))
+    return int(np.unique(np.concatenate(deep_pairs), axis=0).shape[0])
+
+
+def run_file_datasets(path) -> dict[str, object]:
+    """Every dataset of a run file by its name, as bytes (object arrays as the repr of
+    their values), for comparing files with ``==``; external links to part files
+    (``store.bulk``) followed.  Without ``/checkpoint``: REBOUND's binary embeds wall-clock
+    timings (compare the state it loads instead).
+    """
+    out = {}
+    with h5py.File(path, "r") as f:
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset) and name != "checkpoint":
+                data = obj[...]
+                out[name] = repr(data.tolist()) if data.dtype.kind == "O" else data.tobytes()
+        f.visititems(visit)
+        snapshots = f.get("snapshots", {})
+        for name in snapshots:   # visititems does not follow external links
+            if isinstance(snapshots.get(name, getlink=True), h5py.ExternalLink):
+                snapshots[name].visititems(
+                    lambda key, obj, name=name: visit(f"snapshots/{name}/{key}", obj))
+    return out

@@ -15,10 +15,11 @@ import warnings
 import h5py
 import numpy as np
 import rebound
-from test_run import datasets, small_scenario
+from test_run import small_scenario
 
 import ringsim
 from ringsim.store import runfile
+from ringsim.testing import run_file_datasets
 
 ROUGH = {"model": "coulomb", "mu": 0.5}
 
@@ -46,7 +47,7 @@ def test_beta_minus_one_run_equals_run_without_friction(tmp_path):
     smooth = ringsim.run(small_scenario(), output=tmp_path / "smooth.h5", progress=False)
     rough = ringsim.run(rough_scenario({"model": "constant", "beta": -1.0}),
                         output=tmp_path / "rough.h5", progress=False)
-    a, b = datasets(smooth), datasets(rough)
+    a, b = run_file_datasets(smooth), run_file_datasets(rough)
     assert ringsim.open_run(smooth).timeseries["collisions"].sum() > 0
     for name in a:
         assert name in b and a[name] == b[name], f"dataset {name} differs"
@@ -64,7 +65,7 @@ def test_resumed_rough_run_equals_uninterrupted(tmp_path):
     direct = ringsim.run(long, output=tmp_path / "direct.h5", progress=False)
     path = ringsim.run(short, output=tmp_path / "ext.h5", progress=False)
     ringsim.run(long, output=path, resume=True, progress=False)
-    a, b = datasets(direct), datasets(path)
+    a, b = run_file_datasets(direct), run_file_datasets(path)
     assert a.keys() == b.keys()
     for name in a:
         if not name.startswith("guards/"):     # the extension is a guard event

@@ -28,6 +28,7 @@ from ringsim.engine import invariants
 from ringsim.engine.runner import Runner
 from ringsim.store import runfile
 from ringsim.store.lock import RunFileLock, lock_path, writer_of
+from ringsim.testing import run_file_datasets
 
 DATA = Path(__file__).resolve().parent / "data"
 FORMAT_1_0 = DATA / "format_1_0.h5"
@@ -466,18 +467,6 @@ def test_killed_inside_a_write_leaves_the_previous_state(good_run, tmp_path, whe
     assert run.n_snapshots == 3 and runfile.read_checkpoint(path).state["rows"] == 11
 
 
-def _datasets(path):
-    """Every dataset as bytes, but the REBOUND binary (it embeds wall-clock timings)."""
-    out = {}
-    with h5py.File(path, "r") as f:
-        def visit(name, obj):
-            if isinstance(obj, h5py.Dataset) and name != "checkpoint":
-                data = obj[...]
-                out[name] = repr(data.tolist()) if data.dtype.kind == "O" else data.tobytes()
-        f.visititems(visit)
-    return out
-
-
 def _checkpoint_state(path):
     """The state a checkpoint loads: particles, time, step, seed, counters."""
     from ringsim.engine import sheet
@@ -578,7 +567,7 @@ def _interrupted_chain(tmp_path, sig, seed, n_stops=5):
     # makes the mid-interval case certain)
     assert main(["run", str(scenario_file), "-o", str(path), "--resume",
                  "--no-progress"]) == 0
-    ref, res = _datasets(reference), _datasets(path)
+    ref, res = run_file_datasets(reference), run_file_datasets(path)
     assert ref.keys() == res.keys()
     for name in ref:
         assert ref[name] == res[name], f"{name} differs from the uninterrupted run"
@@ -642,7 +631,7 @@ def test_stop_inside_an_interval_then_resume_is_identical(tmp_path):
     assert ck.state["t"] > rows[-1] and int(ck.statistics["count"]) > 0, \
         "stopped inside an interval that had collisions"
     ringsim.run(sc, output=path, resume=True, progress=False)
-    ref, res = _datasets(reference), _datasets(path)
+    ref, res = run_file_datasets(reference), run_file_datasets(path)
     assert ref.keys() == res.keys()
     for name in ref:
         assert ref[name] == res[name], f"{name} differs from the uninterrupted run"

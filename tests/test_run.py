@@ -15,6 +15,7 @@ import yaml
 import ringsim
 from ringsim.cli import main
 from ringsim.config.scenario import load_scenario, scenario_from_dict, with_overrides
+from ringsim.testing import run_file_datasets
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 
@@ -36,24 +37,11 @@ def small_scenario(**overrides):
     return with_overrides(sc, overrides) if overrides else sc
 
 
-def datasets(path):
-    """Every dataset of a run file as bytes, but the checkpoint (REBOUND's binary stores
-    wall-clock timings)."""
-    out = {}
-    with h5py.File(path, "r") as f:
-        def visit(name, obj):
-            if isinstance(obj, h5py.Dataset) and name != "checkpoint":
-                data = obj[...]
-                out[name] = repr(data.tolist()) if data.dtype.kind == "O" else data.tobytes()
-        f.visititems(visit)
-    return out
-
-
 def test_same_scenario_twice_gives_identical_files(tmp_path):
     sc = small_scenario()
     a = ringsim.run(sc, output=tmp_path / "a.h5", progress=False)
     b = ringsim.run(sc, output=tmp_path / "b.h5", progress=False)
-    da, db = datasets(a), datasets(b)
+    da, db = run_file_datasets(a), run_file_datasets(b)
     assert da.keys() == db.keys()
     for name in da:
         assert da[name] == db[name], f"dataset {name} differs between identical runs"

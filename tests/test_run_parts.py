@@ -19,6 +19,7 @@ from ringsim.cli import main
 from ringsim.config.scenario import scenario_from_dict, with_overrides
 from ringsim.engine.runner import Runner
 from ringsim.store import bulk, runfile
+from ringsim.testing import run_file_datasets
 
 SCENARIO = {
     "name": "parts", "seed": 3, "planet": {"Omega": 2.0e-4},
@@ -37,21 +38,6 @@ def _run_in_parts(scenario, path):
     runner.writer = runfile.RunFileWriter(path, external_bytes=0)
     runner.start_new()
     assert runner.loop() == "finished"
-
-
-def _datasets(path):
-    """Every dataset's values (links followed), but the REBOUND binary (wall-clock fields)."""
-    out = {}
-    with h5py.File(path, "r") as f:
-        def visit(name, obj):
-            if isinstance(obj, h5py.Dataset) and name != "checkpoint":
-                data = obj[...]
-                out[name] = repr(data.tolist()) if data.dtype.kind == "O" else data.tobytes()
-        f.visititems(visit)
-        for name in f["snapshots"]:   # visititems does not follow external links
-            f["snapshots"][name].visititems(
-                lambda key, obj, name=name: visit(f"snapshots/{name}/{key}", obj))
-    return out
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +59,7 @@ def test_items_in_part_files_read_as_in_one_file(runs):
     with h5py.File(path, "r") as f:
         assert isinstance(f.get("snapshots/000002", getlink=True), h5py.ExternalLink)
         assert f["snapshots/000002/x"].compression == "gzip"
-    one, parts = _datasets(runs["one"]), _datasets(path)
+    one, parts = run_file_datasets(runs["one"]), run_file_datasets(path)
     assert one.keys() == parts.keys() and len([k for k in one if "snapshots/" in k]) == 32
     for name in one:
         assert one[name] == parts[name], name
@@ -85,7 +71,7 @@ def test_resume_from_part_files_is_bit_identical(runs, tmp_path):
     short = with_overrides(runs["scenario"], {"integration.orbits": 0.16})
     _run_in_parts(short, path)
     ringsim.run(runs["scenario"], output=path, resume=True, progress=False)
-    reference, resumed = _datasets(runs["one"]), _datasets(path)
+    reference, resumed = run_file_datasets(runs["one"]), run_file_datasets(path)
     assert reference.keys() == resumed.keys()
     for name in reference:
         if not name.startswith("guards/"):   # the extension is a guard event
@@ -213,7 +199,7 @@ def test_a_finished_run_is_packed_into_one_file(runs, tmp_path):
     with h5py.File(path, "r") as f:
         assert not bulk.linked_parts(f)
         assert f["snapshots/000002/x"].compression == "gzip"
-    one, packed = _datasets(runs["one"]), _datasets(path)
+    one, packed = run_file_datasets(runs["one"]), run_file_datasets(path)
     assert one.keys() == packed.keys()
     for name in one:
         assert one[name] == packed[name], name

@@ -1,6 +1,8 @@
 /**
  * @file    rs_setup.c
- * @brief   Set-up of a sheet: all particles added to a REBOUND simulation in one call.
+ * @brief   Set-up of a sheet: all particles added to a REBOUND simulation in one call;
+ *          grids of cells per radius class for the overlap-free placement and for the
+ *          overlap count of every output.
  *
  * | effect     | appends n particles, in index order, as REBOUND's Python `sim.add` does |
  * |------------|--------------------------------------------------------------------------|
@@ -13,6 +15,11 @@
  * particle (~20 us apiece, 20 s for 10^6 particles).  This loop makes the very same calls
  * with particles whose other fields (accelerations, name, ap) are zero, so the simulation,
  * its tree included, is the same bit for bit.
+ *
+ * The grids (`rs_grid`) find overlapping pairs for the initial placement
+ * (ringsim.engine.placement) and count the deeply overlapping pairs of every time-series
+ * output (`rs_count_overlaps`, ringsim.engine.sheet.count_overlaps: shear-periodic, the
+ * same count as its numpy twin ringsim.testing.count_overlaps_numpy).
  */
 #include <math.h>
 #include <stdint.h>
@@ -51,6 +58,7 @@ int64_t rs_add_particles(struct reb_simulation* r, rs_add_function add, int64_t 
 
 /** Radius classes of the overlap grid at most (ringsim.engine.placement.MAX_CLASSES). */
 #define RS_MAX_CLASSES 32
+
 
 /** Cell index of a coordinate c >= 0 in cells of width w, clamped to [0, n). */
 static int64_t rs_cell(double c, double w, int64_t n) {
@@ -132,6 +140,10 @@ static int rs_class_grid_init(struct rs_class_grid* cg, int64_t members, double 
     double w = 2.0 * largest * (1.0 + margin);
     double cap = 4.0 * (double)members + 64.0;
     if (!(w > 0.0)) w = 1.0;
+    /* doubled as below from where no cell count overflows int64 (radii below 1e-18 of the
+     * box did): the same cells otherwise */
+    double widest = Lx > Ly ? Lx : Ly;
+    while (w < widest / (2.0 * cap)) w *= 2.0;
     for (;;) {
         cg->nx = (int64_t)(Lx / w); cg->ny = (int64_t)(Ly / w);
         cg->nx = cg->nx < 1 ? 1 : cg->nx; cg->ny = cg->ny < 1 ? 1 : cg->ny;
@@ -185,8 +197,9 @@ static int rs_compare_keyed(const void* a, const void* b) {
  * largest radius of class c is largest[c] [m]) at x in [0, Lx), y in [0, Ly) (periodic)
  * and z [m], with radii rad [m]; the cells span heights [z_lo, z_hi] (heights outside go to
  * the end cells, which keeps neighbours neighbours).  `margin` widens the searched
- * distances against rounding.  Every particle is placed, slots in the order of the cells.
- * NULL: no memory or bad arguments.
+ * distances against rounding.  Every particle is placed, slots in the order of the cells
+ * (and of the particles' indices within a cell: a counting sort).  NULL: no memory or bad
+ * arguments.
  */
 struct rs_grid* rs_grid_create(int64_t n, int32_t n_classes, const int32_t* class_of,
                                const double* largest, double Lx, double Ly, double z_lo,
@@ -204,28 +217,32 @@ struct rs_grid* rs_grid_create(int64_t n, int32_t n_classes, const int32_t* clas
                                margin)) { rs_grid_free(g); return NULL; }
     }
     size_t m = (size_t)(n > 0 ? n : 1);
+    int64_t base[RS_MAX_CLASSES + 1] = {0};   /* first sort bin of each class */
+    for (int c = 0; c < n_classes; c++)
+        base[c + 1] = base[c] + g->classes[c].nx * g->classes[c].ny * g->classes[c].nz;
     g->p = malloc(m * sizeof(struct rs_grid_particle));
     g->slot_of = malloc(m * sizeof(int64_t));
     g->flag = calloc(m, 1);
-    struct rs_keyed* order = malloc(m * sizeof(struct rs_keyed));
-    if (!g->p || !g->slot_of || !g->flag || !order) { free(order); rs_grid_free(g); return NULL; }
-    for (int64_t i = 0; i < n; i++) {
-        order[i].key = ((int64_t)class_of[i] << 40)
-                       + rs_cell_of(g, &g->classes[class_of[i]], x[i], y[i], z[i]);
-        order[i].i = i;
+    int64_t* bin = malloc(m * sizeof(int64_t));    /* sort bin (class and cell) by particle */
+    int64_t* start = calloc((size_t)base[n_classes] + 1, sizeof(int64_t));
+    if (!g->p || !g->slot_of || !g->flag || !bin || !start) {
+        free(bin); free(start); rs_grid_free(g); return NULL;
     }
-    qsort(order, m, sizeof(struct rs_keyed), rs_compare_keyed);
-    for (int64_t s = n - 1; s >= 0; s--) {   /* backwards: each cell's list in slot order */
-        int64_t i = order[s].i;
-        struct rs_grid_particle* q = &g->p[s];
+    for (int64_t i = 0; i < n; i++) {
+        bin[i] = base[class_of[i]] + rs_cell_of(g, &g->classes[class_of[i]], x[i], y[i], z[i]);
+        start[bin[i] + 1]++;
+    }
+    for (int64_t b = 0; b < base[n_classes]; b++) start[b + 1] += start[b];
+    for (int64_t i = 0; i < n; i++) g->slot_of[i] = start[bin[i]]++;   /* by index in a bin */
+    for (int64_t i = 0; i < n; i++) {
+        struct rs_grid_particle* q = &g->p[g->slot_of[i]];
         q->x = x[i]; q->y = y[i]; q->z = z[i]; q->r = rad[i];
         q->index = (int32_t)i;
         q->searched = 0;
-        q->cell = order[s].key & (((int64_t)1 << 40) - 1);
-        g->slot_of[i] = s;
-        rs_link(g, s);
+        q->cell = bin[i] - base[class_of[i]];
     }
-    free(order);
+    for (int64_t s = n - 1; s >= 0; s--) rs_link(g, s);   /* each cell's list in slot order */
+    free(bin); free(start);
     return g;
 }
 
@@ -319,4 +336,214 @@ int64_t rs_grid_overlapping(struct rs_grid* g, int64_t k, const int64_t* idx, in
     free(order);
     for (int64_t l = 0; l < found.count; l++) g->flag[out[l]] = 0;
     return found.count;
+}
+
+/* --- overlap count of a time-series output --------------------------------------------- */
+
+/** A deeply overlapping pair, lower index first. */
+struct rs_pair {
+    int64_t i, j;
+};
+
+/** The deep pairs found so far (a growing array; duplicates are removed at the end). */
+struct rs_deep {
+    struct rs_pair* pairs;
+    int64_t count, capacity;
+    int failed;   /* 1: no memory */
+};
+
+static void rs_deep_add(struct rs_deep* deep, int64_t i, int64_t j) {
+    if (deep->count == deep->capacity) {
+        int64_t capacity = deep->capacity ? 2 * deep->capacity : 64;
+        struct rs_pair* grown = realloc(deep->pairs, (size_t)capacity * sizeof(struct rs_pair));
+        if (!grown) { deep->failed = 1; return; }
+        deep->pairs = grown;
+        deep->capacity = capacity;
+    }
+    deep->pairs[deep->count].i = i;
+    deep->pairs[deep->count].j = j;
+    deep->count++;
+}
+
+static int rs_compare_pairs(const void* a, const void* b) {
+    const struct rs_pair* pa = a;
+    const struct rs_pair* pb = b;
+    if (pa->i != pb->i) return pa->i < pb->i ? -1 : 1;
+    return pa->j < pb->j ? -1 : (pa->j > pb->j ? 1 : 0);
+}
+
+/** What the overlap count reads beside the grid: the caller's positions and radii (the
+ *  exact test uses them as they are), the box, the shear offset and the depth. */
+struct rs_overlap_query {
+    const double *x, *y, *z, *rad;   /* [m], by particle index */
+    double Lx, Ly;                   /* box [m] */
+    double shift;                    /* shear offset 1.5 Omega Lx t [m], as given */
+    double shift_wrapped;            /* the same in [0, Ly) [m], to choose cells */
+    double fraction;                 /* depth counted, of the smaller radius */
+    double tolerance;                /* [m]: the grid's copies are within this of exact */
+};
+
+/** The exact test of ringsim.testing.count_overlaps_numpy for particles i < j, j seen as
+ *  its image w (0: itself; +1: at x + Lx, y - shift; -1: at x - Lx, y + shift), with the
+ *  same operations in the same order (no contraction: -ffp-contract=off). */
+static int rs_deep_pair(const struct rs_overlap_query* q, int64_t i, int64_t j, int w) {
+    double bx = q->x[j], by = q->y[j];
+    if (w > 0) { bx = bx + q->Lx; by = by - q->shift; }
+    if (w < 0) { bx = bx - q->Lx; by = by + q->shift; }
+    double dx = q->x[i] - bx;
+    double dy = q->y[i] - by;
+    double dz = q->z[i] - q->z[j];
+    dy -= q->Ly * nearbyint(dy / q->Ly);
+    double dist = sqrt(dx * dx + dy * dy + dz * dz);
+    double ri = q->rad[i], rj = q->rad[j];
+    return ri + rj - dist > q->fraction * (ri < rj ? ri : rj);
+}
+
+/** Test slot s's particle a against particle b of a class at least a's, b seen as its
+ *  image w (see rs_deep_pair), on the grid's copies (x + Lx/2, y in [0, Ly)) with
+ *  `tolerance` to spare; rs_deep_pair decides, with the lower index first. */
+static void rs_overlap_candidate(const struct rs_grid_particle* a,
+                                 const struct rs_grid_particle* b, int w, double bx_offset,
+                                 double by_offset, const struct rs_overlap_query* q,
+                                 struct rs_deep* deep) {
+    double limit = a->r + b->r - q->fraction * (a->r < b->r ? a->r : b->r) + q->tolerance;
+    double dz = a->z - b->z;
+    if (limit <= 0.0 || dz * dz >= limit * limit) return;
+    double dx = a->x - (b->x + bx_offset);
+    double dy = a->y - (b->y + by_offset);   /* by_offset in [-Ly/2, Ly/2]: one wrap */
+    dy += dy > 0.5 * q->Ly ? -q->Ly : (dy < -0.5 * q->Ly ? q->Ly : 0.0);
+    if (dx * dx + dy * dy + dz * dz >= limit * limit) return;
+    int deep_pair = a->index < b->index ? rs_deep_pair(q, a->index, b->index, w)
+                                        : rs_deep_pair(q, b->index, a->index, -w);
+    if (deep_pair) rs_deep_add(deep, a->index < b->index ? a->index : b->index,
+                               a->index < b->index ? b->index : a->index);
+}
+
+/** Pairs of slot s with the particles of class grid cg (of its own class only those in later
+ *  slots: a pair and its mirror image are found from both sides), each image w of the
+ *  partner in the cells where it can be within reach.  The slots of a class are sorted by
+ *  cell, so the cells of a column (x and y cell, the heights in reach) are one run of
+ *  slots, read in order from first[cell]: no list to follow. */
+static void rs_overlaps_class(const struct rs_grid* g, const struct rs_class_grid* cg,
+                              const int64_t* first, int64_t s, int same_class,
+                              const struct rs_overlap_query* q, struct rs_deep* deep) {
+    const struct rs_grid_particle* p = g->p;
+    const struct rs_grid_particle* a = &p[s];
+    double reach = a->r + cg->largest + q->tolerance;
+    int64_t kx = (int64_t)ceil(reach / cg->wx), c0 = rs_cell(a->x, cg->wx, cg->nx);
+    int64_t ky = (int64_t)ceil(reach / cg->wy);
+    int64_t fz, nz;
+    rs_range((int64_t)ceil(reach / cg->wz), cg->nz, 0, rs_cell(a->z - g->z_lo, cg->wz, cg->nz),
+             &fz, &nz);
+    for (int64_t ix = c0 - kx; ix <= c0 + kx; ix++) {
+        int w = ix < 0 ? -1 : (ix >= cg->nx ? 1 : 0);
+        int64_t cx = ix - w * cg->nx;
+        if (cx < 0 || cx >= cg->nx) continue;   /* a second image: never within reach */
+        double bx_offset = w * q->Lx, by_offset = -w * q->shift_wrapped;
+        by_offset += by_offset > 0.5 * q->Ly ? -q->Ly : (by_offset < -0.5 * q->Ly ? q->Ly : 0.0);
+        double yc = a->y - by_offset;   /* where the partner's copy must be */
+        yc -= q->Ly * floor(yc / q->Ly);
+        int64_t fy, ny;
+        rs_range(ky, cg->ny, 1, rs_cell(yc, cg->wy, cg->ny), &fy, &ny);
+        for (int64_t iy = fy; iy < fy + ny; iy++) {
+            int64_t cy = iy < 0 ? iy + cg->ny : (iy >= cg->ny ? iy - cg->ny : iy);
+            int64_t cell = (cx * cg->ny + cy) * cg->nz + fz;
+            int64_t t = first[cell], end = first[cell + nz];
+            if (same_class && t <= s) t = s + 1;
+            for (; t < end; t++) rs_overlap_candidate(a, &p[t], w, bx_offset, by_offset, q, deep);
+        }
+    }
+}
+
+/** first[c][cell]: the first slot of each cell of class c (and one past the class's last
+ *  slot at n_cells), from the grid's slots sorted by class and cell; NULL without memory. */
+static int64_t** rs_cell_starts(const struct rs_grid* g) {
+    int64_t** first = calloc((size_t)g->n_classes, sizeof(int64_t*));
+    if (!first) return NULL;
+    int64_t s = 0;
+    for (int c = 0; c < g->n_classes; c++) {
+        const struct rs_class_grid* cg = &g->classes[c];
+        int64_t n_cells = cg->nx * cg->ny * cg->nz;
+        first[c] = malloc((size_t)(n_cells + 1) * sizeof(int64_t));
+        if (!first[c]) {
+            for (int k = 0; k < c; k++) free(first[k]);
+            free(first);
+            return NULL;
+        }
+        for (int64_t cell = 0; cell <= n_cells; cell++) {
+            while (s < g->n && g->class_of[g->p[s].index] == c && g->p[s].cell < cell) s++;
+            first[c][cell] = s;
+        }
+    }
+    return first;
+}
+
+/**
+ * Pairs of the n particles (positions x, y, z [m] centred on the box, radii rad [m]) that
+ * overlap by more than `fraction` of the smaller radius, each physical pair once: periodic
+ * in y (Ly [m]); across the radial boundary the partner's image at x +- Lx is shifted in y
+ * by -+ shift [m] (1.5 Omega Lx t: the shear flow carries the neighbouring boxes along); not
+ * periodic in z.  The same count as ringsim.testing.count_overlaps_numpy (positions in the
+ * box, as REBOUND keeps them at the end of a step).  Searched on the placement's grids of
+ * cells per radius class (here radii within a factor 4 a class), each particle looking at
+ * the cells of its own and the larger classes within its radius plus the class's largest
+ * radius.  Returns the count, or -1 without memory.
+ */
+int64_t rs_count_overlaps(int64_t n, const double* x, const double* y, const double* z,
+                          const double* rad, double Lx, double Ly, double shift,
+                          double fraction) {
+    if (n < 2) return 0;
+    double r_min = rad[0], r_max = rad[0], z_lo = z[0], z_hi = z[0];
+    for (int64_t i = 1; i < n; i++) {
+        r_min = rad[i] < r_min ? rad[i] : r_min;
+        r_max = rad[i] > r_max ? rad[i] : r_max;
+        z_lo = z[i] < z_lo ? z[i] : z_lo;
+        z_hi = z[i] > z_hi ? z[i] : z_hi;
+    }
+    int32_t* class_of = malloc((size_t)n * sizeof(int32_t));
+    double* gx = malloc((size_t)n * sizeof(double));
+    double* gy = malloc((size_t)n * sizeof(double));
+    if (!class_of || !gx || !gy) { free(class_of); free(gx); free(gy); return -1; }
+    /* classes: radii within a factor 4 (the last class takes any beyond 4^31); the
+     * placement's factor 2 made the count 1.6x slower at N = 1e5, power law 0.5-5 m */
+    int32_t label_top = 0;
+    for (int64_t i = 0; i < n; i++) {
+        double octaves = r_min > 0.0 ? floor(0.5 * log2(rad[i] / r_min)) : 0.0;
+        class_of[i] = octaves < RS_MAX_CLASSES - 1 ? (int32_t)octaves : RS_MAX_CLASSES - 1;
+        label_top = class_of[i] > label_top ? class_of[i] : label_top;
+        gx[i] = x[i] + 0.5 * Lx;
+        gy[i] = y[i] + 0.5 * Ly;
+        gy[i] -= Ly * floor(gy[i] / Ly);
+    }
+    double largest[RS_MAX_CLASSES] = {0.0};
+    for (int64_t i = 0; i < n; i++)
+        largest[class_of[i]] = rad[i] > largest[class_of[i]] ? rad[i] : largest[class_of[i]];
+    for (int c = 0; c <= label_top; c++)    /* an empty class: no neighbours, small cells */
+        if (!(largest[c] > 0.0)) largest[c] = r_max > 0.0 ? r_max : 1.0;
+    struct rs_overlap_query q = {x, y, z, rad, Lx, Ly, shift, 0.0, fraction, 0.0};
+    q.shift_wrapped = shift - Ly * floor(shift / Ly);
+    /* copies and the exact image coordinates differ by rounding of values up to this */
+    q.tolerance = 1e-9 * (Lx + Ly + fabs(shift) + (z_hi - z_lo) + r_max);
+    struct rs_grid* g = rs_grid_create(n, label_top + 1, class_of, largest, Lx, Ly, z_lo,
+                                       z_hi, 0.0, gx, gy, z, rad);
+    free(gx); free(gy);
+    int64_t** first = g ? rs_cell_starts(g) : NULL;
+    if (!first) { rs_grid_free(g); free(class_of); return -1; }
+    struct rs_deep deep = {NULL, 0, 0, 0};
+    for (int64_t s = 0; s < n; s++) {   /* a pair from the particle of the smaller class */
+        int own = class_of[g->p[s].index];
+        for (int c = own; c < g->n_classes; c++)
+            rs_overlaps_class(g, &g->classes[c], first[c], s, c == own, &q, &deep);
+    }
+    for (int c = 0; c < g->n_classes; c++) free(first[c]);
+    free(first);
+    rs_grid_free(g);
+    free(class_of);
+    if (deep.failed) { free(deep.pairs); return -1; }
+    qsort(deep.pairs, (size_t)deep.count, sizeof(struct rs_pair), rs_compare_pairs);
+    int64_t unique = 0;
+    for (int64_t k = 0; k < deep.count; k++)
+        if (k == 0 || rs_compare_pairs(&deep.pairs[k], &deep.pairs[k - 1])) unique++;
+    free(deep.pairs);
+    return unique;
 }

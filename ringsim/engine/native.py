@@ -123,7 +123,7 @@ def check_simulation_struct_size(compiled_size: int, loaded_size: int) -> None:
 
 
 def _declare_setup(lib: ctypes.CDLL) -> None:
-    """Prototypes of the set-up functions (rs_setup.c): adding particles, the overlap grid."""
+    """Prototypes of rs_setup.c: adding particles, the overlap grid, the overlap count."""
     double_p = ctypes.POINTER(ctypes.c_double)
     int64_p = ctypes.POINTER(ctypes.c_int64)
     lib.rs_add_particles.restype = ctypes.c_int64
@@ -139,6 +139,8 @@ def _declare_setup(lib: ctypes.CDLL) -> None:
     lib.rs_grid_move.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p] + [double_p] * 3
     lib.rs_grid_overlapping.restype = ctypes.c_int64
     lib.rs_grid_overlapping.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p, int64_p]
+    lib.rs_count_overlaps.restype = ctypes.c_int64
+    lib.rs_count_overlaps.argtypes = [ctypes.c_int64] + [double_p] * 4 + [ctypes.c_double] * 4
 
 
 #: OpenMP threads that wait for the next parallel region sleep instead of spinning, unless

@@ -38,6 +38,7 @@ import numpy as np
 from ringsim.analysis import snapshot
 from ringsim.engine import gravity, invariants, p3m, sheet, timestep
 from ringsim.engine.binary import simulation_binary, simulation_from_binary
+from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.progress import progress_bar
 from ringsim.engine.stop import StopRequest as _StopRequest
 from ringsim.errors import InputError
@@ -132,6 +133,7 @@ class Runner:
 
     # -- set-up --------------------------------------------------------------------------------
 
+    @one_blas_thread
     def start_new(self, built: sheet.BuiltSheet | None = None) -> None:
         """Set the run up: ``built`` (a sheet of this scenario from ``sheet.build_sheet``,
         e.g. to time the loop apart from the set-up), or a new one; first output."""
@@ -186,6 +188,7 @@ class Runner:
                              f"{new_orbits:g} is shorter than the run file's {old_orbits:g}")
         return old_orbits, new_orbits
 
+    @one_blas_thread
     def start_resume(self) -> None:
         run = runfile.open_run(self.path)
         checkpoint = runfile.read_checkpoint(self.path)
@@ -326,8 +329,10 @@ class Runner:
 
             tqdm.write(f"ringsim: {message}", file=sys.stderr)
 
-    def _guards(self, arrays: dict, overlapping_pairs: int) -> None:
+    def _guards(self, arrays: dict, row: dict) -> None:
+        """The guards of an output on its particle ``arrays`` and time-series ``row``."""
         g = self.geometry
+        overlapping_pairs = row["overlapping_pairs"]
         if overlapping_pairs and not self.state.overlap_warned:
             self.state.overlap_warned = 1
             self._guard_event(f"WARNING: {overlapping_pairs} pairs overlap by more than "
@@ -335,7 +340,7 @@ class Runner:
                               "(collisions missed or particles sinking into each other); "
                               "counts per output are in /timeseries/overlapping_pairs")
         # vertical: never let a particle's oscillation reach the periodic z boundary
-        amplitude = sheet.max_vertical_amplitude(arrays, self.Omega)
+        amplitude = row["max_vertical_amplitude"]
         limit = sheet.VERTICAL_GUARD_FRACTION * 0.5 * g.z_period
         if amplitude >= limit:
             needed = amplitude / (sheet.VERTICAL_GUARD_FRACTION * 0.5)
@@ -370,6 +375,7 @@ class Runner:
                                   "(use dt: auto or collision_detection: line)")
 
 
+    @one_blas_thread
     def _output(self, first: bool = False) -> None:
         arrays = sheet.particle_arrays(self.sim)
         stats = self.handle.stats()
@@ -384,9 +390,8 @@ class Runner:
         self.pending_rows.append(row)
         self.state.rows += 1
         self.handle.reset_stats()
-        if not first:
-            self._guards(arrays, row["overlapping_pairs"])
-            arrays = sheet.particle_arrays(self.sim)
+        if not first:   # (a taller box from the vertical guard holds the same particles)
+            self._guards(arrays, row)
         t = self.sim.t
         snap = None
         if first or _interval_index(t, self.snap_every) >= self.state.snapshots:

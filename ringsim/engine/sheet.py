@@ -12,6 +12,7 @@ Units are SI throughout (G = 6.674e-11 m^3 kg^-1 s^-2 when self-gravity is on).
 
 from __future__ import annotations
 
+import ctypes
 import math
 from dataclasses import dataclass
 from fractions import Fraction
@@ -19,19 +20,17 @@ from fractions import Fraction
 import numpy as np
 import rebound
 
+from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.placement import OverlapGrid, wrap_horizontal
 from ringsim.engine.timestep import choose_dt
 from ringsim.physics.constants import SHEAR
-from ringsim.physics.selfgravity import P3M_SPLIT_RADII, radial_images
+from ringsim.physics.selfgravity import P3M_SPLIT_RADII
 from ringsim.physics.sizes import size_bin_edges
 
 #: A particle's vertical amplitude may reach this fraction of the half z period.
 VERTICAL_GUARD_FRACTION = 0.4
 #: Overlaps deeper than this fraction of the smaller radius are reported.
 OVERLAP_REPORT_FRACTION = 0.1
-#: Particles searched at once by `count_overlaps`: bounds its transient memory (150 bytes per
-#: particle at N = 3e5 against 940 when all were searched at once) for ~25 % more CPU time.
-OVERLAP_CHUNK = 1 << 13
 
 
 @dataclass(frozen=True)
@@ -282,8 +281,6 @@ def add_particles(sim: rebound.Simulation, state: dict[str, np.ndarray], radii: 
     radii : array [m]
     masses : array [kg]
     """
-    import ctypes
-
     from ringsim.engine.native import _LIB
 
     if (sim.gravity == "tree" or sim.collision in ("tree", "linetree")) \
@@ -329,6 +326,7 @@ def particle_arrays(sim: rebound.Simulation) -> dict[str, np.ndarray]:
             "vy": vxyz[:, 1], "vz": vxyz[:, 2], "radius": r, "mass": m}
 
 
+@one_blas_thread   # the centre of mass at rest: sums of N terms, same bits on any machine
 def build_sheet(scenario) -> BuiltSheet:
     """Scenario -> ready-to-run shearing sheet with ringsim's native resolver installed.
 
@@ -494,51 +492,35 @@ def vertical_guard_ok(arrays: dict[str, np.ndarray], geometry: SheetGeometry) ->
 
 def count_overlaps(arrays: dict[str, np.ndarray], geometry: SheetGeometry, t: float = 0.0,
                    fraction: float = OVERLAP_REPORT_FRACTION) -> int:
-    """Pairs overlapping by more than ``fraction`` of the smaller radius.
+    """Pairs overlapping by more than ``fraction`` of the smaller radius, each pair once.
 
     Shear-periodic like the sheet: periodic in y; across the radial boundary a particle's
     image at x +- Lx is shifted in y by -+ 1.5 Omega Lx t (the shear flow carries the
-    neighbouring boxes along), so pairs straddling that boundary are counted correctly.
+    neighbouring boxes along), so pairs straddling that boundary are counted correctly; not
+    periodic in z.  Counted in C (``rs_count_overlaps`` in ``csrc/rs_setup.c``, on the
+    placement's per-radius-class grids); ``ringsim.testing.count_overlaps_numpy`` is the
+    numpy twin the tests compare it with.
 
     Parameters
     ----------
-    arrays : particle arrays (SI)
+    arrays : particle arrays (SI): x, y, z [m] in the box, radius [m]
     geometry : SheetGeometry
     t : float [s]
         Time of the state (sets the shear offset of the radial images).
     fraction : float [dimensionless]
     """
-    from scipy.spatial import cKDTree
+    from ringsim.engine.native import _LIB
 
-    r = arrays["radius"]
-    n = r.size
-    if n < 2:
-        return 0
-    Lx, Ly = geometry.Lx, geometry.Ly
-    reach = 2.0 * float(r.max())
-    x, y, z = arrays["x"], arrays["y"], arrays["z"]
-    shift = 1.5 * geometry.Omega * Lx * t
-    index, px, py, pz = radial_images(x, y, z, Lx, shift, reach)
-    pos = np.column_stack([px - px.min(), np.mod(py + 0.5 * Ly, Ly), pz - pz.min()])
-    order = np.argsort(pos[:, 0], kind="stable")   # chunks of neighbours: compact trees
-    tree = cKDTree(pos, boxsize=[1e300, Ly, 1e300])
-    deep_pairs = []
-    for start in range(0, order.size, OVERLAP_CHUNK):
-        chunk = order[start:start + OVERLAP_CHUNK]
-        found = cKDTree(pos[chunk], boxsize=[1e300, Ly, 1e300]).sparse_distance_matrix(
-            tree, reach, output_type="ndarray")
-        p, q = chunk[found["i"]], found["j"]
-        once = p < q   # each tree pair once (it is found from both of its chunks)
-        p, q = p[once], q[once]
-        i, j = index[p], index[q]
-        keep = i < j  # each physical pair once (an image pair duplicates an original pair)
-        d = pos[p[keep]] - pos[q[keep]]
-        d[:, 1] -= Ly * np.round(d[:, 1] / Ly)
-        dist = np.sqrt(np.sum(d * d, axis=1))
-        ri, rj = r[i[keep]], r[j[keep]]
-        deep = ri + rj - dist > fraction * np.minimum(ri, rj)
-        deep_pairs.append(np.column_stack([i[keep][deep], j[keep][deep]]))
-    return int(np.unique(np.concatenate(deep_pairs), axis=0).shape[0])
+    columns = [np.ascontiguousarray(arrays[key], dtype=np.float64)
+               for key in ("x", "y", "z", "radius")]
+    double_p = ctypes.POINTER(ctypes.c_double)
+    count = _LIB.rs_count_overlaps(columns[3].size, *(c.ctypes.data_as(double_p)
+                                                      for c in columns),
+                                   geometry.Lx, geometry.Ly,
+                                   SHEAR * geometry.Omega * geometry.Lx * t, fraction)
+    if count < 0:
+        raise MemoryError(f"rs_count_overlaps: no memory for {columns[3].size} particles")
+    return int(count)
 
 
 def enlarged_copy(sim: rebound.Simulation, geometry: SheetGeometry,
