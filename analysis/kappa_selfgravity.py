@@ -166,6 +166,36 @@ def run_case(case: str, args, runs: Path, costs: dict) -> None:
     run_jobs(grav, args.workers, costs)
 
 
+#: Method variants of the systematic budget (``--systematics CASE``): source -> overrides
+#: of the gravity runs ("n_particles": four times the case's particles, a box twice as
+#: wide; "dt": the step halved).
+SYSTEMATIC_VARIANTS = {"dt": {"integration.dt": 5e-4}, "n_particles": {}}
+
+
+def variant_output(runs: Path, source: str, case: str, kappa: float, seed: int) -> Path:
+    return runs / f"syst-{source}_{case}_kappa{kappa:g}_seed{seed}.h5"
+
+
+def run_systematics(case: str, args, runs: Path, costs: dict) -> None:
+    """The gravity runs of ``case`` again with each method variant (seeds ``args.seeds``),
+    and the budget file: the relative change of the gravity ratio per source, or its
+    statistical error if larger (as analysis/kappa_comparison.py)."""
+    from kappa_selfgravity_report import write_budget
+
+    jobs = []
+    for source, extra in SYSTEMATIC_VARIANTS.items():
+        for k in SCENARIOS:
+            for s in args.seeds:
+                o = overrides(case, k, s, True,
+                              baseline_dispersion(runs, case, k, args.base_seeds))
+                o.update(extra)
+                if source == "n_particles":
+                    o["sheet.n_particles"] = 4 * patch(case)["n_particles"]
+                jobs.append((str(SCENARIOS[k]), o, str(variant_output(runs, source, case, k, s))))
+    run_jobs(jobs, args.workers, costs)
+    write_budget(case, args, runs)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
@@ -175,11 +205,17 @@ def main() -> None:
     parser.add_argument("--report-only", action="store_true",
                         help="only rewrite the report from the runs that exist")
     parser.add_argument("--report", default=str(REPORT))
+    parser.add_argument("--systematics", choices=list(CASES),
+                        help="run the method variants of this case (seeds --seeds) and write "
+                        "the budget against its runs of --base-seeds")
+    parser.add_argument("--base-seeds", type=int, nargs="+", default=[1, 2, 3])
     args = parser.parse_args()
     runs = Path(args.runs)
     runs.mkdir(parents=True, exist_ok=True)
     costs = load_costs()
-    if not args.report_only:
+    if args.systematics:
+        run_systematics(args.systematics, args, runs, costs)
+    elif not args.report_only:
         for case in args.cases:
             run_case(case, args, runs, costs)
     from kappa_selfgravity_report import write_report

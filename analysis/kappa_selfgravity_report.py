@@ -31,8 +31,9 @@ from kappa_selfgravity import (
 from ringsim.analysis.budget import replica_mean
 from ringsim.analysis.compare import comparison
 from ringsim.analysis.equilibrium import TABLE_ROWS, equilibrium
+from ringsim.analysis.timeseries import autocorrelated_mean
 from ringsim.errors import InputError
-from ringsim.physics.gravity import mean_pair_hill_parameter
+from ringsim.physics.gravity import mean_pair_hill_parameter, toomre_q
 from ringsim.store.runfile import open_run
 
 BUDGET = ROOT / "analysis" / "data" / "kappa_selfgravity_budget.json"
@@ -59,10 +60,24 @@ def load_group(runs: Path, case: str, kappa: float, gravity: bool, seeds) -> dic
             missing.append(seed)
             continue
         eq = equilibrium(run)
+        if not gravity:
+            eq["toomre_Q"] = nograv_toomre_q(run, eq)
         (kept if eq["in_equilibrium"] else left_out).append(eq)
     return {"kept": kept, "left_out": [f"{e['name']} seed {e['scenario']['seed']}: "
                                        f"{e['reason']}" for e in left_out],
             "missing": missing}
+
+
+def nograv_toomre_q(run, eq: dict) -> dict:
+    """Toomre Q a run without self-gravity would have: Q = sigma_x Omega / (3.36 G Sigma)
+    over its equilibrium window, Sigma [kg/m^2] from its first snapshot's masses."""
+    snap = run.snapshot(0)
+    sigma = float(np.sum(snap["mass"])) / (float(run.attrs["Lx"]) * float(run.attrs["Ly"]))
+    ts = run.timeseries
+    start = int(np.searchsorted(np.asarray(ts["orbits"]), eq["equilibrium_from_orbit"]["mean"]))
+    q = toomre_q(np.sqrt(np.asarray(ts["sigma_xx"][start:])), sigma, float(run.attrs["Omega"]))
+    mean, stderr, _ = autocorrelated_mean(q)
+    return {"mean": float(mean), "stderr": float(stderr), "units": "dimensionless"}
 
 
 def ratio(groups: list[dict], budget: dict | None) -> dict | None:
@@ -175,6 +190,39 @@ def cost_lines(runs: Path, costs: dict) -> list[str]:
         lines.append(f"| {path.name} | {orbits:.3g} | {c['cpu_s']:.0f} | "
                      f"{c['cpu_s'] / max(orbits, 1e-9):.3g} | {c['stop_reason']} |")
     return lines
+
+
+def write_budget(case: str, args, runs: Path) -> None:
+    """BUDGET from the variants of ``case``: for each source and table quantity the relative
+    change of the gravity ratio kappa 0.1 / 0, or its statistical error if larger."""
+    from kappa_selfgravity import SYSTEMATIC_VARIANTS, variant_output
+
+    def group(paths):
+        eqs = [equilibrium(open_run(p)) for p in paths if p.exists()]
+        return {"kept": [e for e in eqs if e["in_equilibrium"]]}
+
+    base = ratio([load_group(runs, case, k, True, args.base_seeds) for k in (0.0, 0.1)],
+                 None)
+    relative: dict[str, dict[str, float]] = {key: {} for key in TABLE_ROWS}
+    for source in SYSTEMATIC_VARIANTS:
+        other = ratio([group([variant_output(runs, source, case, k, s) for s in args.seeds])
+                       for k in (0.0, 0.1)], None)
+        if base is None or other is None:
+            continue
+        for key in TABLE_ROWS:
+            a, b = base["ratios"][0][key], other["ratios"][0][key]
+            if math.isfinite(a["mean"]) and math.isfinite(b["mean"]) and a["mean"]:
+                noise = math.hypot(a["statistical"], b["statistical"]) / abs(a["mean"])
+                relative[key][source] = max(abs(b["mean"] / a["mean"] - 1.0), noise)
+    BUDGET.parent.mkdir(parents=True, exist_ok=True)
+    BUDGET.write_text(json.dumps({
+        "description": f"the gravity runs of case {case} (seeds {list(args.base_seeds)}) "
+                       f"again, seeds {list(args.seeds)}, "
+                       "with the step halved (dt) and with four times the particles, a box "
+                       "twice as wide (n_particles); each entry the relative change of the "
+                       "ratio kappa 0.1 / 0, or its statistical error if larger",
+        "measured_by": f"analysis/kappa_selfgravity.py --systematics {case}",
+        "relative": {k: v for k, v in relative.items() if v}}, indent=1) + "\n")
 
 
 def write_report(args, runs: Path, costs: dict) -> None:
