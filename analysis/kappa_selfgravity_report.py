@@ -20,6 +20,7 @@ from kappa_selfgravity import (
     CASES,
     GRAVITY_ROWS,
     MIN_PARTICLES,
+    ORBITS,
     REPORT,
     ROOT,
     SCENARIOS,
@@ -252,9 +253,12 @@ def write_report(args, runs: Path, costs: dict) -> None:
         "", "Produced by `python analysis/kappa_selfgravity.py --cases ... --seeds "
         + " ".join(str(s) for s in args.seeds) + "` (finished runs are reused; "
         "`--report-only` rewrites this file). Each case: both kappa values, with and without "
-        "self-gravity, every seed run until the equilibrium finder calls c and H stationary "
-        "(at most 40 orbits with gravity, 200 without); the gravity runs start at the "
-        "velocity dispersion of their no-gravity twins. Self-gravity: REBOUND's tree "
+        "self-gravity, every seed from the scenario's initial state (the same particles "
+        f"with and without gravity), {ORBITS['gravity']:g} orbits with gravity and "
+        f"{ORBITS['nograv']:g} without; the equilibrium finder then chooses each run's "
+        "window (MSER: the transient is cut) and a run it does not call stationary is left "
+        "out. No run stops early: `until_equilibrium` was caught inside slow transients "
+        "(see the note on the first attempt below). Self-gravity: REBOUND's tree "
         "(opening angle 0.3, the field beyond the ghost boxes added; 0.5 % rms force error, "
         "docs/gravity.md), softening 0.1 x the smallest radius. Collisions: line detection "
         "with kicked paths at 1e-3 orbit (docs/gravity.md, \"Line detection with "
