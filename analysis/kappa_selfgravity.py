@@ -157,7 +157,7 @@ def run_case(case: str, args, runs: Path, costs: dict) -> None:
 
 
 #: Method variants of the systematic budget (``--systematics CASE``): source -> overrides
-#: of the gravity runs ("n_particles": four times the case's particles, a box twice as
+#: of the gravity runs ("n_particles": twice the case's particles, a box sqrt(2) times as
 #: wide; "dt": the step halved).
 SYSTEMATIC_VARIANTS = {"dt": {"integration.dt": 5e-4}, "n_particles": {}}
 
@@ -179,7 +179,7 @@ def run_systematics(case: str, args, runs: Path, costs: dict) -> None:
                 o = overrides(case, k, s, True)
                 o.update(extra)
                 if source == "n_particles":
-                    o["sheet.n_particles"] = 4 * patch(case)["n_particles"]
+                    o["sheet.n_particles"] = 2 * patch(case)["n_particles"]
                 jobs.append((str(SCENARIOS[k]), o, str(variant_output(runs, source, case, k, s))))
     run_jobs(jobs, args.workers, costs)
     write_budget(case, args, runs)

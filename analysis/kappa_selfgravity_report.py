@@ -219,8 +219,8 @@ def write_budget(case: str, args, runs: Path) -> None:
     BUDGET.write_text(json.dumps({
         "description": f"the gravity runs of case {case} (seeds {list(args.base_seeds)}) "
                        f"again, seeds {list(args.seeds)}, "
-                       "with the step halved (dt) and with four times the particles, a box "
-                       "twice as wide (n_particles); each entry the relative change of the "
+                       "with the step halved (dt) and with twice the particles, a box "
+                       "sqrt(2) times as wide (n_particles); each entry the relative change of the "
                        "ratio kappa 0.1 / 0, or its statistical error if larger",
         "measured_by": f"analysis/kappa_selfgravity.py --systematics {case}",
         "relative": {k: v for k, v in relative.items() if v}}, indent=1) + "\n")
