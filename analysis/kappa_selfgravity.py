@@ -199,6 +199,8 @@ def run_systematics(case: str, args, runs: Path, costs: dict) -> None:
 
     jobs = []
     for source, extra in SYSTEMATIC_VARIANTS.items():
+        if source not in args.variants:
+            continue
         for k in SCENARIOS:
             for s in args.seeds:
                 o = overrides(case, k, s, True)
@@ -223,6 +225,8 @@ def main() -> None:
                         help="run the method variants of this case (seeds --seeds) and write "
                         "the budget against its runs of --base-seeds")
     parser.add_argument("--base-seeds", type=int, nargs="+", default=[1, 2, 3])
+    parser.add_argument("--variants", nargs="+", default=list(SYSTEMATIC_VARIANTS),
+                        choices=list(SYSTEMATIC_VARIANTS), help="sources of --systematics")
     args = parser.parse_args()
     runs = Path(args.runs)
     runs.mkdir(parents=True, exist_ok=True)
