@@ -236,10 +236,14 @@ def not_done_lines(runs: Path, costs: dict, not_run: list[str]) -> list[str]:
                      f"orbits) at the measured {rate * 1e6:.1f} us of CPU per particle-step "
                      f"(median of the gravity runs above): about {need / 3600:.0f} CPU-hours, "
                      "more where the tree's cost per particle grows with N.")
-    lines += ["- The systematic budget with gravity (time step, particle number and box, "
-              "solver): the variants were started and stopped for the time; the detection "
-              "part is measured per step (docs/gravity.md: kicked paths within 5.4e-4 of the "
-              "converged dissipation, negligible against the statistical errors here).",
+    measured = (sorted({src for parts in json.loads(BUDGET.read_text())["relative"].values()
+                        for src in parts}) if BUDGET.exists() else [])
+    lines += ["- The systematic budget with gravity: "
+              + (f"measured only for {', '.join(measured)} (see above); " if measured else "")
+              + "particle number and box size not measured (the variant was started and "
+              "stopped for the time); the detection part is measured per step "
+              "(docs/gravity.md: kicked paths within 5.4e-4 of the converged dissipation, "
+              "negligible against the statistical errors here).",
               "- Boxes of at least 4 lambda_cr for wake statistics (here 2.1-4.2); no case "
               "forms wakes with this law, so none was needed for the numbers above.",
               "- Stationarity of the power-law kappa = 0.1 rings by the finder's rule (20 "
