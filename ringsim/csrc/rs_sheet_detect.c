@@ -266,7 +266,6 @@ struct rs_sheet_detector {
     struct rs_sheet_grid grid;
     const struct reb_particle* particles;   /* r->particles of the last search (kicks) */
     int straight_paths;             /* 1: ignore the kick (measurements only, Method 1a) */
-    double kick_max;                /* [m/s] largest |a| dt of the last step */
     double deviation_max;           /* [m] largest D of this step */
     int64_t serial;                 /* collisions resolved in this step */
     /* counters */
@@ -375,6 +374,27 @@ static int rs_report(struct rs_pair_list* out, size_t p1, size_t p2, struct reb_
 /* ---------------------------------------------------------------------------------- */
 /* Contacts in time order (Method 5-8).                                               */
 
+/* A pair's relative path over one straight piece: dr(s) = dr - s dv [m, m/s]. */
+struct rs_piece {
+    double dx, dy, dz;
+    double dvx, dvy, dvz;
+};
+
+/* Method 1a: the piece before the kick of the piece after it (p1, p2: the pair, for their
+ * accelerations; dt [s] the step, kick_time [s] the kick's back time), in the back time
+ * s - kick_time: it starts at dr(kick_time), its velocity lacks the kick difference. */
+static inline struct rs_piece rs_before_kick(const struct rs_piece after,
+                                             const struct reb_particle* p1,
+                                             const struct reb_particle* p2, double dt,
+                                             double kick_time){
+    const struct rs_piece before = {
+        after.dx - kick_time * after.dvx, after.dy - kick_time * after.dvy,
+        after.dz - kick_time * after.dvz,
+        after.dvx - (p1->ax - p2->ax) * dt, after.dvy - (p1->ay - p2->ay) * dt,
+        after.dvz - (p1->az - p2->az) * dt};
+    return before;
+}
+
 /* Back time [s] of the next contact of a pair on the straight relative path dr(s) = dr -
  * s dv within the last `window` of it: the entry into contact if it is in (0, window],
  * `window` itself if the pair touches then and approaches; 0 if none. */
@@ -414,11 +434,10 @@ static double rs_contact_back_time(const struct reb_simulation* const r,
     const double dvz = p1->vz + c.gb.vz - p2->vz;
     const double sum_radii = p1->r + p2->r;
     if (kick_time > 0.0 && window > kick_time){
-        const double dt = r->dt_last_done;
-        const double before = rs_line_contact(
-            dx - kick_time * dvx, dy - kick_time * dvy, dz - kick_time * dvz,
-            dvx - (p1->ax - p2->ax) * dt, dvy - (p1->ay - p2->ay) * dt,
-            dvz - (p1->az - p2->az) * dt, sum_radii, window - kick_time);
+        const struct rs_piece b = rs_before_kick(
+            (struct rs_piece){dx, dy, dz, dvx, dvy, dvz}, p1, p2, r->dt_last_done, kick_time);
+        const double before = rs_line_contact(b.dx, b.dy, b.dz, b.dvx, b.dvy, b.dvz,
+                                              sum_radii, window - kick_time);
         if (before > 0.0){
             return kick_time + before;
         }
@@ -590,9 +609,9 @@ static int rs_path_touches(double dx, double dy, double dz, double dvx, double d
     if (rs_line_touches(dx, dy, dz, dvx, dvy, dvz, sum_radii, kick_time)){
         return 1;
     }
-    return rs_line_touches(dx - kick_time * dvx, dy - kick_time * dvy, dz - kick_time * dvz,
-                           dvx - (p1->ax - p2->ax) * dt, dvy - (p1->ay - p2->ay) * dt,
-                           dvz - (p1->az - p2->az) * dt, sum_radii, dt - kick_time);
+    const struct rs_piece b = rs_before_kick((struct rs_piece){dx, dy, dz, dvx, dvy, dvz},
+                                             p1, p2, dt, kick_time);
+    return rs_line_touches(b.dx, b.dy, b.dz, b.dvx, b.dvy, b.dvz, sum_radii, dt - kick_time);
 }
 
 /* Method 3-4 in the cells [first, end) of the sorted particles (a run of cells of one
@@ -799,7 +818,6 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
     if (!isfinite(reach_max) || !isfinite(z_min) || !isfinite(z_max) || !isfinite(kick_max)){
         return 0;
     }
-    d->kick_max = kick_max;
     g->kick_time = kick_max > 0.0 ? kick_time : 0.0;
     g->reach_max = reach_max;
     g->z_min = z_min;
