@@ -255,6 +255,19 @@ def detection_systematics(variant: str) -> dict[str, float]:
     return out
 
 
+def relative_changes(base_ratio: dict, other_ratio: dict) -> dict[str, float]:
+    """For each table quantity, the relative change of a ratio between a method variant
+    (``other_ratio``) and the base, or their combined statistical error if larger: a
+    difference smaller than its own noise is not resolved, so the noise is taken."""
+    out = {}
+    for key in TABLE_ROWS:
+        a, b = base_ratio[key], other_ratio[key]
+        if math.isfinite(a["mean"]) and math.isfinite(b["mean"]) and a["mean"]:
+            noise = math.hypot(a["statistical"], b["statistical"]) / abs(a["mean"])
+            out[key] = max(abs(b["mean"] / a["mean"] - 1.0), noise)
+    return out
+
+
 def measure_budget(args, runs_dir: Path, variant: str, base_ratio: dict) -> dict:
     """Run the method variants of one size-distribution variant and write its systematic
     budget (see module docstring)."""
@@ -270,12 +283,8 @@ def measure_budget(args, runs_dir: Path, variant: str, base_ratio: dict) -> dict
         other = ratio_of_pair(paths)
         if other is None:
             continue
-        for key in TABLE_ROWS:
-            a, b = base_ratio[key], other[key]
-            if math.isfinite(a["mean"]) and math.isfinite(b["mean"]) and a["mean"]:
-                # a difference smaller than its own noise is not resolved: take the noise
-                noise = math.hypot(a["statistical"], b["statistical"]) / abs(a["mean"])
-                relative[key][source] = max(abs(b["mean"] / a["mean"] - 1.0), noise)
+        for key, value in relative_changes(base_ratio, other).items():
+            relative[key][source] = value
     for key, value in detection_systematics(variant).items():
         relative[key]["collision_detection"] = value
     budget = {"description": "measured by analysis/kappa_comparison.py --systematics for the "

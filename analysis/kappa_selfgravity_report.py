@@ -14,7 +14,7 @@ import math
 from pathlib import Path
 
 import numpy as np
-from kappa_comparison import fmt, fmt_ratio
+from kappa_comparison import fmt, fmt_ratio, relative_changes
 from kappa_selfgravity import (
     BOX_LAMBDA,
     CASES,
@@ -31,6 +31,7 @@ from kappa_selfgravity import (
 
 from ringsim.analysis.budget import replica_mean
 from ringsim.analysis.compare import comparison
+from ringsim.analysis.compare import ratio as compare_ratio
 from ringsim.analysis.equilibrium import TABLE_ROWS, equilibrium
 from ringsim.analysis.timeseries import autocorrelated_mean
 from ringsim.errors import InputError
@@ -116,16 +117,15 @@ def combined(group: dict, key: str) -> dict | None:
 
 
 def quotient(a: dict | None, b: dict | None) -> dict | None:
-    """a / b with first-order error (independent runs)."""
-    if a is None or b is None or not b["mean"]:
-        return None
-    q = a["mean"] / b["mean"]
-    rel = math.hypot(a["stderr"] / a["mean"] if a["mean"] else 0.0, b["stderr"] / b["mean"])
-    return {"mean": q, "stderr": abs(q) * rel}
+    """a / b with first-order error (``ringsim.analysis.compare.ratio``); None without
+    both."""
+    return None if a is None or b is None else compare_ratio(a, b)
 
 
 def fmt_quotient(q: dict | None) -> str:
-    return "" if q is None else f"{q['mean']:.3g} ± {q['stderr']:.2g}"
+    if q is None or not math.isfinite(q["mean"]):
+        return ""
+    return f"{q['mean']:.3g} ± {q['stderr']:.2g}"
 
 
 def case_table(groups: dict, comps: dict) -> list[str]:
@@ -268,11 +268,8 @@ def write_budget(case: str, args, runs: Path) -> None:
                        for k in (0.0, 0.1)], None)
         if base is None or other is None:
             continue
-        for key in TABLE_ROWS:
-            a, b = base["ratios"][0][key], other["ratios"][0][key]
-            if math.isfinite(a["mean"]) and math.isfinite(b["mean"]) and a["mean"]:
-                noise = math.hypot(a["statistical"], b["statistical"]) / abs(a["mean"])
-                relative[key][source] = max(abs(b["mean"] / a["mean"] - 1.0), noise)
+        for key, value in relative_changes(base["ratios"][0], other["ratios"][0]).items():
+            relative[key][source] = value
     BUDGET.parent.mkdir(parents=True, exist_ok=True)
     BUDGET.write_text(json.dumps({
         "description": f"the gravity runs of case {case} (seeds {list(args.base_seeds)}) "
