@@ -178,7 +178,8 @@ def outputs(args) -> tuple[Path, Path, str]:
 
 def run_one(job: tuple[str, dict, str]) -> tuple[str, float]:
     """Run one scenario; returns (path, wall time [s]).  A finished file of the same
-    scenario is reused; a stopped one is continued (bit-identical to running it whole)."""
+    scenario is reused; a stopped one, or a finished one that differs only by fewer
+    ``integration.orbits``, is continued (bit-identical to running it whole)."""
     scenario_path, overrides, output = job
     out = Path(output)
     sc = with_overrides(load_scenario(scenario_path), overrides)
@@ -191,6 +192,12 @@ def run_one(job: tuple[str, dict, str]) -> tuple[str, float]:
         if existing is not None and existing.scenario == sc:
             if existing.attrs.get("status") == "finished":
                 return output, 0.0
+            ringsim.run(sc, output=out, resume=True, progress=False)
+            return output, time.perf_counter() - t0
+        if existing is not None and existing.attrs.get("status") == "finished" \
+                and existing.scenario.integration.orbits < sc.integration.orbits \
+                and with_overrides(existing.scenario,
+                                   {"integration.orbits": sc.integration.orbits}) == sc:
             ringsim.run(sc, output=out, resume=True, progress=False)
             return output, time.perf_counter() - t0
     ringsim.run(sc, output=out, force=True, progress=False)

@@ -31,9 +31,7 @@ from pathlib import Path
 import numpy as np
 from kappa_comparison import run_one
 
-import ringsim
-from ringsim.config.scenario import load_scenario, with_overrides
-from ringsim.errors import InputError
+from ringsim.config.scenario import load_scenario
 from ringsim.physics.gravity import orbital_frequency, surface_density_from_tau, toomre_wavelength
 from ringsim.store.runfile import open_run
 
@@ -124,29 +122,11 @@ def output(runs: Path, case: str, kappa: float, seed: int, gravity: bool) -> Pat
     return runs / f"{'gravity' if gravity else 'nograv'}_{case}_kappa{kappa:g}_seed{seed}.h5"
 
 
-def run_or_extend(job: tuple) -> str:
-    """kappa_comparison.run_one, and a finished run of the same scenario with fewer orbits
-    is extended with --resume (bit-identical to running it whole) instead of run again."""
-    scenario_path, changes, output = job
-    sc = with_overrides(load_scenario(scenario_path), changes)
-    out = Path(output)
-    try:
-        existing = open_run(out) if out.exists() else None
-    except (OSError, KeyError, InputError):
-        existing = None
-    if existing is not None and existing.attrs.get("status") == "finished" \
-            and existing.scenario.integration.orbits < sc.integration.orbits \
-            and with_overrides(existing.scenario,
-                               {"integration.orbits": sc.integration.orbits}) == sc:
-        ringsim.run(sc, output=out, resume=True, progress=False)
-        return output
-    return run_one(job)[0]
-
-
 def timed(job: tuple) -> tuple[str, float]:
-    """run_or_extend in a worker; returns (path, CPU seconds of the worker)."""
+    """run_one in a worker (which also extends a finished shorter run); returns (path, CPU
+    seconds of the worker)."""
     t0 = time.process_time()
-    path = run_or_extend(job)
+    path, _ = run_one(job)
     return path, time.process_time() - t0
 
 
