@@ -296,6 +296,14 @@ def set_straight_paths(resolver_address: int, straight: bool) -> None:
         raise MemoryError("could not allocate the sheet detector")
 
 
+def checked_threads(threads) -> int:
+    """``threads`` as an int >= 1 (``integration.threads`` of the detector and of P3M);
+    ValueError otherwise."""
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ValueError(f"threads: must be an integer >= 1, got {threads!r}")
+    return int(threads)
+
+
 def set_detector_threads(resolver_address: int, threads: int) -> int:
     """Let the sheet detector of the resolver at ``resolver_address`` search with ``threads``
     OpenMP threads (``integration.threads``); returns the number it will ask for.
@@ -304,8 +312,7 @@ def set_detector_threads(resolver_address: int, threads: int) -> int:
     (``rs_sheet_detect.c``, step 3a).  Without OpenMP in the build the search runs on one
     thread whatever the number; without the detector (tree mode) nothing changes.
     """
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        raise ValueError(f"threads: must be an integer >= 1, got {threads!r}")
+    threads = checked_threads(threads)
     if not hasattr(_LIB, "rs_sheet_set_threads"):
         return 1
     done = int(_LIB.rs_sheet_set_threads(resolver_address, int(threads)))

@@ -21,7 +21,7 @@ import numpy as np
 import rebound
 import scipy.fft
 
-from ringsim.engine.native import _LIB, _POST_TIMESTEP, HAS_P3M, P3MStruct
+from ringsim.engine.native import _LIB, _POST_TIMESTEP, HAS_P3M, P3MStruct, checked_threads
 from ringsim.physics.constants import G_SI
 from ringsim.physics.selfgravity import (
     P3M_CELL_SPLITS,
@@ -125,8 +125,7 @@ class P3MSolver:
         """Interpolation, pair sum (OpenMP) and FFTs (scipy.fft workers) on ``threads``
         threads; every result is the same on any number (each particle's sums keep their
         order, and scipy's FFTs split independent transforms)."""
-        if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
-            raise ValueError(f"threads: must be an integer >= 1, got {threads!r}")
+        threads = checked_threads(threads)
         self.params.threads = threads
         self.mesh.workers = threads
 
