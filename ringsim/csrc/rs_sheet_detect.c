@@ -253,6 +253,8 @@ struct rs_sheet_detector {
     int64_t* cell_of;
     int64_t cell_capacity;
     int64_t* cell_start;            /* n_cells + 1 entries */
+    int64_t* counts;                /* the sort's per-thread cell counts, then totals */
+    int64_t count_capacity;
     int64_t n_collisions;
     struct reb_collision* collisions;       /* the lists of all threads, in thread order */
     int64_t collision_capacity;
@@ -292,6 +294,7 @@ static void rs_sheet_detector_free(struct rs_sheet_detector* d){
     free(d->track);
     free(d->cell_of);
     free(d->cell_start);
+    free(d->counts);
     free(d->collisions);
     for (int64_t k = 0; k < d->list_capacity; k++){
         free(d->lists[k].items);
@@ -825,6 +828,76 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
     return 1;
 }
 
+/* Method 2's counting sort of the particles into the grid's cells (d->points, and
+ * d->cell_start: each cell's first slot, n_cells + 1 entries), stable: a cell holds its
+ * particles in index order, whatever the number of threads.  Thread t of T counts the
+ * particles of its share [n t / T, n (t + 1) / T) per cell; the slots of cell c are then
+ * handed out cell after cell and, within a cell, share after share (each thread does
+ * this for its share of the cells after the totals of the shares before it are known);
+ * last, each thread places its particles in index order.  So the order is the serial
+ * sort's: same seed, same bits with 1 and 2 threads.  Returns 0 if memory ran out. */
+static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_cells){
+    const int asked = rs_team_size(d, n);
+    int64_t capacity = d->count_capacity;
+    if (!rs_grow((void**)&d->counts, &capacity, (int64_t)asked * (n_cells + 1),
+                 sizeof(int64_t))){
+        return 0;
+    }
+    d->count_capacity = capacity;
+    const struct rs_sheet_grid* const g = &d->grid;
+    int64_t* const start = d->cell_start;
+    int64_t* const counts = d->counts;
+    int64_t* const cell_of = d->cell_of;
+#pragma omp parallel num_threads(asked)
+    {
+        const int64_t team = rs_team_threads();
+        const int64_t t = rs_thread_id();
+        const int64_t i0 = n * t / team, i1 = n * (t + 1) / team;
+        const int64_t c0 = n_cells * t / team, c1 = n_cells * (t + 1) / team;
+        int64_t* const mine = counts + t * n_cells;
+        int64_t* const totals = counts + team * n_cells;   /* one per share of the cells */
+        memset(mine, 0, (size_t)n_cells * sizeof(int64_t));
+        for (int64_t i = i0; i < i1; i++){
+            const struct rs_sheet_particle* q = &d->unsorted[i];
+            const int64_t cx = rs_cell_coordinate(q->xw, -0.5 * g->Lx, g->sx, g->nx);
+            const int64_t cy = rs_cell_coordinate(q->yw, -0.5 * g->Ly, g->sy, g->ny);
+            const int64_t cz = g->nz > 1 ? rs_cell_coordinate(q->z, g->z_min, g->sz, g->nz)
+                                         : 0;
+            cell_of[i] = (cz * g->ny + cy) * g->nx + cx;
+            mine[cell_of[i]]++;
+        }
+#pragma omp barrier
+        int64_t total = 0;
+        for (int64_t c = c0; c < c1; c++){
+            for (int64_t k = 0; k < team; k++){
+                total += counts[k * n_cells + c];
+            }
+        }
+        totals[t] = total;
+#pragma omp barrier
+        int64_t slot = 0;
+        for (int64_t k = 0; k < t; k++){
+            slot += totals[k];
+        }
+        for (int64_t c = c0; c < c1; c++){
+            start[c] = slot;
+            for (int64_t k = 0; k < team; k++){
+                const int64_t here = counts[k * n_cells + c];
+                counts[k * n_cells + c] = slot;     /* share k's next slot in cell c */
+                slot += here;
+            }
+        }
+#pragma omp barrier
+        for (int64_t i = i0; i < i1; i++){
+            const struct rs_sheet_particle* q = &d->unsorted[i];
+            d->points[mine[cell_of[i]]++] = (struct rs_sheet_point){q->xw, q->yw, q->z,
+                                                                    q->reach, q->index};
+        }
+    }
+    start[n_cells] = n;
+    return 1;
+}
+
 /* Method 2: cells of at least s / RS_CELL_DIVISIONS on every side, and the particles sorted
  * into them by a
  * counting sort (stable: a cell holds its particles in index order) into
@@ -871,32 +944,7 @@ static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
     d->cells_last = n_cells;
     d->cell_size_last = side;
 
-    int64_t* const start = d->cell_start;
-    memset(start, 0, (size_t)(n_cells + 1) * sizeof(int64_t));
-    for (int64_t i = 0; i < n; i++){
-        const struct rs_sheet_particle* q = &d->unsorted[i];
-        const int64_t cx = rs_cell_coordinate(q->xw, -0.5 * Lx, g->sx, nx);
-        const int64_t cy = rs_cell_coordinate(q->yw, -0.5 * Ly, g->sy, ny);
-        const int64_t cz = nz > 1 ? rs_cell_coordinate(q->z, g->z_min, g->sz, nz) : 0;
-        d->cell_of[i] = (cz * ny + cy) * nx + cx;
-    }
-    for (int64_t i = 0; i < n; i++){
-        start[d->cell_of[i] + 1]++;
-    }
-    for (int64_t c = 0; c < n_cells; c++){
-        start[c + 1] += start[c];
-    }
-    for (int64_t i = 0; i < n; i++){
-        /* start[c] is the next free slot of cell c during placement ... */
-        const int64_t slot = start[d->cell_of[i]]++;
-        const struct rs_sheet_particle* q = &d->unsorted[i];
-        d->points[slot] = (struct rs_sheet_point){q->xw, q->yw, q->z, q->reach, q->index};
-    }
-    for (int64_t c = n_cells; c > 0; c--){
-        start[c] = start[c - 1];    /* ... and is shifted back to the cell's first slot */
-    }
-    start[0] = 0;
-    return 1;
+    return rs_counting_sort(d, n, n_cells);
 }
 
 /* Method 3-4 for all particles.  The particles are split over d->threads OpenMP threads in
