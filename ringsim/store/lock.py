@@ -21,6 +21,7 @@ import fcntl
 import json
 import os
 import socket
+import time
 from pathlib import Path
 
 from ringsim.errors import InputError
@@ -35,14 +36,25 @@ def lock_path(path: str | os.PathLike) -> Path:
     return path.with_name(path.name + ".lock")
 
 
+#: How long [s] a refused writer waits for the holder's record to appear: the holder
+#: takes the lock first and writes its record just after, so a writer refused in between
+#: would otherwise find an empty record (seen under load in tests/test_hardening.py).
+RECORD_WAIT = 2.0
+
+
 def _describe(lock_file: Path) -> str:
-    """Who holds a lock, from its JSON record ("another process" if unreadable)."""
-    try:
-        info = json.loads(lock_file.read_text())
-        return (f"process {int(info['pid'])} on {info['host']} (since "
-                f"{info['started_utc']})")
-    except (OSError, ValueError, KeyError, TypeError):
-        return "another process"
+    """Who holds a lock, from its JSON record ("another process" if it stays unreadable
+    for ``RECORD_WAIT``)."""
+    deadline = time.monotonic() + RECORD_WAIT
+    while True:
+        try:
+            info = json.loads(lock_file.read_text())
+            return (f"process {int(info['pid'])} on {info['host']} (since "
+                    f"{info['started_utc']})")
+        except (OSError, ValueError, KeyError, TypeError):
+            if time.monotonic() >= deadline:
+                return "another process"
+            time.sleep(0.02)
 
 
 def _pid_alive(pid: int) -> bool:
