@@ -230,31 +230,38 @@ def random_sheet(collision: str, seed: int, n: int = 300, box: float = 60.0):
     return sim
 
 
-@pytest.mark.parametrize("seed", [3, 4])
-def test_detector_finds_exactly_the_pairs_of_rebound_line_search(seed):
+# A box of 60 m is narrower than two spans of the search (cells of 16 m): every pair is
+# looked at from its particle of lower index; one of 200 m is wider, and pairs inside the
+# primary box are looked at from one side of the grid only (rs_sheet_detect.c, Method 3's
+# half shell).  Both must find exactly REBOUND's pairs, each once.
+@pytest.mark.parametrize("seed, n, box, half_shell",
+                         [(3, 300, 60.0, False), (4, 300, 60.0, False),
+                          (3, 3300, 200.0, True), (4, 3300, 200.0, True)])
+def test_detector_finds_exactly_the_pairs_of_rebound_line_search(seed, n, box, half_shell):
     reported = []
 
     def record(sim_pointer, collision):
         reported.append((min(collision.p1, collision.p2), max(collision.p1, collision.p2)))
         return 0
 
-    brute = random_sheet("line", seed)
+    brute = random_sheet("line", seed, n, box)
     brute.collision_resolve = record
     brute.steps(1)
     assert len(reported) > 200, "too few swept contacts to test anything"
 
-    sim = random_sheet("none", seed)
+    sim = random_sheet("none", seed, n, box)
     handle = install_resolver(sim, CONSTANT_HALF)       # detection only below
     sim.steps(1)
     np.testing.assert_array_equal(phase_space(sim), phase_space(brute))
     pairs, offsets = handle.detect_pairs()
+    assert handle.detector_stats()["half_shell"] is half_shell
     assert len(pairs) == len({tuple(p) for p in pairs}), "each pair reported once"
     assert {tuple(p) for p in pairs} == set(reported)
 
     # The same particles, some of them not yet wrapped (shifted to an image box, as the
     # detector sees them before REBOUND's boundary check): same pairs, same separations.
     state = phase_space(sim)
-    box, slide = 60.0, math.fmod(1.5 * OMEGA * 60.0 * sim.t, 60.0)
+    slide = math.fmod(1.5 * OMEGA * box * sim.t, box)
     moved = state.copy()
     outside = np.arange(0, sim.N, 3)
     moved[outside, 0] += box

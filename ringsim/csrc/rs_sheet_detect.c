@@ -60,9 +60,15 @@
  *    run of particles.  Across the radial boundary the neighbouring columns belong to a
  *    ghost box sliding along y, so the particle's image is moved into that box's frame
  *    (x -+ Lx, y +- a, vy +- 1.5 Omega Lx, as REBOUND's reb_boundary_get_ghostbox) before
- *    its y cell is computed.  Only j > i is examined, so each pair is seen once; every
- *    (cell, image) combination is distinct, and when the box is at least 2 s wide at most
- *    one image of a pair can be within reach.  A first test of the bound on a compact copy
+ *    its y cell is computed.  Each pair is examined once: across the radial boundary
+ *    from its particle of lower index (j > i); in the primary box, when the box is wider
+ *    than two spans of the widest search, from the particle whose row of the grid (y cell,
+ *    then layer) comes first, or within a row whose slot comes first ("half shell": every
+ *    particle reads only the cells on its side, half the neighbours of a full search; the
+ *    pair, its offsets and its tests are then computed as the particle of lower index
+ *    would, exactly, so the reports are the same).  Every (cell, image) combination is
+ *    distinct, and when the box is at least 2 s wide at most one image of a pair can be
+ *    within reach.  A first test of the bound on a compact copy
  *    of the wrapped positions (rs_cell_report) keeps the cells around a particle in the
  *    cache; it is widened by round-off, so it passes every pair the exact test passes.
  * 3a. Threads.  The particles are split over integration.threads OpenMP threads, each
@@ -120,7 +126,8 @@
  * resolver's, and the number of threads of the search (rs_sheet_set_threads; the library
  * is compiled with OpenMP where the compiler has it, rs_sheet_openmp).  Counters
  * (rs_sheet_detector_counters): steps, candidates (pairs whose path was tested, also in
- * re-checks), reports, cells and cell size of the last step; of the time
+ * re-checks), reports, cells and cell size of the last step, whether it used the half
+ * shell; of the time
  * order (rs_sheet_order_counters): contacts resolved, of which on a path changed earlier in
  * the step, re-checks, re-checks wider than s, re-checks cut at RS_MAX_SPAN s,
  * particles that reached RS_MAX_CONTACTS.
@@ -243,6 +250,7 @@ struct rs_sheet_grid {
     double slack;           /* [m] widening of the wrapped-coordinate pre-test (rs_cell_report) */
     double kick_time;       /* [s] back time of the step's kick (Method 1a), 0: no kick */
     int64_t nx, ny, nz;
+    int half_shell;         /* 1: each pair of one box looked at from one side (Method 3) */
 };
 
 struct rs_sheet_detector {
@@ -347,8 +355,14 @@ static int rs_team_size(const struct rs_sheet_detector* d, int64_t n){
     return team >= 1 ? (int)team : 1;
 }
 
-/* floor(a / b) for b > 0 and small |a| (cell offsets beyond the grid). */
-static int64_t rs_floor_div(int64_t a, int64_t b){
+/* floor(a / b) for b > 0 (cell offsets beyond the grid): the box a cell offset a of a
+ * side of b cells lies in.  A scan looks at most one box away, so a is almost always in
+ * [-b, 2b) and the answer is -1, 0 or 1 without a division (an integer division costs as
+ * much as a row of the scan). */
+static inline int64_t rs_floor_div(int64_t a, int64_t b){
+    if (a >= -b && a < 2 * b){
+        return (int64_t)(a >= b) - (int64_t)(a < 0);
+    }
     const int64_t q = a / b;
     return (a % b != 0 && a < 0) ? q - 1 : q;
 }
@@ -631,7 +645,7 @@ static int rs_path_touches(double dx, double dy, double dz, double dvx, double d
 static int rs_cell_report(const struct rs_sheet_grid* g, const struct rs_sheet_detector* d,
                           const struct rs_sheet_point* p, int64_t first, int64_t end,
                           double image_x, double gy_i, double image_vy,
-                          struct rs_pair_list* out){
+                          struct rs_pair_list* out, int by_index){
     const struct rs_sheet_point* const points = d->points;
     const double xi = p->xw + image_x;
     const double yi = p->yw + gy_i;
@@ -643,12 +657,17 @@ static int rs_cell_report(const struct rs_sheet_grid* g, const struct rs_sheet_d
         const double dzw = p->z - q->z;
         const double wide = reach_i + q->reach + g->shear_step * fabs(dxw);
         const int near = dxw * dxw + dyw * dyw + dzw * dzw <= wide * wide;
-        if (!(near & (q->index > p->index))){
+        const int later = q->index > p->index;
+        if (!(near & (later | !by_index))){
             continue;
         }
-        const struct rs_sheet_particle* pi = &d->unsorted[p->index];
-        const struct rs_sheet_particle* pj = &d->unsorted[q->index];
-        const struct reb_vec6d gb = rs_image_offset(pi, pj, image_x, gy_i, image_vy);
+        /* the pair as the search from its particle of lower index sees it: p1 < p2, gb of
+         * p1; in the primary box (!by_index) the other side's y offset is -gy_i, exactly
+         * (gy_i is a whole number of box lengths there), with the sign of a zero kept */
+        const struct rs_sheet_particle* pi = &d->unsorted[later ? p->index : q->index];
+        const struct rs_sheet_particle* pj = &d->unsorted[later ? q->index : p->index];
+        const double gy = later || gy_i == 0.0 ? gy_i : -gy_i;
+        const struct reb_vec6d gb = rs_image_offset(pi, pj, image_x, gy, image_vy);
         const double dx = pi->x + gb.x - pj->x;
         const double dy = pi->y + gb.y - pj->y;
         const double dz = pi->z - pj->z;
@@ -738,6 +757,12 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
     const int64_t cz = g->nz > 1 ? rs_cell_coordinate(pi->z, g->z_min, g->sz, g->nz) : 0;
     const int64_t layer_low = cz - span_z < 0 ? 0 : cz - span_z;
     const int64_t layer_high = cz + span_z >= g->nz ? g->nz - 1 : cz + span_z;
+    /* Method 3's half shell: in the primary box each pair is looked at from one side only,
+     * the particle whose row (y cell of the grid, then layer) comes first, or within a row
+     * the earlier slot; across the radial boundary, from the particle of lower index */
+    const int half = mode == RS_SCAN_REPORT && g->half_shell;
+    const int64_t cy = half ? rs_cell_coordinate(pi->yw, -0.5 * g->Ly, g->sy, g->ny) : 0;
+    const int64_t slot = half ? (int64_t)(pi - d->points) : 0;
     for (int64_t kx = -span_x; kx <= span_x;){
         /* the run of columns from cx + kx to the box's last column or cx + span_x */
         const int64_t box_x = rs_floor_div(cx + kx, g->nx);
@@ -751,10 +776,23 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
             const double gy_i = im.y - (double)box_y * g->Ly;
             for (int64_t layer = layer_low; layer <= layer_high; layer++){
                 const int64_t row = (layer * g->ny + column_y) * g->nx;
-                const int64_t first = start[row + first_x];
+                int64_t first = start[row + first_x];
                 const int64_t end = start[row + first_x + count];
+                const int by_index = !(half && box_x == 0);
+                if (!by_index){
+                    /* rows of the grid from pi's (antisymmetric: the row is at -row_y
+                     * from the partner's, as the box is wider than two spans) */
+                    int64_t row_y = column_y - cy;
+                    row_y += 2 * row_y < -g->ny ? g->ny : (2 * row_y > g->ny ? -g->ny : 0);
+                    if (row_y < 0 || (row_y == 0 && layer < cz)){
+                        continue;   /* the partners there look at pi */
+                    }
+                    if (row_y == 0 && layer == cz){
+                        first = slot + 1;   /* pi's row: the slots after pi's */
+                    }
+                }
                 const int ok = mode == RS_SCAN_REPORT
-                    ? rs_cell_report(g, d, pi, first, end, im.x, gy_i, im.vy, out)
+                    ? rs_cell_report(g, d, pi, first, end, im.x, gy_i, im.vy, out, by_index)
                     : rs_cell_recheck(r, d, pi, first, end, im.x, gy_i, im.vy, window);
                 if (!ok){
                     return 0;
@@ -935,6 +973,11 @@ static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
     g->sz = nz > 1 ? fmax(side, z_range / (double)(nz - 1) * (1.0 + 1e-12)) : INFINITY;
     /* round-off of coordinates of the box's size, far below any reach (rs_cell_report) */
     g->slack = 1e-9 * (Lx + Ly + fabs(g->z_min) + z_range);
+    /* Method 3's half shell needs a box wider than two spans of the widest search */
+    const double widest = s * (1.0 + 1e-12) + g->slack;
+    const int64_t span = rs_span(widest, g->sx) > rs_span(widest, g->sy)
+                         ? rs_span(widest, g->sx) : rs_span(widest, g->sy);
+    g->half_shell = nx >= 2 * span + 1 && ny >= 2 * span + 1;
     const int64_t n_cells = nx * ny * nz;
     int64_t capacity = d->cell_capacity;
     if (!rs_grow((void**)&d->cell_start, &capacity, n_cells + 1, sizeof(int64_t))){
@@ -1202,13 +1245,13 @@ int64_t rs_sheet_detect_pairs(struct reb_simulation* const r, int64_t capacity,
 }
 
 /* Counters since the detector was created: out[0] steps, out[1] candidate pairs whose path
- * was tested, out[2] pairs reported, out[3] cells of the last grid, out[4] last error;
- * *cell_size [m] of the last grid.  Returns 0 if the detector has not run yet. */
+ * was tested, out[2] pairs reported, out[3] cells of the last grid, out[4] last error,
+ * out[5] 1 if the last search used Method 3's half shell; *cell_size [m] of the last grid.  Returns 0 if the detector has not run yet. */
 int rs_sheet_detector_counters(const struct rs_resolver* res, int64_t* out,
                                double* cell_size){
     const struct rs_sheet_detector* d = res->detector;
     if (d == NULL){
-        memset(out, 0, 5 * sizeof(int64_t));
+        memset(out, 0, 6 * sizeof(int64_t));
         *cell_size = 0.0;
         return 0;
     }
@@ -1217,6 +1260,7 @@ int rs_sheet_detector_counters(const struct rs_resolver* res, int64_t* out,
     out[2] = d->reports;
     out[3] = d->cells_last;
     out[4] = d->error;
+    out[5] = d->grid.half_shell;
     *cell_size = d->cell_size_last;
     return 1;
 }
