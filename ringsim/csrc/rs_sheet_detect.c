@@ -258,10 +258,10 @@ struct rs_sheet_detector {
     struct rs_sheet_particle* unsorted;     /* by particle index: the state before resolution */
     struct rs_sheet_point* points;          /* by cell */
     struct rs_sheet_track* track;           /* by particle index */
-    int64_t* cell_of;
+    int32_t* cell_of;               /* the sort's cell of each particle */
     int64_t cell_capacity;
     int64_t* cell_start;            /* n_cells + 1 entries */
-    int64_t* counts;                /* the sort's per-thread cell counts, then totals */
+    int32_t* counts;                /* the sort's per-thread cell counts, then totals */
     int64_t count_capacity;
     int64_t n_collisions;
     struct reb_collision* collisions;       /* the lists of all threads, in thread order */
@@ -877,31 +877,33 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
 static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_cells){
     const int asked = rs_team_size(d, n);
     int64_t capacity = d->count_capacity;
-    if (!rs_grow((void**)&d->counts, &capacity, (int64_t)asked * (n_cells + 1),
-                 sizeof(int64_t))){
+    if (n_cells >= INT32_MAX || n >= INT32_MAX
+        || !rs_grow((void**)&d->counts, &capacity, (int64_t)asked * (n_cells + 1),
+                    sizeof(int32_t))){
         return 0;
     }
     d->count_capacity = capacity;
     const struct rs_sheet_grid* const g = &d->grid;
     int64_t* const start = d->cell_start;
-    int64_t* const counts = d->counts;
-    int64_t* const cell_of = d->cell_of;
+    /* 32-bit cells and counts: half the bytes the random increments below touch */
+    int32_t* const counts = d->counts;
+    int32_t* const cell_of = d->cell_of;
 #pragma omp parallel num_threads(asked)
     {
         const int64_t team = rs_team_threads();
         const int64_t t = rs_thread_id();
         const int64_t i0 = n * t / team, i1 = n * (t + 1) / team;
         const int64_t c0 = n_cells * t / team, c1 = n_cells * (t + 1) / team;
-        int64_t* const mine = counts + t * n_cells;
-        int64_t* const totals = counts + team * n_cells;   /* one per share of the cells */
-        memset(mine, 0, (size_t)n_cells * sizeof(int64_t));
+        int32_t* const mine = counts + t * n_cells;
+        int32_t* const totals = counts + team * n_cells;   /* one per share of the cells */
+        memset(mine, 0, (size_t)n_cells * sizeof(int32_t));
         for (int64_t i = i0; i < i1; i++){
             const struct rs_sheet_particle* q = &d->unsorted[i];
             const int64_t cx = rs_cell_coordinate(q->xw, -0.5 * g->Lx, g->sx, g->nx);
             const int64_t cy = rs_cell_coordinate(q->yw, -0.5 * g->Ly, g->sy, g->ny);
             const int64_t cz = g->nz > 1 ? rs_cell_coordinate(q->z, g->z_min, g->sz, g->nz)
                                          : 0;
-            cell_of[i] = (cz * g->ny + cy) * g->nx + cx;
+            cell_of[i] = (int32_t)((cz * g->ny + cy) * g->nx + cx);
             mine[cell_of[i]]++;
         }
 #pragma omp barrier
@@ -911,7 +913,7 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
                 total += counts[k * n_cells + c];
             }
         }
-        totals[t] = total;
+        totals[t] = (int32_t)total;
 #pragma omp barrier
         int64_t slot = 0;
         for (int64_t k = 0; k < t; k++){
@@ -921,7 +923,7 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
             start[c] = slot;
             for (int64_t k = 0; k < team; k++){
                 const int64_t here = counts[k * n_cells + c];
-                counts[k * n_cells + c] = slot;     /* share k's next slot in cell c */
+                counts[k * n_cells + c] = (int32_t)slot;    /* share k's next slot in c */
                 slot += here;
             }
         }
@@ -1093,7 +1095,7 @@ static int rs_sheet_find_pairs(struct reb_simulation* const r, struct rs_sheet_d
         return RS_DETECT_NO_MEMORY;
     }
     capacity = d->particle_capacity;
-    if (!rs_grow((void**)&d->cell_of, &capacity, n, sizeof(int64_t))){
+    if (!rs_grow((void**)&d->cell_of, &capacity, n, sizeof(int32_t))){
         return RS_DETECT_NO_MEMORY;
     }
     d->particle_capacity = capacity;
