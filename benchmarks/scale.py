@@ -49,6 +49,9 @@ DOC = ROOT / "docs" / "performance.md"
 FIGURE = ROOT / "docs" / "figures" / "scale.png"
 RESULTS = ROOT / "docs" / "figures" / "scale.json"     # what the figure shows
 HEADING = "## Scale"
+#: Ends the part of the section this script writes; the hand-written text after it (what
+#: the figures show, the subsections) is kept by ``--write-doc``.
+MARKER = "<!-- end of the part benchmarks/scale.py writes; the text below is kept -->"
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
 QUICK_SIZES = (1_000, 10_000, 100_000)
 #: Targets of issue 16.
@@ -243,13 +246,14 @@ def plot(results: list[dict], path: Path) -> None:
     plt.close(fig)
 
 
-def section(results: list[dict], command: str, note: str = "") -> str:
-    """The "Scale" section of docs/performance.md (``note``: a paragraph after the table)."""
+def section(results: list[dict], command: str, note: str = "", when: str = "") -> str:
+    """The "Scale" section of docs/performance.md (``note``: a paragraph after the table;
+    ``when``: the time of the measurement, now if not given)."""
     import rebound
 
     from ringsim.engine.native import openmp_available
 
-    now = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    now = when or datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     rows = "\n".join(_row(r) for r in results)
     costs = [r["wall_ns"]["1"] for r in results]
     flat = max(costs) / min(costs)
@@ -287,21 +291,29 @@ the set-up, per particle.  Set-up and snapshot write are part A's (`build_sheet`
 {chr(10).join("- " + v for v in verdict)}
 
 ![cost per particle-step against N](figures/scale.png)
+
+{MARKER}
 """
 
 
-def write_doc(results: list[dict], command: str, note: str = "") -> None:
-    """Replace (or append) the "Scale" section of docs/performance.md; draw the figure."""
+def write_doc(results: list[dict], command: str, note: str = "", when: str = "") -> None:
+    """Replace (or append) the "Scale" section of docs/performance.md; draw the figure.
+    ``when``: the time of the measurement (a redraw keeps the stored one)."""
+    when = when or datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     text = DOC.read_text()
-    new = section(results, command, note)
+    new = section(results, command, note, when)
     start = text.find(HEADING + "\n")
     if start < 0:
         text = text.rstrip("\n") + "\n\n" + new
+    elif text.find(MARKER, start) >= 0:
+        end = text.find(MARKER, start) + len(MARKER) + 1
+        text = text[:start] + new + text[end:]
     else:
         end = text.find("\n## ", start + len(HEADING))
         text = text[:start] + new + ("" if end < 0 else text[end:])
     DOC.write_text(text)
-    RESULTS.write_text(json.dumps({"command": command, "note": note, "results": results},
+    RESULTS.write_text(json.dumps({"command": command, "note": note, "when": when,
+                                   "results": results},
                                   indent=1))
     plot(results, FIGURE)
 
@@ -318,7 +330,8 @@ def main() -> None:
     args = parser.parse_args()
     if args.replot:
         stored = json.loads(RESULTS.read_text())
-        write_doc(stored["results"], stored["command"], stored.get("note", ""))
+        write_doc(stored["results"], stored["command"], stored.get("note", ""),
+                  stored.get("when", "(time not recorded)"))
         return
     if args.one is not None:
         print(json.dumps(measure_one(int(args.one), args.repeat)))
