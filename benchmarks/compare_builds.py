@@ -14,10 +14,13 @@ mode, no gravity, power law 0.5-5 m, q = 3, tau = 0.25, Bridges et al. 1984) fro
    on a copy of the sheet with a resolver of its own, alternately with the current build's
    on the sheet, ``--rounds`` pairs of 10 searches each; both must report the same pairs
    with the same ghost offsets (checked with ``==``).
-2. **Whole integration, interleaved processes**: each round runs every build once per
-   thread count in a fresh process (10 warm-up steps, then ``--steps`` steps of
-   ``sim.integrate``: REBOUND's SEI step, the detector, the time-ordered resolution; no
-   outputs), and checks that all final states are the same bits.
+2. **Whole step, same process**: the earlier build's ``rs_sheet_step`` (detection and
+   time-ordered resolution) is installed as REBOUND's post-timestep function of the copy,
+   and ``--steps`` steps of ``sim.integrate`` (REBOUND's SEI step, the same code for both,
+   the detector, the resolution; no outputs) alternate between the two, ``--rounds``
+   pairs; both states must be the same bits at the end.
+3. With ``--processes``, the whole integration in interleaved fresh processes: each round
+   runs every build once per thread count, and all final states must be the same bits.
 
 Reports medians over the rounds and the median of the per-round ratios current / before.
 
@@ -119,6 +122,46 @@ def search_same_process(before: Path, n: int, threads: int, rounds: int) -> dict
             "ratio": statistics.median(p[1] / p[0] for p in pairs), "same_pairs": same}
 
 
+def step_same_process(before: Path, n: int, threads: int, rounds: int, steps: int) -> dict:
+    """Whole-step cost [ns per particle-step] of the earlier build's detector and
+    resolution (its ``rs_sheet_step`` installed as REBOUND's post-timestep function on a
+    copy of the sheet with a resolver of its own) and of the current build's, alternating
+    in this process: REBOUND's SEI step is the same code in both."""
+    import scale
+
+    from ringsim.config.scenario import load_scenario, with_overrides
+    from ringsim.engine import native, sheet
+    from ringsim.engine.resolver import _POST_TIMESTEP
+
+    old = ctypes.CDLL(str(next(before.resolve().glob("ringsim/_resolver*.so"))))
+    old.rs_sheet_set_threads.argtypes = [ctypes.c_void_p, ctypes.c_int]
+    sc = with_overrides(load_scenario(SCENARIO), {"sheet.n_particles": n})
+    current = sheet.build_sheet(sc)
+    current.sim.integrate(current.sim.t + 20 * current.sim.dt, exact_finish_time=0)
+    earlier = scale._copy_of(current, sc)
+    step = _POST_TIMESTEP(ctypes.cast(old.rs_sheet_step, ctypes.c_void_p).value)
+    earlier.sim._post_timestep_modifications = step   # kept alive by `step` below
+    old.rs_sheet_set_threads(earlier.resolver.address, threads)
+    native.set_detector_threads(current.resolver.address, threads)
+
+    def timed(sim) -> float:
+        start = time.perf_counter()
+        sim.integrate(sim.t + steps * sim.dt, exact_finish_time=0)
+        return (time.perf_counter() - start) * 1e9 / (steps * n)
+
+    pairs = [(timed(earlier.sim), timed(current.sim)) for _ in range(rounds)]
+    state = {}
+    for name, built in (("before", earlier), ("now", current)):
+        a = sheet.particle_arrays(built.sim)
+        state[name] = b"".join(np.ascontiguousarray(a[k]).tobytes()
+                               for k in ("x", "y", "z", "vx", "vy", "vz"))
+    del step
+    return {"before": statistics.median(p[0] for p in pairs),
+            "now": statistics.median(p[1] for p in pairs),
+            "ratio": statistics.median(p[1] / p[0] for p in pairs),
+            "same_bits": state["before"] == state["now"]}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--before", required=True,
@@ -127,6 +170,8 @@ def main() -> None:
     parser.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--steps", type=int, default=100)
     parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--processes", action="store_true",
+                        help="also the interleaved fresh processes (3.)")
     args = parser.parse_args()
     sys.path.insert(0, str(Path(__file__).parent))   # scale.py's sheet copy
     trees = [Path(args.before), Path(__file__).resolve().parent.parent]
@@ -140,6 +185,16 @@ def main() -> None:
             r = search_same_process(Path(args.before), n, k, args.rounds)
             print(f"| {k} | {r['before']:.0f} | {r['now']:.0f} | {r['ratio']:.2f} | "
                   f"{'yes' if r['same_pairs'] else 'NO'} |")
+        print(f"N = {n:.0e}, whole step (REBOUND's SEI, detector, resolution), same "
+              f"process, {args.rounds} pairs of {args.steps} steps")
+        print("| threads | before [ns] | now [ns] | now / before | same bits after |")
+        print("|---|---|---|---|---|")
+        for k in args.threads:
+            r = step_same_process(Path(args.before), n, k, args.rounds, args.steps)
+            print(f"| {k} | {r['before']:.0f} | {r['now']:.0f} | {r['ratio']:.2f} | "
+                  f"{'yes' if r['same_bits'] else 'NO'} |")
+        if not args.processes:
+            continue
         runs = {(t, k): [] for t in range(len(trees)) for k in args.threads}
         for _ in range(args.rounds):
             for t, tree in enumerate(trees):
