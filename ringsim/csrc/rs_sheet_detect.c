@@ -188,6 +188,8 @@
 #define RS_PARTICLES_PER_THREAD 4096
 /* Cells per s (Method 1) along each side: each particle looks only as far as its own
  * reach needs, so that small particles beside large ones look at fewer partners. */
+/* Particles ahead whose cache lines the counting sort asks for (rs_counting_sort). */
+#define RS_SORT_AHEAD 16
 #ifndef RS_CELL_DIVISIONS
 #define RS_CELL_DIVISIONS 4
 #endif
@@ -904,6 +906,13 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
             const int64_t cz = g->nz > 1 ? rs_cell_coordinate(q->z, g->z_min, g->sz, g->nz)
                                          : 0;
             cell_of[i] = (int32_t)((cz * g->ny + cy) * g->nx + cx);
+        }
+        /* the counts and slots are read at random (particles in index order are scattered
+         * over the sheet): their cache lines are asked for RS_SORT_AHEAD particles ahead */
+        for (int64_t i = i0; i < i1; i++){
+            if (i + RS_SORT_AHEAD < i1){
+                __builtin_prefetch(&mine[cell_of[i + RS_SORT_AHEAD]], 1);
+            }
             mine[cell_of[i]]++;
         }
 #pragma omp barrier
@@ -929,6 +938,12 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
         }
 #pragma omp barrier
         for (int64_t i = i0; i < i1; i++){
+            if (i + RS_SORT_AHEAD < i1){
+                const int32_t ahead = mine[cell_of[i + RS_SORT_AHEAD]];
+                __builtin_prefetch(&d->points[ahead], 1);
+                __builtin_prefetch(&mine[cell_of[i + 2 * RS_SORT_AHEAD < i1
+                                                 ? i + 2 * RS_SORT_AHEAD : i]], 1);
+            }
             const struct rs_sheet_particle* q = &d->unsorted[i];
             d->points[mine[cell_of[i]]++] = (struct rs_sheet_point){q->xw, q->yw, q->z,
                                                                     q->reach, q->index};
