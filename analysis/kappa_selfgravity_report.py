@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -21,10 +22,12 @@ from kappa_selfgravity import (
     GRAVITY_ROWS,
     MIN_PARTICLES,
     ORBITS,
+    ORBITS_FOR_CASE,
     REPORT,
     ROOT,
     SCENARIOS,
     SIZES,
+    orbits,
     output,
     patch,
 )
@@ -78,9 +81,9 @@ def load_group(runs: Path, case: str, kappa: float, gravity: bool, seeds) -> dic
         except (OSError, KeyError, InputError):   # being written, or damaged
             missing.append(seed)
             continue
-        wanted = ORBITS["gravity" if gravity else "nograv"]
+        wanted = orbits(case, gravity)
         if run.attrs.get("status") != "finished" or run.scenario.integration.orbits != wanted:
-            missing.append(seed)     # still running, or not yet extended to ORBITS
+            missing.append(seed)     # still running, or not yet extended to its length
             continue
         eq = equilibrium(run)
         if not gravity:
@@ -200,19 +203,31 @@ def budget_lines(budget: dict | None) -> list[str]:
             "", f"Relative parts: {parts}."]
 
 
+def recorded_orbits(cost: dict) -> float | None:
+    """Orbits the recorded CPU time covers (older records: from their stop reason)."""
+    if "orbits" in cost:
+        return float(cost["orbits"])
+    found = re.search(r"orbits = ([0-9.eE+-]+)", cost.get("stop_reason", ""))
+    return float(found.group(1)) if found else None
+
+
 def cost_lines(runs: Path, costs: dict) -> list[str]:
-    lines = ["| run | orbits | CPU [s] | CPU per orbit [s] | stop reason |",
-             "|---|---|---|---|---|"]
+    lines = ["| run | orbits | CPU [s] | orbits the CPU covers | CPU per orbit [s] | "
+             "stop reason |", "|---|---|---|---|---|---|"]
     for path in sorted(runs.glob("*.h5")):
         c = costs.get(path.name)
         if c is None:
             continue
         try:
-            orbits = float(np.asarray(open_run(path).timeseries["orbits"])[-1])
+            run = open_run(path)
+            done = float(np.asarray(run.timeseries["orbits"])[-1])
         except (OSError, KeyError, InputError):
             continue
-        lines.append(f"| {path.name} | {orbits:.3g} | {c['cpu_s']:.0f} | "
-                     f"{c['cpu_s'] / max(orbits, 1e-9):.3g} | {c['stop_reason']} |")
+        covered = recorded_orbits(c) or done
+        note = "" if abs(covered - done) < 1e-6 else " (an extension's CPU not recorded)"
+        lines.append(f"| {path.name} | {done:.3g} | {c['cpu_s']:.0f} | {covered:.3g}{note} | "
+                     f"{c['cpu_s'] / max(covered, 1e-9):.3g} | "
+                     f"{run.attrs.get('stop_reason', '')} |")
     return lines
 
 
@@ -225,7 +240,7 @@ def not_done_lines(runs: Path, costs: dict, not_run: list[str]) -> list[str]:
         if c is None:
             continue
         run = open_run(path)
-        steps = float(np.asarray(run.timeseries["orbits"])[-1]) * 1000.0
+        steps = (recorded_orbits(c) or float(np.asarray(run.timeseries["orbits"])[-1])) * 1000.0
         rates.append(c["cpu_s"] / (steps * run.scenario.sheet.n_particles))
     lines = []
     if rates and not_run:
@@ -310,7 +325,10 @@ def write_report(args, runs: Path, costs: dict) -> None:
         "`--report-only` rewrites this file). Each case: both kappa values, with and without "
         "self-gravity, every seed from the scenario's initial state (the same particles "
         f"with and without gravity), {ORBITS['gravity']:g} orbits with gravity and "
-        f"{ORBITS['nograv']:g} without; the equilibrium finder then chooses each run's "
+        f"{ORBITS['nograv']:g} without ("
+        + "; ".join(f"{c}: {o['gravity']:g} and {o['nograv']:g}"
+                    for c, o in ORBITS_FOR_CASE.items())
+        + "); the equilibrium finder then chooses each run's "
         "window (MSER: the transient is cut) and a run it does not call stationary is left "
         "out. No run stops early: `until_equilibrium` was caught inside slow transients "
         "(see the note on the first attempt below). Self-gravity: REBOUND's tree "
