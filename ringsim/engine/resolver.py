@@ -376,11 +376,10 @@ class ResolverHandle:
         -------
         dict with ``steps`` (searches run), ``candidates`` (pairs whose straight paths
         were tested), ``reports`` (pairs passed to the resolver), ``cells`` and
-        ``cell_size`` [m] of the last search's grid, and ``error`` (text; "none" if the
-        last search succeeded).  All zero before the first search or without
-        ``collision_detection="line"``; ``half_shell``: whether the last search looked at
-        each pair of the primary box from one side only (a box wider than two search spans,
-        ``rs_sheet_detect.c`` Method 3).
+        ``cell_size`` [m] of the last search's grid, ``error`` (text; "none" if the last
+        search succeeded) and ``half_shell`` (whether the last search looked at each pair
+        of the primary box from one side only, rs_sheet_detect.c Method 3).  All zero
+        before the first search or without ``collision_detection="line"``.
         """
         counters = (ctypes.c_int64 * 6)()
         cell_size = ctypes.c_double()
@@ -390,9 +389,8 @@ class ResolverHandle:
         _LIB.rs_sheet_detector_counters(self.address, counters, ctypes.byref(cell_size))
         return {"steps": int(counters[0]), "candidates": int(counters[1]),
                 "reports": int(counters[2]), "cells": int(counters[3]),
-                "cell_size": float(cell_size.value),
-                "error": DETECTOR_ERRORS.get(int(counters[4]), f"code {int(counters[4])}"),
-                "half_shell": bool(counters[5])}
+                "cell_size": float(cell_size.value), "half_shell": bool(counters[5]),
+                "error": DETECTOR_ERRORS.get(int(counters[4]), f"code {int(counters[4])}")}
 
     def detect_pairs(self) -> tuple[np.ndarray, np.ndarray]:
         """Run the sheet detector's search on the simulation's current state (no resolution).
