@@ -65,9 +65,11 @@ CASES = {f"{size}-{a_name}-{tau:g}": (size, a, tau)
 #: were extended (--resume, bit-identical to running them whole) to these lengths.
 ORBITS = {"nograv": 160.0, "gravity": 70.0}
 #: Cases whose runs are longer: after 70 / 160 orbits the finder found 10-20 effective
-#: samples in most runs of mono-1e8-0.25 (autocorrelation times of a few orbits in a 600-
-#: particle box), so they were extended (bit-identical to running them whole).
-ORBITS_FOR_CASE = {"mono-1e8-0.25": {"nograv": 320.0, "gravity": 140.0}}
+#: samples in most runs of the monodisperse cases (autocorrelation times of a few orbits
+#: in boxes of 600-740 particles), so they were extended (bit-identical to running them
+#: whole).
+ORBITS_FOR_CASE = {"mono-1e8-0.25": {"nograv": 320.0, "gravity": 140.0},
+                   "mono-1.3e8-0.25": {"nograv": 320.0, "gravity": 140.0}}
 
 
 def orbits(case: str, gravity: bool) -> float:

@@ -159,6 +159,24 @@ def case_table(groups: dict, comps: dict) -> list[str]:
     return lines
 
 
+def case_attributes(runs: Path, case: str) -> dict:
+    """The run attributes of the first finished run of ``case`` (gravity runs first) that
+    carries the self-gravity numbers (Lx, box_lambda_cr, r_h, Sigma, lambda_cr); {} if
+    none does (no gravity run yet)."""
+    keys = ("Lx", "box_lambda_cr", "r_h", "Sigma", "lambda_cr")
+    for gravity in (True, False):
+        for kappa in SCENARIOS:
+            for seed in (1, 2, 3):
+                path = output(runs, case, kappa, seed, gravity)
+                try:
+                    attrs = open_run(path).attrs
+                except (OSError, KeyError, InputError):
+                    continue
+                if all(k in attrs for k in keys):
+                    return attrs
+    return {}
+
+
 def setup_table(cases: list[str], runs: Path) -> list[str]:
     """The cases, with r_h, Sigma and lambda_cr of the drawn particles (a gravity run's
     attributes: the sample's Sigma differs from the distribution's by a few per cent)."""
@@ -170,7 +188,10 @@ def setup_table(cases: list[str], runs: Path) -> list[str]:
         d = SIZES[size]
         sizes = ("1 m" if d["kind"] == "monodisperse"
                  else f"{d['r_min']:g}-{d['r_max']:g} m, q = {d['q']:g}")
-        attrs = open_run(output(runs, case, 0.0, 1, True)).attrs
+        attrs = case_attributes(runs, case)
+        if not attrs:   # the distribution's numbers until a gravity run has drawn its own
+            attrs = {"Lx": p["box"], "box_lambda_cr": p["box"] / p["lambda_cr"],
+                     "r_h": math.nan, "Sigma": p["Sigma"], "lambda_cr": p["lambda_cr"]}
         lines.append(f"| {case} | {sizes} | {a:.3g} | {tau:g} | {p['n_particles']} | "
                      f"{float(attrs['Lx']):.0f} | {float(attrs['box_lambda_cr']):.2f} | "
                      f"{float(attrs['r_h']):.2f} | {float(attrs['Sigma']):.0f} | "
@@ -239,9 +260,12 @@ def not_done_lines(runs: Path, costs: dict, not_run: list[str]) -> list[str]:
         c = costs.get(path.name)
         if c is None:
             continue
-        run = open_run(path)
-        steps = (recorded_orbits(c) or float(np.asarray(run.timeseries["orbits"])[-1])) * 1000.0
-        rates.append(c["cpu_s"] / (steps * run.scenario.sheet.n_particles))
+        try:
+            run = open_run(path)
+            steps = (recorded_orbits(c) or float(np.asarray(run.timeseries["orbits"])[-1]))
+        except (OSError, KeyError, InputError):   # being written
+            continue
+        rates.append(c["cpu_s"] / (steps * 1000.0 * run.scenario.sheet.n_particles))
     lines = []
     if rates and not_run:
         rate = float(np.median(rates))
