@@ -192,9 +192,10 @@ def setup_table(cases: list[str], runs: Path) -> list[str]:
         if not attrs:   # the distribution's numbers until a gravity run has drawn its own
             attrs = {"Lx": p["box"], "box_lambda_cr": p["box"] / p["lambda_cr"],
                      "r_h": math.nan, "Sigma": p["Sigma"], "lambda_cr": p["lambda_cr"]}
+        r_h = "-" if math.isnan(float(attrs["r_h"])) else f"{float(attrs['r_h']):.2f}"
         lines.append(f"| {case} | {sizes} | {a:.3g} | {tau:g} | {p['n_particles']} | "
                      f"{float(attrs['Lx']):.0f} | {float(attrs['box_lambda_cr']):.2f} | "
-                     f"{float(attrs['r_h']):.2f} | {float(attrs['Sigma']):.0f} | "
+                     f"{r_h} | {float(attrs['Sigma']):.0f} | "
                      f"{float(attrs['lambda_cr']):.1f} |")
     return lines
 
