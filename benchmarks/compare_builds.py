@@ -86,9 +86,10 @@ def _detect(lib, sim, capacity: int) -> tuple[np.ndarray, np.ndarray]:
     return pairs[:found][order], offsets[:found][order]
 
 
-def search_same_process(before: Path, n: int, threads: int, rounds: int) -> dict:
-    """Search cost [ns per particle] of the earlier build (loaded from ``before``) and of
-    the current one, alternating in this process on the same state."""
+def _two_sheets(before: Path, n: int, threads: int):
+    """The earlier build's library (loaded from ``before``), the current build's sheet of
+    ``n`` particles after 20 steps, and a copy of it with a resolver of its own whose
+    detector only the earlier build will make; both searching on ``threads`` threads."""
     import scale
 
     from ringsim.config.scenario import load_scenario, with_overrides
@@ -99,13 +100,38 @@ def search_same_process(before: Path, n: int, threads: int, rounds: int) -> dict
         lib.rs_sheet_detect_pairs.restype = ctypes.c_int64
         lib.rs_sheet_detect_pairs.argtypes = [ctypes.c_void_p, ctypes.c_int64,
                                               ctypes.c_void_p, ctypes.c_void_p]
+    old.rs_sheet_set_threads.argtypes = [ctypes.c_void_p, ctypes.c_int]
     sc = with_overrides(load_scenario(SCENARIO), {"sheet.n_particles": n})
     current = sheet.build_sheet(sc)
     current.sim.integrate(current.sim.t + 20 * current.sim.dt, exact_finish_time=0)
-    earlier = scale._copy_of(current, sc)   # its detector made by the earlier build only
-    old.rs_sheet_set_threads.argtypes = [ctypes.c_void_p, ctypes.c_int]
+    earlier = scale._copy_of(current, sc)
     old.rs_sheet_set_threads(earlier.resolver.address, threads)
     native.set_detector_threads(current.resolver.address, threads)
+    return old, current, earlier
+
+
+def _paired(pairs: list[tuple[float, float]]) -> dict:
+    """Medians of (before, now) timings and the median of their per-pair ratios."""
+    return {"before": statistics.median(p[0] for p in pairs),
+            "now": statistics.median(p[1] for p in pairs),
+            "ratio": statistics.median(p[1] / p[0] for p in pairs)}
+
+
+def _state(sim) -> bytes:
+    """Positions and velocities of all particles, as bytes (for ``==``)."""
+    from ringsim.engine.sheet import particle_arrays
+
+    a = particle_arrays(sim)
+    return b"".join(np.ascontiguousarray(a[k]).tobytes() for k in ("x", "y", "z", "vx", "vy",
+                                                                   "vz"))
+
+
+def search_same_process(before: Path, n: int, threads: int, rounds: int) -> dict:
+    """Search cost [ns per particle] of the earlier build (loaded from ``before``) and of
+    the current one, alternating in this process on the same state."""
+    from ringsim.engine import native
+
+    old, current, earlier = _two_sheets(before, n, threads)
     a, b = _detect(old, earlier.sim, 4 * n), _detect(native._LIB, current.sim, 4 * n)
     same = bool(np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]))
 
@@ -117,9 +143,7 @@ def search_same_process(before: Path, n: int, threads: int, rounds: int) -> dict
 
     pairs = [(timed(old, earlier.sim), timed(native._LIB, current.sim))
              for _ in range(rounds)]
-    return {"before": statistics.median(p[0] for p in pairs),
-            "now": statistics.median(p[1] for p in pairs),
-            "ratio": statistics.median(p[1] / p[0] for p in pairs), "same_pairs": same}
+    return {**_paired(pairs), "same_pairs": same}
 
 
 def step_same_process(before: Path, n: int, threads: int, rounds: int, steps: int) -> dict:
@@ -127,22 +151,11 @@ def step_same_process(before: Path, n: int, threads: int, rounds: int, steps: in
     resolution (its ``rs_sheet_step`` installed as REBOUND's post-timestep function on a
     copy of the sheet with a resolver of its own) and of the current build's, alternating
     in this process: REBOUND's SEI step is the same code in both."""
-    import scale
-
-    from ringsim.config.scenario import load_scenario, with_overrides
-    from ringsim.engine import native, sheet
     from ringsim.engine.resolver import _POST_TIMESTEP
 
-    old = ctypes.CDLL(str(next(before.resolve().glob("ringsim/_resolver*.so"))))
-    old.rs_sheet_set_threads.argtypes = [ctypes.c_void_p, ctypes.c_int]
-    sc = with_overrides(load_scenario(SCENARIO), {"sheet.n_particles": n})
-    current = sheet.build_sheet(sc)
-    current.sim.integrate(current.sim.t + 20 * current.sim.dt, exact_finish_time=0)
-    earlier = scale._copy_of(current, sc)
+    old, current, earlier = _two_sheets(before, n, threads)
     step = _POST_TIMESTEP(ctypes.cast(old.rs_sheet_step, ctypes.c_void_p).value)
     earlier.sim._post_timestep_modifications = step   # kept alive by `step` below
-    old.rs_sheet_set_threads(earlier.resolver.address, threads)
-    native.set_detector_threads(current.resolver.address, threads)
 
     def timed(sim) -> float:
         start = time.perf_counter()
@@ -150,16 +163,9 @@ def step_same_process(before: Path, n: int, threads: int, rounds: int, steps: in
         return (time.perf_counter() - start) * 1e9 / (steps * n)
 
     pairs = [(timed(earlier.sim), timed(current.sim)) for _ in range(rounds)]
-    state = {}
-    for name, built in (("before", earlier), ("now", current)):
-        a = sheet.particle_arrays(built.sim)
-        state[name] = b"".join(np.ascontiguousarray(a[k]).tobytes()
-                               for k in ("x", "y", "z", "vx", "vy", "vz"))
+    same = _state(earlier.sim) == _state(current.sim)
     del step
-    return {"before": statistics.median(p[0] for p in pairs),
-            "now": statistics.median(p[1] for p in pairs),
-            "ratio": statistics.median(p[1] / p[0] for p in pairs),
-            "same_bits": state["before"] == state["now"]}
+    return {**_paired(pairs), "same_bits": same}
 
 
 def main() -> None:
