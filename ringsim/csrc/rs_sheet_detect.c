@@ -186,10 +186,10 @@
 /* Particles per thread at least: below, the threads' start and join cost more than they
  * save (the search of 4096 particles takes about a millisecond). */
 #define RS_PARTICLES_PER_THREAD 4096
-/* Cells per s (Method 1) along each side: each particle looks only as far as its own
- * reach needs, so that small particles beside large ones look at fewer partners. */
 /* Particles ahead whose cache lines the counting sort asks for (rs_counting_sort). */
 #define RS_SORT_AHEAD 16
+/* Cells per s (Method 1) along each side: each particle looks only as far as its own
+ * reach needs, so that small particles beside large ones look at fewer partners. */
 #ifndef RS_CELL_DIVISIONS
 #define RS_CELL_DIVISIONS 4
 #endif
@@ -992,8 +992,8 @@ static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
     g->slack = 1e-9 * (Lx + Ly + fabs(g->z_min) + z_range);
     /* Method 3's half shell needs a box wider than two spans of the widest search */
     const double widest = s * (1.0 + 1e-12) + g->slack;
-    const int64_t span = rs_span(widest, g->sx) > rs_span(widest, g->sy)
-                         ? rs_span(widest, g->sx) : rs_span(widest, g->sy);
+    const int64_t span_x = rs_span(widest, g->sx), span_y = rs_span(widest, g->sy);
+    const int64_t span = span_x > span_y ? span_x : span_y;
     g->half_shell = nx >= 2 * span + 1 && ny >= 2 * span + 1;
     const int64_t n_cells = nx * ny * nz;
     int64_t capacity = d->cell_capacity;
@@ -1263,7 +1263,8 @@ int64_t rs_sheet_detect_pairs(struct reb_simulation* const r, int64_t capacity,
 
 /* Counters since the detector was created: out[0] steps, out[1] candidate pairs whose path
  * was tested, out[2] pairs reported, out[3] cells of the last grid, out[4] last error,
- * out[5] 1 if the last search used Method 3's half shell; *cell_size [m] of the last grid.  Returns 0 if the detector has not run yet. */
+ * out[5] 1 if the last search used Method 3's half shell; *cell_size [m] of the last
+ * grid.  Returns 0 if the detector has not run yet. */
 int rs_sheet_detector_counters(const struct rs_resolver* res, int64_t* out,
                                double* cell_size){
     const struct rs_sheet_detector* d = res->detector;
