@@ -71,15 +71,16 @@ ORBITS = {"nograv": 160.0, "gravity": 70.0}
 ORBITS_FOR_CASE = {"mono-1e8-0.25": {"nograv": 320.0, "gravity": 140.0},
                    "mono-1.3e8-0.25": {"nograv": 320.0, "gravity": 140.0}}
 
-
-def orbits(case: str, gravity: bool) -> float:
-    """Orbits of every run of ``case`` with or without self-gravity."""
-    return ORBITS_FOR_CASE.get(case, ORBITS)["gravity" if gravity else "nograv"]
 #: Gravity quantities shown beside the table rows: key -> (label, unit shown).
 GRAVITY_ROWS = {"toomre_Q": ("Toomre Q (from sigma_x)", ""),
                 "wake_wavelength": ("wake wavelength", "m"),
                 "wake_amplitude": ("wake amplitude (peak contrast)", ""),
                 "gravitational_viscosity": ("gravitational viscosity", "m^2/s")}
+
+
+def orbits(case: str, gravity: bool) -> float:
+    """Orbits of every run of ``case`` with or without self-gravity."""
+    return ORBITS_FOR_CASE.get(case, ORBITS)["gravity" if gravity else "nograv"]
 
 
 def moments(size: str) -> tuple[float, float, float]:
@@ -145,12 +146,12 @@ def run_jobs(jobs: list[tuple], workers: int, costs: dict) -> None:
     with ProcessPoolExecutor(max_workers=workers) as pool:
         for path, cpu in pool.map(timed, jobs):
             if cpu > 1.0 or Path(path).name not in costs:
-                attrs = open_run(path).attrs
+                run = open_run(path)
                 before = costs.get(Path(path).name, {}).get("cpu_s", 0.0)
                 costs[Path(path).name] = {"cpu_s": cpu + (before if cpu > 1.0 else 0.0),
-                                          "stop_reason": str(attrs.get("stop_reason", "")),
+                                          "stop_reason": str(run.attrs.get("stop_reason", "")),
                                           "orbits": float(np.asarray(
-                                              open_run(path).timeseries["orbits"])[-1])}
+                                              run.timeseries["orbits"])[-1])}
             save_costs(costs)
 
 

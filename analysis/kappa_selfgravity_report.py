@@ -160,7 +160,7 @@ def case_table(groups: dict, comps: dict) -> list[str]:
 
 
 def case_attributes(runs: Path, case: str) -> dict:
-    """The run attributes of the first finished run of ``case`` (gravity runs first) that
+    """The run attributes of the first readable run of ``case`` (gravity runs first) that
     carries the self-gravity numbers (Lx, box_lambda_cr, r_h, Sigma, lambda_cr); {} if
     none does (no gravity run yet)."""
     keys = ("Lx", "box_lambda_cr", "r_h", "Sigma", "lambda_cr")
@@ -263,10 +263,10 @@ def not_done_lines(runs: Path, costs: dict, not_run: list[str]) -> list[str]:
             continue
         try:
             run = open_run(path)
-            steps = (recorded_orbits(c) or float(np.asarray(run.timeseries["orbits"])[-1]))
+            covered = recorded_orbits(c) or float(np.asarray(run.timeseries["orbits"])[-1])
         except (OSError, KeyError, InputError):   # being written
             continue
-        rates.append(c["cpu_s"] / (steps * 1000.0 * run.scenario.sheet.n_particles))
+        rates.append(c["cpu_s"] / (covered * 1000.0 * run.scenario.sheet.n_particles))
     lines = []
     if rates and not_run:
         rate = float(np.median(rates))
