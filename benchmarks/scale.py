@@ -246,14 +246,13 @@ def plot(results: list[dict], path: Path) -> None:
     plt.close(fig)
 
 
-def section(results: list[dict], command: str, note: str = "", when: str = "") -> str:
+def section(results: list[dict], command: str, note: str, when: str) -> str:
     """The "Scale" section of docs/performance.md (``note``: a paragraph after the table;
-    ``when``: the time of the measurement, now if not given)."""
+    ``when``: the time of the measurement)."""
     import rebound
 
     from ringsim.engine.native import openmp_available
 
-    now = when or datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     rows = "\n".join(_row(r) for r in results)
     costs = [r["wall_ns"]["1"] for r in results]
     flat = max(costs) / min(costs)
@@ -271,7 +270,7 @@ def section(results: list[dict], command: str, note: str = "", when: str = "") -
                    + f" per particle (target <= {TARGET_BYTES:.0f})")
     return f"""{HEADING}
 
-`benchmarks/scale.py` ({command}), run on {now}, {platform.machine()} {platform.system()},
+`benchmarks/scale.py` ({command}), run on {when}, {platform.machine()} {platform.system()},
 {os.cpu_count()} cores shared with other engineers' jobs (load averages in the table: the
 machine was busy, so wall times are noisy and 2 threads rarely got 2 free cores), REBOUND
 {rebound.__version__}, numpy {np.__version__}, ringsim built {"with" if openmp_available()
@@ -305,9 +304,8 @@ def write_doc(results: list[dict], command: str, note: str = "", when: str = "")
     start = text.find(HEADING + "\n")
     if start < 0:
         text = text.rstrip("\n") + "\n\n" + new
-    elif text.find(MARKER, start) >= 0:
-        end = text.find(MARKER, start) + len(MARKER) + 1
-        text = text[:start] + new + text[end:]
+    elif (marker := text.find(MARKER, start)) >= 0:
+        text = text[:start] + new + text[marker + len(MARKER) + 1:]
     else:
         end = text.find("\n## ", start + len(HEADING))
         text = text[:start] + new + ("" if end < 0 else text[end:])
