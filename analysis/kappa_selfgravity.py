@@ -67,9 +67,17 @@ ORBITS = {"nograv": 160.0, "gravity": 70.0}
 #: Cases whose runs are longer: after 70 / 160 orbits the finder found 10-20 effective
 #: samples in most runs of the monodisperse cases (autocorrelation times of a few orbits
 #: in boxes of 600-740 particles), so they were extended (bit-identical to running them
-#: whole).
-ORBITS_FOR_CASE = {"mono-1e8-0.25": {"nograv": 320.0, "gravity": 140.0},
-                   "mono-1.3e8-0.25": {"nograv": 320.0, "gravity": 140.0}}
+#: whole).  A "<gravity or nograv>, kappa <k>" entry sets one kappa value's runs apart:
+#: after 140 orbits 4 of the 6 kappa = 0.1 gravity runs of the monodisperse cases, and
+#: after 70 all 3 of the power law's, had 10-18 of the 20 effective samples (the hot ring
+#: relaxes over several orbits), while the kappa = 0 runs were stationary; the power law's
+#: no-gravity runs had 9-20 after 160 orbits.
+ORBITS_FOR_CASE = {"mono-1e8-0.25": {"nograv": 320.0, "gravity": 140.0,
+                                     "gravity, kappa 0.1": 280.0},
+                   "mono-1.3e8-0.25": {"nograv": 320.0, "gravity": 140.0,
+                                       "gravity, kappa 0.1": 280.0},
+                   "powerlaw-1e8-0.25": {"nograv": 480.0, "gravity": 70.0,
+                                         "gravity, kappa 0.1": 140.0}}
 
 #: Gravity quantities shown beside the table rows: key -> (label, unit shown).
 GRAVITY_ROWS = {"toomre_Q": ("Toomre Q (from sigma_x)", ""),
@@ -78,9 +86,11 @@ GRAVITY_ROWS = {"toomre_Q": ("Toomre Q (from sigma_x)", ""),
                 "gravitational_viscosity": ("gravitational viscosity", "m^2/s")}
 
 
-def orbits(case: str, gravity: bool) -> float:
-    """Orbits of every run of ``case`` with or without self-gravity."""
-    return ORBITS_FOR_CASE.get(case, ORBITS)["gravity" if gravity else "nograv"]
+def orbits(case: str, gravity: bool, kappa: float) -> float:
+    """Orbits of the runs of ``case`` with or without self-gravity at ``kappa``."""
+    lengths = ORBITS_FOR_CASE.get(case, ORBITS)
+    key = "gravity" if gravity else "nograv"
+    return lengths.get(f"{key}, kappa {kappa:g}", lengths[key])
 
 
 def moments(size: str) -> tuple[float, float, float]:
@@ -125,7 +135,7 @@ def overrides(case: str, kappa: float, seed: int, gravity: bool) -> dict:
            "sheet.n_particles": p["n_particles"],
            "particles.size_distribution": SIZES[size],
            "integration.until_equilibrium": False, "integration.threads": 1,
-           "integration.orbits": orbits(case, gravity),
+           "integration.orbits": orbits(case, gravity, kappa),
            "name": f"{case}-kappa{kappa:g}-{'gravity' if gravity else 'nogravity'}"})
     return out
 

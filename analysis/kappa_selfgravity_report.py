@@ -81,7 +81,7 @@ def load_group(runs: Path, case: str, kappa: float, gravity: bool, seeds) -> dic
         except (OSError, KeyError, InputError):   # being written, or damaged
             missing.append(seed)
             continue
-        wanted = orbits(case, gravity)
+        wanted = orbits(case, gravity, kappa)
         if run.attrs.get("status") != "finished" or run.scenario.integration.orbits != wanted:
             missing.append(seed)     # still running, or not yet extended to its length
             continue
@@ -352,6 +352,8 @@ def write_report(args, runs: Path, costs: dict) -> None:
         f"with and without gravity), {ORBITS['gravity']:g} orbits with gravity and "
         f"{ORBITS['nograv']:g} without ("
         + "; ".join(f"{c}: {o['gravity']:g} and {o['nograv']:g}"
+                    + "".join(f", {k.split(', ')[1]} {k.split(', ')[0]}: {v:g}"
+                              for k, v in o.items() if ", " in k)
                     for c, o in ORBITS_FOR_CASE.items())
         + "); the equilibrium finder then chooses each run's "
         "window (MSER: the transient is cut) and a run it does not call stationary is left "
