@@ -194,8 +194,11 @@
 #define RS_CELL_DIVISIONS 4
 #endif
 
+/* A particle's state before the resolution, as the exact tests read it.  Made from
+ * r->particles and the particle's rs_sheet_point when a test needs it (rs_state), and saved
+ * only for the particles that collide, before their first collision changes them
+ * (rs_save): the per-particle passes write and read 40 bytes instead of these 128. */
 struct rs_sheet_particle {
-    /* first what the sort reads (one cache line of the two) */
     double xw, yw;          /* [m] position wrapped into the primary box */
     double z;               /* [m] current position */
     double reach;           /* [m] radius + dt x speed relative to the shear flow */
@@ -206,8 +209,9 @@ struct rs_sheet_particle {
     double ox, oy, ovy;     /* [m], [m], [m/s] wrapped minus current coordinates */
 };
 
-/* What the search's first test reads of a particle, in cell order: 40 bytes instead of the
- * 128 of rs_sheet_particle, so that the cells around a particle stay in the cache. */
+/* What the search's first test reads of a particle, in cell order (d->points) and in index
+ * order (d->wrapped): 40 bytes instead of the 128 of rs_sheet_particle, so that the cells
+ * around a particle stay in the cache. */
 struct rs_sheet_point {
     double xw, yw, z;       /* [m] position wrapped into the primary box */
     double reach;           /* [m] */
@@ -219,6 +223,7 @@ struct rs_sheet_track {
     double deviation;       /* [m] D of Method 7: bound on the distance from its first path */
     int64_t last;           /* serial of its last collision in this step, 0: none */
     int64_t contacts;       /* collisions resolved in this step */
+    int64_t saved;          /* 1 + its slot in d->saved, 0: not saved (not collided) */
 };
 
 /* A contact on the paths of the moment it was computed. */
@@ -257,8 +262,12 @@ struct rs_sheet_grid {
 
 struct rs_sheet_detector {
     int64_t particle_capacity;
-    struct rs_sheet_particle* unsorted;     /* by particle index: the state before resolution */
+    struct rs_sheet_point* wrapped;         /* by particle index */
     struct rs_sheet_point* points;          /* by cell */
+    struct rs_sheet_particle* saved;        /* the states before resolution of the particles
+                                             * that collided in this step (rs_save) */
+    int64_t n_saved;
+    int64_t saved_capacity;
     struct rs_sheet_track* track;           /* by particle index */
     int32_t* cell_of;               /* the sort's cell of each particle */
     int64_t cell_capacity;
@@ -299,7 +308,8 @@ static void rs_sheet_detector_free(struct rs_sheet_detector* d){
     if (d == NULL){
         return;
     }
-    free(d->unsorted);
+    free(d->wrapped);
+    free(d->saved);
     free(d->points);
     free(d->track);
     free(d->cell_of);
@@ -588,6 +598,41 @@ static int64_t rs_span(double distance, double side){
     return cells >= 1.0 ? (cells < 1e9 ? (int64_t)cells : 1000000000) : 1;
 }
 
+/* Particle i's state as rs_wrap found it: from d->particles (unchanged until the particle
+ * first collides in the step) and its wrapped point, with the same operations as rs_wrap's
+ * (the same bits). */
+static inline struct rs_sheet_particle rs_state(const struct rs_sheet_detector* d, int64_t i){
+    const struct reb_particle* const p = &d->particles[i];
+    const struct rs_sheet_point* const w = &d->wrapped[i];
+    const double Lx = d->grid.Lx;
+    const double mx = floor((p->x + 0.5 * Lx) / Lx);
+    return (struct rs_sheet_particle){
+        .xw = w->xw, .yw = w->yw, .z = p->z, .reach = w->reach, .index = i,
+        .x = p->x, .y = p->y, .vx = p->vx, .vy = p->vy, .vz = p->vz, .radius = p->r,
+        .ox = w->xw - p->x, .oy = w->yw - p->y, .ovy = mx * d->grid.box_speed};
+}
+
+/* Particle i's state before the resolution: saved if it has collided in this step. */
+static inline struct rs_sheet_particle rs_before(const struct rs_sheet_detector* d, int64_t i){
+    const int64_t saved = d->track[i].saved;
+    return saved > 0 ? d->saved[saved - 1] : rs_state(d, i);
+}
+
+/* Saves particle i's state before the resolution changes it (once a step).  Returns 0 if
+ * memory ran out. */
+static int rs_save(struct rs_sheet_detector* d, int64_t i){
+    if (d->track[i].saved > 0){
+        return 1;
+    }
+    if (!rs_grow((void**)&d->saved, &d->saved_capacity, d->n_saved + 1,
+                 sizeof(struct rs_sheet_particle))){
+        return 0;
+    }
+    d->saved[d->n_saved++] = rs_state(d, i);
+    d->track[i].saved = d->n_saved;
+    return 1;
+}
+
 /* The ghost-box offset REBOUND's collision record carries for the pair (pi, pj) seen
  * through the image (image_x, gy_i, image_vy): the image plus the wraps of both particles. */
 static inline struct reb_vec6d rs_image_offset(const struct rs_sheet_particle* pi,
@@ -666,8 +711,10 @@ static int rs_cell_report(const struct rs_sheet_grid* g, const struct rs_sheet_d
         /* the pair as the search from its particle of lower index sees it: p1 < p2, gb of
          * p1; in the primary box (!by_index) the other side's y offset is -gy_i, exactly
          * (gy_i is a whole number of box lengths there), with the sign of a zero kept */
-        const struct rs_sheet_particle* pi = &d->unsorted[later ? p->index : q->index];
-        const struct rs_sheet_particle* pj = &d->unsorted[later ? q->index : p->index];
+        const struct rs_sheet_particle si = rs_state(d, later ? p->index : q->index);
+        const struct rs_sheet_particle sj = rs_state(d, later ? q->index : p->index);
+        const struct rs_sheet_particle* const pi = &si;
+        const struct rs_sheet_particle* const pj = &sj;
         const double gy = later || gy_i == 0.0 ? gy_i : -gy_i;
         const struct reb_vec6d gb = rs_image_offset(pi, pj, image_x, gy, image_vy);
         const double dx = pi->x + gb.x - pj->x;
@@ -700,7 +747,8 @@ static int rs_cell_recheck(const struct reb_simulation* const r, struct rs_sheet
                            const struct rs_sheet_point* p, int64_t first, int64_t end,
                            double image_x, double gy_i, double image_vy, double window){
     const struct rs_sheet_point* const points = d->points;
-    const struct rs_sheet_particle* const pi = &d->unsorted[p->index];
+    const struct rs_sheet_particle si = rs_before(d, p->index);
+    const struct rs_sheet_particle* const pi = &si;
     const double deviation_i = d->track[pi->index].deviation;
     const double shear_step = d->grid.shear_step;
     const double xi = p->xw + image_x;
@@ -717,7 +765,8 @@ static int rs_cell_recheck(const struct reb_simulation* const r, struct rs_sheet
         if (!(near & (q->index != p->index))){
             continue;
         }
-        const struct rs_sheet_particle* pj = &d->unsorted[q->index];
+        const struct rs_sheet_particle sj = rs_before(d, q->index);
+        const struct rs_sheet_particle* const pj = &sj;
         const struct reb_vec6d gb = rs_image_offset(pi, pj, image_x, gy_i, image_vy);
         const double dx = pi->x + gb.x - pj->x;
         const double dy = pi->y + gb.y - pj->y;
@@ -806,7 +855,7 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
     return 1;
 }
 
-/* Method 1: every particle's wrapped position, wrap offsets and reach (d->unsorted), and
+/* Method 1: every particle's wrapped position and reach (d->wrapped), and
  * the grid's reach_max and vertical range.  Particles are independent: split over the
  * threads; the maxima and minima do not depend on the order they are taken in.  Returns 0
  * if the state is not finite. */
@@ -824,39 +873,25 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
 #pragma omp parallel for schedule(static) num_threads(rs_team_size(d, n)) \
         reduction(max:reach_max, kick_max, z_max) reduction(min:z_min)
     for (int64_t i = 0; i < n; i++){
-        const struct reb_particle p = r->particles[i];
-        struct rs_sheet_particle* q = &d->unsorted[i];
-        const double mx = floor((p.x + 0.5 * Lx) / Lx);
-        double xw = p.x - mx * Lx;
-        double yw = p.y + mx * g->slide;
+        const struct reb_particle* const p = &r->particles[i];
+        const double mx = floor((p->x + 0.5 * Lx) / Lx);
+        double yw = p->y + mx * g->slide;
         yw -= Ly * floor((yw + 0.5 * Ly) / Ly);
-        q->x = p.x;
-        q->y = p.y;
-        q->z = p.z;
-        q->vx = p.vx;
-        q->vy = p.vy;
-        q->vz = p.vz;
-        q->radius = p.r;
-        const double wy = p.vy + 1.5 * Omega * p.x;
-        q->reach = p.r + g->dt * sqrt(p.vx * p.vx + wy * wy + p.vz * p.vz);
-        const double a2 = p.ax * p.ax + p.ay * p.ay + p.az * p.az;
+        const double wy = p->vy + 1.5 * Omega * p->x;
+        double reach = p->r + g->dt * sqrt(p->vx * p->vx + wy * wy + p->vz * p->vz);
+        const double a2 = p->ax * p->ax + p->ay * p->ay + p->az * p->az;
         if (a2 > 0.0){
             /* Method 1a: the piece before the kick leaves the straight line by at most
              * |a| dt (dt - kick_time) */
             const double kick = sqrt(a2) * g->dt;
-            q->reach += kick_time > 0.0 ? kick * (g->dt - kick_time) : 0.0;
+            reach += kick_time > 0.0 ? kick * (g->dt - kick_time) : 0.0;
             kick_max = fmax(kick_max, kick);
         }
-        q->xw = xw;
-        q->yw = yw;
-        q->ox = xw - p.x;
-        q->oy = yw - p.y;
-        q->ovy = mx * g->box_speed;
-        q->index = i;
+        d->wrapped[i] = (struct rs_sheet_point){p->x - mx * Lx, yw, p->z, reach, i};
         /* fmax/fmin skip NaN, as the comparisons did before */
-        reach_max = fmax(reach_max, q->reach);
-        z_min = fmin(z_min, p.z);
-        z_max = fmax(z_max, p.z);
+        reach_max = fmax(reach_max, reach);
+        z_min = fmin(z_min, p->z);
+        z_max = fmax(z_max, p->z);
     }
     if (!isfinite(reach_max) || !isfinite(z_min) || !isfinite(z_max) || !isfinite(kick_max)){
         return 0;
@@ -900,7 +935,7 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
         int32_t* const totals = counts + team * n_cells;   /* one per share of the cells */
         memset(mine, 0, (size_t)n_cells * sizeof(int32_t));
         for (int64_t i = i0; i < i1; i++){
-            const struct rs_sheet_particle* q = &d->unsorted[i];
+            const struct rs_sheet_point* q = &d->wrapped[i];
             const int64_t cx = rs_cell_coordinate(q->xw, -0.5 * g->Lx, g->sx, g->nx);
             const int64_t cy = rs_cell_coordinate(q->yw, -0.5 * g->Ly, g->sy, g->ny);
             const int64_t cz = g->nz > 1 ? rs_cell_coordinate(q->z, g->z_min, g->sz, g->nz)
@@ -944,9 +979,7 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
                 __builtin_prefetch(&mine[cell_of[i + 2 * RS_SORT_AHEAD < i1
                                                  ? i + 2 * RS_SORT_AHEAD : i]], 1);
             }
-            const struct rs_sheet_particle* q = &d->unsorted[i];
-            d->points[mine[cell_of[i]]++] = (struct rs_sheet_point){q->xw, q->yw, q->z,
-                                                                    q->reach, q->index};
+            d->points[mine[cell_of[i]]++] = d->wrapped[i];
         }
     }
     start[n_cells] = n;
@@ -1098,7 +1131,7 @@ static int rs_sheet_find_pairs(struct reb_simulation* const r, struct rs_sheet_d
     g->box_speed = 1.5 * Omega * Lx;                                 /* [m/s] */
 
     int64_t capacity = d->particle_capacity;
-    if (!rs_grow((void**)&d->unsorted, &capacity, n, sizeof(struct rs_sheet_particle))){
+    if (!rs_grow((void**)&d->wrapped, &capacity, n, sizeof(struct rs_sheet_point))){
         return RS_DETECT_NO_MEMORY;
     }
     capacity = d->particle_capacity;
@@ -1136,7 +1169,8 @@ static int rs_sheet_find_pairs(struct reb_simulation* const r, struct rs_sheet_d
 static int rs_after_collision(const struct reb_simulation* const r, struct rs_sheet_detector* d,
                               int64_t q, double window){
     struct rs_sheet_track* t = &d->track[q];
-    const struct rs_sheet_particle* const before = &d->unsorted[q];
+    const struct rs_sheet_particle state = rs_before(d, q);
+    const struct rs_sheet_particle* const before = &state;
     const struct reb_particle* const p = &r->particles[q];
     const double ex = p->x - before->x;
     const double ey = p->y - before->y;
@@ -1206,6 +1240,7 @@ void rs_sheet_step(struct reb_simulation* const r){
     d->n_events = 0;
     d->serial = 0;
     d->deviation_max = 0.0;
+    d->n_saved = 0;
     for (int64_t k = 0; k < d->n_collisions; k++){
         if (!rs_queue(r, d, d->collisions[k], d->grid.dt)){
             d->error = RS_DETECT_NO_MEMORY;
@@ -1217,6 +1252,10 @@ void rs_sheet_step(struct reb_simulation* const r){
         const int64_t p2 = (int64_t)e.c.p2;
         if (d->track[p1].last != e.last1 || d->track[p2].last != e.last2){
             continue;   /* computed on a path that has changed since */
+        }
+        if (!rs_save(d, p1) || !rs_save(d, p2)){
+            d->error = RS_DETECT_NO_MEMORY;
+            break;
         }
         if (!rs_resolve_contact(r, res, e.c, e.back_time, d->grid.kick_time)){
             continue;   /* receding, or a normal speed below round-off */
