@@ -395,3 +395,30 @@ def _declare_p3m(lib: ctypes.CDLL) -> bool:
 
 #: True if ringsim._resolver has the P3M solver.
 HAS_P3M = _declare_p3m(_LIB)
+
+
+#: glibc's mallopt parameters (malloc.h) and the largest mmap threshold it accepts on a
+#: 64-bit system (DEFAULT_MMAP_THRESHOLD_MAX = 4 MiB x sizeof(long)).
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+_MMAP_THRESHOLD_MAX = 32 * 2**20
+_KEPT: list[bool] = []
+
+
+def keep_freed_memory() -> bool:
+    """Let the C library's malloc keep freed memory for reuse, once per process: blocks up
+    to 32 MiB come from the heap instead of a fresh mmap each, and the heap's top is not
+    given back to the system.  P3M allocates a dozen mesh-sized numpy/scipy.fft temporaries
+    per step; with glibc's defaults each large one is new memory whose pages the kernel
+    zeroes on first touch (clear_page: 7 % of the gravitating step at N = 1e5,
+    docs/performance.md).  Addresses do not enter any result.  Returns False where the C
+    library has no ``mallopt`` (not glibc): nothing changes there."""
+    if not _KEPT:
+        try:
+            mallopt = ctypes.CDLL(None).mallopt
+        except AttributeError:
+            _KEPT.append(False)
+        else:
+            mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
+            _KEPT.append(bool(mallopt(_M_MMAP_THRESHOLD, _MMAP_THRESHOLD_MAX))
+                         and bool(mallopt(_M_TRIM_THRESHOLD, 2**31 - 1)))
+    return _KEPT[0]

@@ -21,7 +21,14 @@ import numpy as np
 import rebound
 import scipy.fft
 
-from ringsim.engine.native import _LIB, _POST_TIMESTEP, HAS_P3M, P3MStruct, checked_threads
+from ringsim.engine.native import (
+    _LIB,
+    _POST_TIMESTEP,
+    HAS_P3M,
+    P3MStruct,
+    checked_threads,
+    keep_freed_memory,
+)
 from ringsim.physics.constants import G_SI
 from ringsim.physics.selfgravity import (
     P3M_CELL_SPLITS,
@@ -107,6 +114,7 @@ class P3MSolver:
         if not HAS_P3M:
             raise ImportError("ringsim._resolver was built without rs_p3m.c; rebuild the "
                               "extension (`python setup.py build_ext --inplace`)")
+        keep_freed_memory()     # the mesh temporaries of every step reuse memory
         par = p3m_parameters(Lx, Ly, split, cutoff, cell, dz)
         cutoff, dz = par["cutoff"], par["dz"]
         if not 0.0 < cutoff < min(Lx, Ly):
