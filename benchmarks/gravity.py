@@ -100,7 +100,7 @@ def step_cost(n, gravity, solver=None, detection=None, threads=1, wall=False):
         solver_p3m.set_threads(threads)
     sim.steps(2)
     p3m.raise_pending(sim)
-    steps = max(2, int(1e5 / n))
+    steps = max(10, int(1e6 / n))     # 10 steps at 1e5: 2 were too noisy on a shared host
     clock = time.perf_counter if wall else time.process_time
     c0 = clock()
     sim.steps(steps)
@@ -180,7 +180,11 @@ last['p3m_s'] * per:.2f} us.  With tree detection the same step costs {
 last['step_p3m_tree'] * per:.2f} us: line detection with kicked paths removes {
 (last['step_p3m_tree'] - last['step_p3m']) * per:.2f} us of it.  The P3M cost splits into the
 mesh (FFTs and the vertical coupling of nz layers, numpy/scipy, one Python callback per
-step) and the pair sum in C (docs/gravity.md, section 4b).
+step) and the pair sum in C (docs/gravity.md, section 4b).  The solver makes the process keep
+freed memory for reuse (`ringsim.engine.native.keep_freed_memory`, glibc's `mallopt`):
+before, each step's mesh-sized temporaries were fresh pages that the kernel zeroed
+(`clear_page` 7 % of the step in `perf`), and the step at N = 100000 on two threads took
+1.74-1.89 us against 1.59-1.66 us after (interleaved processes, idle machine, 2026-11-23).
 """
 
 
