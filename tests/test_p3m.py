@@ -4,6 +4,7 @@ momentum and energy budgets of a gravitating sheet without collisions, for each 
 
 import ctypes
 import math
+import platform
 
 import numpy as np
 import pytest
@@ -11,7 +12,7 @@ import rebound
 
 from ringsim.engine import gravity as eg
 from ringsim.engine import invariants, p3m, sheet
-from ringsim.engine.native import _LIB
+from ringsim.engine.native import _LIB, keep_freed_memory
 from ringsim.physics import selfgravity as sg
 from ringsim.physics.constants import G_SI
 
@@ -283,3 +284,13 @@ def test_mean_vertical_field_of_a_thick_ring_is_the_direct_erf_sum():
         m * erf((zi - zj) / (2 * rs)) for zj, m in zip(z, s["mass"], strict=True))
         for zi in z])
     assert np.max(np.abs(got - direct)) < 1e-3 * scale, np.max(np.abs(got - direct)) / scale
+
+
+def test_p3m_solver_keeps_freed_memory_on_glibc():
+    """The solver's mesh temporaries reuse freed memory (docs/performance.md, Self-gravity):
+    glibc accepts both mallopt settings, and asking again changes nothing."""
+    sheet_ = eg.random_sheet(200, 0.5, 1.0, seed=3)
+    p3m.P3MSolver(sheet_["Lx"], sheet_["Ly"], 0.1, 3.0)
+    expected = platform.libc_ver()[0] == "glibc"
+    assert keep_freed_memory() is expected
+    assert keep_freed_memory() is expected
