@@ -15,7 +15,8 @@ What a ring dynamicist reads for a self-gravitating sheet, beside the equilibriu
   snapshots are ``output.snapshot_every`` apart, an orbit or more, while wakes live about an
   orbit); with one snapshot the stderr is that snapshot's own spread of the spectral peak;
 * ``gravitational_viscosity`` [m^2/s]: ``analysis.wakes.gravitational_viscosity`` of the same
-  snapshots, mean and stderr over them;
+  snapshots, mean and stderr over them (0 for a run with ``gravity_solver: slab``, whose
+  forces are vertical: no torque acted);
 * ``energy_balance``: the sheet's energy balance with the gravitational viscosity
   (:func:`energy_balance`): viscous heating by the shear, collisional dissipation, the rate
   of change of the random kinetic energy, and their closure.
@@ -276,6 +277,9 @@ def gravity_equilibrium(run, start: int, viscosities: dict | None = None) -> dic
                                             "dimensionless")
     out["gravitational_viscosity"] = _over_snapshots(
         [s["gravitational_viscosity"] for s in per], math.nan, "m^2/s")
+    if str(run.attrs.get("gravity_solver", "")) == "slab":
+        # the slab solver has no horizontal force: no gravitational torque acted
+        out["gravitational_viscosity"] = _value(0.0, 0.0, "m^2/s")
     if viscosities is not None:
         out.update(energy_balance(run, start, {**viscosities, "gravitational_viscosity":
                                                out["gravitational_viscosity"]}))

@@ -1,6 +1,6 @@
 """The self-gravity keys of the ``sheet`` section: which solver, and its parameters.
 
-``sheet.gravity_solver`` (tree | p3m, default DEFAULTS["sheet.gravity_solver"]),
+``sheet.gravity_solver`` (tree | p3m | slab, default DEFAULTS["sheet.gravity_solver"]),
 ``sheet.softening`` and the tree's ``sheet.opening_angle``: read and validated here, for
 ``config.scenario``; the solvers' own parameters are declared in ``physics.selfgravity``.
 """
@@ -32,12 +32,15 @@ def read_gravity_keys(sec: Section, d: dict[str, Any]) -> dict[str, Any]:
     default_solver = ("tree" if sec.has("opening_angle") and not sec.has("gravity_solver")
                       else d["sheet.gravity_solver"])
     solver = sec.string("gravity_solver", default_solver, choices=GRAVITY_SOLVERS)
-    if solver == "p3m" and sec.has("opening_angle"):
+    if solver != "tree" and sec.has("opening_angle"):
         raise sec.error("opening_angle", "only used with gravity_solver: tree",
                         "remove the key, or set sheet.gravity_solver: tree")
+    if solver == "slab" and sec.has("softening"):
+        raise sec.error("softening", "not used with gravity_solver: slab (no pair forces)",
+                        "remove the key, or set sheet.gravity_solver: tree or p3m")
     return {"gravity": True, "gravity_solver": solver,
-            "softening": sec.number_or_auto("softening", d["sheet.softening"], unit="m",
-                                             ge=0.0),
+            "softening": (sec.number_or_auto("softening", d["sheet.softening"], unit="m",
+                                              ge=0.0) if solver != "slab" else None),
             "opening_angle": (sec.number("opening_angle", d["sheet.opening_angle"],
                                          unit="rad", gt=0.0, le=1.0)
                               if solver == "tree" else None)}

@@ -62,7 +62,8 @@ def sheet_dict_with_file(sheet, d: dict[str, Any]) -> dict[str, Any]:
         d.pop(name, None)
     if sheet.gravity:
         d["gravity_solver"] = sheet.gravity_solver
-        d["softening"] = sheet.softening
+        if sheet.softening is not None:
+            d["softening"] = sheet.softening
         if sheet.opening_angle is not None:
             d["opening_angle"] = sheet.opening_angle
     d["z_box"] = sheet.z_box

@@ -212,6 +212,8 @@ class Scenario:
         """Gravitational softening [m] ("auto" resolved); None without self-gravity."""
         if not self.sheet.gravity:
             return None
+        if self.sheet.softening is None:    # the slab solver: no pair forces to soften
+            return 0.0
         if self.sheet.softening == "auto":
             return AUTO_SOFTENING_FRACTION * self.particles.size_distribution.smallest_radius
         return float(self.sheet.softening)

@@ -99,7 +99,7 @@ class SheetConfig:
         Ly / Lx (y along the orbit, x radial).
     gravity : bool
         Self-gravity (solver: ``gravity_solver``).
-    gravity_solver : "tree" or "p3m" or None
+    gravity_solver : "tree", "p3m", "slab" or None
         REBOUND's tree plus the field beyond its ghost boxes, or ringsim's P3M solver
         (physics.selfgravity.GRAVITY_SOLVERS); None without gravity.
     softening : float [m] or "auto" or None
@@ -134,7 +134,8 @@ class SheetConfig:
             return sheet_dict_with_file(self, d)
         if self.gravity:
             d["gravity_solver"] = self.gravity_solver
-            d["softening"] = self.softening
+            if self.softening is not None:      # None: the slab, which has no pairs
+                d["softening"] = self.softening
             if self.opening_angle is not None:
                 d["opening_angle"] = self.opening_angle
         d["initial_dispersion"] = self.initial_dispersion

@@ -41,6 +41,8 @@
  */
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
 #include "rebound.h"
 
 /* asinh(a / b) with b >= 0, b = 0 treated as the smallest positive double. */
@@ -135,4 +137,74 @@ void rs_ghost_field(struct reb_simulation* const r){
         ps[k].ay += G_sigma * ay;
         ps[k].az += G_sigma * az;
     }
+}
+
+/* ------------------------------------------------------------------------------------ */
+/* The slab solver (sheet.gravity_solver: slab): the field of the sheet's horizontally
+ * averaged layer only.
+ *
+ * | effect     | vertical field of the plane-parallel layer (the k = 0 mode of self-gravity) |
+ * | installed  | as REBOUND's additional_forces, by ringsim.engine.gravity.install_gravity  |
+ * | parameters | none of its own: G and the box (root_size, N_root_x/y) from the simulation |
+ * | Python twin| ringsim.physics.selfgravity.slab_field (same formula, numpy)              |
+ *
+ * Each particle j, spread uniformly over the box's area A = Lx Ly and its periodic images,
+ * is an infinite sheet of surface density m_j / A, whose field is 2 pi G m_j / A towards
+ * it on either side, whatever the distance:
+ *
+ *     a_z,i = -(2 pi G / A) (M_below,i - M_above,i)
+ *
+ * with M_below,i (M_above,i) the mass of the other particles below (above) particle i.  No
+ * horizontal force.  It is exact for the mean density of the sheet, and leaves out every
+ * mode with k != 0: the pull between neighbours, wakes, gravitational encounters.  So it is
+ * the right approximation where those are negligible (Toomre Q >> 2, encounter speeds far
+ * below the velocity dispersion) and wrong elsewhere; docs/gravity.md ("Slab") compares
+ * it with the tree.  Cost: a sort by z, O(N log N).  Ties in z (equal heights) are ordered
+ * by index.  Momentum: the forces are antisymmetric pair by pair (sum m a_z = 0 up to
+ * round-off of the prefix sums). */
+
+struct rs_height {
+    double z;
+    int64_t index;
+};
+
+static int rs_height_order(const void* a, const void* b){
+    const struct rs_height* p = a;
+    const struct rs_height* q = b;
+    if (p->z != q->z){
+        return p->z < q->z ? -1 : 1;
+    }
+    return (p->index > q->index) - (p->index < q->index);
+}
+
+/* REBOUND's additional_forces: add the slab field to every particle's acceleration (see
+ * above).  Out of memory: REB_STATUS_GENERIC_ERROR (the run loop stops with an error). */
+void rs_slab_field(struct reb_simulation* const r){
+    const size_t n = r->N - r->N_var;
+    if (n < 2){
+        return;
+    }
+    struct reb_particle* const ps = r->particles;
+    struct rs_height* order = malloc(n * sizeof(struct rs_height));
+    if (order == NULL){
+        r->status = REB_STATUS_GENERIC_ERROR;
+        return;
+    }
+    double total = 0.0;
+    for (size_t k = 0; k < n; k++){
+        order[k] = (struct rs_height){ps[k].z, (int64_t)k};
+        total += ps[k].m;
+    }
+    qsort(order, n, sizeof(struct rs_height), rs_height_order);
+    const double Lx = r->root_size * (double)r->N_root_x;
+    const double Ly = r->root_size * (double)r->N_root_y;
+    const double c = 6.283185307179586 * r->G / (Lx * Ly);   /* 2 pi G / A */
+    double below = 0.0;
+    for (size_t k = 0; k < n; k++){
+        struct reb_particle* const p = &ps[order[k].index];
+        const double above = total - below - p->m;
+        p->az -= c * (below - above);
+        below += p->m;
+    }
+    free(order);
 }

@@ -228,21 +228,37 @@ def ghost_truncation_field(pos, mass, Lx, Ly, Omega, t, n_ghost_x, n_ghost_y, G=
 
 # --- wiring into runs ---------------------------------------------------------------------------
 
-def _ghost_field_pointer():
-    """A ctypes function pointer to ``rs_ghost_field`` (REBOUND's additional_forces type)."""
+def _c_field_pointer(name: str):
+    """A ctypes function pointer to the C field ``name`` of ``rs_gravity.c`` (REBOUND's
+    additional_forces type)."""
     from ringsim.engine.native import _LIB, _POST_TIMESTEP
 
-    if not hasattr(_LIB, "rs_ghost_field"):
+    if not hasattr(_LIB, name):
         raise ImportError("ringsim._resolver was built without rs_gravity.c; rebuild the "
                           "extension (`python setup.py build_ext --inplace`)")
-    return _POST_TIMESTEP(ctypes.cast(_LIB.rs_ghost_field, ctypes.c_void_p).value)
+    return _POST_TIMESTEP(ctypes.cast(getattr(_LIB, name), ctypes.c_void_p).value)
+
+
+def _has_c_field(sim: rebound.Simulation, name: str) -> bool:
+    current = ctypes.cast(sim._additional_forces, ctypes.c_void_p).value
+    return current is not None and current == ctypes.cast(_c_field_pointer(name),
+                                                           ctypes.c_void_p).value
 
 
 def has_ghost_field(sim: rebound.Simulation) -> bool:
     """True if ``sim.additional_forces`` is ringsim's ghost-box truncation field."""
-    current = ctypes.cast(sim._additional_forces, ctypes.c_void_p).value
-    return current is not None and current == ctypes.cast(_ghost_field_pointer(),
-                                                           ctypes.c_void_p).value
+    return _has_c_field(sim, "rs_ghost_field")
+
+
+def installed_solver_name(sim: rebound.Simulation) -> str | None:
+    """The self-gravity solver installed in ``sim``: "tree", "p3m", "slab", or None."""
+    from ringsim.engine import p3m
+
+    if sim.gravity == "tree":
+        return "tree"
+    if p3m.installed_solver(sim) is not None:
+        return "p3m"
+    return "slab" if _has_c_field(sim, "rs_slab_field") else None
 
 
 def install_ghost_field(sim: rebound.Simulation) -> None:
@@ -261,7 +277,7 @@ def install_ghost_field(sim: rebound.Simulation) -> None:
     if sim._additional_forces and not has_ghost_field(sim):
         raise ValueError("sim.additional_forces is already set; the ghost-box truncation "
                          "field needs it")
-    fp = _ghost_field_pointer()
+    fp = _c_field_pointer("rs_ghost_field")
     sim._additional_forces = fp
     sim._afp = fp    # REBOUND's slot that keeps the ctypes object alive with the simulation
 
@@ -273,13 +289,15 @@ def install_gravity(sim: rebound.Simulation, solver: str, *, softening: float,
 
     Parameters
     ----------
-    solver : "tree" or "p3m"
+    solver : "tree", "p3m" or "slab"
         "tree": REBOUND's tree at ``opening_angle`` [rad], DEFAULT_GHOST_BOXES rings of ghost
         boxes and the field of the sheet beyond them (:func:`install_ghost_field`).
         "p3m": ``engine.p3m`` with split scale ``p3m_split`` [m] and the other parameters
         at their defaults (``physics.selfgravity.P3M_*``).
+        "slab": the vertical field of the horizontally averaged layer only
+        (``rs_slab_field``, ``physics.selfgravity.slab_field``).
     softening : float [m]
-        Plummer softening.
+        Plummer softening (tree and p3m; the slab has no close pairs to soften).
     """
     from ringsim.engine import p3m
 
@@ -296,6 +314,11 @@ def install_gravity(sim: rebound.Simulation, solver: str, *, softening: float,
         Lx = sim.root_size * sim.N_root_x
         Ly = sim.root_size * sim.N_root_y
         p3m.install_p3m(sim, p3m.P3MSolver(Lx, Ly, softening, p3m_split, G=G_SI))
+    elif solver == "slab":
+        sim.gravity = "none"
+        fp = _c_field_pointer("rs_slab_field")
+        sim._additional_forces = fp
+        sim._afp = fp    # REBOUND's slot that keeps the ctypes object alive
     else:
         raise ValueError(f"unknown gravity solver {solver!r}")
 
@@ -318,6 +341,8 @@ def solver_attributes(scenario, geometry) -> dict:
     if sheet.gravity_solver == "p3m":
         return p3m.describe(geometry.Lx, geometry.Ly, scenario.softening_length,
                             P3M_SPLIT_RADII * scenario.mean_radius)
+    if sheet.gravity_solver == "slab":
+        return {"gravity_solver": "slab"}
     return {"gravity_solver": "tree",
             "tree_opening_angle": float(sheet.opening_angle), "units_tree_opening_angle": "rad",
             "tree_ghost_boxes": DEFAULT_GHOST_BOXES,

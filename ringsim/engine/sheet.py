@@ -533,14 +533,16 @@ def enlarged_copy(sim: rebound.Simulation, geometry: SheetGeometry,
     """
     new_geometry = SheetGeometry(geometry.root_size, geometry.n_root_x, geometry.n_root_y,
                                  n_root_z, geometry.Omega)
+    from ringsim.engine.gravity import installed_solver_name
     from ringsim.engine.p3m import installed_solver
 
     p3m = installed_solver(sim)
+    solver = installed_solver_name(sim)
     new = rebound.Simulation()
-    configure_simulation(new, new_geometry, gravity=sim.gravity == "tree" or p3m is not None,
+    configure_simulation(new, new_geometry, gravity=solver is not None,
                          softening=sim.softening, opening_angle=math.sqrt(sim.opening_angle2),
                          collision_detection="tree" if sim.collision == "tree" else "line",
-                         rand_seed=0, gravity_solver="tree" if p3m is None else "p3m",
+                         rand_seed=0, gravity_solver=solver or "tree",
                          p3m_split=None if p3m is None else p3m.params.split)
     arrays = particle_arrays(sim)
     add_particles(new, arrays, arrays["radius"], arrays["mass"])

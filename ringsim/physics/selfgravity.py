@@ -346,11 +346,33 @@ def pm_accelerations(pos, mass, Lx, Ly, shift, cell, dz=None, G=G_SI):
     return ShearPM(Lx, Ly, nx, ny, cell if dz is None else dz, G).accelerations(pos, mass, shift)
 
 
+def slab_field(z, mass, Lx, Ly, G=G_SI):
+    """Vertical field [m/s^2] of the horizontally averaged sheet (``sheet.gravity_solver:
+    slab``; C twin ``rs_slab_field`` in ``ringsim/csrc/rs_gravity.c``).
+
+    Each particle, spread over the box's area A = Lx Ly, is an infinite sheet pulling the
+    others towards it with 2 pi G m / A:  a_z,i = -(2 pi G / A) sum_j m_j sign(z_i - z_j),
+    j != i.  The k = 0 mode of the sheet's self-gravity, without any horizontal force or
+    pull between neighbours (docs/gravity.md, "Slab").  O(N^2) here, for tests.
+
+    Parameters
+    ----------
+    z : array [m]
+    mass : array [kg]
+    Lx, Ly : float [m]
+    """
+    z = np.asarray(z, dtype=float)
+    mass = np.asarray(mass, dtype=float)
+    sign = np.sign(z[:, None] - z[None, :])
+    return -2.0 * np.pi * G / (Lx * Ly) * (sign * mass[None, :]).sum(axis=1)
+
+
 # --- P3M: Gaussian force split (the mesh part; the pair part is ringsim/csrc/rs_p3m.c) ----------
 
 #: Self-gravity solvers of ``sheet.gravity_solver``: REBOUND's tree with the ghost-box
-#: truncation field, or the P3M solver (docs/gravity.md).
-GRAVITY_SOLVERS = ("tree", "p3m")
+#: truncation field, the P3M solver, or the slab (the field of the horizontally averaged
+#: layer only, for hot rings where the pull between neighbours is negligible; docs/gravity.md).
+GRAVITY_SOLVERS = ("tree", "p3m", "slab")
 #: P3M split scale r_s as a multiple of the mean particle radius, and the pair-sum cutoff,
 #: horizontal mesh cell and layer spacing as multiples of r_s: the cheapest setting found
 #: with < 1 % rms force error on a tau = 0.5 sheet (benchmarks/gravity.py, docs/gravity.md).
