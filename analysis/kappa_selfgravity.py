@@ -13,6 +13,7 @@ run; ``analysis/data/kappa_selfgravity.json`` keeps the costs.
 
     python analysis/kappa_selfgravity.py --cases mono-1e8-0.5 mono-1e8-0.25 --seeds 1 2 3
     python analysis/kappa_selfgravity.py --report-only
+    python analysis/kappa_selfgravity.py --slab mono-1e8-0.25 --seeds 1 2 3
 
 Box: at least ``BOX_LAMBDA`` Toomre wavelengths on a side and ``MIN_PARTICLES`` particles.
 A run the finder does not call stationary is never averaged: it is listed and left out.
@@ -185,6 +186,23 @@ def run_case(case: str, args, runs: Path, costs: dict) -> None:
     run_jobs(grav, args.workers, costs)
 
 
+def slab_output(runs: Path, case: str, kappa: float, seed: int) -> Path:
+    return runs / f"slab_{case}_kappa{kappa:g}_seed{seed}.h5"
+
+
+def run_slab(case: str, args, runs: Path, costs: dict) -> None:
+    """The gravity runs of ``case`` again with ``sheet.gravity_solver: slab`` (the averaged
+    layer's vertical field only, docs/gravity.md 4c): same particles, box and lengths, so
+    the report can say how much of gravity's effect the mean field alone gives."""
+    jobs = []
+    for k in SCENARIOS:
+        for s in args.seeds:
+            o = overrides(case, k, s, True)
+            o.update({"sheet.gravity_solver": "slab", "name": f"{case}-kappa{k:g}-slab"})
+            jobs.append((str(SCENARIOS[k]), o, str(slab_output(runs, case, k, s))))
+    run_jobs(jobs, args.workers, costs)
+
+
 #: Method variants of the systematic budget (``--systematics CASE``): source -> overrides
 #: of the gravity runs ("n_particles": twice the case's particles, a box sqrt(2) times as
 #: wide; "dt": the step halved).
@@ -228,6 +246,9 @@ def main() -> None:
     parser.add_argument("--systematics", choices=list(CASES),
                         help="run the method variants of this case (seeds --seeds) and write "
                         "the budget against its runs of --base-seeds")
+    parser.add_argument("--slab", nargs="+", choices=list(CASES), default=[],
+                        help="run the gravity runs of these cases again with the slab solver "
+                        "(seeds --seeds)")
     parser.add_argument("--base-seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--variants", nargs="+", default=list(SYSTEMATIC_VARIANTS),
                         choices=list(SYSTEMATIC_VARIANTS), help="sources of --systematics")
@@ -237,6 +258,9 @@ def main() -> None:
     costs = load_costs()
     if args.systematics:
         run_systematics(args.systematics, args, runs, costs)
+    elif args.slab:
+        for case in args.slab:
+            run_slab(case, args, runs, costs)
     elif not args.report_only:
         for case in args.cases:
             run_case(case, args, runs, costs)

@@ -30,6 +30,7 @@ from kappa_selfgravity import (
     orbits,
     output,
     patch,
+    slab_output,
 )
 
 from ringsim.analysis.budget import replica_mean
@@ -67,12 +68,15 @@ FIRST_ATTEMPT = [
 ]
 
 
-def load_group(runs: Path, case: str, kappa: float, gravity: bool, seeds) -> dict:
+def load_group(runs: Path, case: str, kappa: float, gravity: bool, seeds,
+               slab: bool = False) -> dict:
     """Equilibria of one (case, kappa, gravity): ``kept`` (stationary), ``left_out`` (a line
-    per run the finder did not call stationary), ``missing`` (seeds without a run)."""
+    per run the finder did not call stationary), ``missing`` (seeds without a run).
+    ``slab``: the gravity runs with the slab solver (``run_slab``) instead."""
     kept, left_out, missing = [], [], []
     for seed in seeds:
-        path = output(runs, case, kappa, seed, gravity)
+        path = (slab_output(runs, case, kappa, seed) if slab
+                else output(runs, case, kappa, seed, gravity))
         if not path.exists():
             missing.append(seed)
             continue
@@ -157,6 +161,42 @@ def case_table(groups: dict, comps: dict) -> list[str]:
     lines.append(f"| stationary seeds | {counts[0]} | {counts[1]} | | {counts[2]} | {counts[3]} "
                  "| | | |")
     return lines
+
+
+def slab_lines(runs: Path, case: str, seeds, groups: dict) -> list[str]:
+    """Markdown: c and H of the slab runs of ``case`` beside the tree's and no gravity's,
+    and the kappa ratio of each; [] without finished slab runs."""
+    slab = {k: load_group(runs, case, k, True, seeds, slab=True) for k in SCENARIOS}
+    if not any(g["kept"] or g["left_out"] for g in slab.values()):
+        return []
+    lines = [f"Slab against tree ({case}): the gravity runs again with "
+             "`sheet.gravity_solver: slab`, the vertical field of the horizontally averaged "
+             "layer only (docs/gravity.md, 4c); same particles, box and lengths. Stationary "
+             "slab seeds: " + ", ".join(f"kappa {k:g}: {len(g['kept'])}"
+                                        for k, g in slab.items()) + ".", "",
+             "| quantity | no gravity | tree | slab | tree / no gravity | slab / no gravity "
+             "| slab / tree |", "|" + "---|" * 7]
+    for key, (label, unit, scale) in ((k, TABLE_ROWS[k]) for k in HEADLINE):
+        values = {}
+        for kappa in SCENARIOS:
+            row = {"none": combined(groups[(kappa, False)], key),
+                   "tree": combined(groups[(kappa, True)], key),
+                   "slab": combined(slab[kappa], key)}
+            values[kappa] = row
+            lines.append(_slab_row(f"{label}, kappa {kappa:g}", unit, scale, row))
+        ratio_row = {name: quotient(values[0.1][name], values[0.0][name])
+                     for name in ("none", "tree", "slab")}
+        lines.append(_slab_row(f"{label}, ratio kappa 0.1 / 0", "", 1.0, ratio_row))
+    left = [line for g in slab.values() for line in g["left_out"]]
+    return lines + [""] + [f"- slab, not stationary, left out: {line}" for line in left]
+
+
+def _slab_row(label: str, unit: str, scale: float, row: dict) -> str:
+    cells = [fmt(row[n], scale) if row[n] is not None and unit else
+             (fmt_quotient(row[n]) or "-") for n in ("none", "tree", "slab")]
+    cells += [fmt_quotient(quotient(row[a], row[b])) or "-"
+              for a, b in (("tree", "none"), ("slab", "none"), ("slab", "tree"))]
+    return f"| {label}{f' [{unit}]' if unit else ''} | " + " | ".join(cells) + " |"
 
 
 def case_attributes(runs: Path, case: str) -> dict:
@@ -338,6 +378,7 @@ def write_report(args, runs: Path, costs: dict) -> None:
         missing = [f"{case} kappa {k:g} {'gravity' if g else 'no gravity'} seeds {v['missing']}"
                    for (k, g), v in groups.items() if v["missing"]]
         sections += [f"### {case}", "", *case_table(groups, comps), ""]
+        sections += slab_lines(runs, case, args.seeds, groups)
         sections += [f"- not stationary, left out: {line}" for line in left]
         sections += [f"- not run: {line}" for line in missing] + [""]
     explanation = (EXPLANATION_FILE.read_text().splitlines() if EXPLANATION_FILE.exists()
