@@ -312,10 +312,14 @@ def not_done_lines(runs: Path, costs: dict, not_run: list[str]) -> list[str]:
         rate = float(np.median(rates))
         need = sum(2 * 3 * ORBITS["gravity"] * 1000.0 * patch(case)["n_particles"] * rate
                    for case in not_run)
+        longer = sum(3 * (140.0 + 280.0) * 1000.0 * patch(case)["n_particles"] * rate
+                     for case in not_run)
         lines.append(f"- Their gravity runs (2 kappa values x 3 seeds x {ORBITS['gravity']:g} "
                      f"orbits) at the measured {rate * 1e6:.1f} us of CPU per particle-step "
                      f"(median of the gravity runs above): about {need / 3600:.0f} CPU-hours, "
-                     "more where the tree's cost per particle grows with N.")
+                     f"{longer / 3600:.0f} at the lengths the monodisperse cases needed to be "
+                     "stationary (140 orbits for kappa = 0, 280 for kappa = 0.1); more where "
+                     "the tree's cost per particle grows with N.")
     measured = (sorted({src for parts in json.loads(BUDGET.read_text())["relative"].values()
                         for src in parts}) if BUDGET.exists() else [])
     lines += ["- The systematic budget with gravity: "
@@ -326,8 +330,9 @@ def not_done_lines(runs: Path, costs: dict, not_run: list[str]) -> list[str]:
               "negligible against the statistical errors here).",
               "- Boxes of at least 4 lambda_cr for wake statistics (here 2.1-4.2); no case "
               "forms wakes with this law, so none was needed for the numbers above.",
-              "- Stationarity of the power-law kappa = 0.1 rings by the finder's rule (20 "
-              "effective samples): longer runs or larger boxes."]
+              "- With the slab solver, which matched the tree in the cases above (\"Slab "
+              "against tree\"), the cases not run would cost about what their no-gravity "
+              "runs cost (0.3-0.5 CPU-s per orbit for 600-740 particles)."]
     return lines
 
 
