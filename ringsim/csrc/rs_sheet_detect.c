@@ -598,14 +598,19 @@ static int64_t rs_span(double distance, double side){
     return cells >= 1.0 ? (cells < 1e9 ? (int64_t)cells : 1000000000) : 1;
 }
 
+/* How many box widths Lx [m] position x [m] lies beyond the primary box, [-Lx/2, Lx/2):
+ * rs_wrap and rs_state both use it, so the wrap they find is the same to the bit. */
+static inline double rs_box_count(double x, double Lx){
+    return floor((x + 0.5 * Lx) / Lx);
+}
+
 /* Particle i's state as rs_wrap found it: from d->particles (unchanged until the particle
  * first collides in the step) and its wrapped point, with the same operations as rs_wrap's
  * (the same bits). */
 static inline struct rs_sheet_particle rs_state(const struct rs_sheet_detector* d, int64_t i){
     const struct reb_particle* const p = &d->particles[i];
     const struct rs_sheet_point* const w = &d->wrapped[i];
-    const double Lx = d->grid.Lx;
-    const double mx = floor((p->x + 0.5 * Lx) / Lx);
+    const double mx = rs_box_count(p->x, d->grid.Lx);
     return (struct rs_sheet_particle){
         .xw = w->xw, .yw = w->yw, .z = p->z, .reach = w->reach, .index = i,
         .x = p->x, .y = p->y, .vx = p->vx, .vy = p->vy, .vz = p->vz, .radius = p->r,
@@ -874,7 +879,7 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
         reduction(max:reach_max, kick_max, z_max) reduction(min:z_min)
     for (int64_t i = 0; i < n; i++){
         const struct reb_particle* const p = &r->particles[i];
-        const double mx = floor((p->x + 0.5 * Lx) / Lx);
+        const double mx = rs_box_count(p->x, Lx);
         double yw = p->y + mx * g->slide;
         yw -= Ly * floor((yw + 0.5 * Ly) / Ly);
         const double wy = p->vy + 1.5 * Omega * p->x;
