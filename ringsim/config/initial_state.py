@@ -60,12 +60,7 @@ def sheet_dict_with_file(sheet, d: dict[str, Any]) -> dict[str, Any]:
     """Sheet.to_dict with an initial-state file: without the keys the file replaces."""
     for name in _REPLACED_BY_FILE[sheet.initial_state.kind]:
         d.pop(name, None)
-    if sheet.gravity:
-        d["gravity_solver"] = sheet.gravity_solver
-        if sheet.softening is not None:
-            d["softening"] = sheet.softening
-        if sheet.opening_angle is not None:
-            d["opening_angle"] = sheet.opening_angle
+    d.update(sheet.gravity_dict())
     d["z_box"] = sheet.z_box
     d["initial_state"] = sheet.initial_state.to_dict()
     return d

@@ -126,18 +126,25 @@ class SheetConfig:
     initial_state: InitialStateFile | None = None
     gravity_solver: str | None = None
 
+    def gravity_dict(self) -> dict[str, Any]:
+        """The self-gravity keys as a scenario gives them ({} without gravity; no softening
+        for the slab, which has no pairs, and an opening angle for the tree only)."""
+        if not self.gravity:
+            return {}
+        d: dict[str, Any] = {"gravity_solver": self.gravity_solver}
+        if self.softening is not None:
+            d["softening"] = self.softening
+        if self.opening_angle is not None:
+            d["opening_angle"] = self.opening_angle
+        return d
+
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"optical_depth": self.optical_depth,
                              "n_particles": self.n_particles, "aspect": self.aspect,
                              "gravity": self.gravity}
         if self.initial_state is not None:
             return sheet_dict_with_file(self, d)
-        if self.gravity:
-            d["gravity_solver"] = self.gravity_solver
-            if self.softening is not None:      # None: the slab, which has no pairs
-                d["softening"] = self.softening
-            if self.opening_angle is not None:
-                d["opening_angle"] = self.opening_angle
+        d.update(self.gravity_dict())
         d["initial_dispersion"] = self.initial_dispersion
         d["z_box"] = self.z_box
         return d
