@@ -181,8 +181,7 @@ def run_case(case: str, args, runs: Path, costs: dict) -> None:
     base = [(str(SCENARIOS[k]), overrides(case, k, s, False), str(output(runs, case, k, s, False)))
             for k in SCENARIOS for s in args.seeds]
     run_jobs(base, args.workers, costs)
-    grav = [(str(SCENARIOS[k]), overrides(case, k, s, True), str(output(runs, case, k, s, True)))
-            for k in SCENARIOS for s in args.seeds]
+    grav = gravity_jobs(case, args.seeds, {}, lambda k, s: output(runs, case, k, s, True))
     run_jobs(grav, args.workers, costs)
 
 
@@ -190,16 +189,26 @@ def slab_output(runs: Path, case: str, kappa: float, seed: int) -> Path:
     return runs / f"slab_{case}_kappa{kappa:g}_seed{seed}.h5"
 
 
+def gravity_jobs(case: str, seeds, extra: dict, path_of, label: str | None = None) -> list:
+    """Jobs of the gravity runs of ``case`` (both kappa values, ``seeds``) with the
+    scenario overrides ``extra`` on top, written to ``path_of(kappa, seed)``; ``label``
+    replaces "gravity" at the end of the runs' names."""
+    jobs = []
+    for k in SCENARIOS:
+        for s in seeds:
+            o = {**overrides(case, k, s, True), **extra}
+            if label is not None:
+                o["name"] = f"{case}-kappa{k:g}-{label}"
+            jobs.append((str(SCENARIOS[k]), o, str(path_of(k, s))))
+    return jobs
+
+
 def run_slab(case: str, args, runs: Path, costs: dict) -> None:
     """The gravity runs of ``case`` again with ``sheet.gravity_solver: slab`` (the averaged
     layer's vertical field only, docs/gravity.md 4c): same particles, box and lengths, so
     the report can say how much of gravity's effect the mean field alone gives."""
-    jobs = []
-    for k in SCENARIOS:
-        for s in args.seeds:
-            o = overrides(case, k, s, True)
-            o.update({"sheet.gravity_solver": "slab", "name": f"{case}-kappa{k:g}-slab"})
-            jobs.append((str(SCENARIOS[k]), o, str(slab_output(runs, case, k, s))))
+    jobs = gravity_jobs(case, args.seeds, {"sheet.gravity_solver": "slab"},
+                        lambda k, s: slab_output(runs, case, k, s), label="slab")
     run_jobs(jobs, args.workers, costs)
 
 
@@ -223,13 +232,11 @@ def run_systematics(case: str, args, runs: Path, costs: dict) -> None:
     for source, extra in SYSTEMATIC_VARIANTS.items():
         if source not in args.variants:
             continue
-        for k in SCENARIOS:
-            for s in args.seeds:
-                o = overrides(case, k, s, True)
-                o.update(extra)
-                if source == "n_particles":
-                    o["sheet.n_particles"] = 2 * patch(case)["n_particles"]
-                jobs.append((str(SCENARIOS[k]), o, str(variant_output(runs, source, case, k, s))))
+        if source == "n_particles":
+            extra = {**extra, "sheet.n_particles": 2 * patch(case)["n_particles"]}
+        jobs += gravity_jobs(case, args.seeds, extra,
+                             lambda k, s, source=source: variant_output(runs, source, case,
+                                                                        k, s))
     run_jobs(jobs, args.workers, costs)
     write_budget(case, args, runs)
 
