@@ -73,12 +73,19 @@ ORBITS = {"nograv": 160.0, "gravity": 70.0}
 #: after 70 all 3 of the power law's, had 10-18 of the 20 effective samples (the hot ring
 #: relaxes over several orbits), while the kappa = 0 runs were stationary; the power law's
 #: no-gravity runs had 9-20 after 160 orbits.
-ORBITS_FOR_CASE = {"mono-1e8-0.25": {"nograv": 320.0, "gravity": 140.0,
-                                     "gravity, kappa 0.1": 280.0},
-                   "mono-1.3e8-0.25": {"nograv": 320.0, "gravity": 140.0,
-                                       "gravity, kappa 0.1": 280.0},
-                   "powerlaw-1e8-0.25": {"nograv": 480.0, "gravity": 70.0,
-                                         "gravity, kappa 0.1": 140.0}}
+#: The cases run later take the lengths of the case of their size distribution at
+#: tau = 0.25, except that the no-gravity runs at tau = 0.5 are half as long: the
+#: autocorrelation times are set by the collision rate (proportional to tau), not by the
+#: box, and mono-1e8-0.5's no-gravity runs were stationary after 160 orbits.
+MONO_LENGTHS = {"nograv": 320.0, "gravity": 140.0, "gravity, kappa 0.1": 280.0}
+POWERLAW_LENGTHS = {"nograv": 480.0, "gravity": 70.0, "gravity, kappa 0.1": 140.0}
+ORBITS_FOR_CASE = {"mono-1e8-0.25": MONO_LENGTHS, "mono-1.3e8-0.25": MONO_LENGTHS,
+                   "mono-1e8-0.5": {**MONO_LENGTHS, "nograv": 160.0},
+                   "mono-1.3e8-0.5": {**MONO_LENGTHS, "nograv": 160.0},
+                   "powerlaw-1e8-0.25": POWERLAW_LENGTHS,
+                   "powerlaw-1e8-0.5": {**POWERLAW_LENGTHS, "nograv": 240.0},
+                   "powerlaw-1.3e8-0.25": POWERLAW_LENGTHS,
+                   "powerlaw-1.3e8-0.5": {**POWERLAW_LENGTHS, "nograv": 240.0}}
 
 #: Gravity quantities shown beside the table rows: key -> (label, unit shown).
 GRAVITY_ROWS = {"toomre_Q": ("Toomre Q (from sigma_x)", ""),
@@ -175,13 +182,18 @@ def save_costs(costs: dict) -> None:
     DATA.write_text(json.dumps({"costs": costs, "units": {"cpu_s": "s (CPU)"}}, indent=1))
 
 
+def nograv_jobs(case: str, seeds, runs: Path) -> list:
+    """Jobs of the no-gravity runs of ``case`` (both kappa values, ``seeds``)."""
+    return [(str(SCENARIOS[k]), overrides(case, k, s, False), str(output(runs, case, k, s, False)))
+            for k in SCENARIOS for s in seeds]
+
+
 def run_case(case: str, args, runs: Path, costs: dict) -> None:
     """No-gravity runs of both kappa values and every seed, then the gravity runs, all
     from the scenario's initial state (the same particles for a seed)."""
-    base = [(str(SCENARIOS[k]), overrides(case, k, s, False), str(output(runs, case, k, s, False)))
-            for k in SCENARIOS for s in args.seeds]
-    run_jobs(base, args.workers, costs)
-    grav = gravity_jobs(case, args.seeds, {}, lambda k, s: output(runs, case, k, s, True))
+    run_jobs(nograv_jobs(case, args.seeds, runs), args.workers, costs)
+    grav = gravity_jobs(case, args.seeds, {}, lambda k, s: output(runs, case, k, s, True),
+                        kappas=args.kappas)
     run_jobs(grav, args.workers, costs)
 
 
@@ -189,12 +201,13 @@ def slab_output(runs: Path, case: str, kappa: float, seed: int) -> Path:
     return runs / f"slab_{case}_kappa{kappa:g}_seed{seed}.h5"
 
 
-def gravity_jobs(case: str, seeds, extra: dict, path_of, label: str | None = None) -> list:
-    """Jobs of the gravity runs of ``case`` (both kappa values, ``seeds``) with the
-    scenario overrides ``extra`` on top, written to ``path_of(kappa, seed)``; ``label``
-    replaces "gravity" at the end of the runs' names."""
+def gravity_jobs(case: str, seeds, extra: dict, path_of, label: str | None = None,
+                 kappas=tuple(SCENARIOS)) -> list:
+    """Jobs of the gravity runs of ``case`` (``kappas``, ``seeds``) with the scenario
+    overrides ``extra`` on top, written to ``path_of(kappa, seed)``; ``label`` replaces
+    "gravity" at the end of the runs' names."""
     jobs = []
-    for k in SCENARIOS:
+    for k in kappas:
         for s in seeds:
             o = {**overrides(case, k, s, True), **extra}
             if label is not None:
@@ -203,12 +216,21 @@ def gravity_jobs(case: str, seeds, extra: dict, path_of, label: str | None = Non
     return jobs
 
 
-def run_slab(case: str, args, runs: Path, costs: dict) -> None:
-    """The gravity runs of ``case`` again with ``sheet.gravity_solver: slab`` (the averaged
-    layer's vertical field only, docs/gravity.md 4c): same particles, box and lengths, so
-    the report can say how much of gravity's effect the mean field alone gives."""
-    jobs = gravity_jobs(case, args.seeds, {"sheet.gravity_solver": "slab"},
-                        lambda k, s: slab_output(runs, case, k, s), label="slab")
+def run_slab(cases: list[str], args, runs: Path, costs: dict) -> None:
+    """The gravity runs of ``cases`` with ``sheet.gravity_solver: slab`` (the averaged
+    layer's vertical field only, docs/gravity.md 4c), and their no-gravity twins: same
+    particles, box and lengths as the tree runs, so the report can say how much of
+    gravity's effect the mean field alone gives, and give the ratio with the mean field
+    where the tree is too dear.  All jobs share one pool, the dearest first (particles x
+    orbits, kappa = 0.1 counted twice: its hot ring collides more often)."""
+    jobs = []
+    for case in cases:
+        jobs += nograv_jobs(case, args.seeds, runs)
+        jobs += gravity_jobs(case, args.seeds, {"sheet.gravity_solver": "slab"},
+                             lambda k, s, case=case: slab_output(runs, case, k, s),
+                             label="slab")
+    jobs.sort(key=lambda job: -(job[1]["sheet.n_particles"] * job[1]["integration.orbits"]
+                                * (2.0 if "kappa0.1" in Path(job[2]).name else 1.0)))
     run_jobs(jobs, args.workers, costs)
 
 
@@ -246,6 +268,9 @@ def main() -> None:
     parser.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--kappas", type=float, nargs="+", default=list(SCENARIOS),
+                        choices=list(SCENARIOS),
+                        help="the kappa values of the (tree) gravity runs of --cases")
     parser.add_argument("--runs", default=str(ROOT / "runs" / "kappa_selfgravity"))
     parser.add_argument("--report-only", action="store_true",
                         help="only rewrite the report from the runs that exist")
@@ -254,8 +279,8 @@ def main() -> None:
                         help="run the method variants of this case (seeds --seeds) and write "
                         "the budget against its runs of --base-seeds")
     parser.add_argument("--slab", nargs="+", choices=list(CASES), default=[],
-                        help="run the gravity runs of these cases again with the slab solver "
-                        "(seeds --seeds)")
+                        help="run the gravity runs of these cases with the slab solver, and "
+                        "their no-gravity twins (seeds --seeds)")
     parser.add_argument("--base-seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--variants", nargs="+", default=list(SYSTEMATIC_VARIANTS),
                         choices=list(SYSTEMATIC_VARIANTS), help="sources of --systematics")
@@ -266,8 +291,7 @@ def main() -> None:
     if args.systematics:
         run_systematics(args.systematics, args, runs, costs)
     elif args.slab:
-        for case in args.slab:
-            run_slab(case, args, runs, costs)
+        run_slab(args.slab, args, runs, costs)
     elif not args.report_only:
         for case in args.cases:
             run_case(case, args, runs, costs)
