@@ -4,7 +4,7 @@ For every case (size distribution x distance from Saturn x optical depth) and se
 (or reuses finished runs of) ``scenarios/kappa0-gravity.yaml`` and
 ``scenarios/kappa0.1-gravity.yaml`` with the case's overrides, with self-gravity (REBOUND's
 tree, line detection with kicked paths) and without it (the baseline: same particles, same
-Omega, same box, same initial state), every run for a fixed number of orbits (``ORBITS``)
+Omega, same box, same initial state), every run for a fixed number of orbits (``ORBITS_FOR_CASE``)
 after which the equilibrium finder chooses the stationary window.  Writes
 ``analysis/kappa_selfgravity.md``: the equilibria, the ratio
 kappa = 0.1 / kappa = 0 with and without gravity with the error budget, gravity / no
@@ -63,16 +63,15 @@ CASES = {f"{size}-{a_name}-{tau:g}": (size, a, tau)
 #: initial state (gravity and no-gravity twins alike).
 #: The kappa = 0.1 rings have autocorrelation times of orbits: after 30 orbits with gravity
 #: (80 without) most runs had fewer than the finder's 20 effective samples, so the runs
-#: were extended (--resume, bit-identical to running them whole) to these lengths.
-ORBITS = {"nograv": 160.0, "gravity": 70.0}
-#: Cases whose runs are longer: after 70 / 160 orbits the finder found 10-20 effective
-#: samples in most runs of the monodisperse cases (autocorrelation times of a few orbits
-#: in boxes of 600-740 particles), so they were extended (bit-identical to running them
-#: whole).  A "<gravity or nograv>, kappa <k>" entry sets one kappa value's runs apart:
-#: after 140 orbits 4 of the 6 kappa = 0.1 gravity runs of the monodisperse cases, and
-#: after 70 all 3 of the power law's, had 10-18 of the 20 effective samples (the hot ring
-#: relaxes over several orbits), while the kappa = 0 runs were stationary; the power law's
-#: no-gravity runs had 9-20 after 160 orbits.
+#: were extended (--resume, bit-identical to running them whole) to 70 and 160 orbits.
+#: Then longer, case by case (``ORBITS_FOR_CASE``): after 70 / 160 orbits the finder found
+#: 10-20 effective samples in most runs of the monodisperse cases (autocorrelation times
+#: of a few orbits in boxes of 600-740 particles), so they were extended.  A "<gravity or
+#: nograv>, kappa <k>" entry sets one kappa value's runs apart: after 140 orbits 4 of the
+#: 6 kappa = 0.1 gravity runs of the monodisperse cases, and after 70 all 3 of the power
+#: law's, had 10-18 of the 20 effective samples (the hot ring relaxes over several
+#: orbits), while the kappa = 0 runs were stationary; the power law's no-gravity runs had
+#: 9-20 after 160 orbits.
 #: The cases run later take the lengths of the case of their size distribution at
 #: tau = 0.25, except that the no-gravity runs at tau = 0.5 are half as long: the
 #: autocorrelation times are set by the collision rate (proportional to tau), not by the
@@ -96,7 +95,7 @@ GRAVITY_ROWS = {"toomre_Q": ("Toomre Q (from sigma_x)", ""),
 
 def orbits(case: str, gravity: bool, kappa: float) -> float:
     """Orbits of the runs of ``case`` with or without self-gravity at ``kappa``."""
-    lengths = ORBITS_FOR_CASE.get(case, ORBITS)
+    lengths = ORBITS_FOR_CASE[case]
     key = "gravity" if gravity else "nograv"
     return lengths.get(f"{key}, kappa {kappa:g}", lengths[key])
 

@@ -21,7 +21,6 @@ from kappa_selfgravity import (
     CASES,
     GRAVITY_ROWS,
     MIN_PARTICLES,
-    ORBITS,
     ORBITS_FOR_CASE,
     REPORT,
     ROOT,
@@ -163,11 +162,38 @@ def case_table(groups: dict, comps: dict) -> list[str]:
     return lines
 
 
-def slab_lines(runs: Path, case: str, seeds, groups: dict) -> list[str]:
-    """Markdown: c and H of the slab runs of ``case`` beside the tree's and no gravity's,
-    and the kappa ratio of each; [] without finished slab runs."""
-    slab = {k: load_group(runs, case, k, True, seeds, slab=True) for k in SCENARIOS}
-    if not any(g["kept"] or g["left_out"] for g in slab.values()):
+def case_section(case: str, groups: dict, slab: dict, comps: dict) -> list[str]:
+    """Markdown of one case: its table (gravity columns from the tree, or from the slab
+    where the tree has no stationary runs of both kappa values), the slab against the
+    tree, the runs left out and the runs missing."""
+    left = [line for g in [*groups.values(), *slab.values()] for line in g["left_out"]]
+    missing = [f"{case} kappa {k:g} {'tree' if g else 'no gravity'} seeds {v['missing']}"
+               for (k, g), v in groups.items() if v["missing"]]
+    missing += [f"{case} kappa {k:g} slab seeds {v['missing']}" for k, v in slab.items()
+                if v["missing"]]
+    lines = []
+    if comps[True] is None and comps["slab"] is not None:
+        lines += ["Gravity columns: the slab solver (the mean vertical field only, docs/"
+                  "gravity.md 4c); the tree has no stationary runs of both kappa values here.",
+                  ""]
+        groups = {**groups, **{(k, True): slab[k] for k in SCENARIOS}}
+        comps = {**comps, True: comps["slab"]}
+    lines += [*case_table(groups, comps), "", *slab_lines(case, groups, slab)]
+    lines += [f"- not stationary, left out: {line}" for line in left]
+    return lines + [f"- not run: {line}" for line in missing] + [""]
+
+
+def has_runs(group: dict) -> bool:
+    """Whether a group has a finished run, stationary or not."""
+    return bool(group["kept"] or group["left_out"])
+
+
+def slab_lines(case: str, groups: dict, slab: dict) -> list[str]:
+    """Markdown: c and H of the slab runs of ``case`` (``slab``: kappa -> group) beside the
+    tree's and no gravity's, and the kappa ratio of each; [] without finished slab runs or
+    without tree runs (the case's table then shows the slab runs)."""
+    if not any(has_runs(g) for g in slab.values()) or not any(
+            has_runs(groups[(k, True)]) for k in SCENARIOS):
         return []
     lines = [f"Slab against tree ({case}): the gravity runs again with "
              "`sheet.gravity_solver: slab`, the vertical field of the horizontally averaged "
@@ -187,8 +213,7 @@ def slab_lines(runs: Path, case: str, seeds, groups: dict) -> list[str]:
         ratio_row = {name: quotient(values[0.1][name], values[0.0][name])
                      for name in ("none", "tree", "slab")}
         lines.append(_slab_row(f"{label}, ratio kappa 0.1 / 0", "", 1.0, ratio_row))
-    left = [line for g in slab.values() for line in g["left_out"]]
-    return lines + [""] + [f"- slab, not stationary, left out: {line}" for line in left]
+    return lines + [""]
 
 
 def _slab_row(label: str, unit: str, scale: float, row: dict) -> str:
@@ -241,16 +266,16 @@ def setup_table(cases: list[str], runs: Path) -> list[str]:
 
 
 def headline(rows: list[tuple[str, dict]]) -> list[str]:
-    """The ratio kappa 0.1 / 0 of c and H, with and without gravity, case by case."""
-    lines = ["| case | c: no gravity | c: gravity | H: no gravity | H: gravity |",
-             "|---|---|---|---|---|"]
+    """The ratio kappa 0.1 / 0 of c and H, without gravity, with the tree and with the
+    slab, case by case."""
+    lines = ["| case | c: no gravity | c: gravity, tree | c: gravity, slab | H: no gravity | "
+             "H: gravity, tree | H: gravity, slab |", "|---|---|---|---|---|---|---|"]
     for case, comps in rows:
         cells = []
         for key in HEADLINE:
-            for gravity in (False, True):
-                comp = comps[gravity]
-                cells.append(fmt_ratio(comp["ratios"][0][key]) if comp
-                             else "no stationary runs of both kappa values")
+            for solver in (False, True, "slab"):
+                comp = comps[solver]
+                cells.append(fmt_ratio(comp["ratios"][0][key]) if comp else "-")
         lines.append(f"| {case} | " + " | ".join(cells) + " |")
     return lines
 
@@ -293,9 +318,10 @@ def cost_lines(runs: Path, costs: dict) -> list[str]:
     return lines
 
 
-def not_done_lines(runs: Path, costs: dict, not_run: list[str]) -> list[str]:
-    """The cost of the cases not run, from the measured CPU per particle-step of the
-    gravity runs (tree gravity, line detection, 1000 steps per orbit), and the rest."""
+def not_done_lines(runs: Path, costs: dict, no_tree: list[str]) -> list[str]:
+    """The cost of the tree runs of the cases without them (``no_tree``), from the measured
+    CPU per particle-step of the tree runs (line detection, 1000 steps per orbit), and the
+    rest."""
     rates = []
     for path in runs.glob("gravity_*.h5"):
         c = costs.get(path.name)
@@ -308,18 +334,16 @@ def not_done_lines(runs: Path, costs: dict, not_run: list[str]) -> list[str]:
             continue
         rates.append(c["cpu_s"] / (covered * 1000.0 * run.scenario.sheet.n_particles))
     lines = []
-    if rates and not_run:
+    if rates and no_tree:
         rate = float(np.median(rates))
-        need = sum(2 * 3 * ORBITS["gravity"] * 1000.0 * patch(case)["n_particles"] * rate
-                   for case in not_run)
-        longer = sum(3 * (140.0 + 280.0) * 1000.0 * patch(case)["n_particles"] * rate
-                     for case in not_run)
-        lines.append(f"- Their gravity runs (2 kappa values x 3 seeds x {ORBITS['gravity']:g} "
-                     f"orbits) at the measured {rate * 1e6:.1f} us of CPU per particle-step "
-                     f"(median of the gravity runs above): about {need / 3600:.0f} CPU-hours, "
-                     f"{longer / 3600:.0f} at the lengths the monodisperse cases needed to be "
-                     "stationary (140 orbits for kappa = 0, 280 for kappa = 0.1); more where "
-                     "the tree's cost per particle grows with N.")
+        need = sum(3 * 1000.0 * patch(case)["n_particles"] * rate * orbits(case, True, k)
+                   for case in no_tree for k in SCENARIOS)
+        lines.append(f"- Tree runs of {', '.join(no_tree)} (2 kappa values x 3 seeds at "
+                     "the lengths above) at the measured "
+                     f"{rate * 1e6:.1f} us of CPU per particle-step (median of the tree runs "
+                     f"above): about {need / 3600:.0f} CPU-hours, more where the tree's cost "
+                     "per particle grows with N. The slab runs stand in for them (\"Slab "
+                     "against tree\").")
     measured = (sorted({src for parts in json.loads(BUDGET.read_text())["relative"].values()
                         for src in parts}) if BUDGET.exists() else [])
     lines += ["- The systematic budget with gravity: "
@@ -330,9 +354,8 @@ def not_done_lines(runs: Path, costs: dict, not_run: list[str]) -> list[str]:
               "negligible against the statistical errors here).",
               "- Boxes of at least 4 lambda_cr for wake statistics (here 2.1-4.2); no case "
               "forms wakes with this law, so none was needed for the numbers above.",
-              "- With the slab solver, which matched the tree in the cases above (\"Slab "
-              "against tree\"), the cases not run would cost about what their no-gravity "
-              "runs cost (0.3-0.5 CPU-s per orbit for 600-740 particles)."]
+              "- With the slab solver the cases not run would cost about what their "
+              "no-gravity runs cost (0.3-0.6 ms of CPU per particle-orbit)."]
     return lines
 
 
@@ -372,20 +395,16 @@ def write_report(args, runs: Path, costs: dict) -> None:
     for case in CASES:
         groups = {(k, g): load_group(runs, case, k, g, args.seeds)
                   for k in SCENARIOS for g in (False, True)}
-        if not any(groups[(k, g)]["kept"] or groups[(k, g)]["left_out"]
-                   for k in SCENARIOS for g in (False, True)):
+        slab = {k: load_group(runs, case, k, True, args.seeds, slab=True) for k in SCENARIOS}
+        if not any(has_runs(g) for g in [*groups.values(), *slab.values()]):
             not_run.append(case)
             continue
         comps = {g: ratio([groups[(0.0, g)], groups[(0.1, g)]], budget if g else None)
                  for g in (False, True)}
+        comps["slab"] = ratio([slab[0.0], slab[0.1]], None)
         rows.append((case, comps))
-        left = [line for g in groups.values() for line in g["left_out"]]
-        missing = [f"{case} kappa {k:g} {'gravity' if g else 'no gravity'} seeds {v['missing']}"
-                   for (k, g), v in groups.items() if v["missing"]]
-        sections += [f"### {case}", "", *case_table(groups, comps), ""]
-        sections += slab_lines(runs, case, args.seeds, groups)
-        sections += [f"- not stationary, left out: {line}" for line in left]
-        sections += [f"- not run: {line}" for line in missing] + [""]
+        sections += [f"### {case}", "", *case_section(case, groups, slab, comps)]
+    tree_less = [case for case, comps in rows if comps[True] is None]
     explanation = (EXPLANATION_FILE.read_text().splitlines() if EXPLANATION_FILE.exists()
                    else ["(not written yet)"])
     done = [case for case, _ in rows]
@@ -393,10 +412,10 @@ def write_report(args, runs: Path, costs: dict) -> None:
         "# Ring equilibria with kappa = 0 and kappa = 0.1 with self-gravity (issue 12, item 6)",
         "", "Produced by `python analysis/kappa_selfgravity.py --cases ... --seeds "
         + " ".join(str(s) for s in args.seeds) + "` (finished runs are reused; "
-        "`--report-only` rewrites this file). Each case: both kappa values, with and without "
+        "`--report-only` rewrites this file; `--slab CASE ...` runs the slab runs and "
+        "their no-gravity twins). Each case: both kappa values, with and without "
         "self-gravity, every seed from the scenario's initial state (the same particles "
-        f"with and without gravity), {ORBITS['gravity']:g} orbits with gravity and "
-        f"{ORBITS['nograv']:g} without ("
+        "with and without gravity), for a fixed number of orbits with gravity and without ("
         + "; ".join(f"{c}: {o['gravity']:g} and {o['nograv']:g}"
                     + "".join(f", {k.split(', ')[1]} {k.split(', ')[0]}: {v:g}"
                               for k, v in o.items() if ", " in k)
@@ -406,7 +425,9 @@ def write_report(args, runs: Path, costs: dict) -> None:
         "out. No run stops early: `until_equilibrium` was caught inside slow transients "
         "(see the note on the first attempt below). Self-gravity: REBOUND's tree "
         "(opening angle 0.3, the field beyond the ghost boxes added; 0.5 % rms force error, "
-        "docs/gravity.md), softening 0.1 x the smallest radius. Collisions: line detection "
+        "docs/gravity.md), softening 0.1 x the smallest radius, or, where a table says so, "
+        "the slab solver (the vertical field of the horizontally averaged layer, "
+        "docs/gravity.md 4c), which the tree was checked against. Collisions: line detection "
         "with kicked paths at 1e-3 orbit (docs/gravity.md, \"Line detection with "
         "self-gravity\"). Dilley law xi0 = 0.16, p = 0.65; solid ice, 900 kg/m^3. Boxes: at "
         f"least {BOX_LAMBDA:g} lambda_cr on a side and {MIN_PARTICLES} particles.", "",
@@ -422,7 +443,7 @@ def write_report(args, runs: Path, costs: dict) -> None:
         "## Not done", "",
         *([f"- case {case}: not run ({patch(case)['n_particles']} particles)"
            for case in not_run] or ["- every case was run"]),
-        *not_done_lines(runs, costs, not_run), "",
+        *not_done_lines(runs, costs, not_run + tree_less), "",
         "## Cost (measured, CPU of each run's worker process)", "",
         *cost_lines(runs, costs), ""]
     Path(args.report).write_text("\n".join(lines))
