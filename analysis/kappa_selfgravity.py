@@ -77,7 +77,10 @@ CASES = {f"{size}-{a_name}-{tau:g}": (size, a, tau)
 #: autocorrelation times are set by the collision rate (proportional to tau), not by the
 #: box, and mono-1e8-0.5's no-gravity runs were stationary after 160 orbits.
 MONO_LENGTHS = {"nograv": 320.0, "gravity": 140.0, "gravity, kappa 0.1": 280.0}
-POWERLAW_LENGTHS = {"nograv": 480.0, "gravity": 70.0, "gravity, kappa 0.1": 140.0}
+#: The power law's slab runs are 140 orbits for both kappa values: after 70, 2 of 3 kappa
+#: = 0 slab runs were stationary, and slab runs cost 1/20-1/40 of the tree's.
+POWERLAW_LENGTHS = {"nograv": 480.0, "gravity": 70.0, "gravity, kappa 0.1": 140.0,
+                    "slab": 140.0}
 ORBITS_FOR_CASE = {"mono-1e8-0.25": MONO_LENGTHS, "mono-1.3e8-0.25": MONO_LENGTHS,
                    "mono-1e8-0.5": {**MONO_LENGTHS, "nograv": 160.0},
                    "mono-1.3e8-0.5": {**MONO_LENGTHS, "nograv": 160.0},
@@ -93,11 +96,17 @@ GRAVITY_ROWS = {"toomre_Q": ("Toomre Q (from sigma_x)", ""),
                 "gravitational_viscosity": ("gravitational viscosity", "m^2/s")}
 
 
-def orbits(case: str, gravity: bool, kappa: float) -> float:
-    """Orbits of the runs of ``case`` with or without self-gravity at ``kappa``."""
+def orbits(case: str, gravity: bool, kappa: float, slab: bool = False) -> float:
+    """Orbits of the runs of ``case`` with or without self-gravity at ``kappa``; ``slab``:
+    of its slab runs, whose own entries ("slab", "slab, kappa <k>") come first."""
     lengths = ORBITS_FOR_CASE[case]
-    key = "gravity" if gravity else "nograv"
-    return lengths.get(f"{key}, kappa {kappa:g}", lengths[key])
+    keys = ["slab"] if slab else []
+    keys.append("gravity" if gravity or slab else "nograv")
+    for key in keys:
+        for name in (f"{key}, kappa {kappa:g}", key):
+            if name in lengths:
+                return lengths[name]
+    raise KeyError(f"no length for {case}")
 
 
 def moments(size: str) -> tuple[float, float, float]:
@@ -133,8 +142,8 @@ def plain_sheet(kappa: float) -> dict:
     return sheet
 
 
-def overrides(case: str, kappa: float, seed: int, gravity: bool) -> dict:
-    """Scenario overrides of one run."""
+def overrides(case: str, kappa: float, seed: int, gravity: bool, slab: bool = False) -> dict:
+    """Scenario overrides of one run (``slab``: a gravity run with the slab solver)."""
     size, a, tau = CASES[case]
     p = patch(case)
     out = {} if gravity else {"sheet": plain_sheet(kappa)}
@@ -142,8 +151,10 @@ def overrides(case: str, kappa: float, seed: int, gravity: bool) -> dict:
            "sheet.n_particles": p["n_particles"],
            "particles.size_distribution": SIZES[size],
            "integration.until_equilibrium": False, "integration.threads": 1,
-           "integration.orbits": orbits(case, gravity, kappa),
+           "integration.orbits": orbits(case, gravity, kappa, slab),
            "name": f"{case}-kappa{kappa:g}-{'gravity' if gravity else 'nogravity'}"})
+    if slab:
+        out.update({"sheet.gravity_solver": "slab", "name": f"{case}-kappa{kappa:g}-slab"})
     return out
 
 
@@ -200,19 +211,13 @@ def slab_output(runs: Path, case: str, kappa: float, seed: int) -> Path:
     return runs / f"slab_{case}_kappa{kappa:g}_seed{seed}.h5"
 
 
-def gravity_jobs(case: str, seeds, extra: dict, path_of, label: str | None = None,
+def gravity_jobs(case: str, seeds, extra: dict, path_of, slab: bool = False,
                  kappas=tuple(SCENARIOS)) -> list:
-    """Jobs of the gravity runs of ``case`` (``kappas``, ``seeds``) with the scenario
-    overrides ``extra`` on top, written to ``path_of(kappa, seed)``; ``label`` replaces
-    "gravity" at the end of the runs' names."""
-    jobs = []
-    for k in kappas:
-        for s in seeds:
-            o = {**overrides(case, k, s, True), **extra}
-            if label is not None:
-                o["name"] = f"{case}-kappa{k:g}-{label}"
-            jobs.append((str(SCENARIOS[k]), o, str(path_of(k, s))))
-    return jobs
+    """Jobs of the gravity runs of ``case`` (``kappas``, ``seeds``; ``slab``: with the slab
+    solver) with the scenario overrides ``extra`` on top, written to
+    ``path_of(kappa, seed)``."""
+    return [(str(SCENARIOS[k]), {**overrides(case, k, s, True, slab), **extra},
+             str(path_of(k, s))) for k in kappas for s in seeds]
 
 
 def run_slab(cases: list[str], args, runs: Path, costs: dict) -> None:
@@ -220,33 +225,37 @@ def run_slab(cases: list[str], args, runs: Path, costs: dict) -> None:
     layer's vertical field only, docs/gravity.md 4c), and their no-gravity twins: same
     particles, box and lengths as the tree runs, so the report can say how much of
     gravity's effect the mean field alone gives, and give the ratio with the mean field
-    where the tree is too dear.  All jobs share one pool, the dearest first (particles x
-    orbits, kappa = 0.1 counted twice: its hot ring collides more often)."""
+    where the tree is too dear.  All jobs share one pool, the dearest first."""
     jobs = []
     for case in cases:
         jobs += nograv_jobs(case, args.seeds, runs)
-        jobs += gravity_jobs(case, args.seeds, {"sheet.gravity_solver": "slab"},
-                             lambda k, s, case=case: slab_output(runs, case, k, s),
-                             label="slab")
-    jobs.sort(key=lambda job: -(job[1]["sheet.n_particles"] * job[1]["integration.orbits"]
-                                * (2.0 if "kappa0.1" in Path(job[2]).name else 1.0)))
+        jobs += gravity_jobs(case, args.seeds, {},
+                             lambda k, s, case=case: slab_output(runs, case, k, s), slab=True)
+    jobs.sort(key=job_cost, reverse=True)
     run_jobs(jobs, args.workers, costs)
 
 
 #: Method variants of the systematic budget (``--systematics CASE``): source -> overrides
-#: of the gravity runs ("n_particles": twice the case's particles, a box sqrt(2) times as
-#: wide; "dt": the step halved).
+#: of the runs ("n_particles": twice the case's particles, a box sqrt(2) times as wide;
+#: "dt": the step halved).
 SYSTEMATIC_VARIANTS = {"dt": {"integration.dt": 5e-4}, "n_particles": {}}
+#: Kinds of run a variant repeats: "nograv" (no self-gravity), "slab" (the slab solver)
+#: and "gravity" (the tree: its dt variant of mono-1e8-0.25, seed 1, 70 orbits, was run
+#: before the budget moved to the slab, which costs 20-40 times less).
+VARIANT_KINDS = ("nograv", "slab")
 
 
-def variant_output(runs: Path, source: str, case: str, kappa: float, seed: int) -> Path:
-    return runs / f"syst-{source}_{case}_kappa{kappa:g}_seed{seed}.h5"
+def variant_output(runs: Path, source: str, case: str, kappa: float, seed: int,
+                   kind: str = "gravity") -> Path:
+    tag = source if kind == "gravity" else f"{source}-{kind}"
+    return runs / f"syst-{tag}_{case}_kappa{kappa:g}_seed{seed}.h5"
 
 
 def run_systematics(case: str, args, runs: Path, costs: dict) -> None:
-    """The gravity runs of ``case`` again with each method variant (seeds ``args.seeds``),
-    and the budget file: the relative change of the gravity ratio per source, or its
-    statistical error if larger (as analysis/kappa_comparison.py)."""
+    """The no-gravity and slab runs of ``case`` again with each method variant (seeds
+    ``args.seeds``), and the budget file of the case's size distribution: the relative
+    change of each ratio per source, or its statistical error if larger (as
+    analysis/kappa_comparison.py)."""
     from kappa_selfgravity_report import write_budget
 
     jobs = []
@@ -255,11 +264,24 @@ def run_systematics(case: str, args, runs: Path, costs: dict) -> None:
             continue
         if source == "n_particles":
             extra = {**extra, "sheet.n_particles": 2 * patch(case)["n_particles"]}
-        jobs += gravity_jobs(case, args.seeds, extra,
-                             lambda k, s, source=source: variant_output(runs, source, case,
-                                                                        k, s))
+        for kind in VARIANT_KINDS:
+            def path_of(k, s, source=source, kind=kind):
+                return variant_output(runs, source, case, k, s, kind)
+            if kind == "nograv":
+                jobs += [(str(SCENARIOS[k]), {**overrides(case, k, s, False), **extra},
+                          str(path_of(k, s))) for k in SCENARIOS for s in args.seeds]
+            else:
+                jobs += gravity_jobs(case, args.seeds, extra, path_of, slab=True)
+    jobs.sort(key=job_cost, reverse=True)
     run_jobs(jobs, args.workers, costs)
     write_budget(case, args, runs)
+
+
+def job_cost(job: tuple) -> float:
+    """Relative cost of a job, to start the dearest first: particles x orbits, kappa = 0.1
+    counted twice (its hot ring collides more often)."""
+    return (job[1]["sheet.n_particles"] * job[1]["integration.orbits"]
+            * (2.0 if "kappa0.1" in Path(job[2]).name else 1.0))
 
 
 def main() -> None:

@@ -3,8 +3,8 @@
 Reads the runs of every case that exist, combines the seeds (``ringsim.analysis.compare``:
 replicas, statistical error the larger of the propagated one and the seed scatter), forms
 the ratio kappa = 0.1 / kappa = 0 with and without self-gravity with the systematic budget
-of ``analysis/data/kappa_selfgravity_budget.json`` (what is in it is said in the report),
-and writes the tables, the measured costs and what is not done.
+of ``analysis/data/kappa_selfgravity_budget_<size>.json`` (what is in it is said in the
+report), and writes the tables, the measured costs and what is not done.
 """
 
 from __future__ import annotations
@@ -41,7 +41,6 @@ from ringsim.errors import InputError
 from ringsim.physics.gravity import toomre_q
 from ringsim.store.runfile import open_run
 
-BUDGET = ROOT / "analysis" / "data" / "kappa_selfgravity_budget.json"
 EXPLANATION_FILE = ROOT / "analysis" / "data" / "kappa_selfgravity_explanation.md"
 #: The quantities of the headline table.
 HEADLINE = ("velocity_dispersion", "thickness")
@@ -84,7 +83,7 @@ def load_group(runs: Path, case: str, kappa: float, gravity: bool, seeds,
         except (OSError, KeyError, InputError):   # being written, or damaged
             missing.append(seed)
             continue
-        wanted = orbits(case, gravity, kappa)
+        wanted = orbits(case, gravity, kappa, slab)
         if run.attrs.get("status") != "finished" or run.scenario.integration.orbits != wanted:
             missing.append(seed)     # still running, or not yet extended to its length
             continue
@@ -181,6 +180,15 @@ def case_section(case: str, groups: dict, slab: dict, comps: dict) -> list[str]:
     lines += [*case_table(groups, comps), "", *slab_lines(case, groups, slab)]
     lines += [f"- not stationary, left out: {line}" for line in left]
     return lines + [f"- not run: {line}" for line in missing] + [""]
+
+
+def case_comps(groups: dict, slab: dict, budgets: dict) -> dict:
+    """The comparisons kappa 0.1 / 0 of a case: no gravity (False), tree (True) and slab,
+    each with its budget of ``budgets`` (None or missing: not measured)."""
+    comps = {g: ratio([groups[(0.0, g)], groups[(0.1, g)]], budgets.get(g))
+             for g in (False, True)}
+    comps["slab"] = ratio([slab[0.0], slab[0.1]], budgets.get("slab"))
+    return comps
 
 
 def has_runs(group: dict) -> bool:
@@ -280,14 +288,34 @@ def headline(rows: list[tuple[str, dict]]) -> list[str]:
     return lines
 
 
-def budget_lines(budget: dict | None) -> list[str]:
-    if budget is None:
-        return ["No systematic budget file (`analysis/data/kappa_selfgravity_budget.json`): "
-                "the systematic parts are \"not measured\"."]
-    parts = "; ".join(f"{key}: " + ", ".join(f"{s} {v:.3g}" for s, v in d.items())
-                      for key, d in budget["relative"].items())
-    return [f"Systematic budget ({budget['measured_by']}): {budget['description']}",
-            "", f"Relative parts: {parts}."]
+def budget_lines(budgets: dict, solver: dict) -> list[str]:
+    """Markdown: how each size distribution's budget was measured, and its parts for c
+    and H (per cent of the ratio), the slab's solver part included."""
+    lines = ["Systematic parts are relative errors of the ratio kappa 0.1 / 0, added in "
+             "quadrature (`ringsim compare`). They are measured with the slab solver and "
+             "applied to the tree's ratio as well (a tree variant costs 20-40 times more); "
+             "the slab's ratio also carries `gravity_solver`, the largest slab / tree "
+             "difference of its ratio (or its error, if larger) over the cases with both. "
+             "The detection part is measured per step, not per run: kicked paths are within "
+             "5.4e-4 of the converged dissipation (docs/gravity.md).", ""]
+    if not budgets and not solver:
+        return lines + ["No budget file yet: the systematic parts are \"not measured\"."]
+    lines += ["| size distribution | ratio | source | c [%] | H [%] |", "|---|---|---|---|---|"]
+    for size in SIZES:
+        b = budgets.get(size, {})
+        for kind, label in (("nograv", "no gravity"), ("slab", "gravity (tree and slab)")):
+            rel = b.get(kind, {}).get("relative", {})
+            for source in sorted({src for parts in rel.values() for src in parts}):
+                cells = [f"{100 * rel.get(key, {}).get(source, math.nan):.2g}"
+                         for key in HEADLINE]
+                lines.append(f"| {size} | {label} | {source} | " + " | ".join(cells) + " |")
+        if size in solver:
+            cells = [f"{100 * solver[size].get(key, math.nan):.2g}" for key in HEADLINE]
+            lines.append(f"| {size} | gravity, slab | gravity_solver | " + " | ".join(cells)
+                         + " |")
+    lines += [""] + [f"- {size}: {b['description']} (`{b['measured_by']}`)."
+                     for size, b in budgets.items()]
+    return lines
 
 
 def recorded_orbits(cost: dict) -> float | None:
@@ -344,54 +372,93 @@ def not_done_lines(runs: Path, costs: dict, no_tree: list[str]) -> list[str]:
                      f"above): about {need / 3600:.0f} CPU-hours, more where the tree's cost "
                      "per particle grows with N. The slab runs stand in for them (\"Slab "
                      "against tree\").")
-    measured = (sorted({src for parts in json.loads(BUDGET.read_text())["relative"].values()
-                        for src in parts}) if BUDGET.exists() else [])
-    lines += ["- The systematic budget with gravity: "
-              + (f"measured only for {', '.join(measured)} (see above); " if measured else "")
-              + "particle number and box size not measured (the variant was started and "
-              "stopped for the time); the detection part is measured per step "
-              "(docs/gravity.md: kicked paths within 5.4e-4 of the converged dissipation, "
-              "negligible against the statistical errors here).",
-              "- Boxes of at least 4 lambda_cr for wake statistics (here 2.1-4.2); no case "
+    missing = [size for size in SIZES if not budget_file(size).exists()]
+    lines += [f"- The systematic budget of the {size} cases (no budget file)."
+              for size in missing]
+    lines += ["- Boxes of at least 4 lambda_cr for wake statistics (here 2.1-4.2); no case "
               "forms wakes with this law, so none was needed for the numbers above.",
               "- With the slab solver the cases not run would cost about what their "
               "no-gravity runs cost (0.3-0.6 ms of CPU per particle-orbit)."]
     return lines
 
 
+def budget_file(size: str) -> Path:
+    """The systematic budget of the cases of size distribution ``size`` (``SIZES``)."""
+    return ROOT / "analysis" / "data" / f"kappa_selfgravity_budget_{size}.json"
+
+
 def write_budget(case: str, args, runs: Path) -> None:
-    """BUDGET from the variants of ``case``: for each source and table quantity the relative
-    change of the gravity ratio kappa 0.1 / 0, or its statistical error if larger."""
-    from kappa_selfgravity import SYSTEMATIC_VARIANTS, variant_output
+    """The budget of ``case``'s size distribution from the variants of ``case``: for each
+    kind of run (no gravity, slab), source and table quantity the relative change of the
+    ratio kappa 0.1 / 0, or its statistical error if larger."""
+    from kappa_selfgravity import SYSTEMATIC_VARIANTS, VARIANT_KINDS, variant_output
 
     def group(paths):
         eqs = [equilibrium(open_run(p)) for p in paths if p.exists()]
         return {"kept": [e for e in eqs if e["in_equilibrium"]]}
 
-    base = ratio([load_group(runs, case, k, True, args.base_seeds) for k in (0.0, 0.1)],
-                 None)
-    relative: dict[str, dict[str, float]] = {key: {} for key in TABLE_ROWS}
-    for source in SYSTEMATIC_VARIANTS:
-        other = ratio([group([variant_output(runs, source, case, k, s) for s in args.seeds])
-                       for k in (0.0, 0.1)], None)
-        if base is None or other is None:
+    out = {}
+    for kind in VARIANT_KINDS:
+        base = ratio([load_group(runs, case, k, kind != "nograv", args.base_seeds,
+                                 slab=kind == "slab") for k in SCENARIOS], None)
+        relative: dict[str, dict[str, float]] = {key: {} for key in TABLE_ROWS}
+        for source in SYSTEMATIC_VARIANTS:
+            other = ratio([group([variant_output(runs, source, case, k, s, kind)
+                                  for s in args.seeds]) for k in SCENARIOS], None)
+            if base is None or other is None:
+                continue
+            for key, value in relative_changes(base["ratios"][0], other["ratios"][0]).items():
+                relative[key][source] = value
+        out[kind] = {"relative": {k: v for k, v in relative.items() if v}}
+    path = budget_file(CASES[case][0])
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps({
+        "description": f"the no-gravity and slab runs of case {case} (seeds "
+                       f"{list(args.base_seeds)}) again, seeds {list(args.seeds)}, with the "
+                       "step halved (dt) and with twice the particles, a box sqrt(2) times as "
+                       "wide (n_particles); each entry the relative change of the ratio "
+                       "kappa 0.1 / 0, or its statistical error if larger",
+        "measured_by": f"analysis/kappa_selfgravity.py --systematics {case}", **out},
+        indent=1) + "\n")
+
+
+def load_budgets() -> dict:
+    """size distribution -> its budget file's contents, for the files that exist."""
+    return {size: json.loads(budget_file(size).read_text()) for size in SIZES
+            if budget_file(size).exists()}
+
+
+def solver_parts(rows: list[tuple[str, dict]]) -> dict:
+    """size distribution -> quantity -> the largest relative difference between the slab's
+    and the tree's ratio (or its statistical error if larger) over the cases of that size
+    distribution that have both: the slab's systematic as a stand-in for the tree."""
+    parts: dict[str, dict[str, float]] = {}
+    for case, comps in rows:
+        if comps[True] is None or comps["slab"] is None:
             continue
-        for key, value in relative_changes(base["ratios"][0], other["ratios"][0]).items():
-            relative[key][source] = value
-    BUDGET.parent.mkdir(parents=True, exist_ok=True)
-    BUDGET.write_text(json.dumps({
-        "description": f"the gravity runs of case {case} (seeds {list(args.base_seeds)}) "
-                       f"again, seeds {list(args.seeds)}, "
-                       "with the step halved (dt) and with twice the particles, a box "
-                       "sqrt(2) times as wide (n_particles); each entry the relative change of the "
-                       "ratio kappa 0.1 / 0, or its statistical error if larger",
-        "measured_by": f"analysis/kappa_selfgravity.py --systematics {case}",
-        "relative": {k: v for k, v in relative.items() if v}}, indent=1) + "\n")
+        changes = relative_changes(comps[True]["ratios"][0], comps["slab"]["ratios"][0])
+        size = parts.setdefault(CASES[case][0], {})
+        for key, value in changes.items():
+            size[key] = max(size.get(key, 0.0), value)
+    return parts
+
+
+def case_budgets(case: str, budgets: dict, solver: dict) -> dict:
+    """The budgets of a case's three ratios: no gravity, tree and slab (the slab's with the
+    solver part added); None where not measured."""
+    size = CASES[case][0]
+    b = budgets.get(size)
+    nograv = b["nograv"] if b else None
+    gravity = b["slab"] if b else None
+    relative = {key: dict(parts) for key, parts in (gravity or {"relative": {}})["relative"]
+                .items()}
+    for key, value in solver.get(size, {}).items():
+        relative.setdefault(key, {})["gravity_solver"] = value
+    return {False: nograv, True: gravity, "slab": {"relative": relative} if relative else None}
 
 
 def write_report(args, runs: Path, costs: dict) -> None:
-    budget = json.loads(BUDGET.read_text()) if BUDGET.exists() else None
-    rows, sections, not_run = [], [], []
+    loaded, not_run = {}, []
     for case in CASES:
         groups = {(k, g): load_group(runs, case, k, g, args.seeds)
                   for k in SCENARIOS for g in (False, True)}
@@ -399,9 +466,13 @@ def write_report(args, runs: Path, costs: dict) -> None:
         if not any(has_runs(g) for g in [*groups.values(), *slab.values()]):
             not_run.append(case)
             continue
-        comps = {g: ratio([groups[(0.0, g)], groups[(0.1, g)]], budget if g else None)
-                 for g in (False, True)}
-        comps["slab"] = ratio([slab[0.0], slab[0.1]], None)
+        loaded[case] = (groups, slab)
+    budgets = load_budgets()
+    solver = solver_parts([(case, case_comps(groups, slab, {}))
+                           for case, (groups, slab) in loaded.items()])
+    rows, sections = [], []
+    for case, (groups, slab) in loaded.items():
+        comps = case_comps(groups, slab, case_budgets(case, budgets, solver))
         rows.append((case, comps))
         sections += [f"### {case}", "", *case_section(case, groups, slab, comps)]
     tree_less = [case for case, comps in rows if comps[True] is None]
@@ -438,7 +509,7 @@ def write_report(args, runs: Path, costs: dict) -> None:
         "gravity, systematic (below); a ratio is formed only from runs the finder calls "
         "stationary.", "",
         "## What changes and why", "", *explanation, "",
-        "## Error budget", "", *budget_lines(budget), "", *FIRST_ATTEMPT, "",
+        "## Error budget", "", *budget_lines(budgets, solver), "", *FIRST_ATTEMPT, "",
         "## Every case", "", *sections,
         "## Not done", "",
         *([f"- case {case}: not run ({patch(case)['n_particles']} particles)"

@@ -44,6 +44,7 @@ SOURCES = {
     "n_particles": "ratio with a different particle number at the same optical depth",
     "box_size": "ratio with a different box aspect or size",
     "seeds": "ratio between independent replica sets",
+    "gravity_solver": "ratio with the slab (mean vertical field) solver against the tree",
 }
 
 
