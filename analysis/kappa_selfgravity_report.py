@@ -314,6 +314,7 @@ def budget_lines(budgets: dict, solver: dict) -> list[str]:
             lines.append(f"| {size} | gravity, slab | gravity_solver | " + " | ".join(cells)
                          + " |")
     lines += [""] + [f"- {size}: {b['description']} (`{b['measured_by']}`)."
+                     + "".join(f" Not measured: {x}." for x in b.get("not_measured", []))
                      for size, b in budgets.items()]
     return lines
 
@@ -397,7 +398,7 @@ def write_budget(case: str, args, runs: Path) -> None:
         eqs = [equilibrium(open_run(p)) for p in paths if p.exists()]
         return {"kept": [e for e in eqs if e["in_equilibrium"]]}
 
-    out = {}
+    out, unmeasured = {}, []
     for kind in VARIANT_KINDS:
         base = ratio([load_group(runs, case, k, kind != "nograv", args.base_seeds,
                                  slab=kind == "slab") for k in SCENARIOS], None)
@@ -406,6 +407,9 @@ def write_budget(case: str, args, runs: Path) -> None:
             other = ratio([group([variant_output(runs, source, case, k, s, kind)
                                   for s in args.seeds]) for k in SCENARIOS], None)
             if base is None or other is None:
+                unmeasured.append(f"{kind} {source}: no stationary "
+                                  + ("base runs" if base is None else "variant runs")
+                                  + " of both kappa values")
                 continue
             for key, value in relative_changes(base["ratios"][0], other["ratios"][0]).items():
                 relative[key][source] = value
@@ -418,7 +422,8 @@ def write_budget(case: str, args, runs: Path) -> None:
                        "step halved (dt) and with twice the particles, a box sqrt(2) times as "
                        "wide (n_particles); each entry the relative change of the ratio "
                        "kappa 0.1 / 0, or its statistical error if larger",
-        "measured_by": f"analysis/kappa_selfgravity.py --systematics {case}", **out},
+        "measured_by": f"analysis/kappa_selfgravity.py --systematics {case}",
+        "not_measured": unmeasured, **out},
         indent=1) + "\n")
 
 
