@@ -75,14 +75,17 @@ CASES = {f"{size}-{a_name}-{tau:g}": (size, a, tau)
 #: The cases run later take the lengths of the case of their size distribution at
 #: tau = 0.25, except that the no-gravity runs at tau = 0.5 are half as long: the
 #: autocorrelation times are set by the collision rate (proportional to tau), not by the
-#: box, and mono-1e8-0.5's no-gravity runs were stationary after 160 orbits.
+#: box, and mono-1e8-0.5's no-gravity runs were stationary after 160 orbits.  Its one
+#: tree run (kappa = 0, seed 1, the check of the slab in the densest ring) had 17.8 of 20
+#: effective samples after 140 orbits, so it runs to 210.
 MONO_LENGTHS = {"nograv": 320.0, "gravity": 140.0, "gravity, kappa 0.1": 280.0}
 #: The power law's slab runs are 140 orbits for both kappa values: after 70, 2 of 3 kappa
 #: = 0 slab runs were stationary, and slab runs cost 1/20-1/40 of the tree's.
 POWERLAW_LENGTHS = {"nograv": 480.0, "gravity": 70.0, "gravity, kappa 0.1": 140.0,
                     "slab": 140.0}
 ORBITS_FOR_CASE = {"mono-1e8-0.25": MONO_LENGTHS, "mono-1.3e8-0.25": MONO_LENGTHS,
-                   "mono-1e8-0.5": {**MONO_LENGTHS, "nograv": 160.0},
+                   "mono-1e8-0.5": {**MONO_LENGTHS, "nograv": 160.0,
+                                    "gravity, kappa 0": 210.0, "slab, kappa 0": 140.0},
                    "mono-1.3e8-0.5": {**MONO_LENGTHS, "nograv": 160.0},
                    "powerlaw-1e8-0.25": POWERLAW_LENGTHS,
                    "powerlaw-1e8-0.5": {**POWERLAW_LENGTHS, "nograv": 240.0},
