@@ -47,6 +47,13 @@ DENSITY = 900.0             # [kg/m^3], as the scenarios
 #: Smallest box side in Toomre wavelengths (wakes need 2), and fewest particles.
 BOX_LAMBDA = 2.1
 MIN_PARTICLES = 600
+#: Cases run with the slab solver only, in smaller boxes: case -> particles.  Their boxes
+#: of 2.1 lambda_cr would hold 5886 and 19329 particles (tree: about 60 and 150 CPU-hours
+#: at the lengths below).  The slab has no horizontal modes, so its field does not depend
+#: on the box's size in lambda_cr; what a smaller box changes is measured by the budget's
+#: n_particles part.  Such a case's box is below the 2 lambda_cr wakes need: its tree runs,
+#: if ever made, need this entry removed.
+SLAB_PARTICLES = {"mono-1.3e8-0.5": 2400, "powerlaw-1.3e8-0.5": 2400}
 #: Size distributions of item 6: overrides of ``particles.size_distribution``.
 SIZES = {"mono": {"kind": "monodisperse", "radius": 1.0},
          "powerlaw": {"kind": "powerlaw", "q": 3.0, "r_min": 0.5, "r_max": 5.0}}
@@ -125,15 +132,19 @@ def moments(size: str) -> tuple[float, float, float]:
 
 
 def patch(case: str) -> dict:
-    """Numbers of a case's patch: Omega [1/s], Sigma [kg/m^2], lambda_cr [m], particles."""
+    """Numbers of a case's patch: Omega [1/s], Sigma [kg/m^2], lambda_cr [m], particles
+    (``SLAB_PARTICLES`` where set) and ``full_box_particles`` (those of a box of
+    ``BOX_LAMBDA`` lambda_cr and at least ``MIN_PARTICLES``)."""
     size, a, tau = CASES[case]
     r1, r2, r3 = moments(size)
     Omega = orbital_frequency(GM_SATURN, a)
     Sigma = surface_density_from_tau(tau, DENSITY, r2, r3)
     lam = toomre_wavelength(Sigma, Omega)
-    n = max(MIN_PARTICLES, math.ceil(tau * (BOX_LAMBDA * lam) ** 2 / (math.pi * r2)))
+    full = max(MIN_PARTICLES, math.ceil(tau * (BOX_LAMBDA * lam) ** 2 / (math.pi * r2)))
+    n = SLAB_PARTICLES.get(case, full)
     return {"Omega": Omega, "Sigma": Sigma, "lambda_cr": lam, "n_particles": n,
-            "mean_radius": r1, "box": math.sqrt(n * math.pi * r2 / tau)}
+            "full_box_particles": full, "mean_radius": r1,
+            "box": math.sqrt(n * math.pi * r2 / tau)}
 
 
 def plain_sheet(kappa: float) -> dict:

@@ -365,10 +365,10 @@ def not_done_lines(runs: Path, costs: dict, no_tree: list[str]) -> list[str]:
     lines = []
     if rates and no_tree:
         rate = float(np.median(rates))
-        need = sum(3 * 1000.0 * patch(case)["n_particles"] * rate * orbits(case, True, k)
-                   for case in no_tree for k in SCENARIOS)
+        need = sum(3 * 1000.0 * patch(case)["full_box_particles"] * rate
+                   * orbits(case, True, k) for case in no_tree for k in SCENARIOS)
         lines.append(f"- Tree runs of {', '.join(no_tree)} (2 kappa values x 3 seeds at "
-                     "the lengths above) at the measured "
+                     f"the lengths above, boxes of {BOX_LAMBDA:g} lambda_cr) at the measured "
                      f"{rate * 1e6:.1f} us of CPU per particle-step (median of the tree runs "
                      f"above): about {need / 3600:.0f} CPU-hours, more where the tree's cost "
                      "per particle grows with N. The slab runs stand in for them (\"Slab "
@@ -510,14 +510,18 @@ def write_report(args, runs: Path, costs: dict) -> None:
         "## Set-up of the cases", "", *setup_table(done, runs), "",
         "## The answer: kappa = 0.1 / kappa = 0, without and with self-gravity", "",
         *headline(rows), "",
-        "Errors: statistical (seeds and autocorrelation, `ringsim compare`) and, with "
-        "gravity, systematic (below); a ratio is formed only from runs the finder calls "
-        "stationary.", "",
+        "Errors: statistical (seeds and autocorrelation, `ringsim compare`) and systematic "
+        "(\"Error budget\" below); a ratio is formed only from runs the finder calls "
+        "stationary. Cases run with the slab only (\"gravity, tree\" empty) give the ratio "
+        "with the mean vertical field of self-gravity; the slab matched the tree where both "
+        "were run (\"Slab against tree\"), and the difference is in their budget.", "",
         "## What changes and why", "", *explanation, "",
         "## Error budget", "", *budget_lines(budgets, solver), "", *FIRST_ATTEMPT, "",
         "## Every case", "", *sections,
         "## Not done", "",
-        *([f"- case {case}: not run ({patch(case)['n_particles']} particles)"
+        *([f"- case {case}: not run ({patch(case)['n_particles']} particles"
+            + (f"; {patch(case)['full_box_particles']} in a box of {BOX_LAMBDA:g} lambda_cr)"
+               if patch(case)["full_box_particles"] != patch(case)["n_particles"] else ")")
            for case in not_run] or ["- every case was run"]),
         *not_done_lines(runs, costs, not_run + tree_less), "",
         "## Cost (measured, CPU of each run's worker process)", "",
