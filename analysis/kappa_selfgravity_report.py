@@ -170,14 +170,14 @@ def case_section(case: str, groups: dict, slab: dict, comps: dict) -> list[str]:
                for (k, g), v in groups.items() if v["missing"]]
     missing += [f"{case} kappa {k:g} slab seeds {v['missing']}" for k, v in slab.items()
                 if v["missing"]]
-    lines = []
+    lines, tree = [], groups
     if comps[True] is None and comps["slab"] is not None:
         lines += ["Gravity columns: the slab solver (the mean vertical field only, docs/"
                   "gravity.md 4c); the tree has no stationary runs of both kappa values here.",
                   ""]
         groups = {**groups, **{(k, True): slab[k] for k in SCENARIOS}}
         comps = {**comps, True: comps["slab"]}
-    lines += [*case_table(groups, comps), "", *slab_lines(case, groups, slab)]
+    lines += [*case_table(groups, comps), "", *slab_lines(case, tree, slab)]
     lines += [f"- not stationary, left out: {line}" for line in left]
     return lines + [f"- not run: {line}" for line in missing] + [""]
 
@@ -295,7 +295,8 @@ def budget_lines(budgets: dict, solver: dict) -> list[str]:
              "quadrature (`ringsim compare`). They are measured with the slab solver and "
              "applied to the tree's ratio as well (a tree variant costs 20-40 times more); "
              "the slab's ratio also carries `gravity_solver`, the largest slab / tree "
-             "difference of its ratio (or its error, if larger) over the cases with both. "
+             "difference (or its error, if larger) over the cases with both: of the ratio, "
+             "or of the kappa = 0 ring where only it was run with the tree. "
              "The detection part is measured per step, not per run: kicked paths are within "
              "5.4e-4 of the converged dissipation (docs/gravity.md).", ""]
     if not budgets and not solver:
@@ -433,15 +434,26 @@ def load_budgets() -> dict:
             if budget_file(size).exists()}
 
 
-def solver_parts(rows: list[tuple[str, dict]]) -> dict:
-    """size distribution -> quantity -> the largest relative difference between the slab's
-    and the tree's ratio (or its statistical error if larger) over the cases of that size
-    distribution that have both: the slab's systematic as a stand-in for the tree."""
+def solver_parts(loaded: dict) -> dict:
+    """size distribution -> quantity -> the largest relative difference between slab and
+    tree over the cases of that size distribution (or its statistical error if larger):
+    of the ratio kappa 0.1 / 0 where both have it, else of the kappa = 0 ring where both
+    have that (the ratio's denominator, and the ring gravity changes most).  The slab's
+    systematic as a stand-in for the tree.  ``loaded``: case -> (groups, slab)."""
     parts: dict[str, dict[str, float]] = {}
-    for case, comps in rows:
-        if comps[True] is None or comps["slab"] is None:
+    for case, (groups, slab) in loaded.items():
+        comps = case_comps(groups, slab, {})
+        if comps[True] is not None and comps["slab"] is not None:
+            changes = relative_changes(comps[True]["ratios"][0], comps["slab"]["ratios"][0])
+        elif groups[(0.0, True)]["kept"] and slab[0.0]["kept"]:
+            changes = {}
+            for key in TABLE_ROWS:
+                a, b = combined(groups[(0.0, True)], key), combined(slab[0.0], key)
+                if a and b and a["mean"] and b["mean"]:
+                    noise = math.hypot(a["stderr"] / a["mean"], b["stderr"] / b["mean"])
+                    changes[key] = max(abs(b["mean"] / a["mean"] - 1.0), noise)
+        else:
             continue
-        changes = relative_changes(comps[True]["ratios"][0], comps["slab"]["ratios"][0])
         size = parts.setdefault(CASES[case][0], {})
         for key, value in changes.items():
             size[key] = max(size.get(key, 0.0), value)
@@ -473,8 +485,7 @@ def write_report(args, runs: Path, costs: dict) -> None:
             continue
         loaded[case] = (groups, slab)
     budgets = load_budgets()
-    solver = solver_parts([(case, case_comps(groups, slab, {}))
-                           for case, (groups, slab) in loaded.items()])
+    solver = solver_parts(loaded)
     rows, sections = [], []
     for case, (groups, slab) in loaded.items():
         comps = case_comps(groups, slab, case_budgets(case, budgets, solver))
