@@ -206,16 +206,18 @@ def save_costs(costs: dict) -> None:
     DATA.write_text(json.dumps({"costs": costs, "units": {"cpu_s": "s (CPU)"}}, indent=1))
 
 
-def nograv_jobs(case: str, seeds, runs: Path) -> list:
-    """Jobs of the no-gravity runs of ``case`` (both kappa values, ``seeds``)."""
-    return [(str(SCENARIOS[k]), overrides(case, k, s, False), str(output(runs, case, k, s, False)))
+def nograv_jobs(case: str, seeds, extra: dict, path_of) -> list:
+    """Jobs of the no-gravity runs of ``case`` (both kappa values, ``seeds``) with the
+    scenario overrides ``extra`` on top, written to ``path_of(kappa, seed)``."""
+    return [(str(SCENARIOS[k]), {**overrides(case, k, s, False), **extra}, str(path_of(k, s)))
             for k in SCENARIOS for s in seeds]
 
 
 def run_case(case: str, args, runs: Path, costs: dict) -> None:
     """No-gravity runs of both kappa values and every seed, then the gravity runs, all
     from the scenario's initial state (the same particles for a seed)."""
-    run_jobs(nograv_jobs(case, args.seeds, runs), args.workers, costs)
+    run_jobs(nograv_jobs(case, args.seeds, {}, lambda k, s: output(runs, case, k, s, False)),
+             args.workers, costs)
     grav = gravity_jobs(case, args.seeds, {}, lambda k, s: output(runs, case, k, s, True),
                         kappas=args.kappas)
     run_jobs(grav, args.workers, costs)
@@ -242,7 +244,8 @@ def run_slab(cases: list[str], args, runs: Path, costs: dict) -> None:
     where the tree is too dear.  All jobs share one pool, the dearest first."""
     jobs = []
     for case in cases:
-        jobs += nograv_jobs(case, args.seeds, runs)
+        jobs += nograv_jobs(case, args.seeds, {},
+                            lambda k, s, case=case: output(runs, case, k, s, False))
         jobs += gravity_jobs(case, args.seeds, {},
                              lambda k, s, case=case: slab_output(runs, case, k, s), slab=True)
     jobs.sort(key=job_cost, reverse=True)
@@ -281,11 +284,8 @@ def run_systematics(case: str, args, runs: Path, costs: dict) -> None:
         for kind in VARIANT_KINDS:
             def path_of(k, s, source=source, kind=kind):
                 return variant_output(runs, source, case, k, s, kind)
-            if kind == "nograv":
-                jobs += [(str(SCENARIOS[k]), {**overrides(case, k, s, False), **extra},
-                          str(path_of(k, s))) for k in SCENARIOS for s in args.seeds]
-            else:
-                jobs += gravity_jobs(case, args.seeds, extra, path_of, slab=True)
+            jobs += (nograv_jobs(case, args.seeds, extra, path_of) if kind == "nograv"
+                     else gravity_jobs(case, args.seeds, extra, path_of, slab=True))
     jobs.sort(key=job_cost, reverse=True)
     run_jobs(jobs, args.workers, costs)
     write_budget(case, args, runs)
@@ -295,7 +295,7 @@ def job_cost(job: tuple) -> float:
     """Relative cost of a job, to start the dearest first: particles x orbits, kappa = 0.1
     counted twice (its hot ring collides more often)."""
     return (job[1]["sheet.n_particles"] * job[1]["integration.orbits"]
-            * (2.0 if "kappa0.1" in Path(job[2]).name else 1.0))
+            * (2.0 if job[0] == str(SCENARIOS[0.1]) else 1.0))
 
 
 def main() -> None:
