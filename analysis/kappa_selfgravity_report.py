@@ -446,18 +446,25 @@ def solver_parts(loaded: dict) -> dict:
         if comps[True] is not None and comps["slab"] is not None:
             changes = relative_changes(comps[True]["ratios"][0], comps["slab"]["ratios"][0])
         elif groups[(0.0, True)]["kept"] and slab[0.0]["kept"]:
-            changes = {}
-            for key in TABLE_ROWS:
-                a, b = combined(groups[(0.0, True)], key), combined(slab[0.0], key)
-                if a and b and a["mean"] and b["mean"]:
-                    noise = math.hypot(a["stderr"] / a["mean"], b["stderr"] / b["mean"])
-                    changes[key] = max(abs(b["mean"] / a["mean"] - 1.0), noise)
+            changes = relative_changes(kappa0_values(groups[(0.0, True)]),
+                                       kappa0_values(slab[0.0]))
         else:
             continue
         size = parts.setdefault(CASES[case][0], {})
         for key, value in changes.items():
             size[key] = max(size.get(key, 0.0), value)
     return parts
+
+
+def kappa0_values(group: dict) -> dict:
+    """The table quantities of a group in the form ``relative_changes`` reads: key ->
+    {"mean", "statistical"} (NaN where the group has none)."""
+    out = {}
+    for key in TABLE_ROWS:
+        c = combined(group, key)
+        out[key] = ({"mean": c["mean"], "statistical": c["stderr"]} if c
+                    else {"mean": math.nan, "statistical": math.nan})
+    return out
 
 
 def case_budgets(case: str, budgets: dict, solver: dict) -> dict:
@@ -467,8 +474,8 @@ def case_budgets(case: str, budgets: dict, solver: dict) -> dict:
     b = budgets.get(size)
     nograv = b["nograv"] if b else None
     gravity = b["slab"] if b else None
-    relative = {key: dict(parts) for key, parts in (gravity or {"relative": {}})["relative"]
-                .items()}
+    relative = {key: dict(parts) for key, parts in
+                (gravity["relative"] if gravity else {}).items()}
     for key, value in solver.get(size, {}).items():
         relative.setdefault(key, {})["gravity_solver"] = value
     return {False: nograv, True: gravity, "slab": {"relative": relative} if relative else None}
