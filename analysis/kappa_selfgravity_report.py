@@ -21,7 +21,6 @@ from kappa_selfgravity import (
     CASES,
     GRAVITY_ROWS,
     MIN_PARTICLES,
-    ORBITS_FOR_CASE,
     REPORT,
     ROOT,
     SCENARIOS,
@@ -273,6 +272,21 @@ def setup_table(cases: list[str], runs: Path) -> list[str]:
     return lines
 
 
+def length_table(cases: list[str], runs: Path, seeds) -> list[str]:
+    """Orbits of every run of ``cases`` (``orbits``: every seed of a group alike); "-" for
+    a group of tree runs without a file in ``runs`` for any of ``seeds``."""
+    kinds = (("no gravity", False, False), ("tree", True, False), ("slab", True, True))
+    lines = ["| case | " + " | ".join(f"{name}, kappa {k:g}" for name, _, _ in kinds
+                                      for k in SCENARIOS) + " |", "|" + "---|" * 7]
+    for case in cases:
+        lines.append(f"| {case} | " + " | ".join(
+            "-" if name == "tree" and not any(output(runs, case, k, s, True).exists()
+                                              for s in seeds)
+            else f"{orbits(case, gravity, k, slab):g}" for name, gravity, slab in kinds
+            for k in SCENARIOS) + " |")
+    return lines
+
+
 def headline(rows: list[tuple[str, dict]]) -> list[str]:
     """The ratio kappa 0.1 / 0 of c and H, without gravity, with the tree and with the
     slab, case by case."""
@@ -509,12 +523,8 @@ def write_report(args, runs: Path, costs: dict) -> None:
         "`--report-only` rewrites this file; `--slab CASE ...` runs the slab runs and "
         "their no-gravity twins). Each case: both kappa values, with and without "
         "self-gravity, every seed from the scenario's initial state (the same particles "
-        "with and without gravity), for a fixed number of orbits with gravity and without ("
-        + "; ".join(f"{c}: {o['gravity']:g} and {o['nograv']:g}"
-                    + "".join(f", {k.split(', ')[1]} {k.split(', ')[0]}: {v:g}"
-                              for k, v in o.items() if ", " in k)
-                    for c, o in ORBITS_FOR_CASE.items())
-        + "); the equilibrium finder then chooses each run's "
+        "with and without gravity), for a fixed number of orbits (\"Run lengths\" below)"
+        "; the equilibrium finder then chooses each run's "
         "window (MSER: the transient is cut) and a run it does not call stationary is left "
         "out. No run stops early: `until_equilibrium` was caught inside slow transients "
         "(see the note on the first attempt below). Self-gravity: REBOUND's tree "
@@ -526,6 +536,7 @@ def write_report(args, runs: Path, costs: dict) -> None:
         "self-gravity\"). Dilley law xi0 = 0.16, p = 0.65; solid ice, 900 kg/m^3. Boxes: at "
         f"least {BOX_LAMBDA:g} lambda_cr on a side and {MIN_PARTICLES} particles.", "",
         "## Set-up of the cases", "", *setup_table(done, runs), "",
+        "### Run lengths [orbits]", "", *length_table(done, runs, args.seeds), "",
         "## The answer: kappa = 0.1 / kappa = 0, without and with self-gravity", "",
         *headline(rows), "",
         "Errors: statistical (seeds and autocorrelation, `ringsim compare`) and systematic "
