@@ -186,24 +186,37 @@ def output(runs: Path, case: str, kappa: float, seed: int, gravity: bool) -> Pat
     return runs / f"{'gravity' if gravity else 'nograv'}_{case}_kappa{kappa:g}_seed{seed}.h5"
 
 
-def timed(job: tuple) -> tuple[str, float]:
+def orbits_done(path: str) -> float:
+    """Orbits [orbits] a run file has reached (0 without one)."""
+    if not Path(path).exists():
+        return 0.0
+    return float(np.asarray(open_run(path).timeseries["orbits"])[-1])
+
+
+def timed(job: tuple) -> tuple[str, float, float]:
     """run_one in a worker (which also extends a finished shorter run); returns (path, CPU
-    seconds of the worker)."""
+    seconds of the worker, orbits the file had before)."""
+    before = orbits_done(job[2])
     t0 = time.process_time()
     path, _ = run_one(job)
-    return path, time.process_time() - t0
+    return path, time.process_time() - t0, before
 
 
 def run_jobs(jobs: list[tuple], workers: int, costs: dict) -> None:
+    """Run ``jobs`` and add each one's CPU to ``costs[file name]``: "cpu_s" and "orbits",
+    the orbits that CPU covers (fewer than the run's when a part ran in a process whose
+    record was lost, or before records were kept)."""
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        for path, cpu in pool.map(timed, jobs):
-            if cpu > 1.0 or Path(path).name not in costs:
-                run = open_run(path)
-                before = costs.get(Path(path).name, {}).get("cpu_s", 0.0)
-                costs[Path(path).name] = {"cpu_s": cpu + (before if cpu > 1.0 else 0.0),
-                                          "stop_reason": str(run.attrs.get("stop_reason", "")),
-                                          "orbits": float(np.asarray(
-                                              run.timeseries["orbits"])[-1])}
+        for path, cpu, before in pool.map(timed, jobs):
+            now = orbits_done(path)
+            old = costs.get(Path(path).name, {})
+            if now < before:    # rewritten from the start (the job asked for fewer orbits)
+                old, before = {}, 0.0
+            if now > before or not old:
+                costs[Path(path).name] = {
+                    "cpu_s": old.get("cpu_s", 0.0) + cpu,
+                    "stop_reason": str(open_run(path).attrs.get("stop_reason", "")),
+                    "orbits": old.get("orbits", 0.0) + now - before}
             save_costs(costs)
 
 
@@ -213,7 +226,8 @@ def load_costs() -> dict:
 
 def save_costs(costs: dict) -> None:
     DATA.parent.mkdir(parents=True, exist_ok=True)
-    DATA.write_text(json.dumps({"costs": costs, "units": {"cpu_s": "s (CPU)"}}, indent=1))
+    units = {"cpu_s": "s (CPU)", "orbits": "orbits the CPU covers"}
+    DATA.write_text(json.dumps({"costs": costs, "units": units}, indent=1))
 
 
 def nograv_jobs(case: str, seeds, extra: dict, path_of) -> list:
