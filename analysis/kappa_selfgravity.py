@@ -88,26 +88,31 @@ CASES = {f"{size}-{a_name}-{tau:g}": (size, a, tau)
 #: The power law's slab runs were 140 orbits for both kappa values: after 70, 2 of 3 kappa
 #: = 0 slab runs were stationary, and slab runs cost 1/20-1/40 of the tree's.
 #: Every run must be stationary, so on 2026-11-23 each group (case, solver, kappa) with a
-#: run the finder left out was made longer, all its seeds alike: after 140 orbits 6 of the
-#: 12 power-law slab groups had a run with 13-18 of the 20 effective samples (one still
-#: drifting), so power-law slab runs are 210; the monodisperse slab kappa = 0 runs (13.8
-#: and 18.1 samples at 140) are 210 and the kappa = 0.1 ones (18.4 at 280) 350; the tree
-#: kappa = 0 runs of mono-1.3e8-0.25 (seed 3 drifting, 9 samples at 140) are 280; the
-#: no-gravity runs at tau = 0.5 (18.9 samples at 160 in the monodisperse, 15.9 at 240 in
-#: the power law, mono-1.3e8-0.5 and powerlaw-1e8-0.5) are 200 and 320.  A length is
-#: only ever raised: ``run_one`` would rewrite a longer run from the start.
-MONO_LENGTHS = {"nograv": 320.0, "gravity": 140.0, "gravity, kappa 0.1": 280.0,
-                "slab, kappa 0": 210.0, "slab, kappa 0.1": 350.0}
+#: run the finder left out was made longer, all its seeds alike; the other groups kept
+#: their lengths.  Left out were: 6 slab runs with 13-18 of the 20 effective samples (one
+#: power-law run still drifting) at 140 orbits, and one at 18.4 at 280 (mono-1.3e8-0.25,
+#: kappa 0.1), so those groups run 210 and 350; mono-1.3e8-0.25's tree kappa = 0 seed 3
+#: (drifting, 9 samples at 140), so its group runs 280; a no-gravity run at tau = 0.5 with
+#: 18.9 samples at 160 (mono-1.3e8-0.5, kappa 0) and one with 15.9 at 240
+#: (powerlaw-1e8-0.5, kappa 0.1), so those run 200 and 320.  powerlaw-1.3e8-0.5, run
+#: last, takes the lengths of powerlaw-1e8-0.5.  A length is only ever raised:
+#: ``run_one`` would rewrite a longer run from the start.
+MONO_LENGTHS = {"nograv": 320.0, "gravity": 140.0, "gravity, kappa 0.1": 280.0}
 POWERLAW_LENGTHS = {"nograv": 480.0, "gravity": 70.0, "gravity, kappa 0.1": 140.0,
-                    "slab": 210.0}
-ORBITS_FOR_CASE = {"mono-1e8-0.25": MONO_LENGTHS,
-                   "mono-1.3e8-0.25": {**MONO_LENGTHS, "gravity, kappa 0": 280.0},
-                   "mono-1e8-0.5": {**MONO_LENGTHS, "nograv": 160.0, "gravity, kappa 0": 210.0},
-                   "mono-1.3e8-0.5": {**MONO_LENGTHS, "nograv": 200.0},
-                   "powerlaw-1e8-0.25": POWERLAW_LENGTHS,
-                   "powerlaw-1e8-0.5": {**POWERLAW_LENGTHS, "nograv": 320.0},
-                   "powerlaw-1.3e8-0.25": POWERLAW_LENGTHS,
-                   "powerlaw-1.3e8-0.5": {**POWERLAW_LENGTHS, "nograv": 320.0}}
+                    "slab": 140.0}
+POWERLAW_05_LENGTHS = {**POWERLAW_LENGTHS, "nograv": 240.0, "nograv, kappa 0.1": 320.0,
+                       "slab": 210.0}
+ORBITS_FOR_CASE = {"mono-1e8-0.25": {**MONO_LENGTHS, "slab, kappa 0": 210.0},
+                   "mono-1.3e8-0.25": {**MONO_LENGTHS, "gravity, kappa 0": 280.0,
+                                       "slab, kappa 0": 210.0, "slab, kappa 0.1": 350.0},
+                   "mono-1e8-0.5": {**MONO_LENGTHS, "nograv": 160.0,
+                                    "gravity, kappa 0": 210.0, "slab, kappa 0": 140.0},
+                   "mono-1.3e8-0.5": {**MONO_LENGTHS, "nograv": 160.0,
+                                      "nograv, kappa 0": 200.0},
+                   "powerlaw-1e8-0.25": {**POWERLAW_LENGTHS, "slab": 210.0},
+                   "powerlaw-1e8-0.5": POWERLAW_05_LENGTHS,
+                   "powerlaw-1.3e8-0.25": {**POWERLAW_LENGTHS, "slab, kappa 0": 210.0},
+                   "powerlaw-1.3e8-0.5": POWERLAW_05_LENGTHS}
 
 #: Gravity quantities shown beside the table rows: key -> (label, unit shown).
 GRAVITY_ROWS = {"toomre_Q": ("Toomre Q (from sigma_x)", ""),
