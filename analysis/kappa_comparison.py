@@ -178,8 +178,10 @@ def outputs(args) -> tuple[Path, Path, str]:
 
 def run_one(job: tuple[str, dict, str]) -> tuple[str, float]:
     """Run one scenario; returns (path, wall time [s]).  A finished file of the same
-    scenario is reused; a stopped one, or a finished one that differs only by fewer
-    ``integration.orbits``, is continued (bit-identical to running it whole)."""
+    scenario is reused; a stopped one, or one (finished or stopped) that differs only by
+    fewer ``integration.orbits``, is continued (bit-identical to running it whole).  A
+    file that differs only by more orbits is an error, not rewritten: a length is only
+    ever raised."""
     scenario_path, overrides, output = job
     out = Path(output)
     sc = with_overrides(load_scenario(scenario_path), overrides)
@@ -194,12 +196,15 @@ def run_one(job: tuple[str, dict, str]) -> tuple[str, float]:
                 return output, 0.0
             ringsim.run(sc, output=out, resume=True, progress=False)
             return output, time.perf_counter() - t0
-        if existing is not None and existing.attrs.get("status") == "finished" \
-                and existing.scenario.integration.orbits < sc.integration.orbits \
-                and with_overrides(existing.scenario,
-                                   {"integration.orbits": sc.integration.orbits}) == sc:
-            ringsim.run(sc, output=out, resume=True, progress=False)
-            return output, time.perf_counter() - t0
+        if existing is not None and with_overrides(
+                existing.scenario, {"integration.orbits": sc.integration.orbits}) == sc:
+            if existing.scenario.integration.orbits > sc.integration.orbits:
+                raise ValueError(f"{out} has integration.orbits = "
+                                 f"{existing.scenario.integration.orbits:g}, more than the "
+                                 f"{sc.integration.orbits:g} asked; not rewritten")
+            if existing.attrs.get("status") in ("finished", "stopped"):
+                ringsim.run(sc, output=out, resume=True, progress=False)
+                return output, time.perf_counter() - t0
     ringsim.run(sc, output=out, force=True, progress=False)
     return output, time.perf_counter() - t0
 
