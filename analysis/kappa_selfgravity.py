@@ -217,7 +217,7 @@ def run_jobs(jobs: list[tuple], workers: int, costs: dict) -> None:
             old = costs.get(Path(path).name, {})
             if now < before:    # rewritten from the start (the job asked for fewer orbits)
                 old, before = {}, 0.0
-            if now > before or not old:
+            if now > before:    # else nothing ran here (a run made elsewhere keeps no entry)
                 costs[Path(path).name] = {
                     "cpu_s": old.get("cpu_s", 0.0) + cpu,
                     "stop_reason": str(open_run(path).attrs.get("stop_reason", "")),
