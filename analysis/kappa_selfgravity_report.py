@@ -232,14 +232,15 @@ def _slab_row(label: str, unit: str, scale: float, row: dict) -> str:
 
 
 def case_attributes(runs: Path, case: str) -> dict:
-    """The run attributes of the first readable run of ``case`` (gravity runs first) that
-    carries the self-gravity numbers (Lx, box_lambda_cr, r_h, Sigma, lambda_cr); {} if
-    none does (no gravity run yet)."""
+    """The run attributes of the first readable run of ``case`` (tree runs first, then
+    slab runs) that carries the self-gravity numbers (Lx, box_lambda_cr, r_h, Sigma,
+    lambda_cr); {} if none does (no gravity run yet)."""
     keys = ("Lx", "box_lambda_cr", "r_h", "Sigma", "lambda_cr")
-    for gravity in (True, False):
+    for path_of in (lambda k, s: output(runs, case, k, s, True),
+                    lambda k, s: slab_output(runs, case, k, s)):
         for kappa in SCENARIOS:
             for seed in (1, 2, 3):
-                path = output(runs, case, kappa, seed, gravity)
+                path = path_of(kappa, seed)
                 try:
                     attrs = open_run(path).attrs
                 except (OSError, KeyError, InputError):
