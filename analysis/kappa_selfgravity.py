@@ -198,11 +198,14 @@ def output(runs: Path, case: str, kappa: float, seed: int, gravity: bool) -> Pat
     return runs / f"{'gravity' if gravity else 'nograv'}_{case}_kappa{kappa:g}_seed{seed}.h5"
 
 
+def last_orbit(run) -> float:
+    """Orbits [orbits] a run has reached: its last time-series row."""
+    return float(np.asarray(run.timeseries["orbits"])[-1])
+
+
 def orbits_done(path: str) -> float:
     """Orbits [orbits] a run file has reached (0 without one)."""
-    if not Path(path).exists():
-        return 0.0
-    return float(np.asarray(open_run(path).timeseries["orbits"])[-1])
+    return last_orbit(open_run(path)) if Path(path).exists() else 0.0
 
 
 def timed(job: tuple) -> tuple[str, float, float]:
@@ -220,14 +223,15 @@ def run_jobs(jobs: list[tuple], workers: int, costs: dict) -> None:
     record was lost, or before records were kept)."""
     with ProcessPoolExecutor(max_workers=workers) as pool:
         for path, cpu, before in pool.map(timed, jobs):
-            now = orbits_done(path)
+            run = open_run(path)
+            now = last_orbit(run)
             old = costs.get(Path(path).name, {})
             if now < before:    # rewritten from the start (the job asked for fewer orbits)
                 old, before = {}, 0.0
             if now > before:    # else nothing ran here (a run made elsewhere keeps no entry)
                 costs[Path(path).name] = {
                     "cpu_s": old.get("cpu_s", 0.0) + cpu,
-                    "stop_reason": str(open_run(path).attrs.get("stop_reason", "")),
+                    "stop_reason": str(run.attrs.get("stop_reason", "")),
                     "orbits": old.get("orbits", 0.0) + now - before}
             save_costs(costs)
 

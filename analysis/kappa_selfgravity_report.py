@@ -25,6 +25,7 @@ from kappa_selfgravity import (
     ROOT,
     SCENARIOS,
     SIZES,
+    last_orbit,
     orbits,
     output,
     patch,
@@ -352,7 +353,7 @@ def cost_lines(runs: Path, costs: dict) -> list[str]:
             continue
         try:
             run = open_run(path)
-            done = float(np.asarray(run.timeseries["orbits"])[-1])
+            done = last_orbit(run)
         except (OSError, KeyError, InputError):
             continue
         covered = recorded_orbits(c) or done
@@ -374,7 +375,7 @@ def not_done_lines(runs: Path, costs: dict, no_tree: list[str]) -> list[str]:
             continue
         try:
             run = open_run(path)
-            covered = recorded_orbits(c) or float(np.asarray(run.timeseries["orbits"])[-1])
+            covered = recorded_orbits(c) or last_orbit(run)
         except (OSError, KeyError, InputError):   # being written
             continue
         rates.append(c["cpu_s"] / (covered * 1000.0 * run.scenario.sheet.n_particles))
