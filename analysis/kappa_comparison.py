@@ -191,18 +191,15 @@ def run_one(job: tuple[str, dict, str]) -> tuple[str, float]:
             existing = open_run(out)
         except (OSError, KeyError, ringsim.InputError):
             existing = None
-        if existing is not None and existing.scenario == sc:
-            if existing.attrs.get("status") == "finished":
-                return output, 0.0
-            ringsim.run(sc, output=out, resume=True, progress=False)
-            return output, time.perf_counter() - t0
         if existing is not None and with_overrides(
                 existing.scenario, {"integration.orbits": sc.integration.orbits}) == sc:
-            if existing.scenario.integration.orbits > sc.integration.orbits:
-                raise ValueError(f"{out} has integration.orbits = "
-                                 f"{existing.scenario.integration.orbits:g}, more than the "
+            had, status = existing.scenario.integration.orbits, existing.attrs.get("status")
+            if had > sc.integration.orbits:
+                raise ValueError(f"{out} has integration.orbits = {had:g}, more than the "
                                  f"{sc.integration.orbits:g} asked; not rewritten")
-            if existing.attrs.get("status") in ("finished", "stopped"):
+            if had == sc.integration.orbits and status == "finished":
+                return output, 0.0
+            if had == sc.integration.orbits or status in ("finished", "stopped"):
                 ringsim.run(sc, output=out, resume=True, progress=False)
                 return output, time.perf_counter() - t0
     ringsim.run(sc, output=out, force=True, progress=False)
