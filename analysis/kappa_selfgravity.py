@@ -51,8 +51,11 @@ MIN_PARTICLES = 600
 #: of 2.1 lambda_cr would hold 5886 and 19329 particles (tree: about 60 and 150 CPU-hours
 #: at the lengths below).  The slab has no horizontal modes, so its field does not depend
 #: on the box's size in lambda_cr; what a smaller box changes is measured by the budget's
-#: n_particles part.  Such a case's box is below the 2 lambda_cr wakes need: its tree runs,
-#: if ever made, need this entry removed.
+#: n_particles part.  Such a case's box is below the 2 lambda_cr wakes need: its tree runs
+#: for the ratio, if ever made, need this entry removed.  The tree kappa = 0 runs of
+#: mono-1.3e8-0.5 (seeds 1 and 2, 2026-11-23) are made in the slab's box on purpose: they
+#: check the solver where Q is lowest, like for like (same particles, box and length), and
+#: say what the modes that fit in 1.34 lambda_cr add to the mean field.
 SLAB_PARTICLES = {"mono-1.3e8-0.5": 2400, "powerlaw-1.3e8-0.5": 2400}
 #: Size distributions of item 6: overrides of ``particles.size_distribution``.
 SIZES = {"mono": {"kind": "monodisperse", "radius": 1.0},
