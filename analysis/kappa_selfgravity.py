@@ -42,6 +42,7 @@ SCENARIOS = {0.0: ROOT / "scenarios" / "kappa0-gravity.yaml",
 REPORT = ROOT / "analysis" / "kappa_selfgravity.md"
 DATA = ROOT / "analysis" / "data" / "kappa_selfgravity.json"
 LINE_MODE = ROOT / "analysis" / "data" / "gravity_line_mode.json"
+P3M_CHECK = ROOT / "analysis" / "data" / "kappa_selfgravity_p3m_check.json"
 GM_SATURN = 3.7931e16       # [m^3/s^2], as the scenarios
 DENSITY = 900.0             # [kg/m^3], as the scenarios
 #: Smallest box side in Toomre wavelengths (wakes need 2), and fewest particles.
@@ -107,7 +108,9 @@ CASES = {f"{size}-{a_name}-{tau:g}": (size, a, tau)
 #: left out, both power-law slab kappa = 0.1: powerlaw-1e8-0.25 seed 2 (13.1 at 350) and
 #: powerlaw-1.3e8-0.5 seed 2 (15.5 at 210); their groups run 490 and 280.  The tree
 #: check of mono-1.3e8-0.5 (kappa = 0, seeds 1 and 2) had 17.6 effective samples in
-#: seed 1 at 140 orbits, so that group runs 210, like mono-1e8-0.5's.
+#: seed 1 at 140 orbits, so that group runs 210, like mono-1e8-0.5's.  Its slab kappa = 0
+#: runs keep the 140 orbits they were made with ("slab, kappa 0"): without that entry the
+#: slab's length falls through to the "gravity, kappa 0" entry above.
 MONO_LENGTHS = {"nograv": 320.0, "gravity": 140.0, "gravity, kappa 0.1": 280.0}
 POWERLAW_LENGTHS = {"nograv": 480.0, "gravity": 70.0, "gravity, kappa 0.1": 140.0,
                     "slab": 140.0}
@@ -119,7 +122,8 @@ ORBITS_FOR_CASE = {"mono-1e8-0.25": {**MONO_LENGTHS, "slab, kappa 0": 210.0},
                    "mono-1e8-0.5": {**MONO_LENGTHS, "nograv": 160.0,
                                     "gravity, kappa 0": 210.0, "slab, kappa 0": 140.0},
                    "mono-1.3e8-0.5": {**MONO_LENGTHS, "nograv": 160.0,
-                                      "nograv, kappa 0": 200.0, "gravity, kappa 0": 210.0},
+                                      "nograv, kappa 0": 200.0, "gravity, kappa 0": 210.0,
+                                      "slab, kappa 0": 140.0},
                    "powerlaw-1e8-0.25": {**POWERLAW_LENGTHS, "slab": 210.0,
                                          "slab, kappa 0.1": 490.0},
                    "powerlaw-1e8-0.5": POWERLAW_05_LENGTHS,
@@ -183,8 +187,11 @@ def plain_sheet(kappa: float) -> dict:
     return sheet
 
 
-def overrides(case: str, kappa: float, seed: int, gravity: bool, slab: bool = False) -> dict:
-    """Scenario overrides of one run (``slab``: a gravity run with the slab solver)."""
+def overrides(case: str, kappa: float, seed: int, gravity: bool, slab: bool = False,
+              solver: str | None = None) -> dict:
+    """Scenario overrides of one run (``slab``: a gravity run with the slab solver;
+    ``solver``: a gravity run with that solver instead of the scenario's tree, at the slab's
+    lengths when it is "p3m": a check of the slab like the tree's)."""
     size, a, tau = CASES[case]
     p = patch(case)
     out = {} if gravity else {"sheet": plain_sheet(kappa)}
@@ -195,7 +202,9 @@ def overrides(case: str, kappa: float, seed: int, gravity: bool, slab: bool = Fa
            "integration.orbits": orbits(case, gravity, kappa, slab),
            "name": f"{case}-kappa{kappa:g}-{'gravity' if gravity else 'nogravity'}"})
     if slab:
-        out.update({"sheet.gravity_solver": "slab", "name": f"{case}-kappa{kappa:g}-slab"})
+        solver = "slab"
+    if solver is not None:
+        out.update({"sheet.gravity_solver": solver, "name": f"{case}-kappa{kappa:g}-{solver}"})
     return out
 
 
@@ -281,6 +290,34 @@ def gravity_jobs(case: str, seeds, extra: dict, path_of, slab: bool = False,
              str(path_of(k, s))) for k in kappas for s in seeds]
 
 
+def p3m_output(runs: Path, case: str, kappa: float, seed: int) -> Path:
+    return runs / f"p3m_{case}_kappa{kappa:g}_seed{seed}.h5"
+
+
+def run_p3m(cases: list[str], args, runs: Path, costs: dict) -> None:
+    """The check of the slab by a solver of the full field where the tree is too dear: the
+    gravity runs of ``cases`` (``args.kappas``, ``args.seeds``) with P3M (every mode the box
+    holds, docs/gravity.md 4b), and the slab runs of the same seeds: same particles, box
+    and lengths (the "gravity" lengths of the case).  Writes ``P3M_CHECK`` (per seed and
+    mean: c and H with each solver and slab / P3M) instead of the report, whose other
+    runs this does not touch."""
+    from kappa_selfgravity_report import write_p3m_check
+
+    jobs = []
+    for case in cases:
+        for k in args.kappas:
+            for s in args.seeds:
+                jobs.append((str(SCENARIOS[k]),
+                             {**overrides(case, k, s, True, solver="p3m"),
+                              "integration.orbits": orbits(case, True, k)},
+                             str(p3m_output(runs, case, k, s))))
+                jobs.append((str(SCENARIOS[k]), overrides(case, k, s, True, slab=True),
+                             str(slab_output(runs, case, k, s))))
+    jobs.sort(key=job_cost, reverse=True)
+    run_jobs(jobs, args.workers, costs)
+    write_p3m_check(cases, args, runs)
+
+
 def run_slab(cases: list[str], args, runs: Path, costs: dict) -> None:
     """The gravity runs of ``cases`` with ``sheet.gravity_solver: slab`` (the averaged
     layer's vertical field only, docs/gravity.md 4c), and their no-gravity twins: same
@@ -361,6 +398,9 @@ def main() -> None:
     parser.add_argument("--slab", nargs="+", choices=list(CASES), default=[],
                         help="run the gravity runs of these cases with the slab solver, and "
                         "their no-gravity twins (seeds --seeds)")
+    parser.add_argument("--p3m", nargs="+", choices=list(CASES), default=[],
+                        help="check the slab runs of these cases against P3M (seeds "
+                        "--seeds, kappa values --kappas); writes P3M_CHECK, not the report")
     parser.add_argument("--base-seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--variants", nargs="+", default=list(SYSTEMATIC_VARIANTS),
                         choices=list(SYSTEMATIC_VARIANTS), help="sources of --systematics")
@@ -372,6 +412,9 @@ def main() -> None:
         run_systematics(args.systematics, args, runs, costs)
     elif args.slab:
         run_slab(args.slab, args, runs, costs)
+    elif args.p3m:
+        run_p3m(args.p3m, args, runs, costs)
+        return
     elif not args.report_only:
         for case in args.cases:
             run_case(case, args, runs, costs)

@@ -559,3 +559,37 @@ def write_report(args, runs: Path, costs: dict) -> None:
         *cost_lines(runs, costs), ""]
     Path(args.report).write_text("\n".join(lines))
     REPORT.parent.mkdir(parents=True, exist_ok=True)
+
+
+def write_p3m_check(cases: list[str], args, runs: Path) -> None:
+    """``P3M_CHECK``: the P3M runs of ``cases`` (``run_p3m``) against the slab runs of the
+    same seeds: per seed and kappa the equilibrium c [m/s], H [m] and Toomre Q of each
+    solver, each run's stationarity, and slab / P3M of c and H with errors; printed too."""
+    from kappa_selfgravity import P3M_CHECK, p3m_output
+
+    out = {}
+    for case in cases:
+        for kappa in args.kappas:
+            for seed in args.seeds:
+                row = {}
+                for name, path in (("p3m", p3m_output(runs, case, kappa, seed)),
+                                   ("slab", slab_output(runs, case, kappa, seed))):
+                    if not path.exists():
+                        continue
+                    run = open_run(path)
+                    eq = equilibrium(run)
+                    row[name] = {key: {"mean": eq[key]["mean"], "stderr": eq[key]["stderr"],
+                                       "units": eq[key]["units"]}
+                                 for key in ("velocity_dispersion", "thickness", "toomre_Q")
+                                 if isinstance(eq.get(key), dict)}
+                    row[name].update({"in_equilibrium": bool(eq["in_equilibrium"]),
+                                      "orbits": last_orbit(run)})
+                if len(row) == 2:
+                    for key in HEADLINE:
+                        q = quotient(row["slab"][key], row["p3m"][key])
+                        row[f"slab/p3m {key}"] = {"mean": q["mean"], "stderr": q["stderr"],
+                                                  "units": "1"}
+                out[f"{case} kappa {kappa:g} seed {seed}"] = row
+                print(f"{case} kappa {kappa:g} seed {seed}: "
+                      + json.dumps({k: v for k, v in row.items() if k.startswith("slab/")}))
+    P3M_CHECK.write_text(json.dumps(out, indent=1))
