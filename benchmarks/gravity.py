@@ -33,6 +33,7 @@ from ringsim.config.scenario import scenario_from_dict
 from ringsim.engine import gravity as eg
 from ringsim.engine import p3m, sheet
 from ringsim.engine.native import set_detector_threads
+from ringsim.physics import p3m_scales as scales
 from ringsim.physics import selfgravity as sg
 from ringsim.report import replace_section
 
@@ -159,8 +160,8 @@ repeats).
 
 Tree: REBOUND's tree at opening angle {eg.DEFAULT_OPENING_ANGLE}, {eg.DEFAULT_GHOST_BOXES}
 ring of ghost boxes, plus the field of the sheet beyond them (`rs_ghost_field`).  P3M:
-`ringsim.engine.p3m` at its defaults (split r_s = {sg.P3M_SPLIT_RADII} mean radii, cutoff
-{sg.P3M_CUTOFF_SPLITS} r_s, cells {sg.P3M_CELL_SPLITS} r_s, layers {sg.P3M_LAYER_SPLITS}
+`ringsim.engine.p3m` at its defaults (split r_s = {scales.P3M_SPLIT_RADII} mean radii, cutoff
+{scales.P3M_CUTOFF_SPLITS} r_s, cells {scales.P3M_CELL_SPLITS} r_s, layers {scales.P3M_LAYER_SPLITS}
 r_s; docs/gravity.md, section "P3M").
 
 {table(rows)}

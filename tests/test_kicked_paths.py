@@ -187,15 +187,19 @@ def test_self_gravitating_sheet_in_line_mode_keeps_contacts_and_momentum():
 
 
 def test_one_kicked_step_equals_sixteen_sub_steps_in_a_gravitating_sheet(tmp_path):
-    """The measurement of benchmarks/gravity_step_error.py with P3M (about 6 CPU-seconds): from 20
-    states of a wake-forming sheet (1000 particles of 1 m ice, tau = 0.5, r_h = 0.82, one
-    orbit after the start), one step of 1e-3 orbit with kicked paths dissipates the energy
-    of the same step in 16 sub-steps (converged: 64 sub-steps differ by 2e-5) within 2e-3
-    (measured -5.4e-4 with P3M, +1.3e-4 with the tree; the per-collision error of the
-    straight-path approximation of the epicycles, ~1 %, averages down over ~500
-    collisions), and the straight paths of before are at least three times further off
-    (measured +6.5e-3 and +7.9e-3).  Smaller samples cannot tell the two apart (10 states
-    of 400 particles, 49 collisions: -2.5e-3 against +1.9e-3)."""
+    """The measurement of benchmarks/gravity_step_error.py with P3M (about 6 CPU-seconds a
+    seed): from 20 states of a wake-forming sheet (1000 particles of 1 m ice, tau = 0.5,
+    r_h = 0.82, one orbit after the start) for each of seeds 1-6, one step of 1e-3 orbit
+    with kicked paths dissipates the energy of the same step in 16 sub-steps (converged: 64
+    sub-steps differ by 2e-5) within 2e-3, and the straight paths of before are at least
+    three times further off.  One seed's 20 states (about 500 collisions) scatter by 1e-3
+    from seed to seed (seeds 1-7 on 2026-11-24: -7.5e-4, -1.8e-4, -1.5e-3, -2.3e-3,
+    +2.2e-4, -6.5e-4, -2.3e-3; mean -1.1e-3 +- 0.4e-3: the per-collision error of the
+    straight-path approximation of the epicycles, ~1 %, averages down over the
+    collisions), so one seed could not hold the 2e-3 bound (it did with one draw, -5.4e-4,
+    until a round-off change of P3M drew seed 4's -2.3e-3); six seeds pooled (about 3000
+    collisions) put the bound 2.5 standard errors from the mean.  Straight paths:
+    +4.3e-3 to +7.0e-3 per seed."""
     import warnings
 
     from ringsim.config.scenario import scenario_from_dict
@@ -203,37 +207,38 @@ def test_one_kicked_step_equals_sixteen_sub_steps_in_a_gravitating_sheet(tmp_pat
     from ringsim.engine.gravity import install_scenario_gravity
 
     law = {"model": "bridges", "v_c": 7.7e-5, "exponent": 0.234}
-    sc = scenario_from_dict({
-        "name": "steps", "seed": 4, "planet": {"GM": 3.7931e16, "a": 1.0e8},
-        "particles": {"density": 900.0,
-                      "size_distribution": {"kind": "monodisperse", "radius": 1.0}},
-        "sheet": {"optical_depth": 0.5, "n_particles": 1000, "gravity": True},
-        "restitution": law,
-        "integration": {"orbits": 2, "dt": 1e-3, "collision_detection": "line"},
-        "output": {"path": "unused.h5"}}, source="<test>")
-    sim = sheet.build_sheet(sc).sim
-    sim.integrate(1.0 * sc.orbital_period, exact_finish_time=0)
     totals = {"kicked": np.zeros(2), "sub-steps": np.zeros(2), "straight": np.zeros(2)}
-    for k in range(20):
-        sim.steps(7)
-        path = tmp_path / f"state{k}.bin"
-        sim.save_to_file(str(path))
-        for method in totals:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")   # function pointers are set below
-                copy = rebound.Simulation(str(path))
-            install_scenario_gravity(copy, sc)
-            handle = install_resolver(copy, law, collision_detection="line")
-            set_straight_paths(handle.address, method == "straight")
-            n = 16 if method == "sub-steps" else 1
-            copy.dt = sim.dt / n
-            copy.steps(n)
-            totals[method] += [float(handle.stats_state()["normal_dissipation"]),
-                               handle.stats()["count"]]
+    for seed in range(1, 7):
+        sc = scenario_from_dict({
+            "name": "steps", "seed": seed, "planet": {"GM": 3.7931e16, "a": 1.0e8},
+            "particles": {"density": 900.0,
+                          "size_distribution": {"kind": "monodisperse", "radius": 1.0}},
+            "sheet": {"optical_depth": 0.5, "n_particles": 1000, "gravity": True},
+            "restitution": law,
+            "integration": {"orbits": 2, "dt": 1e-3, "collision_detection": "line"},
+            "output": {"path": "unused.h5"}}, source="<test>")
+        sim = sheet.build_sheet(sc).sim
+        sim.integrate(1.0 * sc.orbital_period, exact_finish_time=0)
+        for k in range(20):
+            sim.steps(7)
+            path = tmp_path / f"state{k}.bin"
+            sim.save_to_file(str(path))
+            for method in totals:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")   # function pointers are set below
+                    copy = rebound.Simulation(str(path))
+                install_scenario_gravity(copy, sc)
+                handle = install_resolver(copy, law, collision_detection="line")
+                set_straight_paths(handle.address, method == "straight")
+                n = 16 if method == "sub-steps" else 1
+                copy.dt = sim.dt / n
+                copy.steps(n)
+                totals[method] += [float(handle.stats_state()["normal_dissipation"]),
+                                   handle.stats()["count"]]
     reference = totals["sub-steps"][0]
     kicked = totals["kicked"][0] / reference - 1.0
     straight = totals["straight"][0] / reference - 1.0
-    assert totals["sub-steps"][1] > 300
+    assert totals["sub-steps"][1] > 2000
     assert abs(totals["kicked"][1] - totals["sub-steps"][1]) <= 0.01 * totals["sub-steps"][1]
     assert abs(kicked) < 2e-3, kicked
     assert abs(straight) > 3.0 * abs(kicked), (kicked, straight)

@@ -38,7 +38,7 @@ from typing import Any
 
 import yaml
 
-from ringsim.config.gravity_keys import check_p3m_box, read_gravity_keys
+from ringsim.config.gravity_keys import check_p3m_box, p3m_setting, read_gravity_keys
 from ringsim.config.initial_state import (
     read_initial_state,
 )
@@ -112,7 +112,8 @@ _SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "planet": ("Omega", "GM", "a"),
     "particles": ("density", "size_distribution", "inertia_factor"),
     "sheet": ("optical_depth", "n_particles", "aspect", "gravity", "gravity_solver",
-              "softening", "opening_angle", "initial_dispersion", "z_box", "initial_state"),
+              "softening", "opening_angle", "p3m_split", "initial_dispersion", "z_box",
+              "initial_state"),
     "integration": ("orbits", "dt", "dt_safety", "collision_detection", "until_equilibrium",
                     "threads"),
     "output": ("path", "timeseries_every", "snapshot_every", "checkpoint_every",
@@ -140,6 +141,8 @@ DEFAULTS: dict[str, Any] = {
     # 0.3: < 1 % rms force error with the ghost-box truncation field, 0.5 gives 2 %
     # (docs/gravity.md); engine.gravity.DEFAULT_OPENING_ANGLE is this value
     "sheet.opening_angle": 0.3,
+    # auto: follows the layer's height span (physics.p3m_scales.p3m_auto_split, gravity.md 4b)
+    "sheet.p3m_split": "auto",
     "sheet.initial_dispersion": 2.0,
     "sheet.z_box": "auto",
     "integration.orbits": 10.0,
@@ -217,6 +220,11 @@ class Scenario:
         if self.sheet.softening == "auto":
             return AUTO_SOFTENING_FRACTION * self.particles.size_distribution.smallest_radius
         return float(self.sheet.softening)
+
+    @property
+    def p3m_setting(self) -> tuple[float, bool] | None:
+        """(split [m], auto) of the P3M solver (``config.gravity_keys.p3m_setting``)."""
+        return p3m_setting(self.sheet, self.mean_radius)
 
     def expected_box_size(self) -> tuple[float, float]:
         """(Lx, Ly) [m] holding n_particles of mean area pi <R^2> at the optical depth.
@@ -363,6 +371,7 @@ def _read_sheet(top: Section) -> SheetConfig:
         z_box=sec.number_or_auto("z_box", d["sheet.z_box"], unit="mean radii", gt=0.0),
         initial_state=initial_state,
         gravity_solver=grav["gravity_solver"],
+        p3m_split=grav["p3m_split"],
     )
 
 

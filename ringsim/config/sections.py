@@ -109,6 +109,9 @@ class SheetConfig:
         None without the tree.
     initial_dispersion : float [mean radius x Omega]
         Initial 1-D velocity dispersion relative to the shear flow.
+    p3m_split : float [m] or "auto" or None
+        Split scale of the P3M solver; "auto" follows the layer's height span; None
+        without P3M.
     z_box : float [mean radii] or "auto"
         Initial vertical height of the box.
     initial_state : InitialStateFile or None
@@ -125,6 +128,7 @@ class SheetConfig:
     z_box: float | str
     initial_state: InitialStateFile | None = None
     gravity_solver: str | None = None
+    p3m_split: float | str | None = None
 
     def gravity_dict(self) -> dict[str, Any]:
         """The self-gravity keys as a scenario gives them ({} without gravity; no softening
@@ -136,6 +140,8 @@ class SheetConfig:
             d["softening"] = self.softening
         if self.opening_angle is not None:
             d["opening_angle"] = self.opening_angle
+        if self.p3m_split is not None:
+            d["p3m_split"] = self.p3m_split
         return d
 
     def to_dict(self) -> dict[str, Any]:

@@ -6,8 +6,8 @@
  * | effect     | self-gravity of a shear-periodic sheet, particle-particle particle-mesh  |
  * |------------|--------------------------------------------------------------------------|
  * | installed  | ringsim.engine.p3m.install_p3m: a Python additional_forces that calls     |
- * |            | rs_p3m_prepare, rs_p3m_assign, (numpy FFT), rs_p3m_interpolate,          |
- * |            | rs_p3m_short, with REBOUND's gravity = "none"                              |
+ * |            | (rs_p3m_height_span for `p3m_split: auto`), rs_p3m_prepare, rs_p3m_assign, |
+ * |            | (numpy FFT), rs_p3m_interpolate, rs_p3m_short; REBOUND's gravity "none"  |
  * | parameters | struct rs_p3m: split scale r_s [m], cutoff r_c [m], Plummer softening b   |
  * |            | [m], mesh nx x ny, layer spacing dz [m]; G, Omega, box and t from the sim |
  * | Python twin| ringsim.physics.selfgravity.short_range_factor, P3MMesh (numpy)          |
@@ -112,6 +112,22 @@ static int rs_p3m_threads(const struct rs_p3m* p, size_t n){
     const size_t most = n / RS_P3M_PARTICLES_PER_THREAD;
     const int wanted = p->threads > 1 ? p->threads : 1;
     return most < (size_t)wanted ? (most > 1 ? (int)most : 1) : wanted;
+}
+
+/* Height span zmax - zmin [m] of the particles (0 for fewer than two), and their number in
+ * *count: what the layers must span, from which ringsim.engine.p3m chooses the split scale
+ * of `sheet.p3m_split: auto` (ringsim.physics.selfgravity.p3m_auto_split) before
+ * rs_p3m_prepare. */
+double rs_p3m_height_span(const struct reb_simulation* const r, int* count){
+    const size_t n = r->N - r->N_var;
+    *count = (int)n;
+    const struct reb_particle* const ps = r->particles;
+    double zmin = 0.0, zmax = 0.0;
+    for (size_t k = 0; k < n; k++){
+        if (k == 0 || ps[k].z < zmin) zmin = ps[k].z;
+        if (k == 0 || ps[k].z > zmax) zmax = ps[k].z;
+    }
+    return zmax - zmin;
 }
 
 /* Set shift, alpha, z0 and nz for the current state; returns nz. */

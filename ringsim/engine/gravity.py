@@ -34,7 +34,7 @@ import rebound
 from ringsim.config.scenario import DEFAULTS
 from ringsim.physics import gravity as patch
 from ringsim.physics.constants import G_SI
-from ringsim.physics.selfgravity import P3M_SPLIT_RADII, direct_accelerations, shear_offset
+from ringsim.physics.selfgravity import direct_accelerations, shear_offset
 
 #: Default opening angle [rad] of REBOUND's tree for ``gravity: true``: the largest that keeps
 #: the rms relative force error below 1 % with :func:`ghost_truncation_field` (docs/gravity.md).
@@ -283,7 +283,8 @@ def install_ghost_field(sim: rebound.Simulation) -> None:
 
 
 def install_gravity(sim: rebound.Simulation, solver: str, *, softening: float,
-                    opening_angle: float | None = None, p3m_split: float | None = None) -> None:
+                    opening_angle: float | None = None,
+                    p3m_setting: tuple[float, bool] | None = None) -> None:
     """Switch self-gravity on in a configured shearing sheet (before or after adding
     particles; again after loading one from a file).
 
@@ -292,8 +293,9 @@ def install_gravity(sim: rebound.Simulation, solver: str, *, softening: float,
     solver : "tree", "p3m" or "slab"
         "tree": REBOUND's tree at ``opening_angle`` [rad], DEFAULT_GHOST_BOXES rings of ghost
         boxes and the field of the sheet beyond them (:func:`install_ghost_field`).
-        "p3m": ``engine.p3m`` with split scale ``p3m_split`` [m] and the other parameters
-        at their defaults (``physics.selfgravity.P3M_*``).
+        "p3m": ``engine.p3m`` with ``p3m_setting`` = (split scale [m], auto: the split
+        follows the height span from there up) and the other parameters at their
+        defaults (``physics.selfgravity.P3M_*``).
         "slab": the vertical field of the horizontally averaged layer only
         (``rs_slab_field``, ``physics.selfgravity.slab_field``).
     softening : float [m]
@@ -313,7 +315,8 @@ def install_gravity(sim: rebound.Simulation, solver: str, *, softening: float,
     elif solver == "p3m":
         Lx = sim.root_size * sim.N_root_x
         Ly = sim.root_size * sim.N_root_y
-        p3m.install_p3m(sim, p3m.P3MSolver(Lx, Ly, softening, p3m_split, G=G_SI))
+        split, auto = p3m_setting
+        p3m.install_p3m(sim, p3m.P3MSolver(Lx, Ly, softening, split, G=G_SI, auto=auto))
     elif solver == "slab":
         sim.gravity = "none"
         fp = _c_field_pointer("rs_slab_field")
@@ -329,7 +332,7 @@ def install_scenario_gravity(sim: rebound.Simulation, scenario) -> None:
     sheet = scenario.sheet
     install_gravity(sim, sheet.gravity_solver or "tree", softening=scenario.softening_length,
                     opening_angle=sheet.opening_angle,
-                    p3m_split=P3M_SPLIT_RADII * scenario.mean_radius)
+                    p3m_setting=scenario.p3m_setting)
 
 
 def solver_attributes(scenario, geometry) -> dict:
@@ -340,7 +343,7 @@ def solver_attributes(scenario, geometry) -> dict:
     sheet = scenario.sheet
     if sheet.gravity_solver == "p3m":
         return p3m.describe(geometry.Lx, geometry.Ly, scenario.softening_length,
-                            P3M_SPLIT_RADII * scenario.mean_radius)
+                            *scenario.p3m_setting)
     if sheet.gravity_solver == "slab":
         return {"gravity_solver": "slab"}
     return {"gravity_solver": "tree",

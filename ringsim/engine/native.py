@@ -387,7 +387,9 @@ def _declare_p3m(lib: ctypes.CDLL) -> bool:
                             ("rs_p3m_interpolate", [sim_p, p3m_p, double_p, double_p, double_p],
                              None),
                             ("rs_p3m_short", [sim_p, p3m_p], None),
-                            ("rs_p3m_mean_vertical", [sim_p, p3m_p], None)):
+                            ("rs_p3m_mean_vertical", [sim_p, p3m_p], None),
+                            ("rs_p3m_height_span", [sim_p, ctypes.POINTER(ctypes.c_int)],
+                             ctypes.c_double)):
         getattr(lib, name).argtypes = args
         getattr(lib, name).restype = res
     return True

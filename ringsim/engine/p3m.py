@@ -30,13 +30,15 @@ from ringsim.engine.native import (
     keep_freed_memory,
 )
 from ringsim.physics.constants import G_SI
-from ringsim.physics.selfgravity import (
+from ringsim.physics.p3m_scales import (
     P3M_CELL_SPLITS,
     P3M_CUTOFF_SPLITS,
     P3M_LAYER_SPLITS,
     P3M_SPLIT_RADII,
-    P3MMesh,
+    layer_bucket,
+    p3m_auto_split,
 )
+from ringsim.physics.selfgravity import P3MMesh
 
 #: Installed solvers by the address of their callback (REBOUND keeps the callback object in
 #: ``sim._afp``, and the callback keeps its solver alive).
@@ -69,17 +71,24 @@ def p3m_parameters(Lx, Ly, split, cutoff=None, cell=None, dz=None) -> dict:
             "nx": _even_cells(Lx, cell), "ny": _even_cells(Ly, cell)}
 
 
-def describe(Lx, Ly, softening, split) -> dict:
+def describe(Lx, Ly, softening, split, auto=False) -> dict:
     """Root attributes of a run file for the P3M solver at its defaults, each with
-    ``units_<name>`` beside it.
+    ``units_<name>`` beside it; with ``auto`` the split, cutoff, mesh and layers given are
+    those of the first rung, and ``p3m_split_auto`` says that the split follows the height
+    span (the largest it may take is ``p3m_split_largest``).
 
     Parameters
     ----------
     Lx, Ly, softening, split : float [m]
+    auto : bool
     """
     p = p3m_parameters(Lx, Ly, split)
+    largest = p3m_auto_split(split, math.inf, 1, Lx, Ly) if auto else p["split"]
     return {"gravity_solver": "p3m",
             "p3m_split": p["split"], "units_p3m_split": "m",
+            "p3m_split_auto": int(bool(auto)),
+            "units_p3m_split_auto": "1: the split follows the height span, 0: fixed",
+            "p3m_split_largest": largest, "units_p3m_split_largest": "m",
             "p3m_cutoff": p["cutoff"], "units_p3m_cutoff": "m",
             "p3m_mesh": np.array([p["nx"], p["ny"]], dtype=np.int64),
             "units_p3m_mesh": "cells (x, y)",
@@ -97,7 +106,7 @@ class P3MSolver:
     softening : float [m]
         Plummer softening b (as REBOUND's ``softening``).
     split : float [m]
-        r_s of the Gaussian split.
+        r_s of the Gaussian split; with ``auto``, the smallest split (the first rung).
     cutoff : float [m]
         r_c of the pair sum (default P3M_CUTOFF_SPLITS r_s); must be < min(Lx, Ly).
     cell : float [m]
@@ -107,41 +116,69 @@ class P3MSolver:
         Layer spacing (default P3M_LAYER_SPLITS r_s).
     workers : int
         scipy.fft threads.
+    auto : bool
+        ``sheet.p3m_split: auto``: at every force evaluation the split is chosen from the
+        particles' height span (``physics.p3m_scales.p3m_auto_split``, rungs from
+        ``split`` up; cutoff, cell and layers at their default multiples of it).  Each
+        rung keeps its own parameters and mesh, made when first used.
     """
 
     def __init__(self, Lx, Ly, softening, split, cutoff=None, cell=None, dz=None, G=G_SI,
-                 workers=1):
+                 workers=1, auto=False):
         if not HAS_P3M:
             raise ImportError("ringsim._resolver was built without rs_p3m.c; rebuild the "
                               "extension (`python setup.py build_ext --inplace`)")
+        if auto and (cutoff, cell, dz) != (None, None, None):
+            raise ValueError("auto P3M split: cutoff, cell and dz follow the split")
         keep_freed_memory()     # the mesh temporaries of every step reuse memory
-        par = p3m_parameters(Lx, Ly, split, cutoff, cell, dz)
-        cutoff, dz = par["cutoff"], par["dz"]
-        if not 0.0 < cutoff < min(Lx, Ly):
-            raise ValueError(f"P3M cutoff {cutoff:.3g} m must be below the box's width "
-                             f"({min(Lx, Ly):.3g} m)")
         self.Lx, self.Ly, self.G = float(Lx), float(Ly), float(G)
-        self.params = P3MStruct(split=split, cutoff=cutoff, softening=softening, dz=dz,
-                                nx=par["nx"], ny=par["ny"])
-        _LIB.rs_p3m_init(ctypes.byref(self.params))
-        self.mesh = P3MMesh(Lx, Ly, self.params.nx, self.params.ny, dz, split, G=G,
-                            workers=workers)
+        self.softening, self.workers, self.threads = float(softening), workers, 1
+        self.first_split, self.auto = float(split), bool(auto)
+        self._explicit = (cutoff, cell, dz)
+        self._rungs: dict[float, tuple[P3MStruct, P3MMesh]] = {}
         self.error: BaseException | None = None
+        self._use(self.first_split)
         self._callback = _POST_TIMESTEP(self._additional_forces)
+
+    def _use(self, split: float) -> None:
+        """Make the rung of ``split`` [m] current (``params``, ``mesh``)."""
+        if split not in self._rungs:
+            par = p3m_parameters(self.Lx, self.Ly, split, *self._explicit)
+            if not 0.0 < par["cutoff"] < min(self.Lx, self.Ly):
+                raise ValueError(f"P3M cutoff {par['cutoff']:.3g} m must be below the box's "
+                                 f"width ({min(self.Lx, self.Ly):.3g} m)")
+            params = P3MStruct(split=split, cutoff=par["cutoff"], softening=self.softening,
+                               dz=par["dz"], nx=par["nx"], ny=par["ny"], threads=self.threads)
+            _LIB.rs_p3m_init(ctypes.byref(params))
+            mesh = P3MMesh(self.Lx, self.Ly, params.nx, params.ny, par["dz"], split,
+                           G=self.G, workers=self.threads)
+            self._rungs[split] = (params, mesh)
+        self.params, self.mesh = self._rungs[split]
+
+    @property
+    def setting(self) -> tuple[float, bool]:
+        """(split [m], auto) as given: enough to make the same solver again."""
+        return self.first_split, self.auto
 
     def set_threads(self, threads: int) -> None:
         """Interpolation, pair sum (OpenMP) and FFTs (scipy.fft workers) on ``threads``
         threads; every result is the same on any number (each particle's sums keep their
         order, and scipy's FFTs split independent transforms)."""
-        threads = checked_threads(threads)
-        self.params.threads = threads
-        self.mesh.workers = threads
+        self.threads = checked_threads(threads)
+        for params, mesh in self._rungs.values():
+            params.threads = self.threads
+            mesh.workers = self.threads
 
     def apply(self, sim_address: int) -> None:
         """Add the P3M accelerations [m/s^2] to the simulation at ``sim_address``."""
+        if self.auto:
+            count = ctypes.c_int(0)
+            span = _LIB.rs_p3m_height_span(sim_address, ctypes.byref(count))
+            self._use(p3m_auto_split(self.first_split, span, count.value, self.Lx, self.Ly))
         p = self.params
-        nz = _LIB.rs_p3m_prepare(sim_address, ctypes.byref(p))
-        mass = np.empty((nz, p.nx, p.ny))
+        # padded to a fixed ladder of layer counts: a few kernel tables serve the whole run
+        p.nz = layer_bucket(_LIB.rs_p3m_prepare(sim_address, ctypes.byref(p)))
+        mass = np.empty((p.nz, p.nx, p.ny))
         _LIB.rs_p3m_assign(sim_address, ctypes.byref(p), mass)
         gx, gy, gz = self.mesh.fields(mass, p.alpha)
         _LIB.rs_p3m_interpolate(sim_address, ctypes.byref(p), gx, gy, gz)

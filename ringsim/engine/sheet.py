@@ -24,7 +24,6 @@ from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.placement import OverlapGrid, wrap_horizontal
 from ringsim.engine.timestep import choose_dt
 from ringsim.physics.constants import SHEAR
-from ringsim.physics.selfgravity import P3M_SPLIT_RADII
 from ringsim.physics.sizes import size_bin_edges
 
 #: A particle's vertical amplitude may reach this fraction of the half z period.
@@ -238,7 +237,8 @@ def configure_box(sim: rebound.Simulation, geometry: SheetGeometry) -> None:
 def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gravity: bool,
                          softening: float, opening_angle: float,
                          collision_detection: str, rand_seed: int,
-                         gravity_solver: str = "tree", p3m_split: float | None = None) -> None:
+                         gravity_solver: str = "tree",
+                         p3m_setting: tuple[float, bool] | None = None) -> None:
     """Set a REBOUND simulation up as a shearing sheet (no particles added).
 
     Parameters
@@ -247,7 +247,7 @@ def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gr
     gravity : bool
         Self-gravity with ``softening`` [m] by ``gravity_solver``: "tree" (REBOUND's tree at
         ``opening_angle`` [rad], one ring of ghost boxes and the field of the sheet beyond
-        them) or "p3m" (ringsim's P3M solver of split scale ``p3m_split`` [m]); see
+        them) or "p3m" (ringsim's P3M solver, ``p3m_setting`` = (split [m], auto)); see
         ``engine.gravity.install_gravity``.
     collision_detection : "tree" (overlaps at step ends) or "line" (swept paths: REBOUND's
         linetree here; ``install_resolver`` replaces it by ringsim's sheet detector)
@@ -261,7 +261,7 @@ def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gr
         from ringsim.engine.gravity import install_gravity
 
         install_gravity(sim, gravity_solver, softening=softening, opening_angle=opening_angle,
-                        p3m_split=p3m_split)
+                        p3m_setting=p3m_setting)
     else:
         sim.gravity = "none"
     sim.N_ghost_z = 0
@@ -392,7 +392,7 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
                          collision_detection=scenario.integration.collision_detection,
                          rand_seed=scenario.seed,
                          gravity_solver=sheet_cfg.gravity_solver or "tree",
-                         p3m_split=P3M_SPLIT_RADII * scenario.mean_radius)
+                         p3m_setting=scenario.p3m_setting)
     add_particles(sim, state, radii, masses)
     sim.t = t0
     sim.minimum_collision_velocity = minimum_collision_velocity(radii, Omega)
@@ -543,7 +543,7 @@ def enlarged_copy(sim: rebound.Simulation, geometry: SheetGeometry,
                          softening=sim.softening, opening_angle=math.sqrt(sim.opening_angle2),
                          collision_detection="tree" if sim.collision == "tree" else "line",
                          rand_seed=0, gravity_solver=solver or "tree",
-                         p3m_split=None if p3m is None else p3m.params.split)
+                         p3m_setting=None if p3m is None else p3m.setting)
     arrays = particle_arrays(sim)
     add_particles(new, arrays, arrays["radius"], arrays["mass"])
     new.t = sim.t

@@ -37,6 +37,7 @@ import scipy.fft
 import scipy.special
 
 from ringsim.physics.constants import G_SI, SHEAR
+from ringsim.physics.p3m_scales import P3M_TABLES
 
 
 def shear_offset(Omega: float, Lx: float, Ly: float, t: float) -> float:
@@ -373,15 +374,6 @@ def slab_field(z, mass, Lx, Ly, G=G_SI):
 #: truncation field, the P3M solver, or the slab (the field of the horizontally averaged
 #: layer only, for hot rings where the pull between neighbours is negligible; docs/gravity.md).
 GRAVITY_SOLVERS = ("tree", "p3m", "slab")
-#: P3M split scale r_s as a multiple of the mean particle radius, and the pair-sum cutoff,
-#: horizontal mesh cell and layer spacing as multiples of r_s: the cheapest setting found
-#: with < 1 % rms force error on a tau = 0.5 sheet (benchmarks/gravity.py, docs/gravity.md).
-#: GADGET-2 uses r_s = 1.25 cells and r_c = 4.5 r_s; 1 - L(5 r_s) = 3.6e-3.
-P3M_SPLIT_RADII = 3.0
-P3M_CUTOFF_SPLITS = 5.0
-P3M_CELL_SPLITS = 1.0
-P3M_LAYER_SPLITS = 0.75
-
 def long_range_fraction(r, split):
     """L(r): the fraction of the Newtonian pair force G m / r^2 carried by the mesh [-].
 
@@ -487,7 +479,7 @@ class P3MMesh:
         # the largest physical |k| on the sheared mesh (|alpha| <= Ly / (2 Lx))
         k_max = np.hypot(np.abs(self.kx).max() + 0.5 * Ly / Lx * self.ky.max(), self.ky.max())
         self._ktab = np.linspace(0.0, 1.001 * k_max, 8193)
-        self._tables: dict = {}
+        self._tables: dict = {}     # layer count -> kernel spectra, at most P3M_TABLES
 
     def _kernel_tables(self, nz):
         """Vertical spectra of the layer kernels on a fine |k| grid (cached per nz).
@@ -518,8 +510,11 @@ class P3MMesh:
             padded[1, :, :nz] = gz.T
             padded[1, :, nz + 1:] = -gz.T[:, :0:-1]
             spectra = scipy.fft.fft(padded, axis=-1)
+            if len(self._tables) >= P3M_TABLES:     # the least recently used goes
+                del self._tables[next(iter(self._tables))]
             self._tables[nz] = (np.ascontiguousarray(spectra[0].real),
                                 np.ascontiguousarray(spectra[1].imag))
+        self._tables[nz] = self._tables.pop(nz)     # now the most recently used
         return self._tables[nz]
 
     def fields(self, mass, alpha):
