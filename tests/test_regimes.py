@@ -1,7 +1,7 @@
 """The regimes of a self-gravitating ring against r_h (issue 12, item 5), as measured in
 docs/validation.md, "Self-gravity": no wakes at r_h = 0.6, aggregates at r_h = 1.3.
 
-Short single runs (slow: about one CPU-minute together): tau = 0.25, 1 m ice, Bridges law,
+Short runs (slow: about three CPU-minutes together): tau = 0.25, 1 m ice, Bridges law,
 r_h set by the orbital radius, dt fixed at 5e-4 orbit.
 """
 
@@ -17,10 +17,10 @@ from ringsim.physics.selfgravity import shear_offset
 GM = 3.7931e16           # [m^3/s^2] Saturn
 
 
-def regime_run(r_h, n, orbits, path):
+def regime_run(r_h, n, orbits, path, seed=1):
     a = 1.0e8 * r_h / float(patch.hill_parameter(1.0, 1.0, 900.0, GM, 1.0e8))
     sc = scenario_from_dict({
-        "name": f"regime-rh{r_h}", "seed": 1, "planet": {"GM": GM, "a": a},
+        "name": f"regime-rh{r_h}", "seed": seed, "planet": {"GM": GM, "a": a},
         "particles": {"density": 900.0, "size_distribution": {"kind": "monodisperse",
                                                               "radius": 1.0}},
         "sheet": {"optical_depth": 0.25, "n_particles": n, "aspect": 1.0, "gravity": True},
@@ -53,11 +53,18 @@ def test_no_wakes_and_no_aggregates_at_r_h_0_6(tmp_path):
 
 @pytest.mark.slow
 def test_aggregates_at_r_h_1_3(tmp_path):
-    """Measured at orbit 0.75: 63 % of the mass in contact groups of >= 10 particles, 41 % in
-    groups that fit their Hill sphere (the largest 184 particles), surface-density contrast
-    1.45 times Poisson; bounds at about half of that."""
-    late = regime_run(1.3, 2000, 0.75, tmp_path / "b.h5")[-1]
-    assert late["significant"]
-    assert late["grouped"] > 0.3 and late["in_hill_groups"] > 0.2
-    assert late["largest_hill_group"] >= 50
-    assert late["amplitude"] > 1.2 * late["poisson_amplitude"]
+    """Aggregates form in every one of three seeds at orbit 0.75.  One run is one draw of a
+    chaotic collapse: seeds 1-3 put 42, 31 and 19 % of the mass in groups that fit their
+    Hill sphere (largest 199, 122, 73 particles) with the code of b7787d7, and 20, 26 and
+    19 % (largest 44, 113, 73) after P3M's layer padding of 2026-11-24 changed the round-off
+    (seed 3 nearly the same run in both, seed 1 a new draw; the means differ by 1.4 standard
+    errors).  The earlier single-seed bounds, half of seed 1's one draw (20 %, 50
+    particles), failed seed 3 of the old code too.  Bounds now about half of the smallest of
+    the six runs; in contact groups of >= 10 particles 62-68 %, surface-density contrast
+    1.35-1.47 times Poisson.  At r_h = 0.6 (above) there is no group at all."""
+    for seed in (1, 2, 3):
+        late = regime_run(1.3, 2000, 0.75, tmp_path / f"b{seed}.h5", seed=seed)[-1]
+        assert late["significant"], seed
+        assert late["grouped"] > 0.3 and late["in_hill_groups"] > 0.09, (seed, late)
+        assert late["largest_hill_group"] >= 20, (seed, late)
+        assert late["amplitude"] > 1.2 * late["poisson_amplitude"], seed
