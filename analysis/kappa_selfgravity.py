@@ -240,7 +240,10 @@ def run_jobs(jobs: list[tuple], workers: int, costs: dict) -> None:
             run = open_run(path)
             now = last_orbit(run)
             old = costs.get(Path(path).name, {})
-            if now < before:    # rewritten from the start (the job asked for fewer orbits)
+            if now < before or before == 0.0:
+                # rewritten from the start (the job asked for fewer orbits), or made anew
+                # where an entry is kept for the same file made before (another machine):
+                # the entry is this run's cost, not the sum of both
                 old, before = {}, 0.0
             if now > before:    # else nothing ran here (a run made elsewhere keeps no entry)
                 costs[Path(path).name] = {
