@@ -565,10 +565,11 @@ def write_report(args, runs: Path, costs: dict) -> None:
 def write_p3m_check(cases: list[str], args, runs: Path) -> None:
     """``P3M_CHECK``: the P3M runs of ``cases`` (``run_p3m``) against the slab runs of the
     same seeds: per seed and kappa the equilibrium c [m/s], H [m] and Toomre Q of each
-    solver, each run's stationarity, and slab / P3M of c and H with errors; printed too."""
+    solver, each run's stationarity, and slab / P3M of c and H with errors; printed too.
+    The entries of other cases already in the file are kept."""
     from kappa_selfgravity import P3M_CHECK, p3m_output
 
-    out = {}
+    out = json.loads(P3M_CHECK.read_text()) if P3M_CHECK.exists() else {}
     for case in cases:
         for kappa in args.kappas:
             for seed in args.seeds:
