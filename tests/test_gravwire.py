@@ -153,7 +153,7 @@ def test_analyze_a_gravitating_run_reports_the_gravity_numbers(tmp_path):
     the numbers are those of the tested functions; the top-view figure is written."""
     import json
 
-    from ringsim.analysis.gravitating import snapshot_wakes
+    from ringsim.analysis.gravitating import mass_weighted_toomre_q, snapshot_wakes
     from ringsim.cli import main
 
     path = ringsim.run(gravitating_scenario(), output=tmp_path / "g.h5", progress=False)
@@ -162,7 +162,8 @@ def test_analyze_a_gravitating_run_reports_the_gravity_numbers(tmp_path):
                  str(tmp_path / "figs")]) == 0
     eq = json.loads(out.read_text())
     for key, units in (("r_h", "dimensionless"), ("toomre_Q", "dimensionless"),
-                       ("lambda_cr", "m"), ("wake_wavelength", "m"),
+                       ("toomre_Q_mass", "dimensionless"), ("lambda_cr", "m"),
+                       ("wake_wavelength", "m"),
                        ("wake_pitch_angle", "deg"), ("gravitational_viscosity", "m^2/s"),
                        ("translational_viscosity", "m^2/s"), ("viscous_heating", "W/m^2"),
                        ("collisional_dissipation", "W/m^2"), ("energy_closure", "dimensionless"),
@@ -181,6 +182,10 @@ def test_analyze_a_gravitating_run_reports_the_gravity_numbers(tmp_path):
                             run.scenario.orbital_frequency) for i in indices or [-1]]
     assert eq["wake_wavelength"]["mean"] == pytest.approx(
         np.mean([s["wavelength"] for s in stats]), rel=1e-12)
+    assert eq["toomre_Q_mass"]["mean"] == pytest.approx(np.mean(
+        [mass_weighted_toomre_q(run.snapshot(i), float(run.attrs["Sigma"]),
+                                run.scenario.orbital_frequency) for i in indices or [-1]]),
+        rel=1e-12)
     assert eq["gravitational_viscosity"]["mean"] == pytest.approx(
         np.mean([s["gravitational_viscosity"] for s in stats]), rel=1e-12)
     # the shear's work on all three stresses: (9/4) Omega^2 Sigma (nu_t + nu_c + nu_g)
@@ -194,6 +199,26 @@ def test_analyze_a_gravitating_run_reports_the_gravity_numbers(tmp_path):
                         output=tmp_path / "p.h5", progress=False)
     assert "lambda_cr" not in ringsim.equilibrium(ringsim.open_run(plain))
 
+
+
+def test_mass_weighted_toomre_q_is_set_by_the_heavy_cool_particles():
+    """Two populations on the shear flow: 900 light particles (1 kg) with radial speeds
+    +-3 mm/s and 100 heavy ones (81 kg) with +-1 mm/s, each symmetric, so the mean is the
+    flow and the mass-weighted sigma_x^2 = (900 * 9 + 8100 * 1) / 9000 (mm/s)^2 = 1.8
+    (mm/s)^2 exactly, against the number-weighted 8.2; Q = sigma_x Omega / (3.36 G Sigma)
+    (Toomre 1964)."""
+    from ringsim.analysis.gravitating import mass_weighted_toomre_q
+
+    Omega, Sigma = 1.3e-4, 600.0
+    rng = np.random.default_rng(5)
+    x = rng.uniform(-50.0, 50.0, 1000)
+    sign = np.tile([1.0, -1.0], 500)
+    vx = np.concatenate([3e-3 * sign[:900], 1e-3 * sign[900:]])
+    mass = np.concatenate([np.ones(900), np.full(100, 81.0)])
+    snap = {"x": x, "vx": vx, "vy": -1.5 * Omega * x, "vz": np.zeros(1000), "mass": mass}
+    expected = math.sqrt(1.8e-6) * Omega / (3.36 * 6.6743e-11 * Sigma)
+    assert mass_weighted_toomre_q(snap, Sigma, Omega) == pytest.approx(expected, rel=1e-12)
+    assert patch.toomre_q(math.sqrt(8.2e-6), Sigma, Omega) > 2 * expected
 
 
 # --- the wake-forming scenario (slow: about 5 minutes of CPU, one run for both tests) -------

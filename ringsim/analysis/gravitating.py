@@ -8,7 +8,14 @@ What a ring dynamicist reads for a self-gravitating sheet, beside the equilibriu
   (stderr 0); computed from the first snapshot with the same ``physics.gravity`` functions
   for files that lack them;
 * ``toomre_Q``: the window mean of the run's Toomre Q series (``toomre_Q`` rows, Q =
-  sigma_x Omega / (3.36 G Sigma)), autocorrelation-corrected stderr as every time series;
+  sigma_x Omega / (3.36 G Sigma), sigma_x number-weighted), autocorrelation-corrected stderr
+  as every time series;
+* ``toomre_Q_mass``: Q from the mass-weighted sigma_x of each snapshot inside the window
+  (:func:`mass_weighted_toomre_q`), mean and standard error over those snapshots.  For a
+  size distribution it is the one that says whether the ring is gravitationally unstable:
+  the mass, and so Sigma, sits in the large particles, which are the coolest (0.5-5 m,
+  q = 3, a = 1.3e8 m, tau = 0.5, the slab runs of analysis/kappa_selfgravity.md: number-
+  weighted Q = 4.3, mass-weighted 1.9); for identical particles both are the same;
 * ``wake_wavelength`` [m], ``wake_pitch_angle`` [deg], ``wake_amplitude``: the dominant
   density wave of each snapshot inside the equilibrium window (``analysis.wakes.
   wake_statistics``), mean and standard error over those snapshots (treated as independent:
@@ -32,6 +39,7 @@ import math
 import numpy as np
 
 from ringsim.analysis import timeseries, wakes
+from ringsim.analysis.snapshot import dispersion_tensor
 from ringsim.physics import gravity as patch
 from ringsim.physics.restitution import epsilon_for_pair
 from ringsim.physics.selfgravity import shear_offset
@@ -40,6 +48,7 @@ from ringsim.physics.selfgravity import shear_offset
 GRAVITY_QUANTITIES = {
     "r_h": ("Hill parameter r_h (mean pair)", "dimensionless", "", 1.0),
     "toomre_Q": ("Toomre Q (from sigma_x)", "dimensionless", "", 1.0),
+    "toomre_Q_mass": ("Toomre Q (mass-weighted sigma_x)", "dimensionless", "", 1.0),
     "lambda_cr": ("Toomre wavelength lambda_cr", "m", "m", 1.0),
     "wake_wavelength": ("wake wavelength", "m", "m", 1.0),
     "wake_pitch_angle": ("wake pitch angle (trailing > 0)", "deg", "deg", 1.0),
@@ -113,6 +122,22 @@ def snapshot_wakes(snap: dict, Lx: float, Ly: float, Omega: float) -> dict:
     stats["gravitational_viscosity"] = wakes.gravitational_viscosity(pos, snap["mass"], Lx, Ly,
                                                                      Omega, shift)
     return stats
+
+
+def mass_weighted_toomre_q(snap: dict, Sigma: float, Omega: float) -> float:
+    """Toomre Q [dimensionless] of one snapshot from its mass-weighted radial velocity
+    dispersion: sigma_x^2 = sum m (w_x - <w_x>_m)^2 / sum m, with w the velocity relative
+    to the shear flow, in ``physics.gravity.toomre_q``.
+
+    Parameters
+    ----------
+    snap : dict with x [m], vx, vy, vz [m/s], mass [kg]
+    Sigma : float [kg/m^2]
+    Omega : float [1/s]
+    """
+    W = dispersion_tensor(snap["x"], snap["vx"], snap["vy"], snap["vz"], Omega,
+                          weights=snap["mass"])
+    return float(patch.toomre_q(math.sqrt(W[0, 0]), Sigma, Omega))
 
 
 def bin_means(counts: np.ndarray, edges: np.ndarray, f) -> np.ndarray:
@@ -261,7 +286,8 @@ def gravity_equilibrium(run, start: int, viscosities: dict | None = None) -> dic
     orbits = ts["orbits"]
     from_orbit = float(orbits[start]) if start < orbits.size else float(orbits[-1])
     indices = window_snapshot_indices(run, from_orbit) or [run.n_snapshots - 1]
-    per = [snapshot_wakes(run.snapshot(i), Lx, Ly, Omega) for i in indices]
+    snaps = [run.snapshot(i) for i in indices]
+    per = [snapshot_wakes(snap, Lx, Ly, Omega) for snap in snaps]
     out = {"r_h": _value(const["r_h"], 0.0, "dimensionless"),
            "lambda_cr": _value(const["lambda_cr"], 0.0, "m")}
     if "toomre_Q" in ts:
@@ -269,6 +295,9 @@ def gravity_equilibrium(run, start: int, viscosities: dict | None = None) -> dic
         out["toomre_Q"] = _value(mean, stderr, "dimensionless")
     else:
         out["toomre_Q"] = _value(math.nan, math.nan, "dimensionless")
+    out["toomre_Q_mass"] = _over_snapshots(
+        [mass_weighted_toomre_q(snap, const["Sigma"], Omega) for snap in snaps], math.nan,
+        "dimensionless")
     out["wake_wavelength"] = _over_snapshots([s["wavelength"] for s in per],
                                              per[0]["wavelength_err"], "m")
     out["wake_pitch_angle"] = _over_snapshots([s["pitch_angle_deg"] for s in per],
