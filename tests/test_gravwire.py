@@ -221,6 +221,26 @@ def test_mass_weighted_toomre_q_is_set_by_the_heavy_cool_particles():
     assert patch.toomre_q(math.sqrt(8.2e-6), Sigma, Omega) > 2 * expected
 
 
+@pytest.mark.parametrize("solver, q_mass, warned", [("slab", 1.9, True), ("slab", 5.4, False),
+                                                   ("p3m", 1.9, False)])
+def test_analyze_warns_for_a_slab_run_below_mass_weighted_q_3(solver, q_mass, warned):
+    """The slab misses 10 % of c at mass-weighted Q = 1.9 and 1 % at 5.4 (docs/gravity.md
+    4c): the table warns for a slab run below SLAB_MIN_Q_MASS, and only then."""
+    from ringsim.analysis.gravitating import (
+        GRAVITY_QUANTITIES,
+        SLAB_MIN_Q_MASS,
+        gravity_table_lines,
+    )
+
+    assert SLAB_MIN_Q_MASS == 3.0
+    eq = {key: {"mean": 1.0, "stderr": 0.0, "units": units}
+          for key, (_label, units, _shown, _scale) in GRAVITY_QUANTITIES.items()}
+    eq["toomre_Q_mass"]["mean"] = q_mass
+    eq.update(wake_snapshots=3, wake_significant_fraction=0.0, gravity_solver=solver)
+    text = "\n".join(gravity_table_lines(eq))
+    assert ("WARNING: slab solver at mass-weighted Q" in text) == warned
+
+
 # --- the wake-forming scenario (slow: about 5 minutes of CPU, one run for both tests) -------
 
 #: Wakes are significant from orbit 0.5 on (docs/validation.md, "Self-gravity"); the tests

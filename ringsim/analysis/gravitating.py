@@ -60,6 +60,11 @@ GRAVITY_QUANTITIES = {
     "energy_closure": ("heating / (dissipation + d/dt E_kin)", "dimensionless", "", 1.0),
     "energy_closure_without_gravity": ("the same without nu_g", "dimensionless", "", 1.0),
 }
+#: Below this mass-weighted Toomre Q ``analyze`` warns that a slab run misses what matters:
+#: at 1.9 (power law 0.5-5 m, tau = 0.5, a = 1.3e8 m) the tree and P3M rings were 9-10 %
+#: hotter and 11-12 % thicker than the slab's; at 5.4 (1 m particles) 1 %
+#: (analysis/kappa_selfgravity.md, docs/gravity.md 4c).
+SLAB_MIN_Q_MASS = 3.0
 #: The energy-balance keys of `GRAVITY_QUANTITIES` (NaN where they cannot be measured).
 ENERGY_KEYS = ("viscous_heating", "collisional_dissipation", "kinetic_energy_change",
                "energy_closure", "energy_closure_without_gravity")
@@ -277,7 +282,8 @@ def gravity_equilibrium(run, start: int, viscosities: dict | None = None) -> dic
     Returns
     -------
     dict of the `GRAVITY_QUANTITIES` keys (each ``{"mean", "stderr", "units"}``) plus
-    ``wake_snapshots`` (how many snapshots were analysed) and ``wake_significant_fraction``.
+    ``wake_snapshots`` (how many snapshots were analysed), ``wake_significant_fraction`` and
+    ``gravity_solver`` (the run's, "" for files that do not say).
     """
     ts = run.timeseries
     const = run_constants(run)
@@ -316,6 +322,7 @@ def gravity_equilibrium(run, start: int, viscosities: dict | None = None) -> dic
         out.update({key: _value(math.nan, math.nan, GRAVITY_QUANTITIES[key][1])
                     for key in ENERGY_KEYS})
     out["wake_snapshots"] = len(per)
+    out["gravity_solver"] = str(run.attrs.get("gravity_solver", ""))
     out["wake_significant_fraction"] = float(np.mean([s["significant"] for s in per]))
     return out
 
@@ -333,6 +340,11 @@ def gravity_table_lines(eq: dict) -> list[str]:
         if key == "r_h" and not math.isfinite(mean):
             text = "unknown (planet given by Omega only)"
         lines.append(f"  {label + (f' [{shown}]' if shown else ''):<42} {text}")
+    q_mass = eq["toomre_Q_mass"]["mean"]
+    if eq.get("gravity_solver") == "slab" and q_mass < SLAB_MIN_Q_MASS:
+        lines.append(f"  WARNING: slab solver at mass-weighted Q = {q_mass:.3g} < "
+                     f"{SLAB_MIN_Q_MASS:g}: the modes it leaves out (wakes, encounters) matter "
+                     "here (docs/gravity.md 4c); run with gravity_solver p3m")
     ratio = eq["wake_wavelength"]["mean"] / eq["lambda_cr"]["mean"]
     lines.append(f"  {'wake wavelength / lambda_cr':<42} {ratio:.3g} "
                  f"({eq['wake_snapshots']} snapshots, significant wake in "
