@@ -26,7 +26,7 @@ import argparse
 import json
 import math
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -234,9 +234,11 @@ def timed(job: tuple) -> tuple[str, float, float]:
 def run_jobs(jobs: list[tuple], workers: int, costs: dict) -> None:
     """Run ``jobs`` and add each one's CPU to ``costs[file name]``: "cpu_s" and "orbits",
     the orbits that CPU covers (fewer than the run's when a part ran in a process whose
-    record was lost, or before records were kept)."""
+    record was lost, or before records were kept).  A job's cost is saved when it ends,
+    whatever the order, so a cut-off loses only the jobs still running."""
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        for path, cpu, before in pool.map(timed, jobs):
+        for future in as_completed([pool.submit(timed, job) for job in jobs]):
+            path, cpu, before = future.result()
             run = open_run(path)
             now = last_orbit(run)
             old = costs.get(Path(path).name, {})
