@@ -60,11 +60,13 @@ GRAVITY_QUANTITIES = {
     "energy_closure": ("heating / (dissipation + d/dt E_kin)", "dimensionless", "", 1.0),
     "energy_closure_without_gravity": ("the same without nu_g", "dimensionless", "", 1.0),
 }
-#: Below this mass-weighted Toomre Q ``analyze`` warns that a slab run misses what matters:
-#: at 1.9 (power law 0.5-5 m, tau = 0.5, a = 1.3e8 m) the tree and P3M rings were 9-10 %
-#: hotter and 11-12 % thicker than the slab's; at 5.4 (1 m particles) 1 %
-#: (analysis/kappa_selfgravity.md, docs/gravity.md 4c).
-SLAB_MIN_Q_MASS = 3.0
+#: Below this mass-weighted Toomre Q ``analyze`` warns that a slab run misses what matters.
+#: The slab's kappa = 0 rings against P3M (analysis/kappa_selfgravity.md, docs/gravity.md
+#: 4c), mass-weighted Q of the slab run -> slab / P3M - 1 in c and H: power law 0.5-5 m at
+#: 1.9 -> -9 % and -11 % (two seeds; the tree agrees), at 3.2 -> -4 % and -4.5 %, at 5.7 ->
+#: -2.4 % and -2.3 %; 1 m particles at 5.4 -> +1 %.  Below 5 the measured shortfall exceeds
+#: the 3.5 % the report's budget allows the slab for a power law.
+SLAB_MIN_Q_MASS = 5.0
 #: The energy-balance keys of `GRAVITY_QUANTITIES` (NaN where they cannot be measured).
 ENERGY_KEYS = ("viscous_heating", "collisional_dissipation", "kinetic_energy_change",
                "energy_closure", "energy_closure_without_gravity")
