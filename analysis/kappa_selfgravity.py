@@ -306,7 +306,7 @@ def run_p3m(cases: list[str], args, runs: Path, costs: dict) -> None:
     and lengths (the "gravity" lengths of the case).  Writes ``P3M_CHECK`` (per seed and
     mean: c and H with each solver and slab / P3M) instead of the report, whose other
     runs this does not touch."""
-    from kappa_selfgravity_report import write_p3m_check
+    from kappa_selfgravity_p3m import write_p3m_check
 
     jobs = []
     for case in cases:
