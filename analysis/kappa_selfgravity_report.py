@@ -366,12 +366,10 @@ def cost_lines(runs: Path, costs: dict) -> list[str]:
     return lines
 
 
-def not_done_lines(runs: Path, costs: dict, no_tree: list[str]) -> list[str]:
-    """The cost of the tree runs of the cases without them (``no_tree``), from the measured
-    CPU per particle-step of the tree runs (line detection, 1000 steps per orbit), and the
-    rest."""
+def cpu_per_particle_step(runs: Path, costs: dict, pattern: str) -> list[float]:
+    """CPU [s] per particle-step (1000 steps per orbit) of the recorded runs ``pattern``."""
     rates = []
-    for path in runs.glob("gravity_*.h5"):
+    for path in runs.glob(pattern):
         c = costs.get(path.name)
         if c is None:
             continue
@@ -381,22 +379,46 @@ def not_done_lines(runs: Path, costs: dict, no_tree: list[str]) -> list[str]:
         except (OSError, KeyError, InputError):   # being written
             continue
         rates.append(c["cpu_s"] / (covered * 1000.0 * run.scenario.sheet.n_particles))
+    return rates
+
+
+def full_field_cpu(cases: list[str], rate: float) -> float:
+    """CPU [s] of the gravity runs of ``cases`` (2 kappa values x 3 seeds at the lengths
+    above, boxes of ``BOX_LAMBDA`` lambda_cr) at ``rate`` s per particle-step."""
+    return sum(3 * 1000.0 * patch(case)["full_box_particles"] * rate * orbits(case, True, k)
+               for case in cases for k in SCENARIOS)
+
+
+def not_done_lines(runs: Path, costs: dict, no_tree: list[str]) -> list[str]:
+    """The cost of the full-field runs of the cases without tree runs (``no_tree``), from
+    the measured CPU per particle-step of the tree and of the P3M runs, and the rest."""
     lines = []
-    if rates and no_tree:
-        rate = float(np.median(rates))
-        need = sum(3 * 1000.0 * patch(case)["full_box_particles"] * rate
-                   * orbits(case, True, k) for case in no_tree for k in SCENARIOS)
+    tree, p3m = (cpu_per_particle_step(runs, costs, pattern)
+                 for pattern in ("gravity_*.h5", "p3m_*.h5"))
+    if tree and no_tree:
+        rate = float(np.median(tree))
         lines.append(f"- Tree runs of {', '.join(no_tree)} (2 kappa values x 3 seeds at "
                      f"the lengths above, boxes of {BOX_LAMBDA:g} lambda_cr) at the measured "
                      f"{rate * 1e6:.1f} us of CPU per particle-step (median of the tree runs "
-                     f"above): about {need / 3600:.0f} CPU-hours, more where the tree's cost "
-                     "per particle grows with N. The slab runs stand in for them (\"Slab "
-                     "against tree\").")
+                     f"above): about {full_field_cpu(no_tree, rate) / 3600:.0f} CPU-hours, "
+                     "more where the tree's cost per particle grows with N. The slab runs "
+                     "stand in for them (\"Slab against tree\").")
+    if p3m and no_tree:
+        rate = float(np.median(p3m))
+        lines.append(f"- The same runs with P3M, the cheaper solver of the full field, at its "
+                     f"measured {rate * 1e6:.1f} us per particle-step (median of the P3M "
+                     f"runs): about {full_field_cpu(no_tree, rate) / 3600:.0f} CPU-hours. The "
+                     "P3M checks (\"The slab against the full field (P3M)\") say where the "
+                     "slab may stand in: not for a size distribution at mass-weighted Q below "
+                     "about 5.")
     missing = [size for size in SIZES if not budget_file(size).exists()]
     lines += [f"- The systematic budget of the {size} cases (no budget file)."
               for size in missing]
-    lines += ["- Boxes of at least 4 lambda_cr for wake statistics (here 2.1-4.2); no case "
-              "forms wakes with this law, so none was needed for the numbers above.",
+    lines += ["- Boxes of at least 4 lambda_cr for wake statistics (here 2.1-4.2, and "
+              "0.75-1.34 for the cases in SLAB_PARTICLES). No ring of identical particles "
+              "here reaches the wake regime, but the power-law kappa = 0 ring at 1.3e8 m, "
+              "tau = 0.5 sits at mass-weighted Q = 2.1 with the full field: its ratio needs "
+              "full-field runs in a box of at least 2 lambda_cr.",
               "- With the slab solver the cases not run would cost about what their "
               "no-gravity runs cost (0.3-0.6 ms of CPU per particle-orbit)."]
     return lines
