@@ -111,6 +111,11 @@ CASES = {f"{size}-{a_name}-{tau:g}": (size, a, tau)
 #: seed 1 at 140 orbits, so that group runs 210, like mono-1e8-0.5's.  Its slab kappa = 0
 #: runs keep the 140 orbits they were made with ("slab, kappa 0"): without that entry the
 #: slab's length falls through to the "gravity, kappa 0" entry above.
+#: The P3M checks of the slab (``run_p3m``) take the "gravity" lengths unless a "p3m"
+#: entry is set; the P3M runs in a box of ``BOX_LAMBDA`` lambda_cr (``--p3m-box``) take
+#: the "gravity" lengths always (eight times the particles: a smaller error per snapshot,
+#: the same autocorrelation times).  In powerlaw-1.3e8-0.5 the kappa = 0 P3M seed 3 had
+#: 15.9 of the 20 effective samples after 70 orbits (2026-11-25), so that group runs 105.
 MONO_LENGTHS = {"nograv": 320.0, "gravity": 140.0, "gravity, kappa 0.1": 280.0}
 POWERLAW_LENGTHS = {"nograv": 480.0, "gravity": 70.0, "gravity, kappa 0.1": 140.0,
                     "slab": 140.0}
@@ -128,7 +133,8 @@ ORBITS_FOR_CASE = {"mono-1e8-0.25": {**MONO_LENGTHS, "slab, kappa 0": 210.0},
                                          "slab, kappa 0.1": 490.0},
                    "powerlaw-1e8-0.5": POWERLAW_05_LENGTHS,
                    "powerlaw-1.3e8-0.25": {**POWERLAW_LENGTHS, "slab, kappa 0": 210.0},
-                   "powerlaw-1.3e8-0.5": {**POWERLAW_05_LENGTHS, "slab, kappa 0.1": 280.0}}
+                   "powerlaw-1.3e8-0.5": {**POWERLAW_05_LENGTHS, "slab, kappa 0.1": 280.0,
+                                          "p3m, kappa 0": 105.0}}
 
 #: Gravity quantities shown beside the table rows: key -> (label, unit shown).
 GRAVITY_ROWS = {"toomre_Q": ("Toomre Q (from sigma_x)", ""),
@@ -137,11 +143,13 @@ GRAVITY_ROWS = {"toomre_Q": ("Toomre Q (from sigma_x)", ""),
                 "gravitational_viscosity": ("gravitational viscosity", "m^2/s")}
 
 
-def orbits(case: str, gravity: bool, kappa: float, slab: bool = False) -> float:
+def orbits(case: str, gravity: bool, kappa: float, slab: bool = False,
+           first: tuple[str, ...] = ()) -> float:
     """Orbits of the runs of ``case`` with or without self-gravity at ``kappa``; ``slab``:
-    of its slab runs, whose own entries ("slab", "slab, kappa <k>") come first."""
+    of its slab runs, whose own entries ("slab", "slab, kappa <k>") come first; ``first``:
+    entries tried before those (``run_p3m``: "p3m", the P3M runs in the case's box)."""
     lengths = ORBITS_FOR_CASE[case]
-    keys = ["slab"] if slab else []
+    keys = [*first, "slab"] if slab else [*first]
     keys.append("gravity" if gravity or slab else "nograv")
     for key in keys:
         for name in (f"{key}, kappa {kappa:g}", key):
@@ -282,8 +290,10 @@ def run_case(case: str, args, runs: Path, costs: dict) -> None:
     run_jobs(grav, args.workers, costs)
 
 
-def slab_output(runs: Path, case: str, kappa: float, seed: int) -> Path:
-    return runs / f"slab_{case}_kappa{kappa:g}_seed{seed}.h5"
+def slab_output(runs: Path, case: str, kappa: float, seed: int, box: bool = False) -> Path:
+    """The slab run's file; ``box``: the run in a box of ``BOX_LAMBDA`` lambda_cr."""
+    tag = f"slab-box{BOX_LAMBDA:g}" if box else "slab"
+    return runs / f"{tag}_{case}_kappa{kappa:g}_seed{seed}.h5"
 
 
 def gravity_jobs(case: str, seeds, extra: dict, path_of, slab: bool = False,
@@ -295,8 +305,37 @@ def gravity_jobs(case: str, seeds, extra: dict, path_of, slab: bool = False,
              str(path_of(k, s))) for k in kappas for s in seeds]
 
 
-def p3m_output(runs: Path, case: str, kappa: float, seed: int) -> Path:
-    return runs / f"p3m_{case}_kappa{kappa:g}_seed{seed}.h5"
+def p3m_output(runs: Path, case: str, kappa: float, seed: int, box: bool = False) -> Path:
+    """The P3M run's file; ``box``: the run in a box of ``BOX_LAMBDA`` lambda_cr."""
+    tag = f"p3m-box{BOX_LAMBDA:g}" if box else "p3m"
+    return runs / f"{tag}_{case}_kappa{kappa:g}_seed{seed}.h5"
+
+
+def box_overrides(case: str) -> dict:
+    """Overrides that put a run of ``case`` in a box of ``BOX_LAMBDA`` lambda_cr (its
+    ``full_box_particles``), where the case's own box (``SLAB_PARTICLES``) is smaller."""
+    return {"sheet.n_particles": patch(case)["full_box_particles"]}
+
+
+def p3m_jobs(case: str, kappas, seeds, runs: Path, box: bool = False) -> list:
+    """Jobs of ``run_p3m`` for one case: for each kappa and seed the P3M run and its slab
+    twin (same particles, box and seed); ``box``: both in a box of ``BOX_LAMBDA``
+    lambda_cr (``box_overrides``) at the "gravity" lengths, else in the case's own box,
+    the P3M run at its "p3m" length where one is set."""
+    extra = box_overrides(case) if box else {}
+    tag = f"-box{BOX_LAMBDA:g}" if box else ""
+    jobs = []
+    for k in kappas:
+        for s in seeds:
+            p3m = overrides(case, k, s, True, solver="p3m")
+            p3m.update(extra, name=p3m["name"] + tag,
+                       **{"integration.orbits": orbits(case, True, k,
+                                                       first=() if box else ("p3m",))})
+            slab = overrides(case, k, s, True, slab=True)
+            slab.update(extra, name=slab["name"] + tag)
+            jobs += [(str(SCENARIOS[k]), p3m, str(p3m_output(runs, case, k, s, box))),
+                     (str(SCENARIOS[k]), slab, str(slab_output(runs, case, k, s, box)))]
+    return jobs
 
 
 def run_p3m(cases: list[str], args, runs: Path, costs: dict) -> None:
@@ -305,19 +344,13 @@ def run_p3m(cases: list[str], args, runs: Path, costs: dict) -> None:
     holds, docs/gravity.md 4b), and the slab runs of the same seeds: same particles, box
     and lengths (the "gravity" lengths of the case).  Writes ``P3M_CHECK`` (per seed and
     mean: c and H with each solver and slab / P3M) instead of the report, whose other
-    runs this does not touch."""
+    runs this does not touch.
+    ``args.p3m_box``: both runs in a box of ``BOX_LAMBDA`` lambda_cr instead of the case's
+    own (``SLAB_PARTICLES``), which can be too small for wakes (``p3m_jobs``)."""
     from kappa_selfgravity_p3m import write_p3m_check
 
-    jobs = []
-    for case in cases:
-        for k in args.kappas:
-            for s in args.seeds:
-                jobs.append((str(SCENARIOS[k]),
-                             {**overrides(case, k, s, True, solver="p3m"),
-                              "integration.orbits": orbits(case, True, k)},
-                             str(p3m_output(runs, case, k, s))))
-                jobs.append((str(SCENARIOS[k]), overrides(case, k, s, True, slab=True),
-                             str(slab_output(runs, case, k, s))))
+    box = bool(getattr(args, "p3m_box", False))
+    jobs = [job for case in cases for job in p3m_jobs(case, args.kappas, args.seeds, runs, box)]
     jobs.sort(key=job_cost, reverse=True)
     run_jobs(jobs, args.workers, costs)
     write_p3m_check(cases, args, runs)
@@ -406,6 +439,9 @@ def main() -> None:
     parser.add_argument("--p3m", nargs="+", choices=list(CASES), default=[],
                         help="check the slab runs of these cases against P3M (seeds "
                         "--seeds, kappa values --kappas); writes P3M_CHECK, not the report")
+    parser.add_argument("--p3m-box", action="store_true",
+                        help=f"with --p3m: both solvers' runs in a box of {BOX_LAMBDA:g} "
+                        "lambda_cr (one that can hold wakes) instead of the case's own")
     parser.add_argument("--base-seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--variants", nargs="+", default=list(SYSTEMATIC_VARIANTS),
                         choices=list(SYSTEMATIC_VARIANTS), help="sources of --systematics")

@@ -13,33 +13,63 @@ import math
 import re
 from pathlib import Path
 
-from kappa_selfgravity import CASES, P3M_CHECK, SCENARIOS, last_orbit, p3m_output, slab_output
+from kappa_selfgravity import (
+    BOX_LAMBDA,
+    CASES,
+    P3M_CHECK,
+    SCENARIOS,
+    last_orbit,
+    p3m_output,
+    slab_output,
+)
 from kappa_selfgravity_report import HEADLINE, fmt_quotient, quotient
 
 from ringsim.analysis.budget import replica_mean
 from ringsim.analysis.equilibrium import equilibrium
 from ringsim.store.runfile import open_run
 
-#: The equilibrium quantities of each solver kept in ``P3M_CHECK``.
+#: The equilibrium quantities of each solver kept in ``P3M_CHECK`` (those with errors as
+#: {"mean", "stderr", "units"}; ``wake_significant_fraction``, the fraction of snapshots
+#: with a significant wake, as a number).
 P3M_CHECK_KEYS = ("velocity_dispersion", "thickness", "toomre_Q", "toomre_Q_mass",
-                  "gravitational_viscosity")
+                  "gravitational_viscosity", "lambda_cr", "wake_wavelength", "wake_pitch_angle",
+                  "wake_amplitude", "wake_significant_fraction")
 #: Header of the section ``p3m_check_lines`` writes.
 P3M_SECTION = "## The slab against the full field (P3M)"
+#: Keys of ``P3M_CHECK``: "<case> kappa <k> seed <s>" for the case's own box, "<case> box
+#: <BOX_LAMBDA> kappa <k> seed <s>" for a box of BOX_LAMBDA lambda_cr (``--p3m-box``).
+CHECK_KEY = re.compile(r"(\S+)(?: box (\S+))? kappa (\S+) seed (\d+)")
+
+
+def check_key(case: str, kappa: float, seed: int, box: bool = False) -> str:
+    """The ``P3M_CHECK`` key of one seed (``CHECK_KEY``)."""
+    return f"{case}{f' box {BOX_LAMBDA:g}' if box else ''} kappa {kappa:g} seed {seed}"
+
+
+def parse_key(name: str) -> tuple[str, str, float, int] | None:
+    """(case, label, kappa, seed) of a ``P3M_CHECK`` key; the label names the box when it is
+    not the case's own."""
+    match = CHECK_KEY.fullmatch(name)
+    if not match:
+        return None
+    label = match[1] if match[2] is None else f"{match[1]}, {match[2]} lambda_cr box"
+    return match[1], label, float(match[3]), int(match[4])
 
 
 def write_p3m_check(cases: list[str], args, runs: Path) -> None:
     """``P3M_CHECK``: the P3M runs of ``cases`` (``run_p3m``) against the slab runs of the
     same seeds: per seed and kappa the equilibrium quantities ``P3M_CHECK_KEYS`` of each
     solver, each run's stationarity and length, and slab / P3M of c and H with errors;
-    printed too.
+    printed too.  ``args.p3m_box``: the runs in a box of ``BOX_LAMBDA`` lambda_cr.
     The entries of other cases already in the file are kept."""
+    box = bool(getattr(args, "p3m_box", False))
     out = json.loads(P3M_CHECK.read_text()) if P3M_CHECK.exists() else {}
     for case in cases:
         for kappa in args.kappas:
             for seed in args.seeds:
                 row = {}
-                for name, path in (("p3m", p3m_output(runs, case, kappa, seed)),
-                                   ("slab", slab_output(runs, case, kappa, seed))):
+                for name, path in (("p3m", p3m_output(runs, case, kappa, seed, box)),
+                                   ("slab", slab_output(runs, case, kappa, seed, box))):
                     if not path.exists():
                         continue
                     run = open_run(path)
@@ -47,15 +77,18 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
                     row[name] = {key: {"mean": eq[key]["mean"], "stderr": eq[key]["stderr"],
                                        "units": eq[key]["units"]}
                                  for key in P3M_CHECK_KEYS if isinstance(eq.get(key), dict)}
+                    row[name].update({key: float(eq[key]) for key in P3M_CHECK_KEYS
+                                      if isinstance(eq.get(key), (int, float))})
                     row[name].update({"in_equilibrium": bool(eq["in_equilibrium"]),
-                                      "orbits": last_orbit(run)})
+                                      "orbits": last_orbit(run),
+                                      "box_lambda_cr": float(run.attrs["box_lambda_cr"])})
                 if len(row) == 2:
                     for key in HEADLINE:
                         q = quotient(row["slab"][key], row["p3m"][key])
                         row[f"slab/p3m {key}"] = {"mean": q["mean"], "stderr": q["stderr"],
                                                   "units": "1"}
-                out[f"{case} kappa {kappa:g} seed {seed}"] = row
-                print(f"{case} kappa {kappa:g} seed {seed}: "
+                out[check_key(case, kappa, seed, box)] = row
+                print(f"{check_key(case, kappa, seed, box)}: "
                       + json.dumps({k: v for k, v in row.items() if k.startswith("slab/")}))
     P3M_CHECK.write_text(json.dumps(out, indent=1))
 
@@ -77,9 +110,9 @@ def p3m_check_lines(check: dict) -> list[str]:
     the same seeds (seeds combined as in the headline: ``replica_mean``)."""
     entries = []
     for name, row in check.items():
-        match = re.fullmatch(r"(.+) kappa (\S+) seed (\d+)", name)
-        if match and "p3m" in row:
-            entries.append((match[1], float(match[2]), int(match[3]), row))
+        parsed = parse_key(name)
+        if parsed and "p3m" in row:
+            entries.append((parsed[1], parsed[2], parsed[3], row))
     if not entries:
         return []
     entries.sort(key=lambda e: (e[0], e[1], e[2]))
@@ -87,18 +120,22 @@ def p3m_check_lines(check: dict) -> list[str]:
         "Each P3M run (every mode the box holds, docs/gravity.md 4b) beside the slab run of "
         "the same seed, particles and box (`python analysis/kappa_selfgravity.py --p3m CASE "
         "--kappas K --seeds S`; analysis/data/kappa_selfgravity_p3m_check.json). Q (mass) is "
-        "Toomre Q from the mass-weighted sigma_x; nu_g the gravitational viscosity. A "
-        "stationary column reads P3M / slab.", "",
-        "| case | kappa | seed | orbits | c, P3M [mm/s] | c, slab [mm/s] | slab / P3M, c | "
-        "H, P3M [m] | H, slab [m] | slab / P3M, H | Q (mass), P3M | Q (mass), slab | "
-        "nu_g, P3M [1e-4 m^2/s] | stationary |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        "Toomre Q from the mass-weighted sigma_x; nu_g the gravitational viscosity; box the "
+        "smaller side over lambda_cr (a case named with its box was run again in a box of "
+        f"{BOX_LAMBDA:g} lambda_cr, `--p3m-box`). The orbits and stationary columns read "
+        "P3M / slab.", "",
+        "| case | kappa | seed | box [lambda_cr] | orbits | c, P3M [mm/s] | c, slab [mm/s] | "
+        "slab / P3M, c | H, P3M [m] | H, slab [m] | slab / P3M, H | Q (mass), P3M | "
+        "Q (mass), slab | nu_g, P3M [1e-4 m^2/s] | stationary |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for case, kappa, seed, row in entries:
         orbit_text = " / ".join(f"{row[s]['orbits']:.0f}" for s in ("p3m", "slab") if s in row)
         stationary = " / ".join(str(row[s]["in_equilibrium"]) for s in ("p3m", "slab")
                                 if s in row)
+        box = row["p3m"].get("box_lambda_cr")
         lines.append(
-            f"| {case} | {kappa:g} | {seed} | {orbit_text} "
+            f"| {case} | {kappa:g} | {seed} | {'' if box is None else f'{box:.2f}'} "
+            f"| {orbit_text} "
             f"| {_check_value(row, 'p3m', 'velocity_dispersion', 1e3)} "
             f"| {_check_value(row, 'slab', 'velocity_dispersion', 1e3)} "
             f"| {_check_value(row, None, 'slab/p3m velocity_dispersion', 1.0)} "
@@ -145,20 +182,24 @@ def slab_check_flags(check: dict, solver: dict) -> list[str]:
     ``P3M_CHECK``, by more than the slab's ``gravity_solver`` part (``solver_parts``) and
     more than three standard errors (stationary runs of both solvers, seeds combined)."""
     pairs: dict[str, list[dict]] = {}
+    size_of: dict[str, str] = {}
+    with_ratio = set()
     for name, row in check.items():
-        match = re.fullmatch(r"(.+) kappa (\S+) seed (\d+)", name)
-        if (match and float(match[2]) == 0.0 and row.get("p3m", {}).get("in_equilibrium")
-                and row.get("slab", {}).get("in_equilibrium")):
-            pairs.setdefault(match[1], []).append(row)
-    with_ratio = {match[1] for name, row in check.items()
-                  if (match := re.fullmatch(r"(.+) kappa (\S+) seed (\d+)", name))
-                  and float(match[2]) != 0.0 and row.get("p3m", {}).get("in_equilibrium")}
+        parsed = parse_key(name)
+        if not parsed or not row.get("p3m", {}).get("in_equilibrium"):
+            continue
+        case, label, kappa, _ = parsed
+        size_of[label] = CASES[case][0]
+        if kappa != 0.0:
+            with_ratio.add(label)
+        elif row.get("slab", {}).get("in_equilibrium"):
+            pairs.setdefault(label, []).append(row)
     lines = []
     for case, rows in sorted(pairs.items()):
         parts, flagged, means = [], False, []
         for key, label in zip(HEADLINE, ("c", "H"), strict=True):
             q = replica_mean([row[f"slab/p3m {key}"] for row in rows])
-            allowed = max(3.0 * q["stderr"], solver.get(CASES[case][0], {}).get(key, 0.0))
+            allowed = max(3.0 * q["stderr"], solver.get(size_of[case], {}).get(key, 0.0))
             flagged |= abs(q["mean"] - 1.0) > allowed
             parts.append(f"{q['mean']:.3f} ± {q['stderr']:.3f} in {label}")
             means.append(q["mean"])
