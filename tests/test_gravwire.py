@@ -242,6 +242,26 @@ def test_analyze_warns_for_a_slab_run_below_mass_weighted_q_5(solver, q_mass, wa
     assert ("WARNING: slab solver at mass-weighted Q" in text) == warned
 
 
+@pytest.mark.parametrize(("significant", "box_length", "shown"),
+                         [(0.98, 0.71, "71 %"), (0.5, 0.25, "25 %"), (0.0, 0.0, None)])
+def test_analyze_says_how_often_the_wake_is_one_wavelength_along_y(significant, box_length,
+                                                                   shown):
+    """The share of the snapshots with a wake whose dominant mode is one wavelength along y
+    (71 % in the 2.1 lambda_cr box of powerlaw-1.3e8-0.5, 3 of 4 in a-ring-wakes) is printed
+    when there are wakes, and the line is absent without them."""
+    from ringsim.analysis.gravitating import GRAVITY_QUANTITIES, gravity_table_lines
+
+    eq = {key: {"mean": 10.0, "stderr": 0.0, "units": units}
+          for key, (_label, units, _shown, _scale) in GRAVITY_QUANTITIES.items()}
+    eq.update(wake_snapshots=63, wake_significant_fraction=significant,
+              wake_box_length_fraction=box_length, gravity_solver="p3m")
+    line = [x for x in gravity_table_lines(eq) if "wakes one wavelength along y" in x]
+    if shown is None:
+        assert line == []
+    else:
+        assert len(line) == 1 and f"{shown} of the snapshots with a wake" in line[0]
+
+
 # --- the wake-forming scenario (slow: about 5 minutes of CPU, one run for both tests) -------
 
 #: Wakes are significant from orbit 0.5 on (docs/validation.md, "Self-gravity"); the tests

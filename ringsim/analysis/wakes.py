@@ -95,7 +95,9 @@ def wake_statistics(x, y, mass, Lx, Ly, shift, n=128, false_alarm=1e-3):
     Poisson noise) and ``poisson_amplitude`` (its expectation for a uniform random sheet of
     these masses) [dimensionless], ``peak_amplitude`` (A of Sigma = <Sigma> (1 + A cos(k.r))
     from the modes above half the peak, shot noise subtracted), ``significance``
-    (peak / shot), ``p_value``, ``significant``.
+    (peak / shot), ``p_value``, ``significant``, ``azimuthal_mode`` (wavelengths of the
+    dominant mode along the box's azimuthal side, |k_y| Ly / 2 pi: 1 is the longest
+    non-axisymmetric wave the box holds, 0 an axisymmetric one).
     """
     spec = sheared_grid_spectrum(x, y, mass, Lx, Ly, shift, n)
     power, kx, ky, shot = spec["power"], spec["kx"], spec["ky"], spec["shot"]
@@ -137,6 +139,7 @@ def wake_statistics(x, y, mass, Lx, Ly, shift, n=128, false_alarm=1e-3):
         "significance": significance,
         "p_value": p_value,
         "significant": bool(p_value < false_alarm),
+        "azimuthal_mode": int(round(abs(float(k0[1])) * Ly / (2.0 * np.pi))),
     }
 
 
