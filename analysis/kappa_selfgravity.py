@@ -112,9 +112,9 @@ CASES = {f"{size}-{a_name}-{tau:g}": (size, a, tau)
 #: runs keep the 140 orbits they were made with ("slab, kappa 0"): without that entry the
 #: slab's length falls through to the "gravity, kappa 0" entry above.
 #: The P3M checks of the slab (``run_p3m``) take the "gravity" lengths unless a "p3m"
-#: entry is set; the P3M runs in a box of ``BOX_LAMBDA`` lambda_cr (``--p3m-box``) take
-#: the "gravity" lengths always (eight times the particles: a smaller error per snapshot,
-#: the same autocorrelation times).  In powerlaw-1.3e8-0.5 the kappa = 0 P3M seed 3 had
+#: entry is set; the P3M runs in a larger box (``--p3m-box``) take the "gravity" lengths
+#: always (eight or more times the particles: a smaller error per snapshot, the same
+#: autocorrelation times).  In powerlaw-1.3e8-0.5 the kappa = 0 P3M seed 3 had
 #: 15.9 of the 20 effective samples after 70 orbits (2026-11-25), so that group runs 105.
 MONO_LENGTHS = {"nograv": 320.0, "gravity": 140.0, "gravity, kappa 0.1": 280.0}
 POWERLAW_LENGTHS = {"nograv": 480.0, "gravity": 70.0, "gravity, kappa 0.1": 140.0,
@@ -179,11 +179,21 @@ def patch(case: str) -> dict:
     Omega = orbital_frequency(GM_SATURN, a)
     Sigma = surface_density_from_tau(tau, DENSITY, r2, r3)
     lam = toomre_wavelength(Sigma, Omega)
-    full = max(MIN_PARTICLES, math.ceil(tau * (BOX_LAMBDA * lam) ** 2 / (math.pi * r2)))
+    full = box_particles(case, BOX_LAMBDA)
     n = SLAB_PARTICLES.get(case, full)
     return {"Omega": Omega, "Sigma": Sigma, "lambda_cr": lam, "n_particles": n,
             "full_box_particles": full, "mean_radius": r1,
             "box": math.sqrt(n * math.pi * r2 / tau)}
+
+
+def box_particles(case: str, box_lambda: float) -> int:
+    """Particles of a square box of ``box_lambda`` lambda_cr on a side for ``case`` (at least
+    ``MIN_PARTICLES``)."""
+    size, a, tau = CASES[case]
+    _, r2, r3 = moments(size)
+    lam = toomre_wavelength(surface_density_from_tau(tau, DENSITY, r2, r3),
+                            orbital_frequency(GM_SATURN, a))
+    return max(MIN_PARTICLES, math.ceil(tau * (box_lambda * lam) ** 2 / (math.pi * r2)))
 
 
 def plain_sheet(kappa: float) -> dict:
@@ -243,12 +253,15 @@ def run_jobs(jobs: list[tuple], workers: int, costs: dict) -> None:
     """Run ``jobs`` and add each one's CPU to ``costs[file name]``: "cpu_s" and "orbits",
     the orbits that CPU covers (fewer than the run's when a part ran in a process whose
     record was lost, or before records were kept).  A job's cost is saved when it ends,
-    whatever the order, so a cut-off loses only the jobs still running."""
+    whatever the order, so a cut-off loses only the jobs still running; it is merged into
+    the file as it is then (``DATA``), so drivers running side by side keep each other's
+    records."""
     with ProcessPoolExecutor(max_workers=workers) as pool:
         for future in as_completed([pool.submit(timed, job) for job in jobs]):
             path, cpu, before = future.result()
             run = open_run(path)
             now = last_orbit(run)
+            costs.update(load_costs())
             old = costs.get(Path(path).name, {})
             if now < before or before == 0.0:
                 # rewritten from the start (the job asked for fewer orbits), or made anew
@@ -290,9 +303,10 @@ def run_case(case: str, args, runs: Path, costs: dict) -> None:
     run_jobs(grav, args.workers, costs)
 
 
-def slab_output(runs: Path, case: str, kappa: float, seed: int, box: bool = False) -> Path:
-    """The slab run's file; ``box``: the run in a box of ``BOX_LAMBDA`` lambda_cr."""
-    tag = f"slab-box{BOX_LAMBDA:g}" if box else "slab"
+def slab_output(runs: Path, case: str, kappa: float, seed: int,
+                box: float | None = None) -> Path:
+    """The slab run's file; ``box``: the run in a box of that many lambda_cr."""
+    tag = f"slab-box{box:g}" if box else "slab"
     return runs / f"{tag}_{case}_kappa{kappa:g}_seed{seed}.h5"
 
 
@@ -305,25 +319,26 @@ def gravity_jobs(case: str, seeds, extra: dict, path_of, slab: bool = False,
              str(path_of(k, s))) for k in kappas for s in seeds]
 
 
-def p3m_output(runs: Path, case: str, kappa: float, seed: int, box: bool = False) -> Path:
-    """The P3M run's file; ``box``: the run in a box of ``BOX_LAMBDA`` lambda_cr."""
-    tag = f"p3m-box{BOX_LAMBDA:g}" if box else "p3m"
+def p3m_output(runs: Path, case: str, kappa: float, seed: int,
+               box: float | None = None) -> Path:
+    """The P3M run's file; ``box``: the run in a box of that many lambda_cr."""
+    tag = f"p3m-box{box:g}" if box else "p3m"
     return runs / f"{tag}_{case}_kappa{kappa:g}_seed{seed}.h5"
 
 
-def box_overrides(case: str) -> dict:
-    """Overrides that put a run of ``case`` in a box of ``BOX_LAMBDA`` lambda_cr (its
-    ``full_box_particles``), where the case's own box (``SLAB_PARTICLES``) is smaller."""
-    return {"sheet.n_particles": patch(case)["full_box_particles"]}
+def box_overrides(case: str, box: float) -> dict:
+    """Overrides that put a run of ``case`` in a box of ``box`` lambda_cr (``box_particles``)
+    instead of its own (``SLAB_PARTICLES``, ``patch``)."""
+    return {"sheet.n_particles": box_particles(case, box)}
 
 
-def p3m_jobs(case: str, kappas, seeds, runs: Path, box: bool = False) -> list:
+def p3m_jobs(case: str, kappas, seeds, runs: Path, box: float | None = None) -> list:
     """Jobs of ``run_p3m`` for one case: for each kappa and seed the P3M run and its slab
-    twin (same particles, box and seed); ``box``: both in a box of ``BOX_LAMBDA``
-    lambda_cr (``box_overrides``) at the "gravity" lengths, else in the case's own box,
-    the P3M run at its "p3m" length where one is set."""
-    extra = box_overrides(case) if box else {}
-    tag = f"-box{BOX_LAMBDA:g}" if box else ""
+    twin (same particles, box and seed); ``box``: both in a box of that many lambda_cr
+    (``box_overrides``) at the "gravity" lengths, else in the case's own box, the P3M run
+    at its "p3m" length where one is set."""
+    extra = box_overrides(case, box) if box else {}
+    tag = f"-box{box:g}" if box else ""
     jobs = []
     for k in kappas:
         for s in seeds:
@@ -345,11 +360,11 @@ def run_p3m(cases: list[str], args, runs: Path, costs: dict) -> None:
     and lengths (the "gravity" lengths of the case).  Writes ``P3M_CHECK`` (per seed and
     mean: c and H with each solver and slab / P3M) instead of the report, whose other
     runs this does not touch.
-    ``args.p3m_box``: both runs in a box of ``BOX_LAMBDA`` lambda_cr instead of the case's
-    own (``SLAB_PARTICLES``), which can be too small for wakes (``p3m_jobs``)."""
+    ``args.p3m_box``: both runs in a box of that many lambda_cr instead of the case's own
+    (``SLAB_PARTICLES``), which can be too small for wakes (``p3m_jobs``)."""
     from kappa_selfgravity_p3m import write_p3m_check
 
-    box = bool(getattr(args, "p3m_box", False))
+    box = getattr(args, "p3m_box", None)
     jobs = [job for case in cases for job in p3m_jobs(case, args.kappas, args.seeds, runs, box)]
     jobs.sort(key=job_cost, reverse=True)
     run_jobs(jobs, args.workers, costs)
@@ -439,9 +454,11 @@ def main() -> None:
     parser.add_argument("--p3m", nargs="+", choices=list(CASES), default=[],
                         help="check the slab runs of these cases against P3M (seeds "
                         "--seeds, kappa values --kappas); writes P3M_CHECK, not the report")
-    parser.add_argument("--p3m-box", action="store_true",
-                        help=f"with --p3m: both solvers' runs in a box of {BOX_LAMBDA:g} "
-                        "lambda_cr (one that can hold wakes) instead of the case's own")
+    parser.add_argument("--p3m-box", type=float, nargs="?", const=BOX_LAMBDA, default=None,
+                        metavar="LAMBDA_CR",
+                        help=f"with --p3m: both solvers' runs in a square box of LAMBDA_CR "
+                        f"(default {BOX_LAMBDA:g}) Toomre wavelengths, one that can hold "
+                        "wakes, instead of the case's own")
     parser.add_argument("--base-seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--variants", nargs="+", default=list(SYSTEMATIC_VARIANTS),
                         choices=list(SYSTEMATIC_VARIANTS), help="sources of --systematics")

@@ -14,7 +14,6 @@ import re
 from pathlib import Path
 
 from kappa_selfgravity import (
-    BOX_LAMBDA,
     CASES,
     P3M_CHECK,
     SCENARIOS,
@@ -37,13 +36,13 @@ P3M_CHECK_KEYS = ("velocity_dispersion", "thickness", "toomre_Q", "toomre_Q_mass
 #: Header of the section ``p3m_check_lines`` writes.
 P3M_SECTION = "## The slab against the full field (P3M)"
 #: Keys of ``P3M_CHECK``: "<case> kappa <k> seed <s>" for the case's own box, "<case> box
-#: <BOX_LAMBDA> kappa <k> seed <s>" for a box of BOX_LAMBDA lambda_cr (``--p3m-box``).
+#: <b> kappa <k> seed <s>" for a box of b lambda_cr (``--p3m-box b``).
 CHECK_KEY = re.compile(r"(\S+)(?: box (\S+))? kappa (\S+) seed (\d+)")
 
 
-def check_key(case: str, kappa: float, seed: int, box: bool = False) -> str:
+def check_key(case: str, kappa: float, seed: int, box: float | None = None) -> str:
     """The ``P3M_CHECK`` key of one seed (``CHECK_KEY``)."""
-    return f"{case}{f' box {BOX_LAMBDA:g}' if box else ''} kappa {kappa:g} seed {seed}"
+    return f"{case}{f' box {box:g}' if box else ''} kappa {kappa:g} seed {seed}"
 
 
 def parse_key(name: str) -> tuple[str, str, float, int] | None:
@@ -60,9 +59,9 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
     """``P3M_CHECK``: the P3M runs of ``cases`` (``run_p3m``) against the slab runs of the
     same seeds: per seed and kappa the equilibrium quantities ``P3M_CHECK_KEYS`` of each
     solver, each run's stationarity and length, and slab / P3M of c and H with errors;
-    printed too.  ``args.p3m_box``: the runs in a box of ``BOX_LAMBDA`` lambda_cr.
+    printed too.  ``args.p3m_box``: the runs in a box of that many lambda_cr.
     The entries of other cases already in the file are kept."""
-    box = bool(getattr(args, "p3m_box", False))
+    box = getattr(args, "p3m_box", None)
     out = json.loads(P3M_CHECK.read_text()) if P3M_CHECK.exists() else {}
     for case in cases:
         for kappa in args.kappas:
@@ -121,8 +120,8 @@ def p3m_check_lines(check: dict) -> list[str]:
         "the same seed, particles and box (`python analysis/kappa_selfgravity.py --p3m CASE "
         "--kappas K --seeds S`; analysis/data/kappa_selfgravity_p3m_check.json). Q (mass) is "
         "Toomre Q from the mass-weighted sigma_x; nu_g the gravitational viscosity; box the "
-        "smaller side over lambda_cr (a case named with its box was run again in a box of "
-        f"{BOX_LAMBDA:g} lambda_cr, `--p3m-box`). The orbits and stationary columns read "
+        "smaller side over lambda_cr (a case named with its box was run again in a larger "
+        "box, `--p3m-box LAMBDA_CR`). The orbits and stationary columns read "
         "P3M / slab.", "",
         "| case | kappa | seed | box [lambda_cr] | orbits | c, P3M [mm/s] | c, slab [mm/s] | "
         "slab / P3M, c | H, P3M [m] | H, slab [m] | slab / P3M, H | Q (mass), P3M | "
