@@ -10,8 +10,9 @@ The numbers a ring dynamicist reads first for a self-gravitating sheet:
   Omega^2 and Toomre's Q = sigma_x Omega / (3.36 G Sigma) (the stellar-disk form, with the
   epicyclic frequency kappa = Omega of a Keplerian disk);
 * a particle's surface escape speed sqrt(2 G m / r);
-* how many lambda_cr the box spans, with the advice "at least 2, better 4" (Salo, Schmidt &
-  Spahn 2001 and Salo et al. 2018 use boxes of about 2-4 lambda_cr for wakes).
+* how many lambda_cr the box spans, with the advice "at least 2, better 4" (issue 12's rule;
+  no published box-size recommendation could be read, docs/gravity.md section 7: a wake
+  lambda_cr apart at the published 15-30 deg pitch is 2-4 lambda_cr long azimuthally).
 
 The planet's mass is M_p = GM / G: ``GM`` is the number users give (it is known far better
 than G or M_p separately).
