@@ -213,5 +213,6 @@ def slab_check_flags(check: dict, solver: dict) -> list[str]:
                 "the slab's times this factor (for kappa = 0 alone). "
                 + ("The ratio with the full field is in \"The slab against the full field "
                    "(P3M)\" below." if case in with_ratio
-                   else "No kappa = 0.1 P3M run of this case yet."))
+                   else "No kappa = 0.1 P3M run of this case yet." if case in CASES
+                   else "No kappa = 0.1 P3M run in this box yet."))
     return lines
