@@ -14,6 +14,8 @@ run; ``analysis/data/kappa_selfgravity.json`` keeps the costs.
     python analysis/kappa_selfgravity.py --cases mono-1e8-0.5 mono-1e8-0.25 --seeds 1 2 3
     python analysis/kappa_selfgravity.py --report-only
     python analysis/kappa_selfgravity.py --slab mono-1e8-0.25 --seeds 1 2 3
+    python analysis/kappa_selfgravity.py --p3m powerlaw-1.3e8-0.5 --kappas 0 0.1 --seeds 1 2 3
+    python analysis/kappa_selfgravity.py --p3m powerlaw-1.3e8-0.5 --kappas 0 --seeds 1 --p3m-box 4.2
 
 Box: at least ``BOX_LAMBDA`` Toomre wavelengths on a side and ``MIN_PARTICLES`` particles.
 A run the finder does not call stationary is never averaged: it is listed and left out.
