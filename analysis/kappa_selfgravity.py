@@ -175,27 +175,32 @@ def moments(size: str) -> tuple[float, float, float]:
 def patch(case: str) -> dict:
     """Numbers of a case's patch: Omega [1/s], Sigma [kg/m^2], lambda_cr [m], particles
     (``SLAB_PARTICLES`` where set) and ``full_box_particles`` (those of a box of
-    ``BOX_LAMBDA`` lambda_cr and at least ``MIN_PARTICLES``)."""
+    ``BOX_LAMBDA`` lambda_cr, ``particles_for_box``), the mean and mean-square radius
+    [m, m^2] and the box's side [m]."""
     size, a, tau = CASES[case]
     r1, r2, r3 = moments(size)
     Omega = orbital_frequency(GM_SATURN, a)
     Sigma = surface_density_from_tau(tau, DENSITY, r2, r3)
     lam = toomre_wavelength(Sigma, Omega)
-    full = box_particles(case, BOX_LAMBDA)
+    full = particles_for_box(tau, r2, lam, BOX_LAMBDA)
     n = SLAB_PARTICLES.get(case, full)
     return {"Omega": Omega, "Sigma": Sigma, "lambda_cr": lam, "n_particles": n,
-            "full_box_particles": full, "mean_radius": r1,
+            "full_box_particles": full, "mean_radius": r1, "mean_square_radius": r2,
             "box": math.sqrt(n * math.pi * r2 / tau)}
 
 
+def particles_for_box(tau: float, r2: float, lambda_cr: float, box_lambda: float) -> int:
+    """Particles of a square box of ``box_lambda`` lambda_cr on a side, at least
+    ``MIN_PARTICLES``: optical depth ``tau``, mean-square radius ``r2`` [m^2], ``lambda_cr``
+    [m]."""
+    return max(MIN_PARTICLES, math.ceil(tau * (box_lambda * lambda_cr) ** 2 / (math.pi * r2)))
+
+
 def box_particles(case: str, box_lambda: float) -> int:
-    """Particles of a square box of ``box_lambda`` lambda_cr on a side for ``case`` (at least
-    ``MIN_PARTICLES``)."""
-    size, a, tau = CASES[case]
-    _, r2, r3 = moments(size)
-    lam = toomre_wavelength(surface_density_from_tau(tau, DENSITY, r2, r3),
-                            orbital_frequency(GM_SATURN, a))
-    return max(MIN_PARTICLES, math.ceil(tau * (box_lambda * lam) ** 2 / (math.pi * r2)))
+    """Particles of a square box of ``box_lambda`` lambda_cr on a side for ``case``."""
+    p = patch(case)
+    return particles_for_box(CASES[case][2], p["mean_square_radius"], p["lambda_cr"],
+                             box_lambda)
 
 
 def plain_sheet(kappa: float) -> dict:

@@ -47,7 +47,7 @@ def test_recovers_wavelength_pitch_and_amplitude(sign):
 @pytest.mark.parametrize("m", [1, 2, 3])
 def test_azimuthal_mode_counts_wavelengths_along_y(m):
     """A wave with m wavelengths along the box's azimuthal side is reported as mode m (1:
-    the longest non-axisymmetric wave the box holds, which analyze flags)."""
+    the longest non-axisymmetric wave the box holds, whose share analyze prints)."""
     kx, ky = 2 * np.pi * 3 / LX, 2 * np.pi * m / LY
     pos, mass = draw_wave(20000, kx, ky, 0.5, seed=10 + m)
     stats = w.wake_statistics(pos[:, 0], pos[:, 1], mass, LX, LY, SHIFT, n=64)
