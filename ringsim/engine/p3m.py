@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import time
 import weakref
 
 import numpy as np
@@ -97,6 +98,21 @@ def describe(Lx, Ly, softening, split, auto=False) -> dict:
             "softening": float(softening), "units_softening": "m"}
 
 
+class _Laps:
+    """Adds the CPU time since the last lap to ``profile[name]`` (nothing if ``profile`` is
+    None)."""
+
+    def __init__(self, profile: dict[str, float] | None):
+        self.profile = profile
+        self.t = time.process_time() if profile is not None else 0.0
+
+    def __call__(self, name: str) -> None:
+        if self.profile is not None:
+            now = time.process_time()
+            self.profile[name] = self.profile.get(name, 0.0) + now - self.t
+            self.t = now
+
+
 class P3MSolver:
     """P3M gravity of one shear-periodic box (the callback REBOUND calls).
 
@@ -137,6 +153,9 @@ class P3MSolver:
         self._explicit = (cutoff, cell, dz)
         self._rungs: dict[float, tuple[P3MStruct, P3MMesh]] = {}
         self.error: BaseException | None = None
+        #: CPU seconds [s] per stage of :meth:`apply` (summed over calls) while it is a
+        #: dict, e.g. ``{}`` set by benchmarks/p3m_production.py; None: not timed
+        self.profile: dict[str, float] | None = None
         self._use(self.first_split)
         self._callback = _POST_TIMESTEP(self._additional_forces)
 
@@ -171,6 +190,7 @@ class P3MSolver:
 
     def apply(self, sim_address: int) -> None:
         """Add the P3M accelerations [m/s^2] to the simulation at ``sim_address``."""
+        lap = _Laps(self.profile)
         if self.auto:
             count = ctypes.c_int(0)
             span = _LIB.rs_p3m_height_span(sim_address, ctypes.byref(count))
@@ -178,12 +198,18 @@ class P3MSolver:
         p = self.params
         # padded to a fixed ladder of layer counts: a few kernel tables serve the whole run
         p.nz = layer_bucket(_LIB.rs_p3m_prepare(sim_address, ctypes.byref(p)))
+        lap("split and layers")
         mass = np.empty((p.nz, p.nx, p.ny))
         _LIB.rs_p3m_assign(sim_address, ctypes.byref(p), mass)
+        lap("mass assignment")
         gx, gy, gz = self.mesh.fields(mass, p.alpha)
+        lap("mesh fields (FFT)")
         _LIB.rs_p3m_interpolate(sim_address, ctypes.byref(p), gx, gy, gz)
+        lap("interpolation")
         _LIB.rs_p3m_mean_vertical(sim_address, ctypes.byref(p))
+        lap("mean vertical field")
         _LIB.rs_p3m_short(sim_address, ctypes.byref(p))
+        lap("pair sum")
         if p.error:
             raise MemoryError("rs_p3m: out of memory (cell list or fine vertical layers)")
 
