@@ -7,10 +7,12 @@ step from its checkpoint: it copies the run file to a temporary folder, resumes 
 (``Runner.start_resume``, the run's own scenario, threads and gravity), and in that one
 process measures
 
-* ``steps`` whole steps with P3M, with the CPU of each stage of the solver's force
-  evaluation (``P3MSolver.profile``: split and layers, mass assignment, the FFT mesh
-  fields, interpolation, the fine-layer mean vertical field, the short-range pair sum) and
-  the layer counts, split and mesh it used;
+* after ``warmup`` steps (which make the rungs and kernel tables the state needs; a
+  table costs about a second, so one made among the timed steps would dominate them; the
+  number made is reported), ``steps`` whole steps with P3M, with the CPU of each stage of
+  the solver's force evaluation (``P3MSolver.profile``: split and layers, mass assignment,
+  the FFT mesh fields, interpolation, the fine-layer mean vertical field, the short-range
+  pair sum) and the splits, meshes and layer counts it used;
 * the same number of steps from the same checkpoint without gravity (the callback
   removed): REBOUND's SEI, ringsim's line detection and resolver, the baseline run;
 * one time-series output (``Runner._output``: particle copies, invariants, diagnostics,
@@ -21,7 +23,7 @@ and the benchmark's own whole step (benchmarks/gravity.py's sheet: 1 m ice, tau 
 cold thin layer, Bridges law) at the same N as the reference.  CPU times are
 ``time.process_time`` (one thread: the runs use ``integration.threads: 1``).
 
-    python benchmarks/p3m_production.py RUN.h5 [RUN.h5 ...] [--steps 100]
+    python benchmarks/p3m_production.py RUN.h5 [RUN.h5 ...] [--steps 100] [--warmup 20]
 """
 
 from __future__ import annotations
@@ -62,7 +64,13 @@ def cpu_of_steps(sim, steps: int) -> float:
     return cost
 
 
-def profile_run(path: Path, steps: int) -> dict:
+def table_count(solver) -> int:
+    """Kernel tables held by all the rungs of ``solver`` (each is built once, when a
+    layer count is first used on a rung; a build costs about a second)."""
+    return sum(len(mesh._tables) for _, mesh in solver._rungs.values())
+
+
+def profile_run(path: Path, steps: int, warmup: int) -> dict:
     """The split of one run's step (module docstring), per particle-step [s]."""
     from gravity import step_cost  # benchmarks/gravity.py, beside this script
 
@@ -74,21 +82,23 @@ def profile_run(path: Path, steps: int) -> dict:
         if solver is None:
             raise SystemExit(f"{path}: not a P3M run")
         layers: list[int] = []
-        sim.steps(2)                                  # warm-up (kernel tables)
+        sim.steps(warmup)       # warm-up: the rungs and kernel tables the state needs
+        built = table_count(solver)
         solver.profile = {}
         t0 = time.process_time()
         for _ in range(steps):
             sim.steps(1)
-            layers.append(int(solver.params.nz))
+            par = solver.params
+            layers.append((par.split, par.nx, par.ny, int(par.nz)))
         whole = time.process_time() - t0
         p3m.raise_pending(sim)
         stages = dict(solver.profile)
         solver.profile = None
-        par = solver.params
         out = {"file": path.name, "n": n, "steps": steps, "dt_orbit": sim.dt / runner.orbit,
+               "tables_built": table_count(solver) - built,
                "whole": whole / (steps * n),
                "stages": {k: stages.get(k, 0.0) / (steps * n) for k in STAGES},
-               "split": par.split, "mesh": (par.nx, par.ny), "layers": sorted(set(layers)),
+               "meshes": sorted(set(layers)),
                "z_rms": float(np.std([p.z for p in sim.particles])),
                "steps_per_output": runner.ts_every / sim.dt}
         t0 = time.process_time()
@@ -100,7 +110,7 @@ def profile_run(path: Path, steps: int) -> dict:
 
         bare = resumed(path, Path(folder), "nogravity")
         bare.sim._additional_forces = ctypes.cast(None, type(bare.sim._additional_forces))
-        bare.sim.steps(2)
+        bare.sim.steps(warmup)
         out["no_gravity"] = cpu_of_steps(bare.sim, steps) / (steps * n)
         bare.handle.close()
     out["benchmark_step"] = step_cost(n, True, "p3m")
@@ -110,15 +120,15 @@ def profile_run(path: Path, steps: int) -> dict:
 
 def table(results: list[dict]) -> list[str]:
     """Markdown rows, CPU microseconds per particle-step."""
-    head = ["run", "N", "rms z [m]", "split [m]", "mesh (layers)", "whole step",
-            *STAGES, "P3M total", "no gravity (same state)", "rest", "output",
+    head = ["run", "N", "rms z [m]", "split [m]: mesh nx x ny x layers", "tables built",
+            "whole step", *STAGES, "P3M total", "no gravity (same state)", "rest", "output",
             "benchmark step, same N"]
     rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in results:
         p3m_total = sum(r["stages"].values())
         rest = r["whole"] - p3m_total - r["no_gravity"]
-        mesh = f"{r['mesh'][0]} x {r['mesh'][1]} ({', '.join(map(str, r['layers']))})"
-        cells = [r["file"], str(r["n"]), f"{r['z_rms']:.1f}", f"{r['split']:.2f}", mesh,
+        meshes = ", ".join(f"{s:.2f}: {nx} x {ny} x {nz}" for s, nx, ny, nz in r["meshes"])
+        cells = [r["file"], str(r["n"]), f"{r['z_rms']:.1f}", meshes, str(r["tables_built"]),
                  *(f"{1e6 * v:.2f}" for v in (r["whole"], *r["stages"].values(), p3m_total,
                                               r["no_gravity"], rest, r["output"],
                                               r["benchmark_step"]))]
@@ -130,10 +140,12 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="+", type=Path)
     parser.add_argument("--steps", type=int, default=100)
+    parser.add_argument("--warmup", type=int, default=20,
+                        help="steps before the timed ones (rungs and kernel tables)")
     args = parser.parse_args(argv)
     results = []
     for path in args.runs:
-        r = profile_run(path, args.steps)
+        r = profile_run(path, args.steps, args.warmup)
         print(r, flush=True)
         results.append(r)
     print("\n".join(table(results)))
