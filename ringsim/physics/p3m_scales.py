@@ -42,7 +42,7 @@ P3M_CELL_LIST_CUTOFFS = 2.5
 #: 6.3 GB, 274 ms per step against 30 for one evaluation (measured 2026-11-24).
 P3M_LAYER_BUCKET = 1.25
 P3M_MIN_LAYERS = 8
-#: Kernel tables a mesh keeps (least recently used dropped): 2 x 8193 x 2 nz doubles each,
+#: Kernel tables a mesh keeps (least recently used dropped): 2 x 8193 x about 2 nz doubles each,
 #: 105 MB at nz = 400.
 P3M_TABLES = 4
 

@@ -481,14 +481,25 @@ class P3MMesh:
         self._ktab = np.linspace(0.0, 1.001 * k_max, 8193)
         self._tables: dict = {}     # layer count -> kernel spectra, at most P3M_TABLES
 
+    @staticmethod
+    def z_length(nz: int) -> int:
+        """Length of the zero-padded FFT along z for ``nz`` layers: the vertical coupling
+        is a linear convolution over the offsets -(nz-1)..(nz-1), so any length >= 2 nz - 1
+        is exact; scipy's next fast length.  (2 nz, used before, has a large prime factor
+        for the layer counts of thick rings, 292 = 4 x 73 at nz = 146, 712 = 8 x 89 at
+        356: the vertical FFTs then cost 1.4-1.7 times as much, benchmarks/
+        p3m_production.py, docs/performance.md.)"""
+        return scipy.fft.next_fast_len(2 * nz - 1, real=True)
+
     def _kernel_tables(self, nz):
         """Vertical spectra of the layer kernels on a fine |k| grid (cached per nz).
 
-        Returns (k phi, g_z) as arrays (n_k, 2 nz): the kernels of :func:`split_layer_kernels`
-        on the layer offsets 0..nz-1, zero-padded to 2 nz with the negative offsets at the
-        end (phi even, g_z odd in the offset), transformed along z.  phi's spectrum is real,
-        g_z's imaginary (its imaginary part is stored).  Linear interpolation in |k| is
-        accurate to < 1e-4 of the kernel (8193 nodes)."""
+        Returns (k phi, g_z) as arrays (n_k, z_length(nz)): the kernels of
+        :func:`split_layer_kernels` on the layer offsets 0..nz-1, zero-padded to
+        ``z_length(nz)`` with the negative offsets at the end (phi even, g_z odd in the
+        offset), transformed along z.  phi's spectrum is real, g_z's imaginary (its
+        imaginary part is stored).  Linear interpolation in |k| is accurate to < 1e-4 of
+        the kernel (8193 nodes)."""
         if nz not in self._tables:
             d = np.arange(nz)[:, None] * self.dz
             phi, gz = split_layer_kernels(self._ktab[None, :], d, self.split, self.G)
@@ -504,11 +515,12 @@ class P3MMesh:
                 gz = gz + c * (up[1] - 2.0 * gz + down[1])
             kphi = phi * self._ktab[None, :]
             kphi[:, 0] = -2.0 * np.pi * self.G          # the k -> 0 limit of k phi
-            padded = np.zeros((2, self._ktab.size, 2 * nz))
+            n_z = self.z_length(nz)
+            padded = np.zeros((2, self._ktab.size, n_z))
             padded[0, :, :nz] = kphi.T
-            padded[0, :, nz + 1:] = kphi.T[:, :0:-1]
+            padded[0, :, n_z - nz + 1:] = kphi.T[:, :0:-1]
             padded[1, :, :nz] = gz.T
-            padded[1, :, nz + 1:] = -gz.T[:, :0:-1]
+            padded[1, :, n_z - nz + 1:] = -gz.T[:, :0:-1]
             spectra = scipy.fft.fft(padded, axis=-1)
             if len(self._tables) >= P3M_TABLES:     # the least recently used goes
                 del self._tables[next(iter(self._tables))]
@@ -535,7 +547,7 @@ class P3MMesh:
         kxp = self.kx[:, None] + alpha * self.ky[None, :]
         ky = np.broadcast_to(self.ky[None, :], kxp.shape)
         k = np.hypot(kxp, ky).ravel()
-        # vertical coupling along the last (contiguous) axis, layout (modes, 2 nz): the
+        # vertical coupling along the last (contiguous) axis, layout (modes, z_length): the
         # kernels' z-spectra interpolated linearly in |k| from the tables
         kphi_tab, gz_tab = self._kernel_tables(nz)
         f = k / self._ktab[1]
@@ -548,7 +560,7 @@ class P3MMesh:
         if self.mean_vertical_in_c:
             gz_z[0] = 0.0       # the k = 0 vertical field is added on fine layers in C
         s_t = np.moveaxis(s_hat, 0, -1).reshape(k.size, nz)
-        s_z = scipy.fft.fft(s_t, n=2 * nz, axis=-1, workers=workers)
+        s_z = scipy.fft.fft(s_t, n=self.z_length(nz), axis=-1, workers=workers)
         conv = scipy.fft.ifft(np.stack([s_z * phi_z, s_z * gz_z]), axis=-1,
                               workers=workers)[:, :, :nz]
         pot_hat, gz_hat = (np.moveaxis(c.reshape(nx, -1, nz), -1, 0) for c in conv)
