@@ -78,6 +78,63 @@ def test_cell_list_and_all_images_paths_agree(sheet400):
     assert np.max(np.abs(a - b)) < 1e-5 * scale
 
 
+def test_pairs_just_inside_the_cutoff_are_summed_in_one_column():
+    """One column of six particles, added out of height order, whose vertical separations
+    fall just inside (14.9, 14.85 m) and just outside (15.2 m) the cutoff r_c = 15 m
+    (five pairs within it): rs_p3m_short gives each the sum over the sources within r_c of
+    the pair term (test above).  The pair at 14.9 m adds 0.63 % of a Newtonian pull there
+    (1 - L(14.9 m) at r_s = 3 m), over 1e3 times the table's tolerance, so a pair lost at
+    the cutoff fails this test (checked: a search cut at 0.992 r_c in height fails it)."""
+    s = eg.random_sheet(400, seed=1)
+    sim = p3m.p3m_simulation(s, t=0.0)
+    par = p3m.installed_solver(sim).params
+    assert par.cutoff == pytest.approx(15.0) and s["Lx"] > 2.5 * par.cutoff  # cell list
+    rs, b, rc = par.split, par.softening, par.cutoff
+    heights = np.array([30.1, 0.0, 52.0, 7.0, 44.95, 14.9]) - 20.0
+    masses = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0]) * 1.0e4
+    col = rebound.Simulation()
+    sheet.configure_box(col, s["geometry"])
+    col.G = G_SI
+    for z, m in zip(heights, masses, strict=True):
+        col.add(m=m, x=3.0, y=-4.0, z=z)
+    address = ctypes.addressof(col)
+    _LIB.rs_p3m_prepare(address, ctypes.byref(par))
+    _LIB.rs_p3m_short(address, ctypes.byref(par))
+    d = heights[:, None] - heights[None, :]
+    r = np.abs(d)
+    near = (r > 0.0) & (r < rc)
+    assert near.sum() == 2 * 5 and np.any(near & (r > 14.8)) and np.any((r > rc) & (r < 15.3))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        long_part = np.where(near, sg.long_range_fraction(np.where(near, r, 1.0), rs)
+                             / np.where(near, r, 1.0) ** 3, 0.0)
+        pair = np.where(near, (r * r + b * b) ** -1.5 - long_part, 0.0)
+    expected = -G_SI * np.sum(masses[None, :] * pair * d, axis=1)
+    tolerance = 1e-6 * G_SI * np.sum(masses[None, :] * long_part * r, axis=1)
+    got = np.array([p.az for p in col.particles])
+    assert np.all(np.abs(got - expected) <= tolerance), (got - expected) / tolerance
+    edge = G_SI * 6.0e4 * ((14.9**2 + b * b) ** -1.5
+                           - sg.long_range_fraction(14.9, rs) / 14.9**3) * 14.9
+    assert edge > 1e3 * tolerance[1]      # the 14.9 m pair is far above the tolerance
+
+
+def test_cell_list_finds_every_pair_in_a_thick_ring(thick600):
+    """In a ring 60 m thick (rms) on a 61 m box, with r_c = 24 m, the cell list's columns
+    span many cutoffs in height.  Its forces equal the all-pairs path's (r_c 24.0 m: 5 x 5
+    columns; 24.6 m: all pairs over 3 x 3 images) up to the two cutoffs' tables of
+    L(r)/r^3 (linear interpolation, < 1e-6 of a pair force; measured 3e-7 of the rms
+    force) and the split's remainder between them (1 - L(24 m) = 5e-7 of a Newtonian pull
+    at 24 m); a close pair left out would be ~1e-2.  The forces conserve momentum to
+    round-off."""
+    assert thick600["Lx"] == pytest.approx(61.4, abs=0.1)
+    assert np.std(thick600["pos"][:, 2]) > 2.0 * 24.6
+    a = p3m.accelerations(p3m.p3m_simulation(thick600, t=T_REF, cutoff=24.0))
+    b = p3m.accelerations(p3m.p3m_simulation(thick600, t=T_REF, cutoff=24.6))
+    scale = np.sqrt(np.mean(np.sum(a * a, axis=1)))
+    assert np.max(np.abs(a - b)) < 1e-5 * scale
+    total = np.sum(thick600["mass"][:, None] * a, axis=0)
+    assert np.all(np.abs(total) < 1e-13 * np.sum(thick600["mass"]) * scale)
+
+
 def test_p3m_forces_conserve_momentum_to_round_off(sheet400):
     """Pair forces antisymmetric, mesh assignment and interpolation with the same kernel:
     the net force vanishes to round-off (measured 1e-17 of M rms|a|)."""
