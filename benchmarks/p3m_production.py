@@ -17,7 +17,8 @@ process measures
   removed): REBOUND's SEI, ringsim's line detection and resolver, the baseline run;
 * one time-series output (``Runner._output``: particle copies, invariants, diagnostics,
   guards; the commit is made by a writer thread and is timed apart, wall clock), per
-  particle-step at the run's output cadence;
+  particle-step at the run's output cadence.  An overestimate: the output sampled may fall
+  on a checkpoint or snapshot, and the CPU of the writer thread is counted;
 
 and the benchmark's own whole step (benchmarks/gravity.py's sheet: 1 m ice, tau = 0.5,
 cold thin layer, Bridges law) at the same N as the reference.  CPU times are
@@ -65,9 +66,10 @@ def cpu_of_steps(sim, steps: int) -> float:
 
 
 def table_count(solver) -> int:
-    """Kernel tables held by all the rungs of ``solver`` (each is built once, when a
-    layer count is first used on a rung; a build costs about a second)."""
-    return sum(len(mesh._tables) for _, mesh in solver._rungs.values())
+    """Kernel tables made so far by all the rungs of ``solver`` (one when a layer count is
+    first used on a rung, or again after the least recently used was dropped; a build
+    costs about a second)."""
+    return sum(mesh.tables_built for _, mesh in solver._rungs.values())
 
 
 def profile_run(path: Path, steps: int, warmup: int) -> dict:
@@ -105,7 +107,7 @@ def profile_run(path: Path, steps: int, warmup: int) -> dict:
         runner._output()
         out["output"] = (time.process_time() - t0) / (out["steps_per_output"] * n)
         runner._writes.join()
-        out["commit_wall"] = runner.commit_cost
+        out["commit_wall"] = runner._writes.last_cost   # this output's commit
         runner.handle.close()
 
         bare = resumed(path, Path(folder), "nogravity")
