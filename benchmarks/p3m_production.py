@@ -40,6 +40,7 @@ import numpy as np
 
 from ringsim.engine import p3m
 from ringsim.engine.runner import Runner
+from ringsim.engine.sheet import particle_arrays
 from ringsim.store.runfile import open_run
 
 #: Stages of P3MSolver.apply, in order.
@@ -83,7 +84,7 @@ def profile_run(path: Path, steps: int, warmup: int) -> dict:
         solver = p3m.installed_solver(sim)
         if solver is None:
             raise SystemExit(f"{path}: not a P3M run")
-        layers: list[int] = []
+        meshes: list[tuple] = []    # (split, nx, ny, nz) of each timed step
         sim.steps(warmup)       # warm-up: the rungs and kernel tables the state needs
         built = table_count(solver)
         solver.profile = {}
@@ -91,7 +92,7 @@ def profile_run(path: Path, steps: int, warmup: int) -> dict:
         for _ in range(steps):
             sim.steps(1)
             par = solver.params
-            layers.append((par.split, par.nx, par.ny, int(par.nz)))
+            meshes.append((par.split, par.nx, par.ny, int(par.nz)))
         whole = time.process_time() - t0
         p3m.raise_pending(sim)
         stages = dict(solver.profile)
@@ -100,8 +101,8 @@ def profile_run(path: Path, steps: int, warmup: int) -> dict:
                "tables_built": table_count(solver) - built,
                "whole": whole / (steps * n),
                "stages": {k: stages.get(k, 0.0) / (steps * n) for k in STAGES},
-               "meshes": sorted(set(layers)),
-               "z_rms": float(np.std([p.z for p in sim.particles])),
+               "meshes": sorted(set(meshes)),
+               "z_rms": float(np.std(particle_arrays(sim)["z"])),
                "steps_per_output": runner.ts_every / sim.dt}
         t0 = time.process_time()
         runner._output()
@@ -115,8 +116,7 @@ def profile_run(path: Path, steps: int, warmup: int) -> dict:
         bare.sim.steps(warmup)
         out["no_gravity"] = cpu_of_steps(bare.sim, steps) / (steps * n)
         bare.handle.close()
-    out["benchmark_step"] = step_cost(n, True, "p3m")
-    out["benchmark_step"] /= n
+    out["benchmark_step"] = step_cost(n, True, "p3m") / n
     return out
 
 
