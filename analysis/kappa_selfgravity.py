@@ -433,10 +433,27 @@ def run_systematics(case: str, args, runs: Path, costs: dict) -> None:
     write_budget(case, args, runs)
 
 
+#: CPU per particle-orbit of a run with each solver over the slab's, from the records of
+#: analysis/data/kappa_selfgravity.json (powerlaw-1.3e8-0.5, kappa = 0, same particles and
+#: box): P3M 15 (13.9 / 0.9 CPU-s per orbit with 2400 particles, 130 / 9.1 with 19329),
+#: the tree 57 (51.4 / 0.9).  A no-gravity run is counted as a slab run (the slab adds
+#: one vertical field per step).
+SOLVER_COST = {"slab": 1.0, "p3m": 15.0, "tree": 57.0}
+
+
+def job_solver(job: tuple) -> str:
+    """The solver of a job's run: "slab" for a no-gravity run (see ``SOLVER_COST``), else
+    its ``sheet.gravity_solver``, the scenario's tree where the job sets none."""
+    o = job[1]
+    return "slab" if "sheet" in o else o.get("sheet.gravity_solver", "tree")
+
+
 def job_cost(job: tuple) -> float:
-    """Relative cost of a job, to start the dearest first: particles x orbits, kappa = 0.1
-    counted twice (its hot ring collides more often)."""
+    """Relative cost of a job, to start the dearest first: particles x orbits x the
+    solver's ``SOLVER_COST``, kappa = 0.1 counted twice (its hot ring collides more
+    often)."""
     return (job[1]["sheet.n_particles"] * job[1]["integration.orbits"]
+            * SOLVER_COST[job_solver(job)]
             * (2.0 if job[0] == str(SCENARIOS[0.1]) else 1.0))
 
 
