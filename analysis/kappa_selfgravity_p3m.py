@@ -173,6 +173,97 @@ def p3m_check_lines(check: dict) -> list[str]:
             "statistical errors only), beside the slab's from the twins of the same seeds:",
             "", "| case | seeds, kappa 0 | seeds, kappa 0.1 | c: P3M | c: slab, same seeds | "
             "H: P3M | H: slab, same seeds |", "|---|---|---|---|---|---|---|", *ratio_rows]
+    boxes = box_lines(check)
+    return lines + (["", *boxes] if boxes else [])
+
+
+#: Columns of ``box_lines``: equilibrium key, header, scale, significant digits.
+BOX_COLUMNS = (("velocity_dispersion", "c [mm/s]", 1e3, 4), ("thickness", "H [m]", 1.0, 4),
+               ("toomre_Q_mass", "Q (mass)", 1.0, 3),
+               ("gravitational_viscosity", "nu_g [1e-4 m^2/s]", 1e4, 2))
+
+
+#: Share of snapshots with a significant wake above which ``box_lines`` gives the wake
+#: wavelength (below it the ring forms no lasting wakes and the wavelength is noise).
+WAKE_SHARE = 0.5
+
+
+def box_groups(check: dict) -> dict:
+    """case -> box [lambda_cr, the runs' mean] -> kappa -> the P3M entries of its stationary
+    runs (``P3M_CHECK`` rows' "p3m" parts), for the cases with such runs in more than one
+    box (the case's own and those of ``--p3m-box``)."""
+    grouped: dict[str, dict[str | None, dict[float, list[dict]]]] = {}
+    for name, row in check.items():
+        match = CHECK_KEY.fullmatch(name)
+        if match and row.get("p3m", {}).get("in_equilibrium"):
+            (grouped.setdefault(match[1], {}).setdefault(match[2], {})
+             .setdefault(float(match[3]), []).append(row["p3m"]))
+    out = {}
+    for case, by_label in grouped.items():
+        if len(by_label) < 2:
+            continue
+        boxes = {}
+        for by_kappa in by_label.values():
+            rows = [r for runs in by_kappa.values() for r in runs]
+            boxes[sum(r["box_lambda_cr"] for r in rows) / len(rows)] = by_kappa
+        out[case] = dict(sorted(boxes.items()))
+    return out
+
+
+def box_lines(check: dict) -> list[str]:
+    """Markdown: the box convergence of the full field, for every case run with P3M in more
+    than one box (``box_groups``): per box and kappa the seeds-combined equilibrium
+    (``replica_mean``), the wake wavelength over lambda_cr with the fraction of snapshots
+    holding a significant wake, and the ratio kappa = 0.1 / kappa = 0 (statistical errors
+    only).  A box with no stationary kappa = 0.1 run takes, for its ratio, those of the
+    largest smaller box that has them, and says so: the kappa = 0.1 ring is hot enough
+    (mass-weighted Q ~ 8) to form no wakes, so it should not depend on the box, which the
+    row of the kappa = 0.1 runs in a larger box tests where they exist."""
+    rows = []
+    for case, boxes in box_groups(check).items():
+        hot_box = None
+        for box, by_kappa in boxes.items():
+            combined = {k: {key: replica_mean([r[key] for r in runs]) for key, *_ in
+                            BOX_COLUMNS if all(key in r for r in runs)}
+                        for k, runs in by_kappa.items()}
+            for kappa, runs in sorted(by_kappa.items()):
+                wakes = [r["wake_wavelength"]["mean"] / r["lambda_cr"]["mean"] for r in runs
+                         if "wake_wavelength" in r and math.isfinite(r["wake_wavelength"]["mean"])]
+                seen = sum(r.get("wake_significant_fraction", 0.0) for r in runs) / len(runs)
+                cells = [_check_value(combined[kappa], None, key, scale, digits)
+                         for key, _, scale, digits in BOX_COLUMNS]
+                rows.append((case, box, kappa, len(runs), cells,
+                             f"{sum(wakes) / len(wakes):.2f}"
+                             if wakes and seen >= WAKE_SHARE else "-",
+                             f"{100 * seen:.0f} %"))
+            if 0.1 in combined:
+                hot_box = box
+            ratio = ""
+            if 0.0 in combined and hot_box is not None:
+                hot = boxes[hot_box]
+                hot_mean = {key: replica_mean([r[key] for r in hot[0.1]])
+                            for key in HEADLINE}
+                ratio = ", ".join(
+                    f"{label} {fmt_quotient(quotient(hot_mean[key], combined[0.0][key]))}"
+                    for key, label in zip(HEADLINE, ("c", "H"), strict=True))
+                if hot_box != box:
+                    ratio += f" (kappa = 0.1 from the {hot_box:.2f} lambda_cr box)"
+            rows[-1] = (*rows[-1], ratio)
+    if not rows:
+        return []
+    lines = [
+        "Box convergence of the full field: the P3M runs of each case in each box it was run "
+        "in, seeds combined (statistical errors only); the share of snapshots with a "
+        "significant wake, and the wake wavelength over lambda_cr where that share is at "
+        f"least {100 * WAKE_SHARE:.0f} % (else -); the ratio kappa = 0.1 / kappa = 0 on the "
+        "last row of each box.",
+        "", "| case | box [lambda_cr] | kappa | seeds | "
+        + " | ".join(head for _, head, *_ in BOX_COLUMNS)
+        + " | wake wavelength [lambda_cr] | snapshots with wakes | ratio 0.1 / 0 |",
+        "|" + "---|" * (7 + len(BOX_COLUMNS))]
+    for case, box, kappa, n, cells, wake, seen, *ratio in rows:
+        lines.append(f"| {case} | {box:.2f} | {kappa:g} | {n} | " + " | ".join(cells)
+                     + f" | {wake} | {seen} | {ratio[0] if ratio else ''} |")
     return lines
 
 
