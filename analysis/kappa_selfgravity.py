@@ -118,6 +118,8 @@ CASES = {f"{size}-{a_name}-{tau:g}": (size, a, tau)
 #: always (eight or more times the particles: a smaller error per snapshot, the same
 #: autocorrelation times).  In powerlaw-1.3e8-0.5 the kappa = 0 P3M seed 3 had
 #: 15.9 of the 20 effective samples after 70 orbits (2026-11-25), so that group runs 105.
+#: In powerlaw-1.3e8-0.25 the kappa = 0 P3M seed 2 had 13.3 (c) and 11.0 (H) after 70
+#: orbits (seeds 1 and 3: 29 and 30; 2026-11-25), so that group runs 140.
 MONO_LENGTHS = {"nograv": 320.0, "gravity": 140.0, "gravity, kappa 0.1": 280.0}
 POWERLAW_LENGTHS = {"nograv": 480.0, "gravity": 70.0, "gravity, kappa 0.1": 140.0,
                     "slab": 140.0}
@@ -134,7 +136,8 @@ ORBITS_FOR_CASE = {"mono-1e8-0.25": {**MONO_LENGTHS, "slab, kappa 0": 210.0},
                    "powerlaw-1e8-0.25": {**POWERLAW_LENGTHS, "slab": 210.0,
                                          "slab, kappa 0.1": 490.0},
                    "powerlaw-1e8-0.5": POWERLAW_05_LENGTHS,
-                   "powerlaw-1.3e8-0.25": {**POWERLAW_LENGTHS, "slab, kappa 0": 210.0},
+                   "powerlaw-1.3e8-0.25": {**POWERLAW_LENGTHS, "slab, kappa 0": 210.0,
+                                           "p3m, kappa 0": 140.0},
                    "powerlaw-1.3e8-0.5": {**POWERLAW_05_LENGTHS, "slab, kappa 0.1": 280.0,
                                           "p3m, kappa 0": 105.0}}
 
