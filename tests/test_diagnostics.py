@@ -394,6 +394,54 @@ def test_gt78_critical_epsilon():
     assert 0.8 < st["impacts_per_orbit"] / (6 * np.pi * 0.25) < 1.2
 
 
+def test_gt78_root_judged_by_its_residuals():
+    """A root of the moment equations is accepted by its residuals (``ROOT_RESIDUAL``), not
+    by MINPACK's status: status 3 ("xtol too small") at residuals of round-off is a root
+    (it is what numpy without AVX-512 gives at the dilute limit), and a "converged" status
+    with residuals above the limit, or with a NaN, is not."""
+    from scipy.optimize import OptimizeResult
+
+    at_root = OptimizeResult(x=np.array([0.4258, 0.6270]), fun=np.array([4.4e-16, -1e-16]),
+                             success=False, status=3)
+    assert kinetic._is_root(at_root)
+    off = OptimizeResult(x=at_root.x, fun=np.array([0.0, 10 * kinetic.ROOT_RESIDUAL]),
+                         success=True, status=1)
+    assert not kinetic._is_root(off)
+    assert not kinetic._is_root(OptimizeResult(x=at_root.x, fun=np.array([np.nan, 0.0]),
+                                               success=True, status=1))
+
+
+def test_gt78_without_avx512_kernels():
+    """The set-up's kinetic estimate on a CPU without AVX-512: numpy's AVX-512 kernels turned
+    off (NPY_DISABLE_CPU_FEATURES, read when numpy is imported, so in a fresh interpreter).
+    Before ``_is_root`` MINPACK stopped with status 3 at the dilute limit there, and every
+    ``ringsim run`` failed at set-up on such CPUs.  The roots agree with this process's to
+    1e-12 (both solve the same equations to round-off)."""
+    import os
+    import subprocess
+    import sys
+
+    umath = getattr(getattr(np, "_core", None), "_multiarray_umath", None)
+    dispatch = getattr(umath, "__cpu_dispatch__", [])
+    found = getattr(umath, "__cpu_features__", {})
+    avx512 = [name for name in dispatch
+              if found.get(name) and (name.startswith("AVX512") or name == "X86_V4")]
+    if not avx512:
+        pytest.skip("numpy runs no AVX-512 kernels here: the default path is the one tested")
+    code = ("from ringsim.physics import kinetic; st = kinetic.gt78_steady_state(0.25); "
+            "print(repr(kinetic.gt78_steady_state(0.0)['epsilon_critical']), "
+            "repr(st['epsilon_critical']), repr(st['sigma_zz_over_xx']))")
+    env = dict(os.environ, NPY_DISABLE_CPU_FEATURES=" ".join(avx512))
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                          text=True, check=False)
+    assert done.returncode == 0, done.stderr
+    eps0, eps, b = (float(v) for v in done.stdout.split())
+    here = kinetic.gt78_steady_state(0.25)
+    assert eps0 == pytest.approx(kinetic.gt78_steady_state(0.0)["epsilon_critical"], abs=1e-12)
+    assert eps == pytest.approx(here["epsilon_critical"], abs=1e-12)
+    assert b == pytest.approx(here["sigma_zz_over_xx"], abs=1e-12)
+
+
 def test_effective_epsilon_of_bridges_law_closed_form():
     """Energy-weighted <eps^2> of eps = min(1, (v/v_c)^-b): incomplete gamma functions."""
     v_c, b = 7.7e-5, 0.234
