@@ -119,7 +119,11 @@ CASES = {f"{size}-{a_name}-{tau:g}": (size, a, tau)
 #: autocorrelation times).  In powerlaw-1.3e8-0.5 the kappa = 0 P3M seed 3 had
 #: 15.9 of the 20 effective samples after 70 orbits (2026-11-25), so that group runs 105.
 #: In powerlaw-1.3e8-0.25 the kappa = 0 P3M seed 2 had 13.3 (c) and 11.0 (H) after 70
-#: orbits (seeds 1 and 3: 29 and 30; 2026-11-25), so that group runs 140.
+#: orbits (seeds 1 and 3: 29 and 30; 2026-11-25), so that group runs 140.  "p3m-box": the
+#: P3M runs in a box of ``--p3m-box`` lambda_cr; in powerlaw-1.3e8-0.5 the kappa = 0 seed 3
+#: in the 2.1 lambda_cr box had 16.5 of the 20 effective samples in H after 70 orbits
+#: (2026-11-26), so that group runs 105 (seeds 1 and 2, 49 and 24 samples at 70, were run
+#: to 70 on a machine since retired).
 MONO_LENGTHS = {"nograv": 320.0, "gravity": 140.0, "gravity, kappa 0.1": 280.0}
 POWERLAW_LENGTHS = {"nograv": 480.0, "gravity": 70.0, "gravity, kappa 0.1": 140.0,
                     "slab": 140.0}
@@ -139,7 +143,7 @@ ORBITS_FOR_CASE = {"mono-1e8-0.25": {**MONO_LENGTHS, "slab, kappa 0": 210.0},
                    "powerlaw-1.3e8-0.25": {**POWERLAW_LENGTHS, "slab, kappa 0": 210.0,
                                            "p3m, kappa 0": 140.0},
                    "powerlaw-1.3e8-0.5": {**POWERLAW_05_LENGTHS, "slab, kappa 0.1": 280.0,
-                                          "p3m, kappa 0": 105.0}}
+                                          "p3m, kappa 0": 105.0, "p3m-box, kappa 0": 105.0}}
 
 #: Gravity quantities shown beside the table rows: key -> (label, unit shown).
 GRAVITY_ROWS = {"toomre_Q": ("Toomre Q (from sigma_x)", ""),
@@ -345,8 +349,9 @@ def box_overrides(case: str, box: float) -> dict:
 def p3m_jobs(case: str, kappas, seeds, runs: Path, box: float | None = None) -> list:
     """Jobs of ``run_p3m`` for one case: for each kappa and seed the P3M run and its slab
     twin (same particles, box and seed); ``box``: both in a box of that many lambda_cr
-    (``box_overrides``) at the "gravity" lengths, else in the case's own box, the P3M run
-    at its "p3m" length where one is set."""
+    (``box_overrides``), else in the case's own box; the P3M run at its "p3m-box" or "p3m"
+    length where one is set, else at the "gravity" lengths; the slab twin at the case's slab
+    lengths (``overrides``)."""
     extra = box_overrides(case, box) if box else {}
     tag = f"-box{box:g}" if box else ""
     jobs = []
@@ -355,7 +360,7 @@ def p3m_jobs(case: str, kappas, seeds, runs: Path, box: float | None = None) -> 
             p3m = overrides(case, k, s, True, solver="p3m")
             p3m.update(extra, name=p3m["name"] + tag,
                        **{"integration.orbits": orbits(case, True, k,
-                                                       first=() if box else ("p3m",))})
+                                                       first=("p3m-box",) if box else ("p3m",))})
             slab = overrides(case, k, s, True, slab=True)
             slab.update(extra, name=slab["name"] + tag)
             jobs += [(str(SCENARIOS[k]), p3m, str(p3m_output(runs, case, k, s, box))),
