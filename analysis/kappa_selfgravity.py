@@ -119,7 +119,8 @@ CASES = {f"{size}-{a_name}-{tau:g}": (size, a, tau)
 #: autocorrelation times).  In powerlaw-1.3e8-0.5 the kappa = 0 P3M seed 3 had
 #: 15.9 of the 20 effective samples after 70 orbits (2026-11-25), so that group runs 105.
 #: In powerlaw-1.3e8-0.25 the kappa = 0 P3M seed 2 had 13.3 (c) and 11.0 (H) after 70
-#: orbits (seeds 1 and 3: 29 and 30; 2026-11-25), so that group runs 140.  "p3m-box": the
+#: orbits (seeds 1 and 3: 29 and 30; 2026-11-25), so that group runs 140; its kappa = 0.1
+#: P3M seed 1 had 17.0 and 17.1 after 140 (2026-11-26), so that group runs 210.  "p3m-box": the
 #: P3M runs in a box of ``--p3m-box`` lambda_cr; in powerlaw-1.3e8-0.5 the kappa = 0 seed 3
 #: in the 2.1 lambda_cr box had 16.5 of the 20 effective samples in H after 70 orbits
 #: (2026-11-26), so that group runs 105 (seeds 1 and 2, 49 and 24 samples at 70, were run
@@ -141,7 +142,7 @@ ORBITS_FOR_CASE = {"mono-1e8-0.25": {**MONO_LENGTHS, "slab, kappa 0": 210.0},
                                          "slab, kappa 0.1": 490.0},
                    "powerlaw-1e8-0.5": POWERLAW_05_LENGTHS,
                    "powerlaw-1.3e8-0.25": {**POWERLAW_LENGTHS, "slab, kappa 0": 210.0,
-                                           "p3m, kappa 0": 140.0},
+                                           "p3m, kappa 0": 140.0, "p3m, kappa 0.1": 210.0},
                    "powerlaw-1.3e8-0.5": {**POWERLAW_05_LENGTHS, "slab, kappa 0.1": 280.0,
                                           "p3m, kappa 0": 105.0, "p3m-box, kappa 0": 105.0}}
 
