@@ -124,7 +124,7 @@ CASES = {f"{size}-{a_name}-{tau:g}": (size, a, tau)
 #: P3M runs in a box of ``--p3m-box`` lambda_cr; in powerlaw-1.3e8-0.5 the kappa = 0 seed 3
 #: in the 2.1 lambda_cr box had 16.5 of the 20 effective samples in H after 70 orbits
 #: (2026-11-26), so that group runs 105 (seeds 1 and 2, 49 and 24 samples at 70, were run
-#: to 70 on a machine since retired).
+#: to 70 on a machine since retired); at 105 seed 3 had 15.4 in c, still short.
 MONO_LENGTHS = {"nograv": 320.0, "gravity": 140.0, "gravity, kappa 0.1": 280.0}
 POWERLAW_LENGTHS = {"nograv": 480.0, "gravity": 70.0, "gravity, kappa 0.1": 140.0,
                     "slab": 140.0}
