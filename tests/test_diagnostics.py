@@ -415,7 +415,7 @@ def test_gt78_without_avx512_kernels():
     """The set-up's kinetic estimate on a CPU without AVX-512: numpy's AVX-512 kernels turned
     off (NPY_DISABLE_CPU_FEATURES, read when numpy is imported, so in a fresh interpreter).
     Before ``_is_root`` MINPACK stopped with status 3 at the dilute limit there, and every
-    ``ringsim run`` failed at set-up on such CPUs.  The roots agree with this process's to
+    ``ringsim run`` failed at set-up with those kernels off.  The roots agree with this process's to
     1e-12 (both solve the same equations to round-off)."""
     import os
     import subprocess

@@ -25,8 +25,8 @@ _LOG_S_STEP = 0.25
 #: depending on the last bits of numpy's exp / log1p, which differ between instruction sets.
 #: Measured 2026-11-26 at the dilute limit and along the continuation to tau = 2: residuals
 #: of at most 2e-16 / 1.9e-15 with numpy's AVX-512 kernels (status 1) and 4.4e-16 / 2.4e-15
-#: without them (status 3 at the dilute limit, so ``ringsim run`` failed at set-up on CPUs
-#: without AVX-512), so 1e-12 is 400 times the round-off seen.
+#: without them (status 3 at the dilute limit, so ``ringsim run`` failed at set-up with
+#: them off, as numpy runs on a CPU without AVX-512), so 1e-12 is 400 times the round-off seen.
 ROOT_RESIDUAL = 1e-12
 
 
