@@ -13,7 +13,7 @@ from ringsim.cli import main
 from ringsim.config.scenario import scenario_from_dict, scenario_from_text
 from ringsim.config.schema import ScenarioError
 from ringsim.engine import export, sheet
-from ringsim.engine.initial_file import CSV_COLUMNS, shear_period
+from ringsim.engine.initial_file import CSV_COLUMNS, shear_period, tile_sheet
 from ringsim.physics import restitution as rs
 
 BASE = {
@@ -70,6 +70,103 @@ def test_scenario_key_round_trips_and_refuses_replaced_keys():
     with pytest.raises(ScenarioError) as info:
         _from_file({"file": "p.txt"})
     assert info.value.key == "sheet.initial_state.file"
+
+
+def test_tile_key_round_trips_and_is_checked():
+    sc = _from_file({"file": "other.h5", "tile": [2, 3]})
+    assert sc.sheet.initial_state.tile == (2, 3)
+    assert scenario_from_text(sc.to_yaml()) == sc
+    assert "tile" not in _from_file({"file": "other.h5"}).to_dict()["sheet"]["initial_state"]
+    for bad in ([2], [0, 2], [2, 2.5], 2, [True, 2], [17, 1]):
+        with pytest.raises(ScenarioError) as info:
+            _from_file({"file": "other.h5", "tile": bad})
+        assert info.value.key == "sheet.initial_state.tile", bad
+    with pytest.raises(ScenarioError) as info:
+        _from_file({"file": "p.csv", "tile": [2, 2]}, optical_depth=0.25)
+    assert info.value.key == "sheet.initial_state.tile"
+
+
+def _hill_sheet(arrays: dict, Lx: float, Ly: float, n_root_x: int, Omega: float,
+                t: float) -> rebound.Simulation:
+    """Particles without collisions or gravity in a shearing box (plain REBOUND, SEI)."""
+    sim = rebound.Simulation()
+    sheet.configure_box(sim, sheet.SheetGeometry(Lx / n_root_x, n_root_x,
+                                                 round(n_root_x * Ly / Lx), 4, Omega))
+    sim.dt = 1e-3 * 2 * np.pi / Omega
+    sim.t = t
+    for k in range(arrays["x"].size):
+        sim.add(m=0.0, x=arrays["x"][k], y=arrays["y"][k], z=arrays["z"][k],
+                vx=arrays["vx"][k], vy=arrays["vy"][k], vz=arrays["vz"][k])
+    return sim
+
+
+def _state(sim) -> dict:
+    out = {f: np.empty(sim.N) for f in ("x", "y", "z", "vx", "vy", "vz")}
+    for k, p in enumerate(sim.particles):
+        for f in out:
+            out[f][k] = getattr(p, f)
+    return out
+
+
+@pytest.mark.parametrize("tile", [(2, 2), (3, 1), (1, 2)])
+def test_tiled_sheet_moves_as_the_repeated_sheet(tile):
+    """The tiled sheet is the small sheet's own images: free (Hill) motion for half an
+    orbit in the large box ends where the small sheet's motion, tiled then, puts every
+    copy, boundary crossings included.  A wrong image offset or shear-flow shift moves the
+    copies by a fraction of Ly or by 1.5 Omega Lx T: metres, not 1e-6 m."""
+    Omega, Lx, Ly, t0 = 2e-4, 40.0, 40.0, 7.3e4      # t0: an offset of 0.6 Ly
+    rng = np.random.default_rng(12)
+    n = 60
+    x = rng.uniform(-0.5 * Lx, 0.5 * Lx, n)
+    small = {"x": x, "y": rng.uniform(-0.5 * Ly, 0.5 * Ly, n), "z": rng.normal(0, 1, n),
+             "vx": rng.normal(0, 0.5 * Omega * Lx, n),
+             "vy": -1.5 * Omega * x + rng.normal(0, 0.5 * Omega * Lx, n),
+             "vz": rng.normal(0, Omega, n)}
+    T = np.pi / Omega
+    a = _hill_sheet(small, Lx, Ly, 1, Omega, t0)
+    a.integrate(t0 + T, exact_finish_time=1)
+    ends = _state(a)
+    # enough radial boundary crossings to test the offsets: a particle that went round
+    # the radial boundary ends more than Lx / 2 from where it started
+    assert np.count_nonzero(np.abs(ends["x"] - small["x"]) > 0.5 * Lx) > 5
+    n_x, n_y = tile
+    b = _hill_sheet(tile_sheet(small, Lx, Ly, Omega, t0, n_x, n_y), n_x * Lx, n_y * Ly, n_x,
+                    Omega, t0)
+    b.integrate(t0 + T, exact_finish_time=1)
+    got = _state(b)
+    want = tile_sheet(ends, Lx, Ly, Omega, t0 + T, n_x, n_y)
+    # a particle's copy may have crossed into a neighbour copy's place: match each of the
+    # large sheet's particles with the nearest copy of the same particle
+    copies = n_x * n_y
+    for name in ("x", "y", "z", "vx", "vy", "vz"):
+        got[name] = got[name].reshape(copies, n)
+        want[name] = want[name].reshape(copies, n)
+    d = np.hypot(got["x"][:, None, :] - want["x"][None, :, :],
+                 got["y"][:, None, :] - want["y"][None, :, :])
+    nearest = np.argmin(d, axis=1)
+    assert np.max(np.min(d, axis=1)) < 1e-6
+    for name in ("z", "vx", "vy", "vz"):
+        match = np.take_along_axis(want[name], nearest, axis=0)
+        np.testing.assert_allclose(got[name], match, rtol=0, atol=1e-9, err_msg=name)
+    # every copy of every particle is found once: the tiling is a permutation
+    assert all(sorted(nearest[:, k]) == list(range(copies)) for k in range(n))
+
+
+def test_run_starts_from_a_tiled_snapshot(source_run):
+    sc = _from_file({"file": str(source_run.path), "snapshot": 2, "tile": [2, 2]})
+    built = sheet.build_sheet(sc)
+    snap = source_run.snapshot(2)
+    attrs = source_run.attrs
+    g = built.geometry
+    assert (g.root_size, g.n_root_x, g.n_root_y) == (attrs["root_size"], 2, 2)
+    Lx = attrs["root_size"]
+    t = snap["t"] % shear_period(Lx, Lx, 2e-4)
+    want = tile_sheet({f: snap[f] for f in ("x", "y", "z", "vx", "vy", "vz", "radius",
+                                            "mass")}, Lx, Lx, 2e-4, t, 2, 2)
+    arrays = sheet.particle_arrays(built.sim)
+    for field in want:
+        np.testing.assert_array_equal(arrays[field], want[field], err_msg=field)
+    assert built.sim.t == t % shear_period(2 * Lx, 2 * Lx, 2e-4)
 
 
 def _cli_error(tmp_path, capsys, initial_state: dict, **sheet_keys) -> str:

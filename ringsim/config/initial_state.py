@@ -1,11 +1,13 @@
 """The scenario key ``sheet.initial_state``: start a run from the particles of a file.
 
 ``sheet.initial_state: {file: other_run.h5, snapshot: -1}`` takes radii, masses, positions,
-velocities and the box of a snapshot of a run file; ``{file: particles.csv}`` takes the
-particles of a CSV (columns ``x_m, y_m, z_m, vx_m_s, vy_m_s, vz_m_s, radius_m, mass_kg``)
-in the box that ``sheet.optical_depth`` and ``sheet.aspect`` give them.  The keys the file
-replaces may not be given with it.  This module checks the key; the file itself is read and
-checked when the sheet is built (`ringsim.engine.initial_file`).  See docs/scenario.md.
+velocities and the box of a snapshot of a run file (with ``tile: [n_x, n_y]``: that sheet
+repeated n_x times radially and n_y times azimuthally, a box n_x Lx by n_y Ly);
+``{file: particles.csv}`` takes the particles of a CSV (columns ``x_m, y_m, z_m, vx_m_s,
+vy_m_s, vz_m_s, radius_m, mass_kg``) in the box that ``sheet.optical_depth`` and
+``sheet.aspect`` give them.  The keys the file replaces may not be given with it.  This
+module checks the key; the file itself is read and checked when the sheet is built
+(`ringsim.engine.initial_file`).  See docs/scenario.md.
 """
 
 from __future__ import annotations
@@ -38,11 +40,15 @@ class InitialStateFile:
     t : float [s]
         For a CSV: the time of the state, which sets the y offset of the images across the
         radial boundary (1.5 Omega Lx t mod Ly); a run file gives its snapshot's time.
+    tile : (int, int)
+        For a run file: copies of its sheet radially and azimuthally (``(1, 1)``: the sheet
+        as it is), placed as the sheet's own shear-periodic images.
     """
 
     file: str
     snapshot: int = -1
     t: float = 0.0
+    tile: tuple[int, int] = (1, 1)
 
     @property
     def kind(self) -> str:
@@ -52,7 +58,10 @@ class InitialStateFile:
     def to_dict(self) -> dict[str, Any]:
         if self.kind == "csv":
             return {"file": self.file, "t": self.t}
-        return {"file": self.file, "snapshot": self.snapshot}
+        d: dict[str, Any] = {"file": self.file, "snapshot": self.snapshot}
+        if self.tile != (1, 1):
+            d["tile"] = list(self.tile)
+        return d
 
 
 
@@ -76,7 +85,7 @@ def read_initial_state(sheet: Section) -> InitialStateFile | None:
         return None
     allowed = "a mapping: file (a run file .h5 with snapshot, or a particle .csv)"
     sec = sheet.section("initial_state", allowed=allowed)
-    sec.check_keys(("file", "snapshot", "t"))
+    sec.check_keys(("file", "snapshot", "t", "tile"))
     name = sec.string("file", what="a run file (.h5) or a particle CSV (.csv)")
     suffix = Path(name).suffix.lower()
     if suffix not in INITIAL_STATE_SUFFIXES:
@@ -87,7 +96,10 @@ def read_initial_state(sheet: Section) -> InitialStateFile | None:
         raise sec.error("snapshot", "only for a run file", "remove the key for a CSV")
     if kind == "run" and sec.has("t"):
         raise sec.error("t", "only for a CSV", "remove the key: a run file gives its time")
+    if kind == "csv" and sec.has("tile"):
+        raise sec.error("tile", "only for a run file", "remove the key for a CSV")
     snapshot = sec.integer("snapshot", -1) if kind == "run" else -1
+    tile = _read_tile(sec) if kind == "run" else (1, 1)
     t = sec.number("t", 0.0, unit="s") if kind == "csv" else 0.0
     for key in _REPLACED_BY_FILE[kind]:
         if sheet.has(key):
@@ -95,4 +107,20 @@ def read_initial_state(sheet: Section) -> InitialStateFile | None:
                               f"remove the key (the {'run ' if kind == 'run' else ''}file "
                               "gives the particles" + (" and the box)" if kind == "run"
                                                        else ")"))
-    return InitialStateFile(file=name, snapshot=snapshot, t=t)
+    return InitialStateFile(file=name, snapshot=snapshot, t=t, tile=tile)
+
+
+#: Most copies of a run file's sheet in one direction (``tile``).
+MAX_TILE = 16
+
+
+def _read_tile(sec: Section) -> tuple[int, int]:
+    """``tile: [n_x, n_y]`` (copies radially and azimuthally), default [1, 1]."""
+    allowed = f"a list of two integers [n_x, n_y], each 1 ... {MAX_TILE}"
+    value = sec.get("tile", [1, 1], allowed)
+    if (not isinstance(value, (list, tuple)) or len(value) != 2
+            or not all(isinstance(n, int) and not isinstance(n, bool) for n in value)):
+        raise sec.error("tile", f"got {show(value)}", allowed)
+    if not all(1 <= n <= MAX_TILE for n in value):
+        raise sec.error("tile", f"{list(value)} is out of range", allowed)
+    return int(value[0]), int(value[1])

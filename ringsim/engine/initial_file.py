@@ -6,7 +6,10 @@ A run file gives radii, masses, positions, velocities (SI, vy including the shea
 depends on time only through the y offset of the images across the radial boundary,
 a = 1.5 Omega Lx t mod Ly, which repeats every Ly / (1.5 Omega Lx): the sheet starts at the
 snapshot's time reduced modulo that period, so that pairs across the radial boundary are
-exactly where they were (starting at t = 0 would shift them by a).
+exactly where they were (starting at t = 0 would shift them by a).  With
+``tile: [n_x, n_y]`` the snapshot's sheet is repeated into a box n_x Lx by n_y Ly
+(`tile_sheet`): each copy is one of the sheet's own images at that time, so the larger
+sheet is, at its start, the same infinite shear-periodic ring.
 
 A CSV (comment lines start with ``#``) has the header ``x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,
 radius_m,mass_kg``; its box has Ly / Lx = ``sheet.aspect`` (as a ratio of small integers) and
@@ -28,6 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from ringsim.errors import InputError
+from ringsim.physics.constants import SHEAR
+from ringsim.physics.selfgravity import shear_offset
 
 #: CSV columns of a particle file, in the order `ringsim export --csv` writes them.
 CSV_COLUMNS = ("x_m", "y_m", "z_m", "vx_m_s", "vy_m_s", "vz_m_s", "radius_m", "mass_kg")
@@ -73,6 +78,46 @@ def shear_period(Lx: float, Ly: float, Omega: float) -> float:
     return Ly / (1.5 * Omega * Lx)
 
 
+def tile_sheet(arrays: dict, Lx: float, Ly: float, Omega: float, t: float, n_x: int,
+               n_y: int) -> dict:
+    """A shear-periodic sheet repeated ``n_x`` times radially and ``n_y`` times azimuthally.
+
+    The copy i (radially, 0 ... n_x - 1) and j is the sheet moved by d = (i - (n_x - 1)/2) Lx
+    radially, as Hill's equations move it: x + d, y + (j - (n_y - 1)/2) Ly - 1.5 Omega d t,
+    vy - 1.5 Omega d, then wrapped into the box n_x Lx by n_y Ly centred on 0.  Neighbouring
+    copies are the sheet's own radial images (offset s = 1.5 Omega Lx t, `shear_offset`),
+    and the images of the large box across its radial boundary, 1.5 Omega n_x Lx t, are n_x
+    s modulo Ly as the repeated sheet's: the same ring, shear-periodic in the large box, so
+    a larger box starts from an equilibrium of a smaller one.  (Each copy's y shift follows
+    its x shift in time, so tiling a later state of the small sheet gives the later state
+    of the large one.)
+
+    Parameters
+    ----------
+    arrays : dict of arrays
+        x, y, z [m], vx, vy (including the shear flow), vz [m/s], radius [m], mass [kg];
+        x in [-Lx/2, Lx/2], y in [-Ly/2, Ly/2].
+    Lx, Ly : float [m]
+        The sheet's box.
+    Omega : float [1/s]
+    t : float [s]
+        Time of the state.
+    n_x, n_y : int
+        Copies radially and azimuthally.
+    """
+    i, j = np.meshgrid(np.arange(n_x), np.arange(n_y), indexing="ij")
+    i, j = i.ravel(), j.ravel()
+    dx = (i - 0.5 * (n_x - 1)) * Lx
+    dy = (j - 0.5 * (n_y - 1)) * Ly - np.array([shear_offset(Omega, d, Ly, t) for d in dx])
+    half_y = 0.5 * n_y * Ly
+    out = {f: np.tile(np.asarray(v, dtype=float), i.size) for f, v in arrays.items()}
+    n = np.asarray(arrays["x"]).size
+    out["x"] = out["x"] + np.repeat(dx, n)
+    out["y"] = np.mod(out["y"] + np.repeat(dy, n) + half_y, 2.0 * half_y) - half_y
+    out["vy"] = out["vy"] - SHEAR * Omega * np.repeat(dx, n)
+    return out
+
+
 def _error(scenario, problem: str, key: str = _KEY) -> InputError:
     return InputError(scenario.source, key, problem)
 
@@ -98,7 +143,13 @@ def _read_run(scenario, path: Path) -> FileState:
     root, nx, ny = float(run.attrs["root_size"]), int(run.attrs["N_root_x"]), \
         int(run.attrs["N_root_y"])
     t = float(snap["t"]) % shear_period(root * nx, root * ny, Omega)
-    return FileState({f: np.asarray(snap[f], dtype=float) for f in _FIELDS}, root, nx, ny, t)
+    arrays = {f: np.asarray(snap[f], dtype=float) for f in _FIELDS}
+    tx, ty = scenario.sheet.initial_state.tile
+    if (tx, ty) != (1, 1):
+        arrays = tile_sheet(arrays, root * nx, root * ny, Omega, t, tx, ty)
+        nx, ny = tx * nx, ty * ny
+        t %= shear_period(root * nx, root * ny, Omega)
+    return FileState(arrays, root, nx, ny, t)
 
 
 def _read_csv(scenario, path: Path) -> FileState:
