@@ -16,6 +16,8 @@ run; ``analysis/data/kappa_selfgravity.json`` keeps the costs.
     python analysis/kappa_selfgravity.py --slab mono-1e8-0.25 --seeds 1 2 3
     python analysis/kappa_selfgravity.py --p3m powerlaw-1.3e8-0.5 --kappas 0 0.1 --seeds 1 2 3
     python analysis/kappa_selfgravity.py --p3m powerlaw-1.3e8-0.5 --kappas 0 --seeds 1 --p3m-box 4.2
+    python analysis/kappa_selfgravity.py --p3m powerlaw-1.3e8-0.5 --kappas 0 --seeds 3 \
+        --p3m-box 4.2 --tile-from 2.1
 
 Box: at least ``BOX_LAMBDA`` Toomre wavelengths on a side and ``MIN_PARTICLES`` particles.
 A run the finder does not call stationary is never averaged: it is listed and left out.
@@ -124,7 +126,8 @@ CASES = {f"{size}-{a_name}-{tau:g}": (size, a, tau)
 #: P3M runs in a box of ``--p3m-box`` lambda_cr; in powerlaw-1.3e8-0.5 the kappa = 0 seed 3
 #: in the 2.1 lambda_cr box had 16.5 of the 20 effective samples in H after 70 orbits
 #: (2026-11-26), so that group runs 105 (seeds 1 and 2, 49 and 24 samples at 70, were run
-#: to 70 on a machine since retired); at 105 seed 3 had 15.4 in c, still short.
+#: to 70 on a machine since retired); at 105 seed 3 had 15.4 in c, still short, so that
+#: group runs 175 (2026-11-26: 87 CPU-s per orbit on this machine).
 MONO_LENGTHS = {"nograv": 320.0, "gravity": 140.0, "gravity, kappa 0.1": 280.0}
 POWERLAW_LENGTHS = {"nograv": 480.0, "gravity": 70.0, "gravity, kappa 0.1": 140.0,
                     "slab": 140.0}
@@ -144,7 +147,8 @@ ORBITS_FOR_CASE = {"mono-1e8-0.25": {**MONO_LENGTHS, "slab, kappa 0": 210.0},
                    "powerlaw-1.3e8-0.25": {**POWERLAW_LENGTHS, "slab, kappa 0": 210.0,
                                            "p3m, kappa 0": 140.0, "p3m, kappa 0.1": 210.0},
                    "powerlaw-1.3e8-0.5": {**POWERLAW_05_LENGTHS, "slab, kappa 0.1": 280.0,
-                                          "p3m, kappa 0": 105.0, "p3m-box, kappa 0": 105.0}}
+                                          "p3m, kappa 0": 105.0, "p3m-box, kappa 0": 175.0,
+                                          "p3m-tiled, kappa 0": 60.0}}
 
 #: Gravity quantities shown beside the table rows: key -> (label, unit shown).
 GRAVITY_ROWS = {"toomre_Q": ("Toomre Q (from sigma_x)", ""),
@@ -369,6 +373,54 @@ def p3m_jobs(case: str, kappas, seeds, runs: Path, box: float | None = None) -> 
     return jobs
 
 
+def tile_source(runs: Path, case: str, kappa: float, seed: int, box_from: float) -> Path:
+    """The frozen copy of the P3M run in a box of ``box_from`` lambda_cr that a tiled run
+    starts from (``tiled_p3m_job``): a copy, so that extending that run later does not
+    change the state the tiled run's scenario names."""
+    return runs / f"tile-source_{p3m_output(runs, case, kappa, seed, box_from).name}"
+
+
+def tiled_output(runs: Path, case: str, kappa: float, seed: int, box: float) -> Path:
+    return runs / f"p3m-box{box:g}-tiled_{case}_kappa{kappa:g}_seed{seed}.h5"
+
+
+def tiled_p3m_job(case: str, kappa: float, seed: int, runs: Path, box: float,
+                  box_from: float) -> tuple:
+    """The P3M run of ``case`` in a box of ``box`` lambda_cr that starts from the last
+    snapshot of its run (same kappa and seed) in a box of ``box_from`` lambda_cr, repeated
+    box / box_from times in x and in y (``sheet.initial_state.tile``, the sheet's own
+    shear-periodic images): a box too dear to run through its transient starts from the
+    smaller box's equilibrium, and the equilibrium finder says when the larger box's own
+    has set in.  Length: the case's "p3m-tiled" entry.  No slab twin (the slab's field does
+    not depend on the box's size, docs/gravity.md 4c).  The smaller run is copied once
+    (``tile_source``), when it is not running."""
+    import shutil
+
+    tile = box / box_from
+    if abs(tile - round(tile)) > 1e-9 or round(tile) < 2:
+        raise SystemExit(f"--p3m-box {box:g} is not a multiple (2 or more) of --tile-from "
+                         f"{box_from:g}")
+    source = tile_source(runs, case, kappa, seed, box_from)
+    if not source.exists():
+        original = p3m_output(runs, case, kappa, seed, box_from)
+        if not original.exists() or Path(f"{original}.lock").exists():
+            raise SystemExit(f"{original} is missing or running: the tiled run needs it "
+                             "finished or stopped")
+        shutil.copyfile(original, source)
+    sheet = {"gravity": True, "gravity_solver": "p3m", "softening": "auto",
+             "p3m_split": "auto", "z_box": "auto",
+             "initial_state": {"file": str(source), "snapshot": -1,
+                               "tile": [round(tile), round(tile)]}}
+    size, a, _ = CASES[case]
+    name = overrides(case, kappa, seed, True, solver="p3m")["name"]
+    extra = {"sheet": sheet, "seed": seed, "planet.a": a,
+             "particles.size_distribution": SIZES[size],
+             "integration.until_equilibrium": False, "integration.threads": 1,
+             "integration.orbits": orbits(case, True, kappa, first=("p3m-tiled",)),
+             "name": f"{name}-box{box:g}-tiled"}
+    return (str(SCENARIOS[kappa]), extra, str(tiled_output(runs, case, kappa, seed, box)))
+
+
 def run_p3m(cases: list[str], args, runs: Path, costs: dict) -> None:
     """The check of the slab by a solver of the full field where the tree is too dear: the
     gravity runs of ``cases`` (``args.kappas``, ``args.seeds``) with P3M (every mode the box
@@ -381,6 +433,12 @@ def run_p3m(cases: list[str], args, runs: Path, costs: dict) -> None:
     from kappa_selfgravity_p3m import write_p3m_check
 
     box = getattr(args, "p3m_box", None)
+    box_from = getattr(args, "tile_from", None)
+    if box_from:
+        jobs = [tiled_p3m_job(case, k, s, runs, box, box_from)
+                for case in cases for k in args.kappas for s in args.seeds]
+        run_jobs(jobs, args.workers, costs)
+        return
     jobs = [job for case in cases for job in p3m_jobs(case, args.kappas, args.seeds, runs, box)]
     jobs.sort(key=job_cost, reverse=True)
     run_jobs(jobs, args.workers, costs)
@@ -492,6 +550,10 @@ def main() -> None:
                         help=f"with --p3m: both solvers' runs in a square box of LAMBDA_CR "
                         f"(default {BOX_LAMBDA:g}) Toomre wavelengths, one that can hold "
                         "wakes, instead of the case's own")
+    parser.add_argument("--tile-from", type=float, default=None, metavar="LAMBDA_CR",
+                        help="with --p3m and --p3m-box: start the P3M runs from their runs "
+                        "in a box of LAMBDA_CR, repeated to fill the --p3m-box box "
+                        "(tiled_p3m_job); no slab twins, and no check file written")
     parser.add_argument("--base-seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--variants", nargs="+", default=list(SYSTEMATIC_VARIANTS),
                         choices=list(SYSTEMATIC_VARIANTS), help="sources of --systematics")
