@@ -438,6 +438,7 @@ def run_p3m(cases: list[str], args, runs: Path, costs: dict) -> None:
         jobs = [tiled_p3m_job(case, k, s, runs, box, box_from)
                 for case in cases for k in args.kappas for s in args.seeds]
         run_jobs(jobs, args.workers, costs)
+        write_p3m_check(cases, args, runs)
         return
     jobs = [job for case in cases for job in p3m_jobs(case, args.kappas, args.seeds, runs, box)]
     jobs.sort(key=job_cost, reverse=True)
@@ -553,7 +554,8 @@ def main() -> None:
     parser.add_argument("--tile-from", type=float, default=None, metavar="LAMBDA_CR",
                         help="with --p3m and --p3m-box: start the P3M runs from their runs "
                         "in a box of LAMBDA_CR, repeated to fill the --p3m-box box "
-                        "(tiled_p3m_job); no slab twins, and no check file written")
+                        "(tiled_p3m_job); no slab twins; the check file's row is the "
+                        "--p3m-box one")
     parser.add_argument("--base-seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--variants", nargs="+", default=list(SYSTEMATIC_VARIANTS),
                         choices=list(SYSTEMATIC_VARIANTS), help="sources of --systematics")

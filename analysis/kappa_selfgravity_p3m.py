@@ -20,11 +20,14 @@ from kappa_selfgravity import (
     last_orbit,
     p3m_output,
     slab_output,
+    tiled_output,
 )
 from kappa_selfgravity_report import HEADLINE, fmt_quotient, quotient
 
+from ringsim.analysis import tiling
 from ringsim.analysis.budget import replica_mean
 from ringsim.analysis.equilibrium import equilibrium
+from ringsim.analysis.tiling import COMPONENTS
 from ringsim.store.runfile import open_run
 
 #: The equilibrium quantities of each solver kept in ``P3M_CHECK`` (those with errors as
@@ -62,12 +65,15 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
     printed too.  ``args.p3m_box``: the runs in a box of that many lambda_cr.
     The entries of other cases already in the file are kept."""
     box = getattr(args, "p3m_box", None)
+    box_from = getattr(args, "tile_from", None)
     out = json.loads(P3M_CHECK.read_text()) if P3M_CHECK.exists() else {}
     for case in cases:
         for kappa in args.kappas:
             for seed in args.seeds:
                 row = {}
-                for name, path in (("p3m", p3m_output(runs, case, kappa, seed, box)),
+                p3m = (tiled_output(runs, case, kappa, seed, box) if box_from
+                       else p3m_output(runs, case, kappa, seed, box))
+                for name, path in (("p3m", p3m),
                                    ("slab", slab_output(runs, case, kappa, seed, box))):
                     if not path.exists():
                         continue
@@ -81,6 +87,10 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
                     row[name].update({"in_equilibrium": bool(eq["in_equilibrium"]),
                                       "orbits": last_orbit(run),
                                       "box_lambda_cr": float(run.attrs["box_lambda_cr"])})
+                    if name == "p3m" and box_from:
+                        row[name].update(tiled_from_box_lambda_cr=box_from,
+                                         copy_difference=copy_difference(
+                                             run, round(box / box_from) ** 2))
                 if len(row) == 2:
                     for key in HEADLINE:
                         q = quotient(row["slab"][key], row["p3m"][key])
@@ -90,6 +100,22 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
                 print(f"{check_key(case, kappa, seed, box)}: "
                       + json.dumps({k: v for k, v in row.items() if k.startswith("slab/")}))
     P3M_CHECK.write_text(json.dumps(out, indent=1))
+
+
+def copy_difference(run, copies: int, snapshots: int = 4) -> dict:
+    """How far the copies of a tiled run have gone apart over its first ``snapshots``
+    snapshots (``ringsim.analysis.tiling``): orbits, and per component the rms difference
+    relative to the rms velocity (0 identical, sqrt(2) independent)."""
+    Omega = float(run.attrs["Omega"])
+    out: dict[str, list[float]] = {"orbits": [], **{key: [] for key in COMPONENTS}}
+    for i in range(min(snapshots, run.n_snapshots)):
+        snap = run.snapshot(i)
+        out["orbits"].append(float(snap["t"]) * Omega / (2.0 * math.pi))
+        diff = tiling.copy_difference(snap["vx"], snap["vy"], snap["vz"], snap["x"], Omega,
+                                      copies)
+        for key, value in zip(COMPONENTS, diff, strict=True):
+            out[key].append(float(value))
+    return {**out, "units": "orbits; relative to the rms velocity (independent: sqrt 2)"}
 
 
 def _check_value(row: dict, solver: str | None, key: str, scale: float,

@@ -1,0 +1,41 @@
+"""How far the copies of a tiled run have gone apart (``sheet.initial_state.tile``).
+
+A run started from a sheet repeated n_x x n_y times holds identical copies at its start;
+only round-off, the P3M mesh (whose cells the copies' y shifts do not respect) and chaos
+part them.  Its statistics are those of the larger box only once the copies are
+independent, which this measures: per snapshot, the rms difference between copy c and
+copy 0 of each particle in vx, in vy + 1.5 Omega x (the velocity relative to the shear
+flow, the same for a copy wherever the sheet's images have moved it) and in vz, over the
+rms of that velocity: 0 for identical copies, sqrt(2) for independent ones.  Particles keep
+the order the tiling gave them (copy c holds indices c N ... (c + 1) N - 1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ringsim.physics.constants import SHEAR
+
+#: Components of ``copy_difference``, in its order.
+COMPONENTS = ("vx", "vy_peculiar", "vz")
+
+
+def copy_difference(vx, vy, vz, x, Omega: float, copies: int) -> np.ndarray:
+    """rms difference between the copies of a tiled sheet and its copy 0, per component
+    (``COMPONENTS``), over the rms of that component [dimensionless; sqrt(2) when
+    independent].
+
+    Parameters
+    ----------
+    vx, vy, vz : arrays [m/s]
+        Velocities of a snapshot (vy including the shear flow), copies in order.
+    x : array [m]
+    Omega : float [1/s]
+    copies : int
+        n_x n_y of the tiling.
+    """
+    n = np.asarray(x).size // copies
+    u = np.stack([vx, np.asarray(vy) + SHEAR * Omega * np.asarray(x), vz])
+    u = u[:, :copies * n].reshape(3, copies, n)
+    return np.sqrt(np.mean((u[:, 1:, :] - u[:, :1, :]) ** 2, axis=(1, 2))
+                   / np.mean(u ** 2, axis=(1, 2)))
