@@ -9,6 +9,7 @@ import pytest
 import rebound
 
 import ringsim
+from ringsim.analysis.equilibrium import stationary_window
 from ringsim.analysis.tiling import copy_difference
 from ringsim.cli import main
 from ringsim.config.scenario import scenario_from_dict, scenario_from_text
@@ -85,6 +86,11 @@ def test_tile_key_round_trips_and_is_checked():
     with pytest.raises(ScenarioError) as info:
         _from_file({"file": "p.csv", "tile": [2, 2]}, optical_depth=0.25)
     assert info.value.key == "sheet.initial_state.tile"
+    d = _from_file({"file": "other.h5", "tile": [2, 2]}).to_dict()
+    d["integration"]["until_equilibrium"] = True
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_dict(d)
+    assert info.value.key == "integration.until_equilibrium"
 
 
 def _hill_sheet(arrays: dict, Lx: float, Ly: float, n_root_x: int, Omega: float,
@@ -324,3 +330,22 @@ def test_tiled_run_evolves_as_identical_copies_until_chaos_parts_them(source_run
     assert np.max(start) < 1e-14
     after = copy_difference(*(later[f] for f in ("vx", "vy", "vz", "x")), 2e-4, 4)
     assert 0 < np.max(after) < 1e-7
+    # so the equilibrium finder has no window yet: copies alike are not a larger box
+    eq = ringsim.equilibrium(run)
+    assert eq["tiled_copies_independent_from_orbit"]["mean"] == np.inf
+    assert not eq["in_equilibrium"] and "tiled" in eq["reason"]
+
+
+def test_window_starts_where_the_tiled_copies_are_independent():
+    """``stationary_window``'s ``first_orbit``: a stationary series whose first rows are
+    left out starts its window no earlier than that orbit."""
+    rng = np.random.default_rng(5)
+    orbits = np.arange(0, 80.05, 0.1)
+    c = 1e-3 * (1 + 0.01 * rng.standard_normal(orbits.size))
+    h = 5.0 * (1 + 0.01 * rng.standard_normal(orbits.size))
+    free = stationary_window(orbits, c, h)
+    assert free["in_equilibrium"] and orbits[free["start"]] < 10.0
+    cut = stationary_window(orbits, c, h, first_orbit=10.0)
+    assert cut["in_equilibrium"] and orbits[cut["start"]] >= 10.0
+    none = stationary_window(orbits, c, h, first_orbit=np.inf)
+    assert not none["in_equilibrium"] and "tiled" in none["reason"]

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ringsim.analysis import snapshot, spins, timeseries
+from ringsim.analysis import snapshot, spins, tiling, timeseries
 from ringsim.physics import kinetic
 from ringsim.physics.restitution import RESTITUTION
 
@@ -74,7 +74,7 @@ def _interval_rates(ts: dict, n_particles: int, Omega: float, Lx: float, Ly: flo
 
 
 def stationary_window(orbits: np.ndarray, velocity_dispersion: np.ndarray,
-                      thickness: np.ndarray) -> dict:
+                      thickness: np.ndarray, first_orbit: float = 0.0) -> dict:
     """Where a run's equilibrium window starts and whether c and H are stationary there.
 
     The one verdict of ringsim: ``analyze`` reports it and ``integration.until_equilibrium``
@@ -88,19 +88,37 @@ def stationary_window(orbits: np.ndarray, velocity_dispersion: np.ndarray,
         Output times.
     velocity_dispersion : array [m/s]
     thickness : array [m]
+    first_orbit : float [orbits]
+        Rows before it are skipped too (a tiled start's copies not yet independent,
+        ``tiling.independent_from_orbit``); inf: no row is, and there is no window.
 
     Returns
     -------
     dict with ``start`` (row index of the window), ``in_equilibrium`` (bool) and
     ``reason`` (text).
     """
-    fits = {name: timeseries.stationary_mean(orbits[1:], series[1:], time_unit="orbit")
+    orbits = np.asarray(orbits)
+    first = (max(1, int(np.searchsorted(orbits, first_orbit))) if math.isfinite(first_orbit)
+             else orbits.size)
+    if first >= orbits.size:
+        return {"start": orbits.size - 1, "in_equilibrium": False,
+                "reason": "the copies of the tiled start are not independent yet: no window"}
+    fits = {name: timeseries.stationary_mean(orbits[first:], series[first:], time_unit="orbit")
             for name, series in (("velocity dispersion", velocity_dispersion),
                                  ("thickness", thickness))}
     problems = [f"{name}: {fit.reason}" for name, fit in fits.items() if not fit.in_equilibrium]
-    return {"start": 1 + max(fit.start_index for fit in fits.values()),
+    return {"start": first + max(fit.start_index for fit in fits.values()),
             "in_equilibrium": not problems,
             "reason": "; ".join(problems) if problems else fits["velocity dispersion"].reason}
+
+
+def _window(run, ts) -> tuple[dict, float | None]:
+    """The equilibrium window of a run (``stationary_window``), starting no earlier than the
+    orbit from which the copies of a tiled start are independent, and that orbit (None for
+    a run not started from a tiled snapshot; ``tiling.independent_from_orbit``)."""
+    independent = tiling.independent_from_orbit(run)
+    return (stationary_window(ts["orbits"], ts["velocity_dispersion"], ts["thickness"],
+                              independent or 0.0), independent)
 
 
 def equilibrium(run) -> dict:
@@ -125,7 +143,7 @@ def equilibrium(run) -> dict:
         `size_dispersion_ratio`) and ``kinetic_estimate`` (the dilute-ring energy balance
         of the scenario's law, ``kinetic.kinetic_dispersion_estimate``), ``energy_budget``
         and, with friction, ``spin`` and ``rotational_energy_fraction``
-        (``analysis.spins``).
+        (``analysis.spins``); after a tiled start ``tiled_copies_independent_from_orbit``.
     """
     ts = run.timeseries
     sc = run.scenario
@@ -136,7 +154,7 @@ def equilibrium(run) -> dict:
     r_mean = float(radius.mean())
     Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
 
-    window = stationary_window(orbits, ts["velocity_dispersion"], ts["thickness"])
+    window, independent = _window(run, ts)
     start = window["start"]
 
     out: dict = {"name": sc.name}
@@ -167,6 +185,8 @@ def equilibrium(run) -> dict:
         from ringsim.analysis.gravitating import gravity_equilibrium
 
         out.update(gravity_equilibrium(run, start, out))
+    if independent is not None:
+        out["tiled_copies_independent_from_orbit"] = _value(independent, 0.0, "orbits")
     out["in_equilibrium"] = window["in_equilibrium"]
     out["reason"] = window["reason"]
     out["status"] = str(run.attrs.get("status", "unknown"))
@@ -354,6 +374,13 @@ def equilibrium_table(eq: dict) -> str:
     status = "in equilibrium" if eq["in_equilibrium"] else "NOT IN EQUILIBRIUM"
     lines.append(f"equilibrium window from orbit {eq['equilibrium_from_orbit']['mean']:.3g}: "
                  f"{status} ({eq['reason']})")
+    if "tiled_copies_independent_from_orbit" in eq:
+        tile = eq["scenario"]["sheet"]["initial_state"]["tile"]
+        when = eq["tiled_copies_independent_from_orbit"]["mean"]
+        lines.append(f"started from a snapshot tiled {tile[0]} x {tile[1]}: "
+                     + (f"the copies are independent from orbit {when:.3g} (the window starts "
+                        "no earlier)" if math.isfinite(when)
+                        else "the copies are not independent by the last snapshot"))
     for key, (label, unit, scale) in TABLE_ROWS.items():
         lines.append(f"  {label + (f' [{unit}]' if unit else ''):<42} {_fmt(eq[key], scale)}")
     from ringsim.analysis.gravitating import gravity_table_lines

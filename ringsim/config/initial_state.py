@@ -124,3 +124,15 @@ def _read_tile(sec: Section) -> tuple[int, int]:
     if not all(1 <= n <= MAX_TILE for n in value):
         raise sec.error("tile", f"{list(value)} is out of range", allowed)
     return int(value[0]), int(value[1])
+
+
+def check_tiled_stop(top: Section, initial_state: InitialStateFile | None,
+                     until_equilibrium: bool) -> None:
+    """``integration.until_equilibrium`` is refused with a tiled start: its window must wait
+    until the copies are independent, which only the run's snapshots show
+    (``ringsim.analysis.tiling``), so the run is given a fixed length."""
+    if until_equilibrium and initial_state is not None and initial_state.tile != (1, 1):
+        raise top.error("integration.until_equilibrium", "true with a tiled start "
+                        "(sheet.initial_state.tile), whose window must wait until its copies "
+                        "are independent, which only the run's snapshots show",
+                        "false: run a fixed integration.orbits, then ringsim analyze")

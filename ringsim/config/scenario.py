@@ -39,9 +39,7 @@ from typing import Any
 import yaml
 
 from ringsim.config.gravity_keys import check_p3m_box, p3m_setting, read_gravity_keys
-from ringsim.config.initial_state import (
-    read_initial_state,
-)
+from ringsim.config.initial_state import check_tiled_stop, read_initial_state
 from ringsim.config.schema import (
     REQUIRED,
     ScenarioError,
@@ -427,7 +425,6 @@ def _read_integration(top: Section, planet: Planet) -> Integration:
     )
 
 
-
 def _check_line_dt(sec: Section, dt: float, Omega: float) -> None:
     """Line detection: the sheet detector refuses steps with 1.5 Omega dt >= its limit.
 
@@ -505,6 +502,7 @@ def _build(data: Any, source: str, source_text: str | None) -> Scenario:
     restitution = _read_restitution(top)
     friction = _read_friction(top)
     integration = _read_integration(top, planet)
+    check_tiled_stop(top, sheet.initial_state, integration.until_equilibrium)
     output = _read_output(top, name)
     scenario = Scenario(name=name, seed=seed, description=description, planet=planet,
                         particles=particles, sheet=sheet, restitution=restitution,
@@ -514,7 +512,6 @@ def _build(data: Any, source: str, source_text: str | None) -> Scenario:
     if sheet.initial_state is None:  # else the file's particles are checked at set-up
         _check_geometry(top, particles, sheet, scenario)
     return scenario
-
 
 
 def scenario_from_dict(d: Mapping, source: str = "<dict>") -> Scenario:
