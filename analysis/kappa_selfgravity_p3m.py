@@ -27,7 +27,6 @@ from kappa_selfgravity_report import HEADLINE, fmt_quotient, quotient
 from ringsim.analysis import tiling
 from ringsim.analysis.budget import replica_mean
 from ringsim.analysis.equilibrium import equilibrium
-from ringsim.analysis.tiling import COMPONENTS
 from ringsim.store.runfile import open_run
 
 #: The equilibrium quantities of each solver kept in ``P3M_CHECK`` (those with errors as
@@ -89,8 +88,7 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
                                       "box_lambda_cr": float(run.attrs["box_lambda_cr"])})
                     if name == "p3m" and box_from:
                         row[name].update(tiled_from_box_lambda_cr=box_from,
-                                         copy_difference=copy_difference(
-                                             run, round(box / box_from) ** 2))
+                                         copy_correlation=copy_correlation(run))
                 if len(row) == 2:
                     for key in HEADLINE:
                         q = quotient(row["slab"][key], row["p3m"][key])
@@ -102,20 +100,24 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
     P3M_CHECK.write_text(json.dumps(out, indent=1))
 
 
-def copy_difference(run, copies: int, snapshots: int = 4) -> dict:
+def copy_correlation(run, snapshots: int = 4) -> dict:
     """How far the copies of a tiled run have gone apart over its first ``snapshots``
-    snapshots (``ringsim.analysis.tiling``): orbits, and per component the rms difference
-    relative to the rms velocity (0 identical, sqrt(2) independent)."""
+    snapshots (``ringsim.analysis.tiling.copy_correlation``): orbits, and the largest
+    correlation of a copy with copy 0 in the particles' velocities and in surface density
+    (1 identical, about 0 independent), and the orbit from which the equilibrium window
+    may start (``independent_from_orbit``)."""
     Omega = float(run.attrs["Omega"])
-    out: dict[str, list[float]] = {"orbits": [], **{key: [] for key in COMPONENTS}}
+    tile = run.scenario.sheet.initial_state.tile
+    box = (float(run.attrs["Lx"]), float(run.attrs["Ly"]))
+    out: dict = {"orbits": [], "velocity": [], "surface_density": []}
     for i in range(min(snapshots, run.n_snapshots)):
         snap = run.snapshot(i)
         out["orbits"].append(float(snap["t"]) * Omega / (2.0 * math.pi))
-        diff = tiling.copy_difference(snap["vx"], snap["vy"], snap["vz"], snap["x"], Omega,
-                                      copies)
-        for key, value in zip(COMPONENTS, diff, strict=True):
-            out[key].append(float(value))
-    return {**out, "units": "orbits; relative to the rms velocity (independent: sqrt 2)"}
+        corr = tiling.copy_correlation(snap, Omega, *box, *tile)
+        for key in ("velocity", "surface_density"):
+            out[key].append(corr[key])
+    out["independent_from_orbit"] = tiling.independent_from_orbit(run)
+    return {**out, "units": "orbits; correlations dimensionless"}
 
 
 def _check_value(row: dict, solver: str | None, key: str, scale: float,

@@ -9,8 +9,9 @@ import pytest
 import rebound
 
 import ringsim
+from ringsim.analysis import tiling
 from ringsim.analysis.equilibrium import stationary_window
-from ringsim.analysis.tiling import copy_difference
+from ringsim.analysis.tiling import copy_correlation
 from ringsim.cli import main
 from ringsim.config.scenario import scenario_from_dict, scenario_from_text
 from ringsim.config.schema import ScenarioError
@@ -121,7 +122,7 @@ def test_tiled_sheet_moves_as_the_repeated_sheet(tile):
     orbit in the large box ends where the small sheet's motion, tiled then, puts every
     copy, boundary crossings included.  A wrong image offset or shear-flow shift moves the
     copies by a fraction of Ly or by 1.5 Omega Lx T: metres, not 1e-6 m."""
-    Omega, Lx, Ly, t0 = 2e-4, 40.0, 40.0, 7.3e4      # t0: an offset of 0.6 Ly
+    Omega, Lx, Ly, t0 = 2e-4, 40.0, 40.0, 7.3e4      # t0: an offset of 21.9 Ly
     rng = np.random.default_rng(12)
     n = 60
     x = rng.uniform(-0.5 * Lx, 0.5 * Lx, n)
@@ -160,20 +161,56 @@ def test_tiled_sheet_moves_as_the_repeated_sheet(tile):
 
 
 def test_run_starts_from_a_tiled_snapshot(source_run):
-    sc = _from_file({"file": str(source_run.path), "snapshot": 2, "tile": [2, 2]})
+    """The tiled sheet of a run file is ``tile_sheet`` of its snapshot at the snapshot's
+    time reduced by the small box's shear period, and the large box starts at that time
+    (3 x 1: its own shear period is a third of the small box's, and reducing by it would
+    move its copies' frames against each other)."""
+    sc = _from_file({"file": str(source_run.path), "snapshot": 2, "tile": [3, 1]})
     built = sheet.build_sheet(sc)
     snap = source_run.snapshot(2)
     attrs = source_run.attrs
     g = built.geometry
-    assert (g.root_size, g.n_root_x, g.n_root_y) == (attrs["root_size"], 2, 2)
+    assert (g.root_size, g.n_root_x, g.n_root_y) == (attrs["root_size"], 3, 1)
     Lx = attrs["root_size"]
     t = snap["t"] % shear_period(Lx, Lx, 2e-4)
+    assert t > shear_period(3 * Lx, Lx, 2e-4)     # this snapshot tests the point above
     want = tile_sheet({f: snap[f] for f in ("x", "y", "z", "vx", "vy", "vz", "radius",
-                                            "mass")}, Lx, Lx, 2e-4, t, 2, 2)
+                                            "mass")}, Lx, Lx, 2e-4, t, 3, 1)
     arrays = sheet.particle_arrays(built.sim)
     for field in want:
         np.testing.assert_array_equal(arrays[field], want[field], err_msg=field)
-    assert built.sim.t == t % shear_period(2 * Lx, 2 * Lx, 2e-4)
+    assert built.sim.t == t
+
+
+def _built_from(source_run, tile):
+    d = {k: v for k, v in BASE.items() if k != "sheet"}
+    d.update(name="c", sheet={"initial_state": {"file": str(source_run.path),
+                                                "tile": list(tile)}})
+    return sheet.build_sheet(scenario_from_dict(d))
+
+
+@pytest.mark.parametrize("tile", [(2, 2), (3, 1), (2, 3), (1, 2)])
+def test_tiled_sheet_collides_as_the_small_sheet(source_run, tile):
+    """From the same snapshot, the small sheet and the tiled one run 300 steps (0.3 orbit,
+    collisions with ringsim's resolver): every copy of every particle ends where the small
+    sheet's particle does, in z and in velocity relative to the shear flow, to round-off
+    amplified by chaos (measured 3e-11 to 2e-10 of the rms velocity; a copy shifted by a
+    wrong seam, even one the same at every seam, misses by order 1)."""
+    small, large = _built_from(source_run, (1, 1)), _built_from(source_run, tile)
+    assert small.sim.dt == large.sim.dt and small.sim.t == large.sim.t
+    small.sim.steps(300)
+    large.sim.steps(300)
+    a, b = sheet.particle_arrays(small.sim), sheet.particle_arrays(large.sim)
+    copies = tile[0] * tile[1]
+
+    def peculiar(s):
+        return np.stack([s["vx"], s["vy"] + 1.5 * 2e-4 * s["x"], s["vz"]])
+
+    ua, ub = peculiar(a), peculiar(b).reshape(3, copies, -1)
+    rms = np.sqrt(np.mean(ua**2, axis=1))[:, None, None]
+    assert np.max(np.abs(ub - ua[:, None, :]) / rms) < 1e-6
+    np.testing.assert_allclose(b["z"].reshape(copies, -1), np.broadcast_to(a["z"], (copies,
+                               a["z"].size)), rtol=0, atol=1e-6 * np.std(a["z"]))
 
 
 def _cli_error(tmp_path, capsys, initial_state: dict, **sheet_keys) -> str:
@@ -308,14 +345,11 @@ def test_epsilon_bad_law_is_one_line_naming_the_key(argv, key, tmp_path, capsys)
     assert not (tmp_path / "x.png").exists()
 
 
-def test_tiled_run_evolves_as_identical_copies_until_chaos_parts_them(source_run, tmp_path):
-    """A collisional run from a 2 x 2 tiled snapshot: collisions across the seams between
-    copies happen as across the small sheet's own radial boundary, so the copies stay
-    identical but for round-off, which chaos amplifies about tenfold per 0.2 orbit
-    (measured: 1.1e-11 of the rms velocity after 0.31 orbit here; with 200 particles tiled,
-    2e-9 after 0.5 orbit and 0.15 after 1.3).  A seam placed wrong collides differently at
-    once (differences of order 1), or overlaps at set-up.  So after 0.3 orbit the copies
-    must agree to 1e-7; `copy_difference` reads 0 at the start."""
+def test_tiled_run_has_no_window_while_its_copies_are_alike(source_run, tmp_path):
+    """A collisional run from a 2 x 2 tiled snapshot keeps its copies alike (round-off,
+    amplified by chaos about tenfold per 0.2 orbit, parts them only after about an orbit):
+    `copy_correlation` reads 1 at the start and still above 1 - 1e-6 after 0.3 orbit, so
+    the equilibrium finder gives no window: copies alike are not a larger box."""
     d = {k: v for k, v in BASE.items() if k != "sheet"}
     d.update(name="tiled", sheet={"initial_state": {"file": str(source_run.path),
                                                     "tile": [2, 2]}},
@@ -326,14 +360,37 @@ def test_tiled_run_evolves_as_identical_copies_until_chaos_parts_them(source_run
     assert np.sum(run.timeseries["collisions"]) > 100     # 216: a collisional test
     first, later = run.snapshot(0), run.snapshot(-1)
     assert (later["t"] - first["t"]) * 2e-4 / (2 * np.pi) > 0.3
-    start = copy_difference(*(first[f] for f in ("vx", "vy", "vz", "x")), 2e-4, 4)
-    assert np.max(start) < 1e-14
-    after = copy_difference(*(later[f] for f in ("vx", "vy", "vz", "x")), 2e-4, 4)
-    assert 0 < np.max(after) < 1e-7
-    # so the equilibrium finder has no window yet: copies alike are not a larger box
+    box = (float(run.attrs["Lx"]), float(run.attrs["Ly"]))
+    assert copy_correlation(first, 2e-4, *box, 2, 2) == {"velocity": 1.0,
+                                                         "surface_density": 1.0}
+    after = copy_correlation(later, 2e-4, *box, 2, 2)
+    assert min(after.values()) > 1 - 1e-6
     eq = ringsim.equilibrium(run)
     assert eq["tiled_copies_independent_from_orbit"]["mean"] == np.inf
     assert not eq["in_equilibrium"] and "tiled" in eq["reason"]
+
+
+def test_copy_correlation_of_independent_copies_and_of_reordered_particles():
+    """Copies drawn independently correlate near 0 (below both thresholds); identical
+    copies give 1; particles not in the tiling's order are refused, not misread."""
+    rng = np.random.default_rng(9)
+    n, Omega, L = 4000, 2e-4, 100.0
+    snap = {"x": rng.uniform(-L, L, 4 * n), "y": rng.uniform(-L, L, 4 * n),
+            "vx": rng.normal(0, 1e-3, 4 * n), "vz": rng.normal(0, 1e-3, 4 * n),
+            "radius": np.tile(rng.uniform(0.5, 2, n), 4), "t": 1.0e5}
+    snap["vy"] = -1.5 * Omega * snap["x"] + rng.normal(0, 1e-3, 4 * n)
+    snap["mass"] = 900 * 4 / 3 * np.pi * snap["radius"] ** 3
+    corr = copy_correlation(snap, Omega, 2 * L, 2 * L, 2, 2)
+    assert corr["velocity"] < tiling.VELOCITY_INDEPENDENT
+    assert corr["surface_density"] < tiling.FIELD_INDEPENDENT
+    same = tile_sheet({k: snap[k][:n] for k in ("x", "y", "vx", "vy", "vz", "radius",
+                                                "mass")}, L, L, Omega, snap["t"], 2, 2)
+    same["x"] = np.clip(same["x"], -L, L)
+    assert copy_correlation({**same, "t": snap["t"]}, Omega, 2 * L, 2 * L, 2, 2) == \
+        pytest.approx({"velocity": 1.0, "surface_density": 1.0}, abs=1e-12)
+    shuffled = {k: (v[rng.permutation(4 * n)] if k != "t" else v) for k, v in snap.items()}
+    with pytest.raises(ValueError, match="not the tiling's copies"):
+        copy_correlation(shuffled, Omega, 2 * L, 2 * L, 2, 2)
 
 
 def test_window_starts_where_the_tiled_copies_are_independent():

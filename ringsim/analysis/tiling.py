@@ -1,13 +1,21 @@
 """How far the copies of a tiled run have gone apart (``sheet.initial_state.tile``).
 
 A run started from a sheet repeated n_x x n_y times holds identical copies at its start;
-only round-off, the P3M mesh (whose cells the copies' y shifts do not respect) and chaos
-part them.  Its statistics are those of the larger box only once the copies are
-independent, which this measures: per snapshot, the rms difference between copy c and
-copy 0 of each particle in vx, in vy + 1.5 Omega x (the velocity relative to the shear
-flow, the same for a copy wherever the sheet's images have moved it) and in vz, over the
-rms of that velocity: 0 for identical copies, sqrt(2) for independent ones.  Particles keep
-the order the tiling gave them (copy c holds indices c N ... (c + 1) N - 1).
+round-off, the P3M mesh (whose cells the copies' y shifts do not respect) and chaos part
+them.  Its statistics are those of the larger box only once the copies are independent,
+both particle by particle and as a field: the particles' velocities part within about an
+orbit in a gravitating ring, while the wakes, coherent over many particles, stay alike
+about an orbit longer (measured in a 4.2 lambda_cr box tiled 2 x 2: velocity correlation
+0.03 but surface-density correlation 0.36 after one orbit, both below 0.05 after two).
+
+``copy_correlation`` measures both, against copy 0, for each other copy:
+
+* particles: the mass-weighted, centred correlation of each particle's velocity relative to
+  the shear flow (vx, vy + 1.5 Omega x, vz) with its copy's (copy c holds the particles
+  c N ... (c + 1) N - 1, as the tiling made them: checked by their radii);
+* field: the correlation of the surface-density fluctuation in cells of 1/``FIELD_CELLS``
+  of the small box, each copy's region mapped onto copy 0's (its radial shift d moves it
+  by -1.5 Omega d t in y, as Hill's equations move the tiled sheet).
 """
 
 from __future__ import annotations
@@ -18,48 +26,81 @@ import numpy as np
 
 from ringsim.physics.constants import SHEAR
 
-#: Components of ``copy_difference``, in its order.
-COMPONENTS = ("vx", "vy_peculiar", "vz")
-#: ``copy_difference`` above which the copies count as independent, in every component:
-#: sqrt(2 (1 - rho)) with a correlation rho = 0.1 between a particle and its copy.
-INDEPENDENT = math.sqrt(2.0 * (1.0 - 0.1))
+#: Largest particle-velocity correlation of an independent copy.
+VELOCITY_INDEPENDENT = 0.1
+#: Largest surface-density correlation of an independent copy's region: above the scatter
+#: of independent wake fields on a grid of ``FIELD_CELLS`` (measured 0.01-0.21 in the
+#: 4.2 lambda_cr box two and three orbits after the start), below the 0.35-0.38 still seen
+#: one orbit after it.
+FIELD_INDEPENDENT = 0.3
+#: Cells per side of the small box for the surface-density correlation.
+FIELD_CELLS = 16
 
 
-def copy_difference(vx, vy, vz, x, Omega: float, copies: int) -> np.ndarray:
-    """rms difference between the copies of a tiled sheet and its copy 0, per component
-    (``COMPONENTS``), over the rms of that component [dimensionless; sqrt(2) when
-    independent].
+def _correlation(a, b, w=None) -> float:
+    """Weighted correlation of two centred samples (weights ``w``, default equal)."""
+    w = np.ones_like(a) if w is None else w
+    return float(np.sum(w * a * b) / math.sqrt(np.sum(w * a * a) * np.sum(w * b * b)))
+
+
+def copy_correlation(snap: dict, Omega: float, Lx: float, Ly: float, n_x: int,
+                     n_y: int) -> dict:
+    """Largest correlation of any copy with copy 0: ``velocity`` (over the copies and the
+    three components) and ``surface_density`` (over the copies' regions) [dimensionless;
+    1 identical, about 0 independent].
 
     Parameters
     ----------
-    vx, vy, vz : arrays [m/s]
-        Velocities of a snapshot (vy including the shear flow), copies in order.
-    x : array [m]
+    snap : dict of arrays
+        A snapshot of the tiled run: x, y [m], vx, vy (with the shear flow), vz [m/s],
+        radius [m], mass [kg], t [s] (the run's time, the tiling's).
     Omega : float [1/s]
-    copies : int
-        n_x n_y of the tiling.
+    Lx, Ly : float [m]
+        The large box.
+    n_x, n_y : int
+        The tiling.
     """
-    n = np.asarray(x).size // copies
-    u = np.stack([vx, np.asarray(vy) + SHEAR * Omega * np.asarray(x), vz])
-    u = u[:, :copies * n].reshape(3, copies, n)
-    return np.sqrt(np.mean((u[:, 1:, :] - u[:, :1, :]) ** 2, axis=(1, 2))
-                   / np.mean(u ** 2, axis=(1, 2)))
+    copies = n_x * n_y
+    x, y, mass = (np.asarray(snap[k], dtype=float) for k in ("x", "y", "mass"))
+    n = x.size // copies
+    radius = np.asarray(snap["radius"]).reshape(copies, -1) if x.size == copies * n else None
+    if radius is None or np.any(radius != radius[:1]):
+        raise ValueError("the snapshot's particles are not the tiling's copies in order")
+    w = mass[:n]
+    u = np.stack([snap["vx"], np.asarray(snap["vy"]) + SHEAR * Omega * x, snap["vz"]])
+    u = u.reshape(3, copies, n)
+    u = u - np.sum(u * w, axis=2, keepdims=True).mean(axis=1, keepdims=True) / w.sum()
+    velocity = max(_correlation(u[k, c], u[k, 0], w) for k in range(3)
+                   for c in range(1, copies))
+    # each particle's region of the large box, and its place in copy 0's frame
+    lx, ly = Lx / n_x, Ly / n_y
+    i = np.clip(np.floor((x + 0.5 * Lx) / lx).astype(np.int64), 0, n_x - 1)
+    d = (i - 0.5 * (n_x - 1)) * lx
+    ys = np.mod(y + SHEAR * Omega * d * float(snap["t"]) + 0.5 * Ly, Ly)
+    j = np.clip(np.floor(ys / ly).astype(np.int64), 0, n_y - 1)
+    cx = np.clip(((x - d) / lx + 0.5) * FIELD_CELLS, 0, FIELD_CELLS - 1).astype(np.int64)
+    cy = np.clip((ys - j * ly) / ly * FIELD_CELLS, 0, FIELD_CELLS - 1).astype(np.int64)
+    sigma = np.zeros((n_x * n_y, FIELD_CELLS * FIELD_CELLS))
+    np.add.at(sigma, (i * n_y + j, cx * FIELD_CELLS + cy), mass)
+    sigma -= sigma.mean(axis=1, keepdims=True)
+    field = max(_correlation(sigma[c], sigma[0]) for c in range(1, copies))
+    return {"velocity": velocity, "surface_density": field}
 
 
 def independent_from_orbit(run) -> float | None:
-    """Orbit [orbits] of the first snapshot of a tiled run at which its copies are
-    independent (``copy_difference`` at least ``INDEPENDENT`` in every component); None for
-    a run not started from a tiled snapshot, inf if no snapshot has them independent yet.
-    Snapshots are read in order until then (one or two orbits with self-gravity, a few
-    without: round-off parts the copies, tenfold in about 0.2 orbit)."""
+    """Orbit [orbits] of the first snapshot of a tiled run at which every copy is
+    independent of copy 0 (``copy_correlation`` below ``VELOCITY_INDEPENDENT`` and
+    ``FIELD_INDEPENDENT``); None for a run not started from a tiled snapshot, inf if no
+    snapshot has them independent yet.  Snapshots are read in order until then."""
     state = run.scenario.sheet.initial_state
     if state is None or state.tile == (1, 1):
         return None
-    copies = state.tile[0] * state.tile[1]
     Omega = run.scenario.orbital_frequency
-    for i in range(run.n_snapshots):
-        snap = run.snapshot(i)
-        diff = copy_difference(snap["vx"], snap["vy"], snap["vz"], snap["x"], Omega, copies)
-        if np.all(diff >= INDEPENDENT):
+    Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
+    for k in range(run.n_snapshots):
+        snap = run.snapshot(k)
+        corr = copy_correlation(snap, Omega, Lx, Ly, *state.tile)
+        if corr["velocity"] < VELOCITY_INDEPENDENT and \
+                corr["surface_density"] < FIELD_INDEPENDENT:
             return float(snap["t"]) * Omega / (2.0 * math.pi)
     return math.inf

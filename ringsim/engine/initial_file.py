@@ -83,14 +83,15 @@ def tile_sheet(arrays: dict, Lx: float, Ly: float, Omega: float, t: float, n_x: 
     """A shear-periodic sheet repeated ``n_x`` times radially and ``n_y`` times azimuthally.
 
     The copy i (radially, 0 ... n_x - 1) and j is the sheet moved by d = (i - (n_x - 1)/2) Lx
-    radially, as Hill's equations move it: x + d, y + (j - (n_y - 1)/2) Ly - 1.5 Omega d t,
-    vy - 1.5 Omega d, then wrapped into the box n_x Lx by n_y Ly centred on 0.  Neighbouring
-    copies are the sheet's own radial images (offset s = 1.5 Omega Lx t, `shear_offset`),
-    and the images of the large box across its radial boundary, 1.5 Omega n_x Lx t, are n_x
-    s modulo Ly as the repeated sheet's: the same ring, shear-periodic in the large box, so
-    a larger box starts from an equilibrium of a smaller one.  (Each copy's y shift follows
-    its x shift in time, so tiling a later state of the small sheet gives the later state
-    of the large one.)
+    radially (a half-integer multiple of Lx for even n_x), as Hill's equations move it:
+    x + d, y + (j - (n_y - 1)/2) Ly - 1.5 Omega d t, vy - 1.5 Omega d, then wrapped into
+    the box n_x Lx by n_y Ly centred on 0.  Neighbouring copies are the sheet's own radial
+    images (offset s = 1.5 Omega Lx t, `shear_offset`), and the images of the large box
+    across its radial boundary, 1.5 Omega n_x Lx t, are n_x s modulo Ly as the repeated
+    sheet's: the same ring, shear-periodic in the large box at time t, so a larger box
+    starts from an equilibrium of a smaller one.  (Each copy's y shift follows its x shift
+    in time, so tiling a later state of the small sheet gives the later state of the large
+    one.)
 
     Parameters
     ----------
@@ -113,7 +114,8 @@ def tile_sheet(arrays: dict, Lx: float, Ly: float, Omega: float, t: float, n_x: 
     out = {f: np.tile(np.asarray(v, dtype=float), i.size) for f, v in arrays.items()}
     n = np.asarray(arrays["x"]).size
     out["x"] = out["x"] + np.repeat(dx, n)
-    out["y"] = np.mod(out["y"] + np.repeat(dy, n) + half_y, 2.0 * half_y) - half_y
+    y = np.mod(out["y"] + np.repeat(dy, n) + half_y, 2.0 * half_y) - half_y
+    out["y"] = np.where(y >= half_y, y - 2.0 * half_y, y)     # np.mod can round up to 2 half
     out["vy"] = out["vy"] - SHEAR * Omega * np.repeat(dx, n)
     return out
 
@@ -146,9 +148,10 @@ def _read_run(scenario, path: Path) -> FileState:
     arrays = {f: np.asarray(snap[f], dtype=float) for f in _FIELDS}
     tx, ty = scenario.sheet.initial_state.tile
     if (tx, ty) != (1, 1):
+        # the large box starts at this t too (not reduced by its own shear period, which
+        # would shift its copies' frames against each other when tx != ty)
         arrays = tile_sheet(arrays, root * nx, root * ny, Omega, t, tx, ty)
         nx, ny = tx * nx, ty * ny
-        t %= shear_period(root * nx, root * ny, Omega)
     return FileState(arrays, root, nx, ny, t)
 
 
