@@ -38,6 +38,7 @@ from kappa_comparison import run_one
 
 from ringsim.config.scenario import load_scenario
 from ringsim.physics.gravity import orbital_frequency, surface_density_from_tau, toomre_wavelength
+from ringsim.store.lock import lock_path
 from ringsim.store.runfile import open_run
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -381,6 +382,8 @@ def tile_source(runs: Path, case: str, kappa: float, seed: int, box_from: float)
 
 
 def tiled_output(runs: Path, case: str, kappa: float, seed: int, box: float) -> Path:
+    """The file of the P3M run in a box of ``box`` lambda_cr started tiled
+    (``tiled_p3m_job``)."""
     return runs / f"p3m-box{box:g}-tiled_{case}_kappa{kappa:g}_seed{seed}.h5"
 
 
@@ -403,7 +406,7 @@ def tiled_p3m_job(case: str, kappa: float, seed: int, runs: Path, box: float,
     source = tile_source(runs, case, kappa, seed, box_from)
     if not source.exists():
         original = p3m_output(runs, case, kappa, seed, box_from)
-        if not original.exists() or Path(f"{original}.lock").exists():
+        if not original.exists() or lock_path(original).exists():
             raise SystemExit(f"{original} is missing or running: the tiled run needs it "
                              "finished or stopped")
         shutil.copyfile(original, source)
@@ -560,6 +563,8 @@ def main() -> None:
     parser.add_argument("--variants", nargs="+", default=list(SYSTEMATIC_VARIANTS),
                         choices=list(SYSTEMATIC_VARIANTS), help="sources of --systematics")
     args = parser.parse_args()
+    if args.tile_from and not (args.p3m and args.p3m_box):
+        parser.error("--tile-from needs --p3m and --p3m-box")
     runs = Path(args.runs)
     runs.mkdir(parents=True, exist_ok=True)
     costs = load_costs()

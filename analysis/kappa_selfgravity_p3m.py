@@ -104,8 +104,8 @@ def copy_correlation(run, snapshots: int = 4) -> dict:
     """How far the copies of a tiled run have gone apart over its first ``snapshots``
     snapshots (``ringsim.analysis.tiling.copy_correlation``): orbits, and the largest
     correlation of a copy with copy 0 in the particles' velocities and in surface density
-    (1 identical, about 0 independent), and the orbit from which the equilibrium window
-    may start (``independent_from_orbit``)."""
+    (the largest over the copies; 1 identical, about 0 independent), and the orbit from
+    which the equilibrium window may start (``independent_from_orbit``)."""
     Omega = float(run.attrs["Omega"])
     tile = run.scenario.sheet.initial_state.tile
     box = (float(run.attrs["Lx"]), float(run.attrs["Ly"]))
@@ -115,7 +115,7 @@ def copy_correlation(run, snapshots: int = 4) -> dict:
         out["orbits"].append(float(snap["t"]) * Omega / (2.0 * math.pi))
         corr = tiling.copy_correlation(snap, Omega, *box, *tile)
         for key in ("velocity", "surface_density"):
-            out[key].append(corr[key])
+            out[key].append(max(corr[key]))
     out["independent_from_orbit"] = tiling.independent_from_orbit(run)
     return {**out, "units": "orbits; correlations dimensionless"}
 

@@ -5,17 +5,23 @@ round-off, the P3M mesh (whose cells the copies' y shifts do not respect) and ch
 them.  Its statistics are those of the larger box only once the copies are independent,
 both particle by particle and as a field: the particles' velocities part within about an
 orbit in a gravitating ring, while the wakes, coherent over many particles, stay alike
-about an orbit longer (measured in a 4.2 lambda_cr box tiled 2 x 2: velocity correlation
-0.03 but surface-density correlation 0.36 after one orbit, both below 0.05 after two).
+about an orbit longer.  Measured in the 4.2 lambda_cr box tiled 2 x 2 from the 2.1
+lambda_cr one (analysis/kappa_selfgravity.md; its row of
+analysis/data/kappa_selfgravity_p3m_check.json keeps the first snapshots' values): the
+largest correlation of a copy with copy 0 was 0.06 in velocity and 0.38 in surface
+density after one orbit, 0.009 and 0.013 after two, 0.017 and 0.21 after three (the
+scatter of independent wake fields on this grid).
 
 ``copy_correlation`` measures both, against copy 0, for each other copy:
 
-* particles: the mass-weighted, centred correlation of each particle's velocity relative to
-  the shear flow (vx, vy + 1.5 Omega x, vz) with its copy's (copy c holds the particles
-  c N ... (c + 1) N - 1, as the tiling made them: checked by their radii);
-* field: the correlation of the surface-density fluctuation in cells of 1/``FIELD_CELLS``
-  of the small box, each copy's region mapped onto copy 0's (its radial shift d moves it
-  by -1.5 Omega d t in y, as Hill's equations move the tiled sheet).
+* particles: the mass-weighted correlation of each particle's velocity relative to the
+  shear flow (vx, vy + 1.5 Omega x, vz; each copy centred on its own mean) with its copy's
+  (copy c holds the particles c N ... (c + 1) N - 1, as the tiling made them: checked by
+  their radii);
+* field: the correlation of the surface-density fluctuation on a grid of ``FIELD_CELLS``
+  x ``FIELD_CELLS`` cells over the small box, each copy's region mapped onto copy 0's (its
+  radial shift d moves it by -1.5 Omega d t in y, as Hill's equations move the tiled
+  sheet).
 """
 
 from __future__ import annotations
@@ -26,12 +32,13 @@ import numpy as np
 
 from ringsim.physics.constants import SHEAR
 
-#: Largest particle-velocity correlation of an independent copy.
+#: Largest particle-velocity correlation of an independent copy: a copy correlated at 0.1
+#: shares 1 % of its velocity variance with copy 0 (a convention, not a measurement; the
+#: velocities of the measured run fell from 0.06 to 0.009 within the orbit after it).
 VELOCITY_INDEPENDENT = 0.1
 #: Largest surface-density correlation of an independent copy's region: above the scatter
-#: of independent wake fields on a grid of ``FIELD_CELLS`` (measured 0.01-0.21 in the
-#: 4.2 lambda_cr box two and three orbits after the start), below the 0.35-0.38 still seen
-#: one orbit after it.
+#: of independent wake fields on the ``FIELD_CELLS`` grid (0.013 and 0.21 two and three
+#: orbits after the start of the measured run, above), below the 0.38 one orbit after it.
 FIELD_INDEPENDENT = 0.3
 #: Cells per side of the small box for the surface-density correlation.
 FIELD_CELLS = 16
@@ -45,9 +52,9 @@ def _correlation(a, b, w=None) -> float:
 
 def copy_correlation(snap: dict, Omega: float, Lx: float, Ly: float, n_x: int,
                      n_y: int) -> dict:
-    """Largest correlation of any copy with copy 0: ``velocity`` (over the copies and the
-    three components) and ``surface_density`` (over the copies' regions) [dimensionless;
-    1 identical, about 0 independent].
+    """Correlation of each copy with copy 0: ``velocity`` (the largest over the three
+    components) and ``surface_density`` (of its region), lists over copies 1 ... n_x n_y - 1
+    [dimensionless; 1 identical, about 0 independent].
 
     Parameters
     ----------
@@ -69,9 +76,9 @@ def copy_correlation(snap: dict, Omega: float, Lx: float, Ly: float, n_x: int,
     w = mass[:n]
     u = np.stack([snap["vx"], np.asarray(snap["vy"]) + SHEAR * Omega * x, snap["vz"]])
     u = u.reshape(3, copies, n)
-    u = u - np.sum(u * w, axis=2, keepdims=True).mean(axis=1, keepdims=True) / w.sum()
-    velocity = max(_correlation(u[k, c], u[k, 0], w) for k in range(3)
-                   for c in range(1, copies))
+    u = u - np.sum(u * w, axis=2, keepdims=True) / w.sum()
+    velocity = [max(_correlation(u[k, c], u[k, 0], w) for k in range(3))
+                for c in range(1, copies)]
     # each particle's region of the large box, and its place in copy 0's frame
     lx, ly = Lx / n_x, Ly / n_y
     i = np.clip(np.floor((x + 0.5 * Lx) / lx).astype(np.int64), 0, n_x - 1)
@@ -83,7 +90,7 @@ def copy_correlation(snap: dict, Omega: float, Lx: float, Ly: float, n_x: int,
     sigma = np.zeros((n_x * n_y, FIELD_CELLS * FIELD_CELLS))
     np.add.at(sigma, (i * n_y + j, cx * FIELD_CELLS + cy), mass)
     sigma -= sigma.mean(axis=1, keepdims=True)
-    field = max(_correlation(sigma[c], sigma[0]) for c in range(1, copies))
+    field = [_correlation(sigma[c], sigma[0]) for c in range(1, copies)]
     return {"velocity": velocity, "surface_density": field}
 
 
@@ -91,7 +98,9 @@ def independent_from_orbit(run) -> float | None:
     """Orbit [orbits] of the first snapshot of a tiled run at which every copy is
     independent of copy 0 (``copy_correlation`` below ``VELOCITY_INDEPENDENT`` and
     ``FIELD_INDEPENDENT``); None for a run not started from a tiled snapshot, inf if no
-    snapshot has them independent yet.  Snapshots are read in order until then."""
+    snapshot has them independent yet.  Snapshots are read in order until then (one or two
+    orbits with self-gravity; without it round-off grows about a hundredfold per 0.2
+    orbit, from 1e-16, so a few orbits)."""
     state = run.scenario.sheet.initial_state
     if state is None or state.tile == (1, 1):
         return None
@@ -100,7 +109,7 @@ def independent_from_orbit(run) -> float | None:
     for k in range(run.n_snapshots):
         snap = run.snapshot(k)
         corr = copy_correlation(snap, Omega, Lx, Ly, *state.tile)
-        if corr["velocity"] < VELOCITY_INDEPENDENT and \
-                corr["surface_density"] < FIELD_INDEPENDENT:
+        if max(corr["velocity"]) < VELOCITY_INDEPENDENT and \
+                max(corr["surface_density"]) < FIELD_INDEPENDENT:
             return float(snap["t"]) * Omega / (2.0 * math.pi)
     return math.inf

@@ -75,7 +75,7 @@ def resolve_path(scenario) -> Path:
 
 def shear_period(Lx: float, Ly: float, Omega: float) -> float:
     """Period [s] of the radial images' y offset 1.5 Omega Lx t mod Ly."""
-    return Ly / (1.5 * Omega * Lx)
+    return Ly / (SHEAR * Omega * Lx)
 
 
 def tile_sheet(arrays: dict, Lx: float, Ly: float, Omega: float, t: float, n_x: int,
