@@ -410,18 +410,17 @@ def tiled_p3m_job(case: str, kappa: float, seed: int, runs: Path, box: float,
             raise SystemExit(f"{original} is missing or running: the tiled run needs it "
                              "finished or stopped")
         shutil.copyfile(original, source)
-    sheet = {"gravity": True, "gravity_solver": "p3m", "softening": "auto",
-             "p3m_split": "auto", "z_box": "auto",
-             "initial_state": {"file": str(source), "snapshot": -1,
-                               "tile": [round(tile), round(tile)]}}
-    size, a, _ = CASES[case]
-    name = overrides(case, kappa, seed, True, solver="p3m")["name"]
-    extra = {"sheet": sheet, "seed": seed, "planet.a": a,
-             "particles.size_distribution": SIZES[size],
-             "integration.until_equilibrium": False, "integration.threads": 1,
-             "integration.orbits": orbits(case, True, kappa, first=("p3m-tiled",)),
-             "name": f"{name}-box{box:g}-tiled"}
-    return (str(SCENARIOS[kappa]), extra, str(tiled_output(runs, case, kappa, seed, box)))
+    # the P3M run's overrides, the sheet's keys replaced by a sheet from the file (which
+    # gives the particles and the box)
+    p3m = {key: value for key, value in overrides(case, kappa, seed, True, solver="p3m").items()
+           if not key.startswith("sheet.")}
+    p3m.update({"sheet": {"gravity": True, "gravity_solver": "p3m", "softening": "auto",
+                          "p3m_split": "auto", "z_box": "auto",
+                          "initial_state": {"file": str(source), "snapshot": -1,
+                                            "tile": [round(tile), round(tile)]}},
+                "integration.orbits": orbits(case, True, kappa, first=("p3m-tiled",)),
+                "name": f"{p3m['name']}-box{box:g}-tiled"})
+    return (str(SCENARIOS[kappa]), p3m, str(tiled_output(runs, case, kappa, seed, box)))
 
 
 def run_p3m(cases: list[str], args, runs: Path, costs: dict) -> None:

@@ -8,6 +8,7 @@ other runs are not.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import re
@@ -88,7 +89,7 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
                                       "box_lambda_cr": float(run.attrs["box_lambda_cr"])})
                     if name == "p3m" and box_from:
                         row[name].update(tiled_from_box_lambda_cr=box_from,
-                                         copy_correlation=copy_correlation(run))
+                                         copy_correlation=copy_correlation(run, eq))
                 if len(row) == 2:
                     for key in HEADLINE:
                         q = quotient(row["slab"][key], row["p3m"][key])
@@ -100,23 +101,18 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
     P3M_CHECK.write_text(json.dumps(out, indent=1))
 
 
-def copy_correlation(run, snapshots: int = 4) -> dict:
+def copy_correlation(run, eq: dict, snapshots: int = 4) -> dict:
     """How far the copies of a tiled run have gone apart over its first ``snapshots``
-    snapshots (``ringsim.analysis.tiling.copy_correlation``): orbits, and the largest
+    snapshots (``ringsim.analysis.tiling.copy_correlations``): orbits, and the largest
     correlation of a copy with copy 0 in the particles' velocities and in surface density
     (the largest over the copies; 1 identical, about 0 independent), and the orbit from
-    which the equilibrium window may start (``independent_from_orbit``)."""
-    Omega = float(run.attrs["Omega"])
-    tile = run.scenario.sheet.initial_state.tile
-    box = (float(run.attrs["Lx"]), float(run.attrs["Ly"]))
+    which the equilibrium window may start (the run's equilibrium ``eq`` has it)."""
     out: dict = {"orbits": [], "velocity": [], "surface_density": []}
-    for i in range(min(snapshots, run.n_snapshots)):
-        snap = run.snapshot(i)
-        out["orbits"].append(float(snap["t"]) * Omega / (2.0 * math.pi))
-        corr = tiling.copy_correlation(snap, Omega, *box, *tile)
+    for orbit, corr in itertools.islice(tiling.copy_correlations(run), snapshots):
+        out["orbits"].append(orbit)
         for key in ("velocity", "surface_density"):
             out[key].append(max(corr[key]))
-    out["independent_from_orbit"] = tiling.independent_from_orbit(run)
+    out["independent_from_orbit"] = eq["tiled_copies_independent_from_orbit"]["mean"]
     return {**out, "units": "orbits; correlations dimensionless"}
 
 

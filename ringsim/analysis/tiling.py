@@ -94,6 +94,17 @@ def copy_correlation(snap: dict, Omega: float, Lx: float, Ly: float, n_x: int,
     return {"velocity": velocity, "surface_density": field}
 
 
+def copy_correlations(run):
+    """(orbit [orbits], ``copy_correlation``) of each snapshot of a tiled run, in order,
+    read as they are asked for."""
+    sc = run.scenario
+    box = (float(run.attrs["Lx"]), float(run.attrs["Ly"]))
+    for k in range(run.n_snapshots):
+        snap = run.snapshot(k)
+        yield (float(snap["t"]) / sc.orbital_period,
+               copy_correlation(snap, sc.orbital_frequency, *box, *sc.sheet.initial_state.tile))
+
+
 def independent_from_orbit(run) -> float | None:
     """Orbit [orbits] of the first snapshot of a tiled run at which every copy is
     independent of copy 0 (``copy_correlation`` below ``VELOCITY_INDEPENDENT`` and
@@ -104,12 +115,8 @@ def independent_from_orbit(run) -> float | None:
     state = run.scenario.sheet.initial_state
     if state is None or state.tile == (1, 1):
         return None
-    Omega = run.scenario.orbital_frequency
-    Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
-    for k in range(run.n_snapshots):
-        snap = run.snapshot(k)
-        corr = copy_correlation(snap, Omega, Lx, Ly, *state.tile)
+    for orbit, corr in copy_correlations(run):
         if max(corr["velocity"]) < VELOCITY_INDEPENDENT and \
                 max(corr["surface_density"]) < FIELD_INDEPENDENT:
-            return float(snap["t"]) * Omega / (2.0 * math.pi)
+            return orbit
     return math.inf
