@@ -88,7 +88,7 @@ def test_momentum_of_a_gravitating_sheet_without_collisions():
 
 def test_gravitating_sheet_has_one_ghost_ring_the_field_and_opening_angle_0_3():
     sc = gravitating_scenario(**{"sheet.gravity_solver": "tree"})
-    sim, geometry, radii, masses = sheet.new_simulation(sc)
+    sim, geometry, radii, masses, _ = sheet.new_simulation(sc)
     assert sim.gravity == "tree"
     assert (sim.N_ghost_x, sim.N_ghost_y, sim.N_ghost_z) == (1, 1, 0)
     assert sim.opening_angle2 == pytest.approx(0.09)

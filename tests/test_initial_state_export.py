@@ -38,6 +38,17 @@ def source_run(tmp_path_factory):
                                         progress=False))
 
 
+#: Walton's Coulomb friction (Luding et al. 1998's example): spins of order Omega in 0.3 orbit.
+ROUGH = {"model": "coulomb", "mu": 0.5}
+
+
+@pytest.fixture(scope="module")
+def rough_source_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("rough") / "rough.h5"
+    return ringsim.open_run(ringsim.run(scenario_from_dict({**BASE, "friction": ROUGH}),
+                                        output=out, progress=False))
+
+
 def _from_file(initial_state: dict, source: str = "<test>", **sheet_keys):
     d = {k: v for k, v in BASE.items() if k != "sheet"}
     d["name"] = "cont"
@@ -183,21 +194,46 @@ def test_run_starts_from_a_tiled_snapshot(source_run):
     assert built.sim.t == t
 
 
-def _built_from(source_run, tile):
+def _built_from(source_run, tile, friction=None):
     d = {k: v for k, v in BASE.items() if k != "sheet"}
     d.update(name="c", sheet={"initial_state": {"file": str(source_run.path),
                                                 "tile": list(tile)}})
+    if friction is not None:
+        d["friction"] = friction
     return sheet.build_sheet(scenario_from_dict(d))
 
 
-@pytest.mark.parametrize("tile", [(2, 2), (3, 1), (2, 3), (1, 2)])
-def test_tiled_sheet_collides_as_the_small_sheet(source_run, tile):
+@pytest.mark.parametrize("tile", [(1, 1), (2, 1), (1, 3)])
+def test_run_with_friction_starts_with_the_snapshots_spins(rough_source_run, tile):
+    """A rough run's snapshot carries its spins into the new run, every copy of a tiled one
+    (to the round-off of turning them from the frame's axes to the stored axes and back:
+    the new run starts at the snapshot's time reduced by the shear period, another frame
+    angle); a scenario without friction starts without spins."""
+    snap = rough_source_run.snapshot(-1)
+    want = np.column_stack([snap["wx"], snap["wy"], snap["wz"]])
+    assert np.sqrt(np.mean(want**2)) > 0.1 * 2e-4, "the source run's particles spin"
+    built = _built_from(rough_source_run, tile, ROUGH)
+    got = built.resolver.spins().reshape(tile[0] * tile[1], -1, 3)
+    np.testing.assert_allclose(got, np.broadcast_to(want, got.shape), rtol=0,
+                               atol=1e-13 * np.max(np.abs(want)))
+    smooth = _built_from(rough_source_run, tile)
+    assert smooth.resolver.friction is None
+    assert not np.any(smooth.resolver.spins())
+
+
+@pytest.mark.parametrize("tile, rough", [((2, 2), False), ((3, 1), False), ((2, 3), False),
+                                         ((1, 2), False), ((2, 2), True)])
+def test_tiled_sheet_collides_as_the_small_sheet(source_run, rough_source_run, tile, rough):
     """From the same snapshot, the small sheet and the tiled one run 300 steps (0.3 orbit,
     collisions with ringsim's resolver): every copy of every particle ends where the small
     sheet's particle does, in z and in velocity relative to the shear flow, to round-off
     amplified by chaos (measured 3e-11 to 2e-10 of the rms velocity; a copy shifted by a
-    wrong seam, even one the same at every seam, misses by order 1)."""
-    small, large = _built_from(source_run, (1, 1)), _built_from(source_run, tile)
+    wrong seam, even one the same at every seam, misses by order 1).  With friction, from
+    a rough run's snapshot, the spins too."""
+    friction = ROUGH if rough else None
+    source = rough_source_run if rough else source_run
+    small = _built_from(source, (1, 1), friction)
+    large = _built_from(source, tile, friction)
     assert small.sim.dt == large.sim.dt and small.sim.t == large.sim.t
     small.sim.steps(300)
     large.sim.steps(300)
@@ -212,6 +248,10 @@ def test_tiled_sheet_collides_as_the_small_sheet(source_run, tile):
     assert np.max(np.abs(ub - ua[:, None, :]) / rms) < 1e-6
     np.testing.assert_allclose(b["z"].reshape(copies, -1), np.broadcast_to(a["z"], (copies,
                                a["z"].size)), rtol=0, atol=1e-6 * np.std(a["z"]))
+    if rough:
+        wa, wb = small.resolver.spins(), large.resolver.spins().reshape(copies, -1, 3)
+        assert np.sqrt(np.mean(wa**2)) > 0.1 * 2e-4
+        assert np.max(np.abs(wb - wa) / np.sqrt(np.mean(wa**2))) < 1e-6
 
 
 def _cli_error(tmp_path, capsys, initial_state: dict, **sheet_keys) -> str:

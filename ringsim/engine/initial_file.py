@@ -2,7 +2,9 @@
 a CSV, checked, with their box and the time at which the sheet starts.
 
 A run file gives radii, masses, positions, velocities (SI, vy including the shear flow
--1.5 Omega x) and the box (``root_size``, ``N_root_x``, ``N_root_y``).  The shearing sheet
+-1.5 Omega x), the box (``root_size``, ``N_root_x``, ``N_root_y``) and, from a run with
+friction, the spins ``wx wy wz`` [rad/s] (relative to the rotating frame, in its axes: the
+same at any time of the frame, so they carry over unchanged to the start time below).  The shearing sheet
 depends on time only through the y offset of the images across the radial boundary,
 a = 1.5 Omega Lx t mod Ly, which repeats every Ly / (1.5 Omega Lx): the sheet starts at the
 snapshot's time reduced modulo that period, so that pairs across the radial boundary are
@@ -33,6 +35,7 @@ import numpy as np
 from ringsim.errors import InputError
 from ringsim.physics.constants import SHEAR
 from ringsim.physics.selfgravity import shear_offset
+from ringsim.store.bulk import SPIN_FIELDS
 
 #: CSV columns of a particle file, in the order `ringsim export --csv` writes them.
 CSV_COLUMNS = ("x_m", "y_m", "z_m", "vx_m_s", "vy_m_s", "vz_m_s", "radius_m", "mass_kg")
@@ -145,7 +148,8 @@ def _read_run(scenario, path: Path) -> FileState:
     root, nx, ny = float(run.attrs["root_size"]), int(run.attrs["N_root_x"]), \
         int(run.attrs["N_root_y"])
     t = float(snap["t"]) % shear_period(root * nx, root * ny, Omega)
-    arrays = {f: np.asarray(snap[f], dtype=float) for f in _FIELDS}
+    arrays = {f: np.asarray(snap[f], dtype=float) for f in _FIELDS
+              + (SPIN_FIELDS if all(w in snap for w in SPIN_FIELDS) else ())}
     tx, ty = scenario.sheet.initial_state.tile
     if (tx, ty) != (1, 1):
         # the large box starts at this t too (not reduced by its own shear period, which
@@ -179,9 +183,12 @@ def _read_csv(scenario, path: Path) -> FileState:
 
 
 def read_initial_state(scenario):
-    """(radii [m], masses [kg], state dict, geometry, t [s]) of ``sheet.initial_state``.
+    """(radii [m], masses [kg], state dict, geometry, t [s], spins) of
+    ``sheet.initial_state``.
 
-    The geometry's vertical extent is a placeholder (one root box): the caller sizes it.
+    ``spins``: (N, 3) [rad/s] relative to the rotating frame, in its axes, from a run file
+    written with friction; None from a CSV or a run without friction.  The geometry's
+    vertical extent is a placeholder (one root box): the caller sizes it.
     """
     from ringsim.engine.sheet import (
         OVERLAP_REPORT_FRACTION,
@@ -199,7 +206,7 @@ def read_initial_state(scenario):
     n = a["radius"].size
     if n < 2:
         raise _error(scenario, f"{path} has {n} particle(s); a sheet needs at least 2")
-    for field in _FIELDS:
+    for field in (f for f in _FIELDS + SPIN_FIELDS if f in a):
         if not np.all(np.isfinite(a[field])):
             raise _error(scenario, f"{path}: {field} has values that are not finite")
     for field in ("radius", "mass"):
@@ -225,4 +232,5 @@ def read_initial_state(scenario):
         raise _error(scenario, f"{path}: {overlapping} pairs overlap by more than "
                      f"{OVERLAP_REPORT_FRACTION:.0%} of the smaller radius")
     state = {f: a[f].copy() for f in ("x", "y", "z", "vx", "vy", "vz")}
-    return a["radius"].copy(), a["mass"].copy(), state, geometry, loaded.t
+    spins = np.column_stack([a[w] for w in SPIN_FIELDS]) if SPIN_FIELDS[0] in a else None
+    return a["radius"].copy(), a["mass"].copy(), state, geometry, loaded.t, spins

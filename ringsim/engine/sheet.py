@@ -337,26 +337,31 @@ def build_sheet(scenario) -> BuiltSheet:
     """
     from ringsim.engine.resolver import install_resolver
 
-    sim, geometry, radii, masses = new_simulation(scenario)
+    sim, geometry, radii, masses, spins = new_simulation(scenario)
     handle = install_resolver(sim, scenario.restitution_dict(), scenario.friction_dict(),
                               scenario.particles.inertia_factor,
                               log_capacity=scenario.output.log_collisions,
                               collision_detection=scenario.integration.collision_detection)
+    if spins is not None and handle.friction is not None:   # smooth spheres: no spins
+        handle.set_spins(spins)
     edges = size_bin_edges(scenario.particles.size_distribution)
     return BuiltSheet(sim, geometry, radii, masses, edges, handle)
 
 
 def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndarray,
-                                      np.ndarray]:
+                                      np.ndarray, np.ndarray | None]:
     """The scenario's REBOUND simulation before a resolver is installed: (sim, geometry,
-    radii [m], masses [kg]).  `ringsim export --rebound` saves this simulation, so that a
-    REBOUND user's continuation and ringsim's are the same."""
+    radii [m], masses [kg], spins).  ``spins``: (N, 3) [rad/s] in the rotating frame's axes
+    from a ``sheet.initial_state`` run file written with friction, else None (REBOUND
+    particles have no spins: `build_sheet` gives them to the resolver).  `ringsim export
+    --rebound` saves this simulation, so that a REBOUND user's continuation and ringsim's
+    are the same."""
     Omega = scenario.orbital_frequency
     sheet_cfg = scenario.sheet
     if sheet_cfg.initial_state is not None:
         from ringsim.engine.initial_file import read_initial_state
 
-        radii, masses, state, geometry, t0 = read_initial_state(scenario)
+        radii, masses, state, geometry, t0, spins = read_initial_state(scenario)
         w = np.column_stack([state["vx"], state["vy"] + 1.5 * Omega * state["x"],
                              state["vz"]])
         dispersion = float(np.sqrt(np.mean(w * w)))
@@ -365,7 +370,7 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
         radii = scenario.particles.size_distribution.draw_radii(sheet_cfg.n_particles, rng)
         masses = scenario.particles.density * 4.0 / 3.0 * np.pi * radii**3
         dispersion = sheet_cfg.initial_dispersion * float(radii.mean()) * Omega
-        geometry, t0 = None, 0.0
+        geometry, t0, spins = None, 0.0, None
     z_half = initial_z_half_height(sheet_cfg, float(radii.mean()), dispersion, Omega,
                                    r_max=float(radii.max()),
                                    expected_dispersion=expected_dispersion(scenario, radii,
@@ -397,7 +402,7 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
     sim.t = t0
     sim.minimum_collision_velocity = minimum_collision_velocity(radii, Omega)
     sim.dt = choose_dt(scenario.integration, particle_arrays(sim), Omega)
-    return sim, geometry, radii, masses
+    return sim, geometry, radii, masses, spins
 
 
 #: Room the automatic box leaves above the expected equilibrium thickness, in units of that
