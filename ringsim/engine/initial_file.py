@@ -4,11 +4,11 @@ a CSV, checked, with their box and the time at which the sheet starts.
 A run file gives radii, masses, positions, velocities (SI, vy including the shear flow
 -1.5 Omega x), the box (``root_size``, ``N_root_x``, ``N_root_y``) and, from a run with
 friction, the spins ``wx wy wz`` [rad/s] (relative to the rotating frame, in its axes: the
-same at any time of the frame, so they carry over unchanged to the start time below).  The shearing sheet
-depends on time only through the y offset of the images across the radial boundary,
-a = 1.5 Omega Lx t mod Ly, which repeats every Ly / (1.5 Omega Lx): the sheet starts at the
-snapshot's time reduced modulo that period, so that pairs across the radial boundary are
-exactly where they were (starting at t = 0 would shift them by a).  With
+same at any time of the frame, so they carry over unchanged to the start time below).
+The shearing sheet depends on time only through the y offset of the images across the
+radial boundary, a = 1.5 Omega Lx t mod Ly, which repeats every Ly / (1.5 Omega Lx): the
+sheet starts at the snapshot's time reduced modulo that period, so that pairs across the
+radial boundary are exactly where they were (starting at t = 0 would shift them by a).  With
 ``tile: [n_x, n_y]`` the snapshot's sheet is repeated into a box n_x Lx by n_y Ly
 (`tile_sheet`): each copy is one of the sheet's own images at that time, so the larger
 sheet is, at its start, the same infinite shear-periodic ring.
