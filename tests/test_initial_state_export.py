@@ -17,6 +17,7 @@ from ringsim.config.scenario import scenario_from_dict, scenario_from_text
 from ringsim.config.schema import ScenarioError
 from ringsim.engine import export, sheet
 from ringsim.engine.initial_file import CSV_COLUMNS, shear_period, tile_sheet
+from ringsim.errors import InputError
 from ringsim.physics import restitution as rs
 from ringsim.physics.constants import SHEAR
 
@@ -411,6 +412,11 @@ def test_tiled_run_has_no_window_while_its_copies_are_alike(source_run, tmp_path
     eq = ringsim.equilibrium(run)
     assert eq["tiled_copies_independent_from_orbit"]["mean"] == np.inf
     assert not eq["in_equilibrium"] and "tiled" in eq["reason"]
+    # a start from its snapshots, tiled again or not, would hide the copies alike
+    for tile in ([1, 1], [2, 1]):
+        again = _from_file({"file": str(run.path), "snapshot": -1, "tile": tile})
+        with pytest.raises(InputError, match="copies are independent no snapshot yet"):
+            sheet.build_sheet(again)
 
 
 @pytest.mark.parametrize("tile", [(2, 2), (2, 1), (3, 1)])

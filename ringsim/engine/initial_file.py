@@ -21,7 +21,8 @@ holds the particles at ``sheet.optical_depth``, and it starts at ``sheet.initial
 Every problem is an `InputError` naming the scenario file and ``sheet.initial_state.file``
 (or ``.snapshot``): missing file, not a run file, snapshot out of range, another Omega,
 missing or unknown columns, non-finite values, radii or masses <= 0, particles outside the
-box, or pairs overlapping by more than 10 % of the smaller radius.
+box, pairs overlapping by more than 10 % of the smaller radius, or a snapshot of a tiled
+start whose copies are not independent yet.
 """
 
 from __future__ import annotations
@@ -145,6 +146,7 @@ def _read_run(scenario, path: Path) -> FileState:
                      f"planet gives {scenario.orbital_frequency:.10g} 1/s (the velocities "
                      "include the shear flow of the run's Omega)")
     snap = run.snapshot(index)
+    _refuse_copies_alike(scenario, path, run, index, float(snap["t"]))
     root, nx, ny = float(run.attrs["root_size"]), int(run.attrs["N_root_x"]), \
         int(run.attrs["N_root_y"])
     t = float(snap["t"]) % shear_period(root * nx, root * ny, Omega)
@@ -157,6 +159,26 @@ def _read_run(scenario, path: Path) -> FileState:
         arrays = tile_sheet(arrays, root * nx, root * ny, Omega, t, tx, ty)
         nx, ny = tx * nx, ty * ny
     return FileState(arrays, root, nx, ny, t)
+
+
+def _refuse_copies_alike(scenario, path: Path, run, index: int, t: float) -> None:
+    """InputError if snapshot ``index`` (time ``t`` [s]) of ``run`` is from a tiled start
+    whose copies are not independent yet: a sheet started from it, tiled again or not,
+    would hold copies alike that no record of its own marks (``analysis.tiling``)."""
+    from ringsim.analysis.tiling import independent_from_orbit
+
+    independent = independent_from_orbit(run)
+    if independent is None:
+        return
+    orbit = t / run.scenario.orbital_period
+    if orbit < independent:
+        tile = run.scenario.sheet.initial_state.tile
+        since = ("no snapshot yet" if math.isinf(independent)
+                 else f"from orbit {independent:.4g}")
+        raise _error(scenario, f"snapshot {index} of {path} (orbit {orbit:.4g}) is from a "
+                     f"start tiled {tile[0]} x {tile[1]} whose copies are independent "
+                     f"{since} (docs/scenario.md, tile): start from a later snapshot, or "
+                     "tile the snapshot that run was tiled from", "sheet.initial_state.snapshot")
 
 
 def _read_csv(scenario, path: Path) -> FileState:
