@@ -41,11 +41,10 @@ def test_pair_term_is_plummer_minus_the_mesh_part():
     two = rebound.Simulation()
     sheet.configure_box(two, s["geometry"])
     two.G = G_SI
+    two.add(m=1.0e4, x=0.0, y=0.0, z=0.0)
+    two.add(m=2.0e4)
     for r in (0.3, 1.7, 6.0, 11.0):
-        while two.N:
-            two.remove(0)
-        two.add(m=1.0e4, x=0.0, y=0.0, z=0.0)
-        two.add(m=2.0e4, x=r * 0.6, y=r * 0.8, z=0.0)
+        two.particles[1].x, two.particles[1].y = r * 0.6, r * 0.8
         for p in two.particles:
             p.ax = p.ay = p.az = 0.0
         address = ctypes.addressof(two)
