@@ -63,6 +63,11 @@ ALLOWED = {
         "function",
         "integration.until_equilibrium stops a run on the same stationarity verdict that "
         "analyze reports (one verdict, declared once in analysis.equilibrium)"),
+    ("ringsim.engine.initial_file", "ringsim.analysis.tiling"): (
+        "function",
+        "a start from another run's snapshot is refused while that run's tiled copies are "
+        "still alike, on the verdict analyze reports (declared once in analysis.tiling, "
+        "which imports nothing of the engine)"),
     ("ringsim.config.scenario", "ringsim.engine.native"): (
         "function",
         "the one deliberate exception of the data path: scenario validation asks the C "
