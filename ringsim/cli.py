@@ -263,10 +263,10 @@ def _cmd_export(args) -> int:
         print(f"wrote {export.export_csv(run, args.snapshot, args.csv)}")
     if args.rebound:
         path, info = export.export_rebound(run, args.snapshot, args.rebound)
+        code = export.continuation_code(path, info)
         print(f"wrote {path}: t = {info['t']:.10g} s (orbit {info['orbits']:.6g} of the shear "
-              f"phase); continue it with\n  sim = rebound.Simulation({str(path)!r})\n"
-              f"  ringsim.install_resolver(sim, {info['restitution']!r}, "
-              f"collision_detection={info['collision_detection']!r})")
+              "phase); continue it with\n" + "".join(f"  {line}\n" if line else "\n"
+                                                    for line in code.splitlines()), end="")
     return EXIT_OK
 
 

@@ -2,6 +2,7 @@
 to a REBOUND simulation that continues in plain REBOUND exactly as ringsim continues it."""
 
 import json
+import textwrap
 import warnings
 
 import numpy as np
@@ -312,28 +313,67 @@ def test_csv_export_starts_an_identical_sheet(source_run, tmp_path):
     assert ringsim.open_run(path).attrs["status"] == "finished"
 
 
-def test_rebound_export_continues_bit_for_bit(source_run, tmp_path, capsys):
-    out = tmp_path / "snap.bin"
-    assert main(["export", str(source_run.path), "--snapshot", "-1", "--rebound",
-                 str(out)]) == 0
+def _printed_continuation(capsys, run_path, out) -> str:
+    """The Python `ringsim export --rebound` prints for continuing ``out``."""
+    assert main(["export", str(run_path), "--snapshot", "-1", "--rebound", str(out)]) == 0
     printed = capsys.readouterr().out
-    assert "ringsim.install_resolver(sim" in printed
-    # a REBOUND user's continuation: load, re-install the resolver (function pointers are
-    # not saved), step
+    return textwrap.dedent(printed.split("continue it with\n", 1)[1])
+
+
+def _assert_continues_bit_for_bit(code: str, run, steps: int = 10):
+    """``steps`` steps of the printed continuation in plain REBOUND equal as many steps of
+    ringsim's own continuation of the same snapshot (sheet.initial_state), positions,
+    velocities and spins (==), with collisions among them."""
+    namespace: dict = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # REBOUND's reminder about function pointers
-        sim = rebound.Simulation(str(out))
-    scenario = export.continuation_scenario(source_run, -1)
-    ringsim.install_resolver(sim, scenario.restitution_dict(), collision_detection="line")
-    sim.steps(10)
-    # ringsim's own continuation of the same snapshot (sheet.initial_state)
-    own = sheet.build_sheet(scenario)
-    own.sim.steps(10)
+        exec(code, namespace)  # noqa: S102 (the code the command prints, run as a user would)
+    sim, handle = namespace["sim"], namespace["handle"]
+    sim.steps(steps)
+    own = sheet.build_sheet(export.continuation_scenario(run, -1))
+    own.sim.steps(steps)
     a, b = sheet.particle_arrays(sim), sheet.particle_arrays(own.sim)
     assert sim.t == own.sim.t
     for field in a:
         assert np.array_equal(a[field], b[field]), field
+    assert np.array_equal(handle.spins(), own.resolver.spins()), "spins"
     assert own.resolver.stats()["count"] > 0, "collisions were resolved in those steps"
+    return sim, own
+
+
+def test_rebound_export_continues_bit_for_bit(source_run, rough_source_run, tmp_path,
+                                              capsys):
+    code = _printed_continuation(capsys, source_run.path, tmp_path / "snap.bin")
+    assert "ringsim.install_resolver(sim" in code and "set_spins" not in code
+    _assert_continues_bit_for_bit(code, source_run)
+    # a rough run: the friction law and the spins, which REBOUND's file does not keep
+    code = _printed_continuation(capsys, rough_source_run.path, tmp_path / "rough.bin")
+    assert "coulomb" in code and "set_spins" in code
+    _, own = _assert_continues_bit_for_bit(code, rough_source_run, steps=100)
+    assert np.any(own.resolver.spins() != 0.0)
+
+
+@pytest.mark.parametrize("solver", ["tree", "p3m", "slab"])
+def test_rebound_export_of_a_gravitating_run_continues_bit_for_bit(solver, tmp_path, capsys):
+    """Self-gravity is a function pointer REBOUND does not save (the tree's ghost field,
+    P3M, the slab): the printed code installs the run's solver again.  Without it the
+    continuation departs in the first step (checked: the same code without its
+    install_gravity line does not match)."""
+    d = {"name": "g", "seed": 3, "planet": {"GM": 3.7931e16, "a": 1.0e8},
+         "particles": {"size_distribution": {"kind": "monodisperse", "radius": 1.0}},
+         "sheet": {"optical_depth": 0.5, "n_particles": 200, "gravity": True,
+                   "gravity_solver": solver},
+         "restitution": {"model": "bridges", "v_c": 7.7e-5, "exponent": 0.234},
+         "integration": {"orbits": 0.11, "collision_detection": "line"},
+         "output": {"timeseries_every": 0.05, "snapshot_every": 0.1}}
+    run = ringsim.open_run(ringsim.run(scenario_from_dict(d), output=tmp_path / "g.h5",
+                                       progress=False))
+    code = _printed_continuation(capsys, run.path, tmp_path / "g.bin")
+    assert f"install_gravity(sim, {solver!r}" in code
+    _assert_continues_bit_for_bit(code, run)
+    without = "\n".join(line for line in code.splitlines() if "install_gravity(" not in line)
+    with pytest.raises(AssertionError):
+        _assert_continues_bit_for_bit(without, run)
 
 
 def test_export_needs_an_output_and_a_valid_snapshot(source_run, tmp_path, capsys):

@@ -6,9 +6,10 @@ snapshot time and the box.  The REBOUND file is the simulation that a run contin
 snapshot starts from (a scenario with ``sheet.initial_state: {file: RUN.h5, snapshot: i}``,
 built by `sheet.new_simulation`): the run's sheet settings, box, step, time (the snapshot's
 time modulo the shear period, see `initial_file`) and collision-shuffle seed.  REBOUND does
-not save function pointers, so a REBOUND user re-installs the resolver after loading it
-(docs/export.md): then ten steps of it equal ten steps of ringsim's own continuation bit
-for bit (tests/test_export.py).
+not save function pointers or spins, so a REBOUND user puts back the resolver, the
+self-gravity solver and the spins after loading it (`continuation_code`, docs/export.md):
+then ten steps of it equal ten steps of ringsim's own continuation bit for bit
+(tests/test_initial_state_export.py).
 """
 
 from __future__ import annotations
@@ -66,17 +67,59 @@ def continuation_scenario(run, index: int):
 
 def export_rebound(run, index: int, out: str | Path) -> tuple[Path, dict]:
     """Write the REBOUND simulation continuing snapshot ``index``; returns the path and
-    what REBOUND's file does not keep: {"restitution": ..., "collision_detection": ...}."""
+    what REBOUND's file does not keep (its function pointers and the spins): restitution,
+    collision_detection, friction and inertia_factor, gravity (None, or the keywords of
+    `engine.gravity.install_gravity`), spins (whether the snapshot has spins that a rough
+    continuation needs), with the file's rand_seed, t [s] and orbits of the shear phase;
+    `continuation_code` writes them as Python."""
     from ringsim.engine.sheet import new_simulation
 
+    index = _snapshot_index(run, index)
     scenario = continuation_scenario(run, index)
-    sim = new_simulation(scenario)[0]
+    sim, *_, spins = new_simulation(scenario)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     if out.exists():
         out.unlink()  # save_to_file appends to an existing file
     sim.save_to_file(str(out))
+    sheet = scenario.sheet
+    gravity = None
+    if sheet.gravity:
+        solver = sheet.gravity_solver or "tree"
+        gravity = {"solver": solver, "softening": float(scenario.softening_length or 0.0)}
+        if solver == "tree":
+            gravity["opening_angle"] = float(sheet.opening_angle)
+        if solver == "p3m":
+            gravity["p3m_setting"] = tuple(scenario.p3m_setting)
+    friction = scenario.friction_dict()
     return out, {"restitution": scenario.restitution_dict(),
                  "collision_detection": scenario.integration.collision_detection,
+                 "friction": friction, "inertia_factor": scenario.particles.inertia_factor,
+                 "gravity": gravity, "spins": spins is not None and friction is not None,
+                 "run": str(Path(run.path).resolve()), "snapshot": index,
                  "rand_seed": int(sim.rand_seed), "t": float(sim.t),
                  "orbits": float(sim.t) * scenario.orbital_frequency / (2.0 * math.pi)}
+
+
+def continuation_code(path: str | Path, info: dict) -> str:
+    """Python that continues an exported simulation in plain REBOUND as ringsim continues
+    the snapshot (``info`` from `export_rebound`): load it, put back ringsim's resolver
+    (with the run's friction), its self-gravity solver and the spins, which REBOUND's file
+    does not keep (tests/test_initial_state_export.py runs this code)."""
+    resolver = f"{info['restitution']!r}"
+    if info["friction"] is not None:
+        resolver += (f", friction={info['friction']!r}, "
+                     f"inertia_factor={info['inertia_factor']!r}")
+    lines = [*(["import numpy"] if info["spins"] else []), "import rebound", "import ringsim", "",
+             f"sim = rebound.Simulation({str(path)!r})",
+             f"handle = ringsim.install_resolver(sim, {resolver}, "
+             f"collision_detection={info['collision_detection']!r})"]
+    gravity = info["gravity"]
+    if gravity is not None:
+        keywords = ", ".join(f"{k}={v!r}" for k, v in gravity.items() if k != "solver")
+        lines += ["from ringsim.engine.gravity import install_gravity",
+                  f"install_gravity(sim, {gravity['solver']!r}, {keywords})"]
+    if info["spins"]:
+        lines += [f"snap = ringsim.open_run({info['run']!r}).snapshot({info['snapshot']})",
+                  "handle.set_spins(numpy.column_stack([snap['wx'], snap['wy'], snap['wz']]))"]
+    return "\n".join(lines) + "\n"

@@ -146,7 +146,6 @@ def _read_run(scenario, path: Path) -> FileState:
                      f"planet gives {scenario.orbital_frequency:.10g} 1/s (the velocities "
                      "include the shear flow of the run's Omega)")
     snap = run.snapshot(index)
-    _refuse_copies_alike(scenario, path, run, index, float(snap["t"]))
     root, nx, ny = float(run.attrs["root_size"]), int(run.attrs["N_root_x"]), \
         int(run.attrs["N_root_y"])
     t = float(snap["t"]) % shear_period(root * nx, root * ny, Omega)
@@ -161,16 +160,25 @@ def _read_run(scenario, path: Path) -> FileState:
     return FileState(arrays, root, nx, ny, t)
 
 
-def _refuse_copies_alike(scenario, path: Path, run, index: int, t: float) -> None:
-    """InputError if snapshot ``index`` (time ``t`` [s]) of ``run`` is from a tiled start
-    whose copies are not independent yet: a sheet started from it, tiled again or not,
-    would hold copies alike that no record of its own marks (``analysis.tiling``)."""
+def refuse_copies_alike(scenario) -> None:
+    """InputError if ``sheet.initial_state`` is a snapshot of a run from a tiled start whose
+    copies are not independent yet: a run started from it, tiled again or not, would hold
+    copies alike that nothing in its own file marks (``analysis.tiling``).  For runs
+    (`sheet.build_sheet`); an export of such a snapshot is the snapshot itself, so
+    `new_simulation` does not ask."""
     from ringsim.analysis.tiling import independent_from_orbit
+    from ringsim.store.runfile import open_run
 
+    state = scenario.sheet.initial_state
+    if state is None or state.kind != "run":
+        return
+    path = resolve_path(scenario)
+    run = open_run(path)                     # read_initial_state has checked it
     independent = independent_from_orbit(run)
     if independent is None:
         return
-    orbit = t / run.scenario.orbital_period
+    index = state.snapshot
+    orbit = float(run.snapshot(index)["t"]) / run.scenario.orbital_period
     if orbit < independent:
         tile = run.scenario.sheet.initial_state.tile
         since = ("no snapshot yet" if math.isinf(independent)

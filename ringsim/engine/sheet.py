@@ -335,9 +335,11 @@ def build_sheet(scenario) -> BuiltSheet:
     ``sheet.initial_state`` the particles come from the file instead
     (`ringsim.engine.initial_file`).
     """
+    from ringsim.engine.initial_file import refuse_copies_alike
     from ringsim.engine.resolver import install_resolver
 
     sim, geometry, radii, masses, spins = new_simulation(scenario)
+    refuse_copies_alike(scenario)
     handle = install_resolver(sim, scenario.restitution_dict(), scenario.friction_dict(),
                               scenario.particles.inertia_factor,
                               log_capacity=scenario.output.log_collisions,
