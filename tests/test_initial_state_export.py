@@ -457,6 +457,9 @@ def test_tiled_run_has_no_window_while_its_copies_are_alike(source_run, tmp_path
         again = _from_file({"file": str(run.path), "snapshot": -1, "tile": tile})
         with pytest.raises(InputError, match="copies are independent no snapshot yet"):
             sheet.build_sheet(again)
+    # an export is the snapshot itself, not a new run: not refused
+    assert export.export_rebound(run, -1, tmp_path / "t.bin")[0].stat().st_size > 0
+    assert export.export_csv(run, -1, tmp_path / "t.csv").stat().st_size > 0
 
 
 @pytest.mark.parametrize("tile", [(2, 2), (2, 1), (3, 1)])
