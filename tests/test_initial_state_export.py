@@ -17,7 +17,12 @@ from ringsim.cli import main
 from ringsim.config.scenario import scenario_from_dict, scenario_from_text
 from ringsim.config.schema import ScenarioError
 from ringsim.engine import export, sheet
-from ringsim.engine.initial_file import CSV_COLUMNS, shear_period, tile_sheet
+from ringsim.engine.initial_file import (
+    CSV_COLUMNS,
+    CSV_SPIN_COLUMNS,
+    shear_period,
+    tile_sheet,
+)
 from ringsim.errors import InputError
 from ringsim.physics import restitution as rs
 from ringsim.physics.constants import SHEAR
@@ -311,6 +316,31 @@ def test_csv_export_starts_an_identical_sheet(source_run, tmp_path):
         sheet.build_sheet(scenario_from_text(at_zero, source=str(scenario)))
     path = ringsim.run(sc, output=tmp_path / "c.h5", progress=False)
     assert ringsim.open_run(path).attrs["status"] == "finished"
+
+
+def test_csv_of_a_rough_run_carries_its_spins(rough_source_run, tmp_path):
+    """A rough run's CSV has the spin columns, and a run with friction started from it has
+    the snapshot's spins (to the round-off of the frame's turn, as from the run file); the
+    spin columns are all three or none."""
+    csv = export.export_csv(rough_source_run, -1, tmp_path / "rough.csv")
+    assert csv.read_text().splitlines()[2] == ",".join(CSV_COLUMNS + CSV_SPIN_COLUMNS)
+    snap = rough_source_run.snapshot(-1)
+    d = {k: v for k, v in BASE.items() if k != "sheet"}
+    d.update(friction=ROUGH, sheet={"optical_depth": 0.25, "initial_state": {
+        "file": str(csv), "t": snap["t"]}})
+    built = sheet.build_sheet(scenario_from_dict(d))
+    want = np.column_stack([snap["wx"], snap["wy"], snap["wz"]])
+    assert np.sqrt(np.mean(want**2)) > 0.1 * 2e-4
+    np.testing.assert_allclose(built.resolver.spins(), want, rtol=0,
+                               atol=1e-13 * np.max(np.abs(want)))
+    np.testing.assert_array_equal(sheet.particle_arrays(built.sim)["vx"], snap["vx"])
+    lines = csv.read_text().splitlines()
+    partial = tmp_path / "partial.csv"
+    partial.write_text("\n".join([lines[2].rsplit(",", 1)[0]]
+                                 + [row.rsplit(",", 1)[0] for row in lines[3:]]) + "\n")
+    d["sheet"]["initial_state"]["file"] = str(partial)
+    with pytest.raises(InputError, match="missing column 'wz_rad_s'"):
+        sheet.build_sheet(scenario_from_dict(d))
 
 
 def _printed_continuation(capsys, run_path, out) -> str:

@@ -1,15 +1,15 @@
 """`ringsim export`: a snapshot of a run file as a particle CSV or as a REBOUND simulation.
 
-The CSV has the columns of ``sheet.initial_state`` CSVs (`initial_file.CSV_COLUMNS`, SI,
-vy including the shear flow -1.5 Omega x) after ``#`` comment lines naming the run, the
-snapshot time and the box.  The REBOUND file is the simulation that a run continuing the
-snapshot starts from (a scenario with ``sheet.initial_state: {file: RUN.h5, snapshot: i}``,
-built by `sheet.new_simulation`): the run's sheet settings, box, step, time (the snapshot's
-time modulo the shear period, see `initial_file`) and collision-shuffle seed.  REBOUND does
-not save function pointers or spins, so a REBOUND user puts back the resolver, the
-self-gravity solver and the spins after loading it (`continuation_code`, docs/export.md):
-then ten steps of it equal ten steps of ringsim's own continuation bit for bit
-(tests/test_initial_state_export.py).
+The CSV has the columns of ``sheet.initial_state`` CSVs (`initial_file.CSV_COLUMNS`, and
+``CSV_SPIN_COLUMNS`` for a run with friction; SI, vy including the shear flow -1.5 Omega x)
+after ``#`` comment lines naming the run, the snapshot time and the box. The REBOUND file is
+the simulation that a run continuing the snapshot starts from (a scenario with
+``sheet.initial_state: {file: RUN.h5, snapshot: i}``, built by `sheet.new_simulation`): the
+run's sheet settings, box, step, time (the snapshot's time modulo the shear period, see
+`initial_file`) and collision-shuffle seed. REBOUND does not save function pointers or
+spins, so a REBOUND user puts back the resolver, the self-gravity solver and the spins after
+loading it (`continuation_code`, docs/export.md): then ten steps of it equal ten steps of
+ringsim's own continuation bit for bit (tests/test_initial_state_export.py).
 """
 
 from __future__ import annotations
@@ -19,10 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ringsim.engine.initial_file import CSV_COLUMNS
+from ringsim.engine.initial_file import CSV_COLUMNS, CSV_FIELDS, CSV_SPIN_COLUMNS
 from ringsim.errors import InputError
-
-_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "radius", "mass")
+from ringsim.store.bulk import SPIN_FIELDS
 
 
 def _snapshot_index(run, index: int) -> int:
@@ -42,9 +41,12 @@ def export_csv(run, index: int, out: str | Path) -> Path:
              f"{run.scenario.seed})",
              f"# t = {snap['t']!r} s (give it as sheet.initial_state.t); box Lx = "
              f"{a['Lx']!r} m, Ly = {a['Ly']!r} m; Omega = {a['Omega']!r} 1/s; vy includes "
-             "the shear flow -1.5 Omega x",
-             ",".join(CSV_COLUMNS)]
-    table = np.column_stack([snap[f] for f in _FIELDS])
+             "the shear flow -1.5 Omega x"]
+    fields, columns = CSV_FIELDS, CSV_COLUMNS
+    if all(f in snap for f in SPIN_FIELDS):      # a run with friction: its spins too
+        fields, columns = fields + SPIN_FIELDS, columns + CSV_SPIN_COLUMNS
+    lines.append(",".join(columns))
+    table = np.column_stack([snap[f] for f in fields])
     lines += [",".join(repr(float(x)) for x in row) for row in table]
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)

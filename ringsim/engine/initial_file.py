@@ -14,9 +14,10 @@ radial boundary are exactly where they were (starting at t = 0 would shift them 
 sheet is, at its start, the same infinite shear-periodic ring.
 
 A CSV (comment lines start with ``#``) has the header ``x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,
-radius_m,mass_kg``; its box has Ly / Lx = ``sheet.aspect`` (as a ratio of small integers) and
-holds the particles at ``sheet.optical_depth``, and it starts at ``sheet.initial_state.t``
-(default 0: no offset), reduced modulo the shear period.
+radius_m,mass_kg``, optionally with the spin columns ``wx_rad_s,wy_rad_s,wz_rad_s``; its box
+has Ly / Lx = ``sheet.aspect`` (as a ratio of small integers) and holds the particles at
+``sheet.optical_depth``, and it starts at ``sheet.initial_state.t`` (default 0: no offset),
+reduced modulo the shear period.
 
 Every problem is an `InputError` naming the scenario file and ``sheet.initial_state.file``
 (or ``.snapshot``): missing file, not a run file, snapshot out of range, another Omega,
@@ -38,9 +39,13 @@ from ringsim.physics.constants import SHEAR
 from ringsim.physics.selfgravity import shear_offset
 from ringsim.store.bulk import SPIN_FIELDS
 
-#: CSV columns of a particle file, in the order `ringsim export --csv` writes them.
+#: CSV columns of a particle file, in the order `ringsim export --csv` writes them, and the
+#: particle field of each.
 CSV_COLUMNS = ("x_m", "y_m", "z_m", "vx_m_s", "vy_m_s", "vz_m_s", "radius_m", "mass_kg")
-_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "radius", "mass")
+CSV_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "radius", "mass")
+#: Optional spin columns of a CSV, all three or none (`SPIN_FIELDS`: relative to the
+#: rotating frame, in its axes), written by `ringsim export --csv` for a run with friction.
+CSV_SPIN_COLUMNS = ("wx_rad_s", "wy_rad_s", "wz_rad_s")
 _KEY = "sheet.initial_state.file"
 
 
@@ -149,7 +154,7 @@ def _read_run(scenario, path: Path) -> FileState:
     root, nx, ny = float(run.attrs["root_size"]), int(run.attrs["N_root_x"]), \
         int(run.attrs["N_root_y"])
     t = float(snap["t"]) % shear_period(root * nx, root * ny, Omega)
-    arrays = {f: np.asarray(snap[f], dtype=float) for f in _FIELDS
+    arrays = {f: np.asarray(snap[f], dtype=float) for f in CSV_FIELDS
               + (SPIN_FIELDS if all(w in snap for w in SPIN_FIELDS) else ())}
     tx, ty = scenario.sheet.initial_state.tile
     if (tx, ty) != (1, 1):
@@ -195,20 +200,23 @@ def _read_csv(scenario, path: Path) -> FileState:
     if not lines:
         raise _error(scenario, f"{path} has no header line ({', '.join(CSV_COLUMNS)})")
     header = [name.strip() for name in lines[0].split(",")]
-    missing = [c for c in CSV_COLUMNS if c not in header]
-    unknown = [c for c in header if c not in CSV_COLUMNS]
-    if missing or unknown or len(header) != len(CSV_COLUMNS):
+    spin = any(c in header for c in CSV_SPIN_COLUMNS)
+    wanted = CSV_COLUMNS + (CSV_SPIN_COLUMNS if spin else ())
+    missing = [c for c in wanted if c not in header]
+    unknown = [c for c in header if c not in wanted]
+    if missing or unknown or len(header) != len(wanted):
         what = (f"unknown column {unknown[0]!r}" if unknown else
                 f"missing column {missing[0]!r}" if missing else "a column appears twice")
-        raise _error(scenario, f"{path}: {what} (the header is {','.join(CSV_COLUMNS)}; "
-                     "units in the names: m, m/s, kg)")
+        raise _error(scenario, f"{path}: {what} (the header is {','.join(CSV_COLUMNS)}, "
+                     f"optionally followed by all of {','.join(CSV_SPIN_COLUMNS)}; units in "
+                     "the names: m, m/s, kg, rad/s)")
     try:
         table = np.array([[float(cell) for cell in line.split(",")] for line in lines[1:]],
                          dtype=float).reshape(-1, len(header))
     except ValueError as exc:
         raise _error(scenario, f"{path}: not a table of numbers ({exc})") from None
     arrays = {field: table[:, header.index(column)]
-              for field, column in zip(_FIELDS, CSV_COLUMNS, strict=True)}
+              for field, column in zip(CSV_FIELDS + SPIN_FIELDS, wanted, strict=False)}
     return FileState(arrays, None, 0, 0, scenario.sheet.initial_state.t)
 
 
@@ -217,7 +225,7 @@ def read_initial_state(scenario):
     ``sheet.initial_state``.
 
     ``spins``: (N, 3) [rad/s] relative to the rotating frame, in its axes, from a run file
-    written with friction; None from a CSV or a run without friction.  The geometry's
+    written with friction or a CSV with spin columns; else None.  The geometry's
     vertical extent is a placeholder (one root box): the caller sizes it.
     """
     from ringsim.engine.sheet import (
@@ -236,7 +244,7 @@ def read_initial_state(scenario):
     n = a["radius"].size
     if n < 2:
         raise _error(scenario, f"{path} has {n} particle(s); a sheet needs at least 2")
-    for field in (f for f in _FIELDS + SPIN_FIELDS if f in a):
+    for field in (f for f in CSV_FIELDS + SPIN_FIELDS if f in a):
         if not np.all(np.isfinite(a[field])):
             raise _error(scenario, f"{path}: {field} has values that are not finite")
     for field in ("radius", "mass"):
