@@ -181,7 +181,8 @@ def run_one(job: tuple[str, dict, str]) -> tuple[str, float]:
     scenario is reused; a stopped one, or one (finished or stopped) that differs only by
     fewer ``integration.orbits``, is continued (bit-identical to running it whole).  A
     file that differs only by more orbits is an error, not rewritten: a length is only
-    ever raised."""
+    ever raised.  ``integration.threads`` changes no result, so a file that differs in it
+    is the same scenario (continued on the job's thread count)."""
     scenario_path, overrides, output = job
     out = Path(output)
     sc = with_overrides(load_scenario(scenario_path), overrides)
@@ -192,7 +193,8 @@ def run_one(job: tuple[str, dict, str]) -> tuple[str, float]:
         except (OSError, KeyError, ringsim.InputError):
             existing = None
         if existing is not None and with_overrides(
-                existing.scenario, {"integration.orbits": sc.integration.orbits}) == sc:
+                existing.scenario, {"integration.orbits": sc.integration.orbits,
+                                    "integration.threads": sc.integration.threads}) == sc:
             had, status = existing.scenario.integration.orbits, existing.attrs.get("status")
             if had > sc.integration.orbits:
                 raise ValueError(f"{out} has integration.orbits = {had:g}, more than the "

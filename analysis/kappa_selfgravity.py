@@ -269,13 +269,17 @@ def timed(job: tuple) -> tuple[str, float, float]:
     return path, time.process_time() - t0, before
 
 
-def run_jobs(jobs: list[tuple], workers: int, costs: dict) -> None:
-    """Run ``jobs`` and add each one's CPU to ``costs[file name]``: "cpu_s" and "orbits",
+def run_jobs(jobs: list[tuple], workers: int, costs: dict, threads: int = 1) -> None:
+    """Run ``jobs``, each on ``threads`` threads (``integration.threads``: line detection
+    and P3M; no result depends on it, and a run is continued on any), and add each one's
+    CPU to ``costs[file name]``: "cpu_s" and "orbits",
     the orbits that CPU covers (fewer than the run's when a part ran in a process whose
     record was lost, or before records were kept).  A job's cost is saved when it ends,
     whatever the order, so a cut-off loses only the jobs still running; it is merged into
     the file as it is then (``DATA``), so drivers running side by side keep each other's
     records."""
+    jobs = [(scenario, {**changes, "integration.threads": threads}, out)
+            for scenario, changes, out in jobs]
     with ProcessPoolExecutor(max_workers=workers) as pool:
         for future in as_completed([pool.submit(timed, job) for job in jobs]):
             path, cpu, before = future.result()
@@ -317,10 +321,10 @@ def run_case(case: str, args, runs: Path, costs: dict) -> None:
     """No-gravity runs of both kappa values and every seed, then the gravity runs, all
     from the scenario's initial state (the same particles for a seed)."""
     run_jobs(nograv_jobs(case, args.seeds, {}, lambda k, s: output(runs, case, k, s, False)),
-             args.workers, costs)
+             args.workers, costs, args.threads)
     grav = gravity_jobs(case, args.seeds, {}, lambda k, s: output(runs, case, k, s, True),
                         kappas=args.kappas)
-    run_jobs(grav, args.workers, costs)
+    run_jobs(grav, args.workers, costs, args.threads)
 
 
 def slab_output(runs: Path, case: str, kappa: float, seed: int,
@@ -439,12 +443,12 @@ def run_p3m(cases: list[str], args, runs: Path, costs: dict) -> None:
     if box_from:
         jobs = [tiled_p3m_job(case, k, s, runs, box, box_from)
                 for case in cases for k in args.kappas for s in args.seeds]
-        run_jobs(jobs, args.workers, costs)
+        run_jobs(jobs, args.workers, costs, args.threads)
         write_p3m_check(cases, args, runs)
         return
     jobs = [job for case in cases for job in p3m_jobs(case, args.kappas, args.seeds, runs, box)]
     jobs.sort(key=job_cost, reverse=True)
-    run_jobs(jobs, args.workers, costs)
+    run_jobs(jobs, args.workers, costs, args.threads)
     write_p3m_check(cases, args, runs)
 
 
@@ -461,7 +465,7 @@ def run_slab(cases: list[str], args, runs: Path, costs: dict) -> None:
         jobs += gravity_jobs(case, args.seeds, {},
                              lambda k, s, case=case: slab_output(runs, case, k, s), slab=True)
     jobs.sort(key=job_cost, reverse=True)
-    run_jobs(jobs, args.workers, costs)
+    run_jobs(jobs, args.workers, costs, args.threads)
 
 
 #: Method variants of the systematic budget (``--systematics CASE``): source -> overrides
@@ -499,7 +503,7 @@ def run_systematics(case: str, args, runs: Path, costs: dict) -> None:
             jobs += (nograv_jobs(case, args.seeds, extra, path_of) if kind == "nograv"
                      else gravity_jobs(case, args.seeds, extra, path_of, slab=True))
     jobs.sort(key=job_cost, reverse=True)
-    run_jobs(jobs, args.workers, costs)
+    run_jobs(jobs, args.workers, costs, args.threads)
     write_budget(case, args, runs)
 
 
@@ -532,6 +536,10 @@ def main() -> None:
     parser.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--threads", type=int, default=1,
+                        help="threads of each run (line detection, P3M; results do not "
+                        "depend on it): 1 when --workers fill the cores, more for one run "
+                        "on an idle machine")
     parser.add_argument("--kappas", type=float, nargs="+", default=list(SCENARIOS),
                         choices=list(SCENARIOS),
                         help="the kappa values of the (tree) gravity runs of --cases")

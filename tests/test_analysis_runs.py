@@ -44,6 +44,27 @@ def test_a_stopped_run_asked_for_more_orbits_is_continued_bit_for_bit(tmp_path):
         assert np.array_equal(a[key], b[key], equal_nan=True), key
 
 
+def test_a_stopped_run_is_continued_on_another_thread_count(tmp_path):
+    """The thread count changes no result (docs/scenario.md, integration.threads), so a
+    job that differs from the file only in it continues the file (on the job's threads)
+    instead of rewriting it from the start."""
+    whole = tmp_path / "whole.h5"
+    kappa_comparison.run_one(job(whole, 0.4))
+    part = tmp_path / "part.h5"
+    first = job(part, 0.2)
+    kappa_comparison.run_one((first[0], {**first[1], "integration.threads": 1}, first[2]))
+    with h5py.File(part, "r+") as f:
+        f.attrs["status"] = "stopped"
+        f.attrs["kept_if_continued"] = 1
+    second = job(part, 0.4)
+    kappa_comparison.run_one((second[0], {**second[1], "integration.threads": 2}, second[2]))
+    with h5py.File(part, "r") as f:
+        assert f.attrs["status"] == "finished" and "kept_if_continued" in f.attrs
+    a, b = series(whole), series(part)
+    for key in a:
+        assert np.array_equal(a[key], b[key], equal_nan=True), key
+
+
 def test_a_run_longer_than_asked_is_refused_not_rewritten(tmp_path):
     path = tmp_path / "run.h5"
     kappa_comparison.run_one(job(path, 0.3))
