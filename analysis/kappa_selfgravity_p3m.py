@@ -84,7 +84,13 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
                                  for key in P3M_CHECK_KEYS if isinstance(eq.get(key), dict)}
                     row[name].update({key: float(eq[key]) for key in P3M_CHECK_KEYS
                                       if isinstance(eq.get(key), (int, float))})
-                    row[name].update({"in_equilibrium": bool(eq["in_equilibrium"]),
+                    # a run not yet at its length is never averaged, whatever the
+                    # finder says of it so far: the lengths are fixed before the runs
+                    finished = run.attrs.get("status") == "finished"
+                    row[name].update({"in_equilibrium": bool(eq["in_equilibrium"]) and finished,
+                                      "finder_stationary": bool(eq["in_equilibrium"]),
+                                      "finished": finished,
+                                      "length_orbits": float(run.scenario.integration.orbits),
                                       "orbits": last_orbit(run),
                                       "box_lambda_cr": float(run.attrs["box_lambda_cr"])})
                     if name == "p3m" and box_from:
@@ -126,6 +132,16 @@ def _check_value(row: dict, solver: str | None, key: str, scale: float,
     return f"{value['mean'] * scale:.{digits}g} ± {value['stderr'] * scale:.2g}"
 
 
+def _stationary_text(entry: dict) -> str:
+    """The stationary column of one run: the finder's verdict, or for a run not yet at its
+    length (``finished`` False; rows written before that key were all finished) how far it
+    is and what the finder says so far."""
+    if entry.get("finished", True):
+        return str(entry["in_equilibrium"])
+    return (f"not finished ({entry['orbits']:.0f} of {entry['length_orbits']:.0f} orbits; "
+            f"so far {'stationary' if entry['finder_stationary'] else 'not stationary'})")
+
+
 def p3m_check_lines(check: dict) -> list[str]:
     """Markdown of ``P3M_CHECK`` (``write_p3m_check``): each P3M run beside its slab twin
     (same particles, box and seed), and for every case with stationary P3M runs of both
@@ -153,7 +169,7 @@ def p3m_check_lines(check: dict) -> list[str]:
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for case, kappa, seed, row in entries:
         orbit_text = " / ".join(f"{row[s]['orbits']:.0f}" for s in ("p3m", "slab") if s in row)
-        stationary = " / ".join(str(row[s]["in_equilibrium"]) for s in ("p3m", "slab")
+        stationary = " / ".join(_stationary_text(row[s]) for s in ("p3m", "slab")
                                 if s in row)
         box = row["p3m"].get("box_lambda_cr")
         lines.append(
@@ -328,6 +344,7 @@ def slab_check_flags(check: dict, solver: dict) -> list[str]:
                 "the slab's times this factor (for kappa = 0 alone). "
                 + ("The ratio with the full field is in \"The slab against the full field "
                    "(P3M)\" below." if case in with_ratio
-                   else "No kappa = 0.1 P3M run of this case yet." if case in CASES
-                   else "No kappa = 0.1 P3M run in this box yet."))
+                   else "No kappa = 0.1 P3M run of this case has finished stationary yet."
+                   if case in CASES
+                   else "No kappa = 0.1 P3M run in this box has finished stationary yet."))
     return lines
