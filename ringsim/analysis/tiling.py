@@ -94,28 +94,28 @@ def copy_correlation(snap: dict, Omega: float, Lx: float, Ly: float, n_x: int,
     return {"velocity": velocity, "surface_density": field}
 
 
-def copy_correlations(run):
+def copy_correlations(run, last: int | None = None):
     """(orbit [orbits], ``copy_correlation``) of each snapshot of a tiled run, in order,
-    read as they are asked for."""
+    read as they are asked for (up to snapshot ``last``, default the last one)."""
     sc = run.scenario
     box = (float(run.attrs["Lx"]), float(run.attrs["Ly"]))
-    for k in range(run.n_snapshots):
+    for k in range(run.n_snapshots if last is None else last + 1):
         snap = run.snapshot(k)
         yield (float(snap["t"]) / sc.orbital_period,
                copy_correlation(snap, sc.orbital_frequency, *box, *sc.sheet.initial_state.tile))
 
 
-def independent_from_orbit(run) -> float | None:
-    """Orbit [orbits] of the first snapshot of a tiled run at which every copy is
-    independent of copy 0 (``copy_correlation`` below ``VELOCITY_INDEPENDENT`` and
+def independent_from_orbit(run, last: int | None = None) -> float | None:
+    """Orbit [orbits] of the first snapshot of a tiled run at which every copy is independent
+    of copy 0 (``copy_correlation`` below ``VELOCITY_INDEPENDENT`` and
     ``FIELD_INDEPENDENT``); None for a run not started from a tiled snapshot, inf if no
-    snapshot has them independent yet.  Snapshots are read in order until then (one or two
-    orbits with self-gravity; without it round-off grows about a hundredfold per 0.2
-    orbit, from 1e-16, so a few orbits)."""
+    snapshot (up to snapshot ``last``, an index >= 0; default all) has them independent.
+    Snapshots are read in order until then (one or two orbits with self-gravity; without
+    it round-off grows about a hundredfold per 0.2 orbit, from 1e-16, so a few orbits)."""
     state = run.scenario.sheet.initial_state
     if state is None or state.tile == (1, 1):
         return None
-    for orbit, corr in copy_correlations(run):
+    for orbit, corr in copy_correlations(run, last):
         if max(corr["velocity"]) < VELOCITY_INDEPENDENT and \
                 max(corr["surface_density"]) < FIELD_INDEPENDENT:
             return orbit

@@ -3,8 +3,10 @@ a CSV, checked, with their box and the time at which the sheet starts.
 
 A run file gives radii, masses, positions, velocities (SI, vy including the shear flow
 -1.5 Omega x), the box (``root_size``, ``N_root_x``, ``N_root_y``) and, from a run with
-friction, the spins ``wx wy wz`` [rad/s] (relative to the rotating frame, in its axes: the
-same at any time of the frame, so they carry over unchanged to the start time below).
+friction, the spins ``wx wy wz`` [rad/s] (relative to the rotating frame, in its axes at
+the snapshot's time).  Hill's equations and the spins' precession in the frame (x, y
+turning at -Omega) do not depend on the time itself, so the state, spins included, is
+given to the sheet as it is at the start time below.
 The shearing sheet depends on time only through the y offset of the images across the
 radial boundary, a = 1.5 Omega Lx t mod Ly, which repeats every Ly / (1.5 Omega Lx): the
 sheet starts at the snapshot's time reduced modulo that period, so that pairs across the
@@ -167,10 +169,11 @@ def _read_run(scenario, path: Path) -> FileState:
 
 def refuse_copies_alike(scenario) -> None:
     """InputError if ``sheet.initial_state`` is a snapshot of a run from a tiled start whose
-    copies are not independent yet: a run started from it, tiled again or not, would hold
-    copies alike that nothing in its own file marks (``analysis.tiling``).  For runs
-    (`sheet.build_sheet`); an export of such a snapshot is the snapshot itself, so
-    `new_simulation` does not ask."""
+    copies are not independent yet at that snapshot: a run started from it, tiled again or
+    not, would hold copies alike that nothing in its own file marks (``analysis.tiling``;
+    its snapshots are read up to the chosen one).  For runs (`sheet.build_sheet`); an
+    export of such a snapshot is the snapshot itself, so `new_simulation` does not ask (a
+    CSV exported from it carries no record of its origin and is not checked)."""
     from ringsim.analysis.tiling import independent_from_orbit
     from ringsim.store.runfile import open_run
 
@@ -178,20 +181,17 @@ def refuse_copies_alike(scenario) -> None:
     if state is None or state.kind != "run":
         return
     path = resolve_path(scenario)
-    run = open_run(path)                     # read_initial_state has checked it
-    independent = independent_from_orbit(run)
-    if independent is None:
+    run = open_run(path)              # read_initial_state has checked it (and the index)
+    index = state.snapshot % run.n_snapshots
+    independent = independent_from_orbit(run, last=index)
+    if independent is None or math.isfinite(independent):
         return
-    index = state.snapshot
     orbit = float(run.snapshot(index)["t"]) / run.scenario.orbital_period
-    if orbit < independent:
-        tile = run.scenario.sheet.initial_state.tile
-        since = ("no snapshot yet" if math.isinf(independent)
-                 else f"from orbit {independent:.4g}")
-        raise _error(scenario, f"snapshot {index} of {path} (orbit {orbit:.4g}) is from a "
-                     f"start tiled {tile[0]} x {tile[1]} whose copies are independent "
-                     f"{since} (docs/scenario.md, tile): start from a later snapshot, or "
-                     "tile the snapshot that run was tiled from", "sheet.initial_state.snapshot")
+    tile = run.scenario.sheet.initial_state.tile
+    raise _error(scenario, f"snapshot {state.snapshot} of {path} (orbit {orbit:.4g}) is from "
+                 f"a start tiled {tile[0]} x {tile[1]} whose copies are not independent yet "
+                 "there (docs/scenario.md, tile): start from a later snapshot, or tile the "
+                 "snapshot that run was tiled from", "sheet.initial_state.snapshot")
 
 
 def _read_csv(scenario, path: Path) -> FileState:
