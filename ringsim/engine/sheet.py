@@ -352,13 +352,12 @@ def build_sheet(scenario) -> BuiltSheet:
 
 def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndarray,
                                       np.ndarray, np.ndarray | None]:
-    """The scenario's REBOUND simulation before a resolver is installed: (sim, geometry,
-    radii [m], masses [kg], spins).  ``spins``: (N, 3) [rad/s] in the rotating frame's axes
+    """The scenario's REBOUND simulation before a resolver is installed: (sim, geometry, radii
+    [m], masses [kg], spins). ``spins``: (N, 3) [rad/s] in the rotating frame's axes
     from a ``sheet.initial_state`` run file written with friction or a CSV with spin
-    columns, else None (REBOUND
-    particles have no spins: `build_sheet` gives them to the resolver).  `ringsim export
-    --rebound` saves this simulation, so that a REBOUND user's continuation and ringsim's
-    are the same."""
+    columns, else None (REBOUND particles have no spins: `build_sheet` gives them to the
+    resolver). `ringsim export --rebound` saves this simulation, so that a REBOUND
+    user's continuation and ringsim's are the same."""
     Omega = scenario.orbital_frequency
     sheet_cfg = scenario.sheet
     if sheet_cfg.initial_state is not None:
