@@ -74,6 +74,7 @@ def export_rebound(run, index: int, out: str | Path) -> tuple[Path, dict]:
     `engine.gravity.install_gravity`), spins (whether the snapshot has spins that a rough
     continuation needs), with the file's rand_seed, t [s] and orbits of the shear phase;
     `continuation_code` writes them as Python."""
+    from ringsim.engine.gravity import scenario_gravity_arguments
     from ringsim.engine.sheet import new_simulation
 
     index = _snapshot_index(run, index)
@@ -84,15 +85,10 @@ def export_rebound(run, index: int, out: str | Path) -> tuple[Path, dict]:
     if out.exists():
         out.unlink()  # save_to_file appends to an existing file
     sim.save_to_file(str(out))
-    sheet = scenario.sheet
     gravity = None
-    if sheet.gravity:
-        solver = sheet.gravity_solver or "tree"
-        gravity = {"solver": solver, "softening": float(scenario.softening_length or 0.0)}
-        if solver == "tree":
-            gravity["opening_angle"] = float(sheet.opening_angle)
-        if solver == "p3m":
-            gravity["p3m_setting"] = tuple(scenario.p3m_setting)
+    if scenario.sheet.gravity:      # the run loop's arguments, those not given left out
+        gravity = {key: value for key, value in scenario_gravity_arguments(scenario).items()
+                   if value is not None}
     friction = scenario.friction_dict()
     return out, {"restitution": scenario.restitution_dict(),
                  "collision_detection": scenario.integration.collision_detection,

@@ -326,13 +326,19 @@ def install_gravity(sim: rebound.Simulation, solver: str, *, softening: float,
         raise ValueError(f"unknown gravity solver {solver!r}")
 
 
+def scenario_gravity_arguments(scenario) -> dict:
+    """The arguments of :func:`install_gravity` for a gravitating scenario: solver,
+    softening [m], opening_angle [rad] and p3m_setting (None where the scenario has none)."""
+    sheet = scenario.sheet
+    return {"solver": sheet.gravity_solver or "tree", "softening": scenario.softening_length,
+            "opening_angle": sheet.opening_angle, "p3m_setting": scenario.p3m_setting}
+
+
 def install_scenario_gravity(sim: rebound.Simulation, scenario) -> None:
     """:func:`install_gravity` with a scenario's solver and parameters (function pointers
-    are not saved by REBOUND: the run loop calls this after loading a checkpoint)."""
-    sheet = scenario.sheet
-    install_gravity(sim, sheet.gravity_solver or "tree", softening=scenario.softening_length,
-                    opening_angle=sheet.opening_angle,
-                    p3m_setting=scenario.p3m_setting)
+    are not saved by REBOUND: the run loop calls this after loading a checkpoint, and the
+    code `ringsim export --rebound` prints does the same)."""
+    install_gravity(sim, **scenario_gravity_arguments(scenario))
 
 
 def solver_attributes(scenario, geometry) -> dict:
