@@ -236,7 +236,7 @@ def overrides(case: str, kappa: float, seed: int, gravity: bool, slab: bool = Fa
     out.update({"seed": seed, "planet.a": a, "sheet.optical_depth": tau,
            "sheet.n_particles": p["n_particles"],
            "particles.size_distribution": SIZES[size],
-           "integration.until_equilibrium": False, "integration.threads": 1,
+           "integration.until_equilibrium": False,
            "integration.orbits": orbits(case, gravity, kappa, slab),
            "name": f"{case}-kappa{kappa:g}-{'gravity' if gravity else 'nogravity'}"})
     if slab:
