@@ -58,10 +58,12 @@ def rough_source_run(tmp_path_factory):
                                         output=out, progress=False))
 
 
-def _from_file(initial_state: dict, source: str = "<test>", **sheet_keys):
+def _from_file(initial_state: dict, source: str = "<test>", friction=None, **sheet_keys):
     d = {k: v for k, v in BASE.items() if k != "sheet"}
     d["name"] = "cont"
     d["sheet"] = {"initial_state": initial_state, **sheet_keys}
+    if friction is not None:
+        d["friction"] = friction
     return scenario_from_dict(d, source=source)
 
 
@@ -235,12 +237,8 @@ def test_rough_state_moves_the_same_from_the_reduced_start_time(rough_source_run
 
 
 def _built_from(source_run, tile, friction=None):
-    d = {k: v for k, v in BASE.items() if k != "sheet"}
-    d.update(name="c", sheet={"initial_state": {"file": str(source_run.path),
-                                                "tile": list(tile)}})
-    if friction is not None:
-        d["friction"] = friction
-    return sheet.build_sheet(scenario_from_dict(d))
+    return sheet.build_sheet(_from_file({"file": str(source_run.path), "tile": list(tile)},
+                                        friction=friction))
 
 
 @pytest.mark.parametrize("tile", [(1, 1), (2, 1), (1, 3)])
@@ -359,10 +357,8 @@ def test_csv_of_a_rough_run_carries_its_spins(rough_source_run, tmp_path):
     csv = export.export_csv(rough_source_run, -1, tmp_path / "rough.csv")
     assert csv.read_text().splitlines()[2] == ",".join(CSV_COLUMNS + CSV_SPIN_COLUMNS)
     snap = rough_source_run.snapshot(-1)
-    d = {k: v for k, v in BASE.items() if k != "sheet"}
-    d.update(friction=ROUGH, sheet={"optical_depth": 0.25, "initial_state": {
-        "file": str(csv), "t": snap["t"]}})
-    built = sheet.build_sheet(scenario_from_dict(d))
+    built = sheet.build_sheet(_from_file({"file": str(csv), "t": snap["t"]}, friction=ROUGH,
+                                         optical_depth=0.25))
     want = np.column_stack([snap["wx"], snap["wy"], snap["wz"]])
     assert np.sqrt(np.mean(want**2)) > 0.1 * OMEGA
     np.testing.assert_allclose(built.resolver.spins(), want, rtol=0,     # as from the run
@@ -372,9 +368,9 @@ def test_csv_of_a_rough_run_carries_its_spins(rough_source_run, tmp_path):
     partial = tmp_path / "partial.csv"
     partial.write_text("\n".join([lines[2].rsplit(",", 1)[0]]
                                  + [row.rsplit(",", 1)[0] for row in lines[3:]]) + "\n")
-    d["sheet"]["initial_state"]["file"] = str(partial)
     with pytest.raises(InputError, match="missing column 'wz_rad_s'"):
-        sheet.build_sheet(scenario_from_dict(d))
+        sheet.build_sheet(_from_file({"file": str(partial), "t": snap["t"]}, friction=ROUGH,
+                                     optical_depth=0.25))
 
 
 def _printed_continuation(capsys, run_path, out) -> str:
