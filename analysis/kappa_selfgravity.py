@@ -173,6 +173,15 @@ def orbits(case: str, gravity: bool, kappa: float, slab: bool = False,
     raise KeyError(f"no length for {case}")
 
 
+def p3m_orbits(case: str, kappa: float, box: float | None = None,
+               tiled: bool = False) -> float:
+    """Orbits of a P3M run of ``case`` at ``kappa`` (``run_p3m``): its "p3m-tiled" entry
+    when started tiled (``tiled_p3m_job``), its "p3m-box" entry in a box of ``box``
+    lambda_cr, else its "p3m" entry (each falling back on the "gravity" lengths)."""
+    first = ("p3m-tiled",) if tiled else ("p3m-box",) if box else ("p3m",)
+    return orbits(case, True, kappa, first=first)
+
+
 def moments(size: str) -> tuple[float, float, float]:
     """<r>, <r^2>, <r^3> [m, m^2, m^3] of a size distribution of ``SIZES``."""
     d = SIZES[size]
@@ -369,8 +378,7 @@ def p3m_jobs(case: str, kappas, seeds, runs: Path, box: float | None = None) -> 
         for s in seeds:
             p3m = overrides(case, k, s, True, solver="p3m")
             p3m.update(extra, name=p3m["name"] + tag,
-                       **{"integration.orbits": orbits(case, True, k,
-                                                       first=("p3m-box",) if box else ("p3m",))})
+                       **{"integration.orbits": p3m_orbits(case, k, box)})
             slab = overrides(case, k, s, True, slab=True)
             slab.update(extra, name=slab["name"] + tag)
             jobs += [(str(SCENARIOS[k]), p3m, str(p3m_output(runs, case, k, s, box))),
@@ -422,7 +430,7 @@ def tiled_p3m_job(case: str, kappa: float, seed: int, runs: Path, box: float,
                           "p3m_split": "auto", "z_box": "auto",
                           "initial_state": {"file": str(source), "snapshot": -1,
                                             "tile": [round(tile), round(tile)]}},
-                "integration.orbits": orbits(case, True, kappa, first=("p3m-tiled",)),
+                "integration.orbits": p3m_orbits(case, kappa, box, tiled=True),
                 "name": f"{p3m['name']}-box{box:g}-tiled"})
     return (str(SCENARIOS[kappa]), p3m, str(tiled_output(runs, case, kappa, seed, box)))
 

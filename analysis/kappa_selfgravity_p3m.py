@@ -19,6 +19,8 @@ from kappa_selfgravity import (
     P3M_CHECK,
     SCENARIOS,
     last_orbit,
+    orbits,
+    p3m_orbits,
     p3m_output,
     slab_output,
     tiled_output,
@@ -70,9 +72,15 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
     for case in cases:
         for kappa in args.kappas:
             for seed in args.seeds:
-                row = {}
+                # a solver's entry whose run file is not here (made on a machine since
+                # retired) is kept as it was written
+                row = {name: entry for name, entry in
+                       out.get(check_key(case, kappa, seed, box), {}).items()
+                       if name in ("p3m", "slab")}
                 p3m = (tiled_output(runs, case, kappa, seed, box) if box_from
                        else p3m_output(runs, case, kappa, seed, box))
+                lengths = {"p3m": p3m_orbits(case, kappa, box, tiled=bool(box_from)),
+                           "slab": orbits(case, True, kappa, slab=True)}
                 for name, path in (("p3m", p3m),
                                    ("slab", slab_output(runs, case, kappa, seed, box))):
                     if not path.exists():
@@ -85,12 +93,15 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
                     row[name].update({key: float(eq[key]) for key in P3M_CHECK_KEYS
                                       if isinstance(eq.get(key), (int, float))})
                     # a run not yet at its length is never averaged, whatever the
-                    # finder says of it so far: the lengths are fixed before the runs
-                    finished = run.attrs.get("status") == "finished"
+                    # finder says of it so far: the lengths are fixed before the runs.
+                    # The driver's length, not the file's own: a run that finished at a
+                    # length since raised is not finished until it is extended.
+                    finished = (run.attrs.get("status") == "finished"
+                                and last_orbit(run) >= lengths[name] - 1e-9)
                     row[name].update({"in_equilibrium": bool(eq["in_equilibrium"]) and finished,
                                       "finder_stationary": bool(eq["in_equilibrium"]),
                                       "finished": finished,
-                                      "length_orbits": float(run.scenario.integration.orbits),
+                                      "length_orbits": float(lengths[name]),
                                       "orbits": last_orbit(run),
                                       "box_lambda_cr": float(run.attrs["box_lambda_cr"])})
                     if name == "p3m" and box_from:
@@ -101,6 +112,8 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
                         q = quotient(row["slab"][key], row["p3m"][key])
                         row[f"slab/p3m {key}"] = {"mean": q["mean"], "stderr": q["stderr"],
                                                   "units": "1"}
+                if not row:
+                    continue
                 out[check_key(case, kappa, seed, box)] = row
                 print(f"{check_key(case, kappa, seed, box)}: "
                       + json.dumps({k: v for k, v in row.items() if k.startswith("slab/")}))
