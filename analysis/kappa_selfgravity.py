@@ -173,11 +173,9 @@ def orbits(case: str, gravity: bool, kappa: float, slab: bool = False,
     raise KeyError(f"no length for {case}")
 
 
-def p3m_orbits(case: str, kappa: float, box: float | None = None,
-               tiled: bool = False) -> float:
-    """Orbits of a P3M run of ``case`` at ``kappa`` (``run_p3m``): its "p3m-tiled" entry
-    when started tiled (``tiled_p3m_job``), its "p3m-box" entry in a box of ``box``
-    lambda_cr, else its "p3m" entry (each falling back on the "gravity" lengths)."""
+def p3m_orbits(case: str, kappa: float, box: float | None = None, tiled: bool = False) -> float:
+    """Orbits of a P3M run of ``case`` at ``kappa`` (``run_p3m``): "p3m-tiled" when tiled,
+    "p3m-box" in a box of ``box`` lambda_cr, else "p3m" (each else the "gravity" lengths)."""
     first = ("p3m-tiled",) if tiled else ("p3m-box",) if box else ("p3m",)
     return orbits(case, True, kappa, first=first)
 
