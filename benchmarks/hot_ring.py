@@ -76,8 +76,7 @@ def tree_probe(sc, snapshot: dict, t: float, steps: int) -> tuple[float, float]:
         geometry = sheet.SheetGeometry(geometry.root_size, geometry.n_root_x,
                                        geometry.n_root_y, n_root_z, geometry.Omega)
         sim = rebound.Simulation()
-        sheet.configure_simulation(sim, geometry, gravity=False, softening=0.0,
-                                   opening_angle=0.0, collision_detection="tree",
+        sheet.configure_simulation(sim, geometry, gravity=None, collision_detection="tree",
                                    rand_seed=sc.seed)
         sheet.add_particles(sim, arrays, arrays["radius"], arrays["mass"])
         sim.t = t

@@ -89,8 +89,8 @@ def lattice_sheet(sc):
     state = {"x": x, "y": y, "z": z, "vx": rng.normal(0.0, c, n),
              "vy": -1.5 * Omega * x + rng.normal(0.0, c, n), "vz": rng.normal(0.0, c, n)}
     sim = rebound.Simulation()
-    sheet.configure_simulation(sim, geometry, gravity=False, softening=0.0, opening_angle=0.0,
-                               collision_detection="line", rand_seed=sc.seed)
+    sheet.configure_simulation(sim, geometry, gravity=None, collision_detection="line",
+                               rand_seed=sc.seed)
     sheet.add_particles(sim, state, radii, masses)
     sim.minimum_collision_velocity = sheet.minimum_collision_velocity(radii, Omega)
     sim.dt = timestep.choose_dt(sc.integration, sheet.particle_arrays(sim), Omega)

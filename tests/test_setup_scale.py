@@ -83,8 +83,8 @@ def test_add_particles_builds_what_sim_add_builds():
     sims = []
     for by_c in (True, False):
         sim = rebound.Simulation()
-        sheet.configure_simulation(sim, built.geometry, gravity=False, softening=0.0,
-                                   opening_angle=0.0, collision_detection="tree", rand_seed=1)
+        sheet.configure_simulation(sim, built.geometry, gravity=None,
+                                   collision_detection="tree", rand_seed=1)
         if by_c:
             sheet.add_particles(sim, arrays, arrays["radius"], arrays["mass"])
         else:
@@ -103,8 +103,8 @@ def test_add_particles_builds_what_sim_add_builds():
 def test_add_particles_refuses_arrays_of_other_lengths():
     sim = rebound.Simulation()
     geometry = sheet.SheetGeometry(10.0, 1, 1, 1, 2.0e-4)
-    sheet.configure_simulation(sim, geometry, gravity=False, softening=0.0,
-                               opening_angle=0.0, collision_detection="tree", rand_seed=1)
+    sheet.configure_simulation(sim, geometry, gravity=None,
+                               collision_detection="tree", rand_seed=1)
     state = {key: np.zeros(3) for key in ("x", "y", "z", "vx", "vy", "vz")}
     with pytest.raises(ValueError, match="2 entries"):
         sheet.add_particles(sim, state, np.ones(2), np.ones(3))

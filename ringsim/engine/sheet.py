@@ -234,21 +234,18 @@ def configure_box(sim: rebound.Simulation, geometry: SheetGeometry) -> None:
     sim.boundary = "shear"
 
 
-def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gravity: bool,
-                         softening: float, opening_angle: float,
-                         collision_detection: str, rand_seed: int,
-                         gravity_solver: str = "tree",
-                         p3m_setting: tuple[float, bool] | None = None) -> None:
+def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *,
+                         gravity: dict | None, collision_detection: str,
+                         rand_seed: int) -> None:
     """Set a REBOUND simulation up as a shearing sheet (no particles added).
 
     Parameters
     ----------
     geometry : SheetGeometry
-    gravity : bool
-        Self-gravity with ``softening`` [m] by ``gravity_solver``: "tree" (REBOUND's tree at
-        ``opening_angle`` [rad], one ring of ghost boxes and the field of the sheet beyond
-        them) or "p3m" (ringsim's P3M solver, ``p3m_setting`` = (split [m], auto)); see
-        ``engine.gravity.install_gravity``.
+    gravity : dict or None
+        Self-gravity: the arguments of ``engine.gravity.install_gravity`` (solver,
+        softening [m], opening_angle [rad], p3m_setting; a scenario's are
+        ``engine.gravity.scenario_gravity_arguments``); None for none.
     collision_detection : "tree" (overlaps at step ends) or "line" (swept paths: REBOUND's
         linetree here; ``install_resolver`` replaces it by ringsim's sheet detector)
     rand_seed : int
@@ -257,11 +254,10 @@ def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *, gr
     configure_box(sim, geometry)
     sim.collision = "linetree" if collision_detection == "line" else "tree"
     sim.N_ghost_x, sim.N_ghost_y = 1, 1
-    if gravity:
+    if gravity is not None:
         from ringsim.engine.gravity import install_gravity
 
-        install_gravity(sim, gravity_solver, softening=softening, opening_angle=opening_angle,
-                        p3m_setting=p3m_setting)
+        install_gravity(sim, **gravity)
     else:
         sim.gravity = "none"
     sim.N_ghost_z = 0
@@ -358,6 +354,8 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
     columns, else None (REBOUND particles have no spins: `build_sheet` gives them to the
     resolver). `ringsim export --rebound` saves this simulation, so that a REBOUND
     user's continuation and ringsim's are the same."""
+    from ringsim.engine.gravity import scenario_gravity_arguments
+
     Omega = scenario.orbital_frequency
     sheet_cfg = scenario.sheet
     if sheet_cfg.initial_state is not None:
@@ -393,13 +391,11 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
         geometry = SheetGeometry(geometry.root_size, geometry.n_root_x, geometry.n_root_y,
                                  n_root_z, Omega)
     sim = rebound.Simulation()
-    configure_simulation(sim, geometry, gravity=sheet_cfg.gravity,
-                         softening=scenario.softening_length or 0.0,
-                         opening_angle=sheet_cfg.opening_angle or 0.0,
+    configure_simulation(sim, geometry,
+                         gravity=(scenario_gravity_arguments(scenario) if sheet_cfg.gravity
+                                  else None),
                          collision_detection=scenario.integration.collision_detection,
-                         rand_seed=scenario.seed,
-                         gravity_solver=sheet_cfg.gravity_solver or "tree",
-                         p3m_setting=scenario.p3m_setting)
+                         rand_seed=scenario.seed)
     add_particles(sim, state, radii, masses)
     sim.t = t0
     sim.minimum_collision_velocity = minimum_collision_velocity(radii, Omega)
@@ -546,11 +542,13 @@ def enlarged_copy(sim: rebound.Simulation, geometry: SheetGeometry,
     p3m = installed_solver(sim)
     solver = installed_solver_name(sim)
     new = rebound.Simulation()
-    configure_simulation(new, new_geometry, gravity=solver is not None,
-                         softening=sim.softening, opening_angle=math.sqrt(sim.opening_angle2),
+    gravity = None if solver is None else {
+        "solver": solver, "softening": sim.softening,
+        "opening_angle": math.sqrt(sim.opening_angle2),
+        "p3m_setting": None if p3m is None else p3m.setting}
+    configure_simulation(new, new_geometry, gravity=gravity,
                          collision_detection="tree" if sim.collision == "tree" else "line",
-                         rand_seed=0, gravity_solver=solver or "tree",
-                         p3m_setting=None if p3m is None else p3m.setting)
+                         rand_seed=0)
     arrays = particle_arrays(sim)
     add_particles(new, arrays, arrays["radius"], arrays["mass"])
     new.t = sim.t
