@@ -96,13 +96,14 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
                     # finder says of it so far: the lengths are fixed before the runs.
                     # The driver's length, not the file's own: a run that finished at a
                     # length since raised is not finished until it is extended.
+                    reached = last_orbit(run)
                     finished = (run.attrs.get("status") == "finished"
-                                and last_orbit(run) >= lengths[name] - 1e-9)
+                                and reached >= lengths[name] - 1e-9)
                     row[name].update({"in_equilibrium": bool(eq["in_equilibrium"]) and finished,
                                       "finder_stationary": bool(eq["in_equilibrium"]),
                                       "finished": finished,
                                       "length_orbits": float(lengths[name]),
-                                      "orbits": last_orbit(run),
+                                      "orbits": reached,
                                       "box_lambda_cr": float(run.attrs["box_lambda_cr"])})
                     if name == "p3m" and box_from:
                         row[name].update(tiled_from_box_lambda_cr=box_from,
