@@ -22,11 +22,11 @@ if not os.path.isfile(os.path.join(REBOUND_INCLUDE, "rebound.h")):
 
 # One source a line (easy to merge).
 SOURCES = [
-    "ringsim/csrc/rs_resolver.c",
-    "ringsim/csrc/rs_sheet_detect.c",
-    "ringsim/csrc/rs_gravity.c",
-    "ringsim/csrc/rs_setup.c",
-    "ringsim/csrc/rs_p3m.c",
+    "src/ringsim/csrc/rs_resolver.c",
+    "src/ringsim/csrc/rs_sheet_detect.c",
+    "src/ringsim/csrc/rs_gravity.c",
+    "src/ringsim/csrc/rs_setup.c",
+    "src/ringsim/csrc/rs_p3m.c",
 ]
 
 OPENMP_FLAGS = ["-fopenmp"]

@@ -19,7 +19,8 @@ from pathlib import Path
 
 import pytest
 
-PACKAGE = Path(__file__).resolve().parent.parent / "ringsim"
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGE = ROOT / "src" / "ringsim"
 #: Script directories held to the size limits as well (not to the layers: they are users
 #: of the package, at the end of the data path).
 SCRIPT_DIRS = ("analysis", "benchmarks")
@@ -155,7 +156,7 @@ def test_imports_follow_the_data_path():
             allowed = ALLOWED.get((module, imported))
             if allowed is None or (allowed[0] == "module" and where != "module") \
                     or (allowed[0] == "function" and where != "function"):
-                bad.append(f"{path.relative_to(PACKAGE.parent)}:{line}: {module} "
+                bad.append(f"{path.relative_to(ROOT)}:{line}: {module} "
                            f"({layer_of(module)}) imports {imported} "
                            f"({layer_of(imported)}) at {where} level")
     assert not bad, "imports against the data path:\n" + "\n".join(bad)
@@ -183,9 +184,9 @@ def test_the_checker_sees_imports_at_both_levels(tmp_path):
 
 def _sizes():
     modules, functions = {}, {}
-    scripts = [path for d in SCRIPT_DIRS for path in sorted((PACKAGE.parent / d).rglob("*.py"))]
+    scripts = [path for d in SCRIPT_DIRS for path in sorted((ROOT / d).rglob("*.py"))]
     for path in [path for _, path in _modules()] + scripts:
-        rel = path.relative_to(PACKAGE.parent).as_posix()
+        rel = path.relative_to(ROOT).as_posix()
         source = path.read_text()
         modules[rel] = len(source.splitlines())
 
