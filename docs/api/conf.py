@@ -1,0 +1,35 @@
+"""Sphinx configuration of ringsim's API reference, generated from the docstrings.
+
+Build from the repository root, warnings as errors (CI does)::
+
+    sphinx-build -W --keep-going -b html docs/api build/api
+"""
+
+import ringsim
+
+project = "ringsim"
+author = "ringsim developers"
+release = ringsim.__version__
+version = release
+
+extensions = [
+    "sphinx.ext.autodoc",
+    "sphinx.ext.autosummary",
+    "sphinx.ext.napoleon",
+    "sphinx.ext.mathjax",
+]
+autosummary_generate = True
+autosummary_imported_members = False
+autodoc_default_options = {"members": True, "show-inheritance": True}
+autodoc_typehints = "description"
+autodoc_member_order = "bysource"
+napoleon_numpy_docstring = True
+napoleon_google_docstring = False
+napoleon_use_rtype = False
+# Docstrings name units in brackets after the type ("radius : float [m]"): the numpy
+# parameter syntax reads that as a type expression, which is what the reader wants to see.
+napoleon_preprocess_types = False
+exclude_patterns = ["_build", "generated/*.tmp"]
+html_theme = "alabaster"
+html_title = f"ringsim {release} API reference"
+nitpicky = False
