@@ -20,10 +20,15 @@ from ringsim.engine.native import FRICTION_STATISTICS
 _NUMPY_TYPES = {ctypes.c_int64: np.int64, ctypes.c_double: np.float64}
 
 
+def _fields(stats: ctypes.Structure) -> list[tuple[str, Any]]:
+    """(name, ctypes type) of every field of the struct."""
+    return [(field[0], field[1]) for field in stats._fields_]
+
+
 def saved(stats: ctypes.Structure) -> dict[str, np.ndarray]:
     """Every field of the struct as a numpy array (scalars 0-d), copied."""
     state = {}
-    for name, ctype in stats._fields_:
+    for name, ctype in _fields(stats):
         value = getattr(stats, name)
         if issubclass(ctype, ctypes.Array):
             state[name] = np.ctypeslib.as_array(value).copy()
@@ -36,7 +41,7 @@ def checked(stats: ctypes.Structure, state: Mapping[str, Any]) -> dict[str, np.n
     """The fields of ``state`` for the struct, each with its shape; ValueError naming the
     first missing or misshapen field (friction fields missing: zero)."""
     values = {}
-    for name, ctype in stats._fields_:
+    for name, ctype in _fields(stats):
         if name in state:
             value = np.asarray(state[name])
         elif name in FRICTION_STATISTICS:
@@ -53,7 +58,7 @@ def checked(stats: ctypes.Structure, state: Mapping[str, Any]) -> dict[str, np.n
 
 def restore(stats: ctypes.Structure, values: Mapping[str, np.ndarray]) -> None:
     """Write checked values (:func:`checked`) into the struct."""
-    for name, ctype in stats._fields_:
+    for name, ctype in _fields(stats):
         if issubclass(ctype, ctypes.Array):
             np.ctypeslib.as_array(getattr(stats, name))[...] = values[name]
         else:
