@@ -33,3 +33,17 @@ exclude_patterns = ["_build", "generated/*.tmp"]
 html_theme = "alabaster"
 html_title = f"ringsim {release} API reference"
 nitpicky = False
+# A short name in a docstring's type ("Scenario", "radius") can match several documented
+# objects; Sphinx then links the first, which is what the reader wants.
+suppress_warnings = ["ref.python"]
+
+
+def _plain_bars(app, what, name, obj, options, lines):
+    """Docstrings write |x| for an absolute value; reST would read a substitution."""
+    for i, line in enumerate(lines):
+        if "|" in line and not line.lstrip().startswith(("+", "| ")):
+            lines[i] = line.replace("|", "\\|")
+
+
+def setup(app):
+    app.connect("autodoc-process-docstring", _plain_bars)

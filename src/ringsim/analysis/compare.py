@@ -51,10 +51,11 @@ def comparison(equilibria: Sequence[dict], systematics: dict | None = None) -> d
     Returns
     -------
     dict with ``runs`` (the combined equilibria), ``ratios`` (for each later group, each
-    table quantity's ratio ``{"mean", "stderr", "units", "statistical", "systematic",
-    "systematic_parts", "total", "significance"}``: ``stderr`` = ``statistical``; the
-    systematic part is NaN where the budget has no entry; ``significance`` is the
-    difference in units of the combined statistical error), ``all_in_equilibrium`` and
+    table quantity's ratio with the keys ``mean``, ``stderr``, ``units``, ``statistical``,
+    ``systematic``, ``systematic_parts``, ``total`` and ``significance``: ``stderr`` =
+    ``statistical``; the systematic part is NaN where the budget has no entry;
+    ``significance`` is the difference in units of the combined statistical error),
+    ``all_in_equilibrium`` and
     ``warnings`` (one per run the finder did not call stationary).
     """
     indices = budget.replica_groups(equilibria)
