@@ -16,7 +16,7 @@ fraction of impacts outside the speeds the Dilley law was fitted to.
 the automatic one, and in a box of aspect 2, and writes the relative change of every ratio
 to ``analysis/data/kappa_budget.json`` (the file ``ringsim compare --systematics`` reads).
 The collision-detection part comes from the line-vs-tree measurement of
-``analysis/line_mode_validation.py`` (``analysis/data/line_mode_validation.json``).
+``python -m validation line-mode`` (``analysis/data/line_mode_validation.json``).
 A run the finder does not call stationary is never averaged: it is listed and left out.
 
 ``--friction constant:0`` (or ``coulomb:0.5``) runs the same comparison with rough
@@ -247,7 +247,7 @@ def ratio_of_pair(paths: list[str]) -> dict | None:
 
 def detection_systematics(variant: str) -> dict[str, float]:
     """Relative change of the kappa ratio of c and H between line and tree detection, from
-    the short same-state comparisons of analysis/line_mode_validation.py (its cases
+    the short same-state comparisons of validation/line_mode.py (its cases
     kappa0-powerlaw, kappa0.1-powerlaw, kappa0-mono, kappa0.1-mono)."""
     if not LINE_VALIDATION.exists():
         return {}

@@ -1,14 +1,16 @@
 """The architecture of docs/architecture.md, enforced mechanically.
 
 1. Imports go one way along the data path, config/physics -> engine -> store -> analysis ->
-   plots, with the command line, the sweep and the validation as front ends on top.  Every
-   module under ringsim/ is parsed with ``ast`` (nothing is imported); an import of a
-   forbidden layer fails the test unless it is listed in ``ALLOWED`` with its reason.
+   plots, with the command line and the sweep as front ends on top.  Every module under
+   src/ringsim/ is parsed with ``ast`` (nothing is imported); an import of a forbidden
+   layer fails the test unless it is listed in ``ALLOWED`` with its reason.  No module of
+   the package imports the repository's script folders (``SCRIPT_DIRS``): they are not
+   installed.
 2. No module over 600 lines, no function over 80 lines, except the ones in
    ``LONG_MODULES`` / ``LONG_FUNCTIONS`` (today's exceptions; an entry that is no longer
    needed fails the test too, so that the lists only shrink).  This holds for the scripts
-   under ``analysis/`` and ``benchmarks/`` too (``SCRIPT_DIRS``): they are code users read
-   and rerun.
+   under ``analysis/``, ``benchmarks/`` and ``validation/`` too (``SCRIPT_DIRS``): they are
+   code users read and rerun.
 """
 
 from __future__ import annotations
@@ -22,21 +24,21 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "src" / "ringsim"
 #: Script directories held to the size limits as well (not to the layers: they are users
-#: of the package, at the end of the data path).
-SCRIPT_DIRS = ("analysis", "benchmarks")
+#: of the package, at the end of the data path, and only in a source checkout).
+SCRIPT_DIRS = ("analysis", "benchmarks", "validation")
 
 #: Layer of each top-level name under ringsim.  "base" holds the helpers every layer may
 #: use (errors, argument checks, the Markdown section writer, the package root).
 LAYERS = {
     "config": "config", "physics": "physics", "restitution": "physics", "engine": "engine",
     "store": "store", "analysis": "analysis", "plots": "plots", "cli": "cli",
-    "sweep": "sweep", "testing": "testing", "validation": "validation",
+    "sweep": "sweep", "testing": "testing",
     "errors": "base", "checks": "base", "report": "base", "__init__": "base",
     "__version__": "base", "_resolver": "engine",
     "userlaw": "cli",  # the `ringsim epsilon --restitution` command's law, table and figure
 }
 
-_FRONT_ENDS = {"cli", "sweep", "validation"}
+_FRONT_ENDS = {"cli", "sweep"}
 #: Layer -> the layers it must not import.
 FORBIDDEN = {
     "base": {"config", "physics", "engine", "store", "analysis", "plots", "testing"}
@@ -48,9 +50,8 @@ FORBIDDEN = {
     "analysis": {"engine", "testing"} | _FRONT_ENDS,
     "plots": {"engine", "testing"} | _FRONT_ENDS,
     "testing": {"store", "analysis", "plots"} | _FRONT_ENDS,
-    "sweep": {"cli", "validation", "testing"},
-    "cli": {"validation", "testing"},
-    "validation": {"cli", "sweep", "testing"},
+    "sweep": {"cli", "testing"},
+    "cli": {"testing"},
 }
 
 #: Imports across the forbidden lines that are there on purpose:
@@ -162,11 +163,31 @@ def test_imports_follow_the_data_path():
     assert not bad, "imports against the data path:\n" + "\n".join(bad)
 
 
-def test_no_library_module_imports_the_validation():
-    users = [module for module, path in _modules()
-             if layer_of(module) != "validation"
-             and any(layer_of(name) == "validation" for name, _, _ in imports(module, path))]
-    assert not users, f"the validation is a front end; imported by {users}"
+def script_imports(path: Path) -> list[tuple[str, int]]:
+    """(imported name, line) of every absolute import of a script folder in ``path``."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found.extend((a.name, node.lineno) for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and not node.level and node.module:
+            found.append((node.module, node.lineno))
+    return [(name, line) for name, line in found if name.split(".")[0] in SCRIPT_DIRS]
+
+
+def test_no_package_module_imports_a_script_folder():
+    bad = [f"{path.relative_to(ROOT)}:{line}: imports {name}"
+           for _, path in _modules() for name, line in script_imports(path)]
+    assert not bad, ("the script folders are not installed; the package imports them:\n"
+                     + "\n".join(bad))
+
+
+def test_the_script_checker_sees_script_imports(tmp_path):
+    path = tmp_path / "probe.py"
+    path.write_text("import validation.common\nfrom validation import ladder\n"
+                    "from .analysis import x\nfrom ringsim.analysis import snapshot\n"
+                    "def f():\n    import benchmarks.scale\n")
+    assert script_imports(path) == [("validation.common", 1), ("validation", 2),
+                                    ("benchmarks.scale", 6)]
 
 
 def test_the_checker_sees_imports_at_both_levels(tmp_path):

@@ -34,7 +34,7 @@ from rebound.vectors import Vec6d
 from ringsim.engine.resolver import install_resolver
 from ringsim.physics import friction as fr
 from ringsim.physics import restitution as rs
-from ringsim.validation.cooling import cool_rough_gas
+from validation.cooling import cool_rough_gas
 
 DENSITY = 900.0                     # [kg/m^3]
 OMEGA = 2e-4                        # [1/s]

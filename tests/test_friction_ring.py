@@ -1,6 +1,6 @@
 """Issue 13, item 4(c): a ring patch of rough particles against the collisional balance.
 
-``ringsim.validation.friction_ring``: identical 1 m ice spheres, tau = 0.1, Dilley eps_n at
+``validation.friction_ring``: identical 1 m ice spheres, tau = 0.1, Dilley eps_n at
 kappa = 0, constant beta = 0, line detection, run until stationary (slow: about a CPU-minute).
 E_rot/E_tr over the stationary window is asserted against
 ``physics.friction.collisional_spin_ratio(0) = 2/9`` (Morishima & Salo 2004's optically
@@ -12,7 +12,7 @@ from __future__ import annotations
 import pytest
 
 from ringsim.physics import friction as fr
-from ringsim.validation import friction_ring
+from validation import friction_ring
 
 #: |E_rot/E_tr / closed form - 1| allowed: the offset measured in docs/validation.md
 #: ("Rough particles in a ring patch": +7.8 % at beta = 0 and +7.9 % at beta = 0.5, the

@@ -1,5 +1,5 @@
 """Identical smooth spheres, constant eps = 0.5, against dense-ring kinetic theory
-(ringsim.validation.kinetic_theory; docs/validation.md, "Kinetic theory").
+(validation.kinetic_theory; docs/validation.md, "Kinetic theory").
 
 Tolerances (docs/validation.md): c within 3 % (measured agreement 0.2 % at tau = 1 with
 600 particles; 3 % covers finite N, the table's interpolation and the runs' statistical
@@ -11,7 +11,7 @@ either the measurement or the reference shows up here and in the document.
 import pytest
 
 import ringsim
-from ringsim.validation.kinetic_theory import (
+from validation.kinetic_theory import (
     compare_with_kinetic_theory,
     kinetic_scenario,
     kinetic_steady_state,

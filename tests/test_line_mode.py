@@ -36,7 +36,7 @@ from ringsim.config.scenario import scenario_from_dict, with_overrides
 from ringsim.engine import sheet
 from ringsim.engine.resolver import install_resolver
 from ringsim.physics import restitution as rs
-from ringsim.validation.encounters import (
+from validation.encounters import (
     MULTI_ENCOUNTER_WINDOW_STEPS,
     multi_encounter_fraction,
     multi_encounter_rate,

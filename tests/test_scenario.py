@@ -134,7 +134,7 @@ def test_bridges_scenario_matches_rebound_shearing_sheet_example():
     assert sc.sheet.gravity and sc.softening_length == 0.1
     assert sc.sheet.opening_angle**2 == pytest.approx(0.5, rel=1e-3)  # opening_angle2
     assert sc.integration.dt == "auto"                   # REBOUND's 1e-3 orbit is too long
-    from ringsim.validation.case5_rebound_example import REBOUND_EXAMPLE_RUN
+    from validation.case5_rebound_example import REBOUND_EXAMPLE_RUN
     example = with_overrides(sc, REBOUND_EXAMPLE_RUN)     # as validation case 5 runs it
     assert example.integration.dt == 1.0e-3              # REBOUND's dt [orbits]
     assert example.integration.collision_detection == "tree"

@@ -1,4 +1,4 @@
-"""The validation ladder of issue 6 (ringsim.validation) at small sizes.
+"""The validation ladder of issue 6 (validation/) at small sizes.
 
 Each test runs one reference case with fewer particles and orbits than the documented
 run (docs/validation.md, "Reference cases") and asserts the agreement the report states,
@@ -39,14 +39,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ringsim.validation.case1_constant_eps import case1
-from ringsim.validation.case2_threshold import case2
-from ringsim.validation.case3_bridges_identical import case3
-from ringsim.validation.case4_size_distribution import case4
-from ringsim.validation.case5_rebound_example import case5
-from ringsim.validation.case6_dilley_figures import case6
-from ringsim.validation.common import QUICK, CaseResult, Comparison, load_results, save_result
-from ringsim.validation.render import line_mode_markdown, section_markdown
+from validation.case1_constant_eps import case1
+from validation.case2_threshold import case2
+from validation.case3_bridges_identical import case3
+from validation.case4_size_distribution import case4
+from validation.case5_rebound_example import case5
+from validation.case6_dilley_figures import case6
+from validation.common import QUICK, CaseResult, Comparison, load_results, save_result
+from validation.render import line_mode_markdown, section_markdown
 
 ROOT = Path(__file__).resolve().parent.parent
 

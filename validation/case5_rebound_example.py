@@ -19,9 +19,9 @@ from ringsim.analysis import snapshot, timeseries
 from ringsim.config.scenario import load_scenario, with_overrides
 from ringsim.engine import sheet
 from ringsim.physics import restitution as rs
-from ringsim.validation import common
-from ringsim.validation.common import CaseResult, Comparison, Sizes
-from ringsim.validation.render import fmt
+from validation import common
+from validation.common import CaseResult, Comparison, Sizes
+from validation.render import fmt
 
 #: REBOUND's shearing-sheet example (examples/shearing_sheet/problem.c): surface density
 #: 400 kg/m^2 in a box of 2 x 2 root boxes of 100 m, particle density 400 kg/m^3, radii

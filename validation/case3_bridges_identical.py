@@ -14,9 +14,9 @@ import numpy as np
 
 from ringsim.analysis.equilibrium import equilibrium
 from ringsim.physics import kinetic
-from ringsim.validation import common
-from ringsim.validation.common import CaseResult, Comparison, Sizes
-from ringsim.validation.render import equilibrium_note, fmt
+from validation import common
+from validation.common import CaseResult, Comparison, Sizes
+from validation.render import equilibrium_note, fmt
 
 
 def measure(tau: float, sizes: Sizes, workdir: Path) -> dict:

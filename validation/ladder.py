@@ -5,13 +5,12 @@ scenarios, the native resolver, ``ringsim.compare.equilibrium``) and writes the 
 "## Reference cases" of ``docs/validation.md`` with one table and one figure per case
 (figures in ``docs/figures/validation/``)::
 
-    python analysis/validation.py                # documented sizes (~25 min of CPU);
-                                                 # the same: python -m ringsim.validation
-    python analysis/validation.py --quick        # small sizes (~5 min), same checks,
-                                                 # report in runs/validation/quick/
-    python analysis/validation.py --cases 2 5    # only these cases; the report keeps the
-                                                 # stored results of the others
-    python analysis/validation.py --report-only  # rewrite the report from stored results
+    python -m validation ladder                # documented sizes (~25 min of CPU)
+    python -m validation ladder --quick        # small sizes (~5 min), same checks,
+                                               # report in runs/validation/quick/
+    python -m validation ladder --cases 2 5    # only these cases; the report keeps the
+                                               # stored results of the others
+    python -m validation ladder --report-only  # rewrite the report from stored results
 
 Cases (all SI inside; results in units of the particle radius r and Omega):
 
@@ -28,7 +27,7 @@ Cases (all SI inside; results in units of the particle radius r and Omega):
 6. Dilley (1993) Figs. 1 and 5: eps in the running resolver's collision log against the
    paper's equations and ``ringsim.restitution``, and the rebound speed of head-on pairs.
 
-Each case is a module of ``ringsim.validation`` (``case1_constant_eps`` ...
+Each case is a module of ``validation/`` (``case1_constant_eps`` ...
 ``case6_dilley_figures``), built from what they share in ``common`` and rendered to
 Markdown by ``render``.  Each case returns a ``CaseResult``: rows comparing ringsim's
 value (with its standard error) with a reference value (with its uncertainty and source),
@@ -46,13 +45,13 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from ringsim.report import replace_section
-from ringsim.validation.case1_constant_eps import case1
-from ringsim.validation.case2_threshold import case2
-from ringsim.validation.case3_bridges_identical import case3
-from ringsim.validation.case4_size_distribution import case4
-from ringsim.validation.case5_rebound_example import case5
-from ringsim.validation.case6_dilley_figures import case6
-from ringsim.validation.common import (
+from validation.case1_constant_eps import case1
+from validation.case2_threshold import case2
+from validation.case3_bridges_identical import case3
+from validation.case4_size_distribution import case4
+from validation.case5_rebound_example import case5
+from validation.case6_dilley_figures import case6
+from validation.common import (
     DOC,
     FULL,
     QUICK,
@@ -64,7 +63,7 @@ from ringsim.validation.common import (
     load_results,
     save_result,
 )
-from ringsim.validation.render import SECTION_HEADING, row_markdown, section_markdown
+from validation.render import SECTION_HEADING, row_markdown, section_markdown
 
 FIGURES = ROOT / "docs" / "figures" / "validation"
 
@@ -91,8 +90,9 @@ def run_case(number: int, sizes: Sizes, workdir: Path, figures: Path) -> CaseRes
     return result
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv: Sequence[str] | None = None, prog: str | None = None) -> int:
+    """``python -m validation ladder``: run the cases, write the report; 0 if all agree."""
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="small sizes (~5 min of CPU)")
     parser.add_argument("--cases", type=int, nargs="+", choices=sorted(CASES),
                         default=sorted(CASES))
@@ -132,7 +132,3 @@ def main(argv: Sequence[str] | None = None) -> int:
                     title="Validation")
     print(f"wrote {args.doc}")
     return 0 if all(r.passed for r in results.values()) else 1
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from ringsim.analysis.equilibrium import equilibrium
-from ringsim.validation import common
-from ringsim.validation.common import CaseResult, Comparison, Sizes
-from ringsim.validation.render import fmt
+from validation import common
+from validation.common import CaseResult, Comparison, Sizes
+from validation.render import fmt
 
 #: The size distribution of the case: dN/dR ~ R^-3 on [0.5, 5] m.
 SIZE_DISTRIBUTION = {"kind": "powerlaw", "q": 3.0, "r_min": 0.5, "r_max": 5.0}

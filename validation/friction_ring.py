@@ -16,7 +16,7 @@ optically-thin prediction Morishima & Salo (2004, DPS 36, #19.01) found their lo
 simulations to agree with.  No published mean z-spin or rms spin of identical ring
 particles could be read (docs/friction.md, "The ring literature with friction").
 
-    python -m ringsim.validation.friction_ring [--workdir runs/validation]
+    python -m validation friction-ring [--workdir runs/validation]
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 
 from ringsim.physics import friction as fr
-from ringsim.validation.common import MONODISPERSE_1M, run_cached, sheet_scenario
+from validation.common import MONODISPERSE_1M, run_cached, sheet_scenario
 
 DILLEY_KAPPA0 = {"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.0}
 
@@ -103,8 +103,9 @@ def table(rows: list[dict]) -> str:
     return "\n".join(out)
 
 
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None, prog: str | None = None) -> None:
+    """``python -m validation friction-ring``: run the cases and print their table."""
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--workdir", default="runs/validation")
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
     parser.add_argument("--json", default=None, help="also write the rows as JSON here")
@@ -117,7 +118,3 @@ def main(argv: list[str] | None = None) -> None:
         print(f"{r['name']}: {r['cpu_s']:.0f} CPU-s")
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1, default=float) + "\n")
-
-
-if __name__ == "__main__":
-    main()

@@ -3,10 +3,9 @@
 Produces the section "Line-mode collision detection vs small-dt tree reference" of
 ``docs/validation.md`` and its figures in ``docs/figures/line_mode/``::
 
-    python analysis/line_mode_validation.py run [--cases ...] [--replicas 6] [--runs DIR]
-    python analysis/line_mode_validation.py report [--runs DIR]
-    python analysis/line_mode_validation.py all
-    python -m ringsim.validation.line_mode all     # the same
+    python -m validation line-mode run [--cases ...] [--replicas 6] [--runs DIR]
+    python -m validation line-mode report [--runs DIR]
+    python -m validation line-mode all
 
 Six cases: constant eps = 0.5 (cold, dense: tau = 1), Dilley (1993) kappa = 0 and
 kappa = 0.1 (hot: tau = 0.25), each monodisperse (1 m) and power law (0.5-5 m, q = 3).
@@ -25,7 +24,7 @@ For every case:
 
 Every run also records the resolver's ``multi_encounters`` (collisions in which a partner
 was deflected earlier in the same step), the fraction predicted on straight paths for the
-step in use (``ringsim.validation.encounters.multi_encounter_rate``; before contacts were
+step in use (``validation.encounters.multi_encounter_rate``; before contacts were
 resolved in time order ``dt: auto`` used it), and the CPU time per particle-step of the
 integration alone.  Sizes are small (300-400 particles) to fit the validation into
 about half an hour of one core: the tree reference of the hot Dilley rings needs 10^4 -
@@ -46,13 +45,13 @@ from ringsim.analysis import snapshot
 from ringsim.config.scenario import scenario_from_dict, with_overrides
 from ringsim.engine import sheet, timestep
 from ringsim.report import replace_section
-from ringsim.validation.common import DOC, ROOT, figure_file, pyplot
-from ringsim.validation.encounters import (
+from validation.common import DOC, ROOT, figure_file, pyplot
+from validation.encounters import (
     MULTI_ENCOUNTER_TARGET,
     MULTI_ENCOUNTER_WINDOW_STEPS,
     multi_encounter_rate,
 )
-from ringsim.validation.render import LINE_MODE_HEADING, line_mode_markdown, scales
+from validation.render import LINE_MODE_HEADING, line_mode_markdown, scales
 
 FIGURES = ROOT / "docs" / "figures" / "line_mode"
 SUMMARY = ROOT / "analysis" / "data" / "line_mode_validation.json"
@@ -507,15 +506,16 @@ def _multi_encounter_figure(plt, summary: dict, cases: list[str]) -> str:
     return figure_file(fig, FIGURES, "multi_encounters.png").name
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None, prog: str | None = None) -> None:
+    """``python -m validation line-mode``: run the cases and/or write the section."""
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("stage", choices=["run", "report", "all"])
     parser.add_argument("--cases", nargs="+", choices=list(CASES), default=list(CASES))
     parser.add_argument("--replicas", type=int, default=6,
                         help="line-mode runs per variant (shuffle seeds)")
     parser.add_argument("--runs", default=str(ROOT / "runs" / "line_mode"),
                         help="directory of the saved runs (.npz)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     runs = Path(args.runs)
     if args.stage in ("run", "all"):
         for case in args.cases:
@@ -528,7 +528,3 @@ def main() -> None:
         replace_section(DOC, LINE_MODE_HEADING, line_mode_markdown(summary, args.replicas),
                         "Validation")
         print(f"wrote {DOC}, {SUMMARY} and {FIGURES}")
-
-
-if __name__ == "__main__":
-    main()

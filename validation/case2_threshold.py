@@ -18,9 +18,9 @@ from ringsim.analysis import snapshot, timeseries
 from ringsim.analysis.equilibrium import equilibrium
 from ringsim.config.scenario import with_overrides
 from ringsim.physics import kinetic
-from ringsim.validation import common
-from ringsim.validation.common import CaseResult, Comparison, Sizes
-from ringsim.validation.render import fmt, percent
+from validation import common
+from validation.common import CaseResult, Comparison, Sizes
+from validation.render import fmt, percent
 
 #: The end points of the bisection: well below and well above eps_cr.
 EPS_LOW, EPS_HIGH = 0.3, 0.9

@@ -22,7 +22,14 @@ Only a handful of the table's rows are quoted (enough to interpolate over tau = 
 
 from __future__ import annotations
 
+import argparse
+
 import numpy as np
+
+import ringsim
+from ringsim.config.scenario import scenario_from_dict
+from ringsim.report import replace_section
+from validation.common import DOC, WORKDIR
 
 #: Rows of Kinetic-0.5-1.dat: tau, c [r Omega], Pi_xy [r^2 Omega^2], nu_coll [r^2 Omega].
 KINETIC_EPS05 = np.array([
@@ -105,8 +112,6 @@ def kinetic_scenario(tau: float, n_particles: int = N_PARTICLES, orbits: float =
     n_particles : int
     orbits : float [orbits]
     """
-    from ringsim.config.scenario import scenario_from_dict
-
     return scenario_from_dict({
         "name": f"kinetic-tau{tau:g}", "seed": 1, "planet": {"Omega": OMEGA},
         "particles": {"density": 900.0,
@@ -120,7 +125,7 @@ def kinetic_scenario(tau: float, n_particles: int = N_PARTICLES, orbits: float =
 def section_markdown(rows: list[tuple[float, dict, bool]]) -> str:
     """The section: one line per (tau, comparison, in_equilibrium)."""
     lines = [HEADING, "",
-             f"Written by `python -m ringsim.validation.kinetic_theory`: {N_PARTICLES} "
+             f"Written by `python -m validation kinetic-theory`: {N_PARTICLES} "
              f"identical 1 m spheres, constant eps = 0.5, Omega = {OMEGA:g} 1/s, tree "
              f"detection with dt: auto, {ORBITS:g} orbits, seed 1; equilibrium window and "
              f"errors from `ringsim.equilibrium`.  Reference: {SOURCE}.  Tolerance of the "
@@ -138,12 +143,10 @@ def section_markdown(rows: list[tuple[float, dict, bool]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main() -> None:
-    """Run the optical depths of `TAUS` and write the section of docs/validation.md."""
-    import ringsim
-    from ringsim.report import replace_section
-    from ringsim.validation.common import DOC, WORKDIR
-
+def main(argv: list[str] | None = None, prog: str | None = None) -> None:
+    """``python -m validation kinetic-theory``: run the optical depths of `TAUS` and write
+    the section of docs/validation.md."""
+    argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0]).parse_args(argv)
     rows = []
     for tau in TAUS:
         path = WORKDIR / f"kinetic_tau{tau:g}.h5"
@@ -152,7 +155,3 @@ def main() -> None:
         eq = ringsim.equilibrium(ringsim.open_run(path))
         rows.append((tau, compare_with_kinetic_theory(eq, OMEGA), eq["in_equilibrium"]))
     replace_section(DOC, HEADING, section_markdown(rows), "Validation")
-
-
-if __name__ == "__main__":
-    main()

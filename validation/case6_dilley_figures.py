@@ -17,8 +17,8 @@ import numpy as np
 
 from ringsim.engine import sheet
 from ringsim.physics import restitution as rs
-from ringsim.validation import common
-from ringsim.validation.common import CaseResult, Comparison, Sizes
+from validation import common
+from validation.common import CaseResult, Comparison, Sizes
 
 
 def _radius_label(r: float) -> str:

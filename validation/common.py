@@ -30,7 +30,7 @@ from ringsim.plots.common import pyplot, save_figure
 from ringsim.store.runfile import open_run
 
 #: The repository (a source checkout) whose docs/ and runs/ the ladder writes.
-ROOT = Path(__file__).resolve().parents[3]
+ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "validation.md"
 WORKDIR = ROOT / "runs" / "validation"
 

@@ -1,0 +1,21 @@
+"""The validation of ringsim against published ring physics: scripts of the repository.
+
+Run from the repository root with ``python -m validation COMMAND`` (``__main__``: the one
+runner; ``--help`` lists the commands).  Modules:
+
+* ``common``: what the cases share (``Sizes``, ``Comparison``, ``CaseResult``,
+  ``run_cached``, ``sheet_scenario``, the energy balance of a sheet);
+* ``case1_constant_eps`` ... ``case6_dilley_figures``: the six reference cases of the
+  validation ladder, one module each;
+* ``ladder``: runs the cases and writes the report (``python -m validation ladder``);
+* ``line_mode``: line-mode collision detection against the small-dt tree reference, with
+  ``encounters``, the straight-path prediction of multiple encounters it reports;
+* ``kinetic_theory``: identical smooth spheres against the dense-ring kinetic theory;
+* ``friction_ring`` and ``cooling``: a ring patch of rough spheres, and the homogeneous
+  cooling of rough spheres in a periodic box;
+* ``render``: the Markdown of ``docs/validation.md``.
+
+The validation is not part of the installed package: it reads ``scenarios/`` and writes
+``docs/`` and ``runs/`` of the repository.  The tests import it with the repository root on
+the path (``pythonpath`` in pyproject.toml).  Importing this package imports nothing else.
+"""

@@ -1,0 +1,52 @@
+"""The one runner of the validation, from the repository root::
+
+    python -m validation ladder [--quick] [--cases N ...] [--report-only]
+    python -m validation line-mode run|report|all [--cases ...] [--replicas 6]
+    python -m validation kinetic-theory
+    python -m validation friction-ring [--workdir runs/validation]
+    python -m validation cooling [--quick]
+
+Each command is the ``main`` of one module of this folder; ``python -m validation COMMAND
+--help`` lists its options.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+#: Command -> (module of this folder whose ``main(argv)`` runs it, what it writes).
+COMMANDS = {
+    "ladder": ("ladder", "the six reference cases: section 'Reference cases' of "
+               "docs/validation.md"),
+    "line-mode": ("line_mode", "line-mode detection against the small-dt tree reference: "
+                  "its section of docs/validation.md"),
+    "kinetic-theory": ("kinetic_theory", "identical smooth spheres, eps = 0.5, against dense "
+                       "kinetic theory: its section of docs/validation.md"),
+    "friction-ring": ("friction_ring", "a ring patch of rough spheres: the table of its "
+                      "section of docs/validation.md, printed"),
+    "cooling": ("cooling", "the homogeneous cooling of rough spheres: the table and figure of "
+                "docs/friction.md"),
+}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command with the rest of the arguments; its exit status."""
+    parser = argparse.ArgumentParser(
+        prog="python -m validation", formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="The validation of ringsim against published ring physics (run from "
+        "the repository root).",
+        epilog="commands:\n" + "\n".join(f"  {name}: {what}"
+                                          for name, (_, what) in COMMANDS.items()))
+    parser.add_argument("command", choices=list(COMMANDS))
+    parser.add_argument("arguments", nargs=argparse.REMAINDER,
+                        help="the command's own arguments (COMMAND --help lists them)")
+    args = parser.parse_args(argv)
+    module = importlib.import_module(f"validation.{COMMANDS[args.command][0]}")
+    return module.main(args.arguments, prog=f"python -m validation {args.command}") or 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
