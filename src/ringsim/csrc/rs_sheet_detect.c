@@ -286,7 +286,6 @@ struct rs_sheet_detector {
     struct rs_event* events;        /* binary heap, earliest contact at the root */
     struct rs_sheet_grid grid;
     const struct reb_particle* particles;   /* r->particles of the last search (kicks) */
-    int straight_paths;             /* 1: ignore the kick (measurements only, Method 1a) */
     double deviation_max;           /* [m] largest D of this step */
     int64_t serial;                 /* collisions resolved in this step */
     /* counters */
@@ -874,7 +873,7 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
     double kick_max = 0.0;
     double z_min = INFINITY;
     double z_max = -INFINITY;
-    const double kick_time = d->straight_paths ? 0.0 : 0.5 * g->dt;
+    const double kick_time = 0.5 * g->dt;
 #pragma omp parallel for schedule(static) num_threads(rs_team_size(d, n)) \
         reduction(max:reach_max, kick_max, z_max) reduction(min:z_min)
     for (int64_t i = 0; i < n; i++){
@@ -1361,18 +1360,6 @@ int rs_sheet_set_threads(struct rs_resolver* res, int threads){
 }
 
 /* Threads the last search of the resolver's detector ran on (0 before the first). */
-/* Method 1a off (straight = 1: paths straight over the whole step, the kick ignored, as
- * before ringsim knew of it) or on (0, the default).  For measurements of what the kick
- * changes (validation/kicked_paths.py); returns 0 if the detector cannot be made. */
-int rs_sheet_set_straight_paths(struct rs_resolver* res, int straight){
-    struct rs_sheet_detector* const d = res ? rs_detector_of(res) : NULL;
-    if (d == NULL){
-        return 0;
-    }
-    d->straight_paths = straight != 0;
-    return 1;
-}
-
 int rs_sheet_threads_used(const struct rs_resolver* res){
     const struct rs_sheet_detector* d = res->detector;
     return d == NULL ? 0 : d->team_last;

@@ -181,11 +181,6 @@ def _declare_detector(lib: ctypes.CDLL) -> None:
     lib.rs_sheet_threads_used.argtypes = [ctypes.c_void_p]
     lib.rs_sheet_particles_per_thread.restype = ctypes.c_int64
     lib.rs_sheet_particles_per_thread.argtypes = []
-    if not hasattr(lib, "rs_sheet_set_straight_paths"):
-        raise ImportError("ringsim._resolver is out of date (no kicked paths); rebuild the "
-                          "extension (`python setup.py build_ext --inplace`)")
-    lib.rs_sheet_set_straight_paths.restype = ctypes.c_int
-    lib.rs_sheet_set_straight_paths.argtypes = [ctypes.c_void_p, ctypes.c_int]
 
 
 def _load_library() -> ctypes.CDLL:
@@ -285,15 +280,6 @@ def max_shear_step() -> float:
 def openmp_available() -> bool:
     """True if the sheet detector was compiled with OpenMP (more than one thread helps)."""
     return hasattr(_LIB, "rs_sheet_openmp") and bool(_LIB.rs_sheet_openmp())
-
-
-def set_straight_paths(resolver_address: int, straight: bool) -> None:
-    """Switch the sheet detector's kicked paths off (``straight``: every path straight over
-    the whole step with the end-of-step velocity, the self-gravity kick ignored) or on (the
-    default).  For measurements of what the kick changes only
-    (``benchmarks/gravity_line_mode.py``); runs never switch it off."""
-    if not _LIB.rs_sheet_set_straight_paths(resolver_address, int(bool(straight))):
-        raise MemoryError("could not allocate the sheet detector")
 
 
 def checked_threads(threads) -> int:

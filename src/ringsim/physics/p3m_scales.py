@@ -22,11 +22,11 @@ P3M_LAYER_SPLITS = 0.75
 #: Z at every force evaluation.  The mesh costs ~ (L / r_s)^2 Z / r_s and the pair sum (a
 #: horizontal cell list) ~ N n (2.5 r_c)^2, n the number of particles per unit area, so the
 #: cheapest split is r_s = C (Z / n^2)^(1/5).  C from timings of one force evaluation
-#: (2026-11-24, this machine; `benchmarks/p3m_split.py force`, docs/performance.md, "P3M in
-#: thick rings"): 2400 particles of 1 m at tau = 0.5 with Z = 175 m were cheapest at
-#: r_s = 4.5 m (11.2 ms against 13.9 at 3 m and 15.6 at 6 m), so C = 4.5 / (175 /
-#: 0.159^2)^(1/5) = 0.77; the same C puts a 1200-particle ring with Z = 842 m at 6.2 m,
-#: where 6 m measured 6.2 ms against 29.6 ms at 3 m.
+#: (2026-11-24, this machine; docs/performance.md, "P3M in thick rings"): 2400 particles
+#: of 1 m at tau = 0.5 with Z = 175 m were cheapest at r_s = 4.5 m (11.2 ms against 13.9
+#: at 3 m and 15.6 at 6 m), so C = 4.5 / (175 / 0.159^2)^(1/5) = 0.77; the same C puts a
+#: 1200-particle ring with Z = 842 m at 6.2 m, where 6 m measured 6.2 ms against 29.6 ms
+#: at 3 m.
 P3M_AUTO_SPLIT_COEFFICIENT = 0.77
 #: Ratio of successive split scales ("rungs") of ``auto``, from P3M_SPLIT_RADII mean radii
 #: up: the choice moves one rung when Z changes by a factor 2^(5/4) = 2.4.

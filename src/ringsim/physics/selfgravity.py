@@ -488,8 +488,7 @@ class P3MMesh:
         is a linear convolution over the offsets -(nz-1)..(nz-1), so any length >= 2 nz - 1
         is exact; scipy's next fast length.  (2 nz, used before, has a large prime factor
         for the layer counts of thick rings, 292 = 4 x 73 at nz = 146, 712 = 8 x 89 at
-        356: the vertical FFTs then cost 1.4-1.7 times as much, benchmarks/
-        p3m_production.py, docs/performance.md.)"""
+        356: the vertical FFTs then cost 1.4-1.7 times as much, docs/performance.md.)"""
         return scipy.fft.next_fast_len(2 * nz - 1, real=True)
 
     def _kernel_tables(self, nz):
