@@ -10,7 +10,7 @@ from __future__ import annotations
 import ctypes
 import importlib.util
 import os
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import rebound
@@ -153,14 +153,9 @@ OPENMP_WAIT_POLICY = "passive"
 
 
 def _declare_detector(lib: ctypes.CDLL) -> None:
-    """Prototypes of the line detector (rs_sheet_detect.c), refusing an outdated build."""
+    """Prototypes of the line detector (rs_sheet_detect.c)."""
     double_p = ctypes.POINTER(ctypes.c_double)
     int64_p = ctypes.POINTER(ctypes.c_int64)
-    if not hasattr(lib, "rs_sheet_step"):     # rs_sheet_detect.c not compiled in
-        return
-    if not hasattr(lib, "rs_sheet_max_shear_step"):
-        raise ImportError("ringsim._resolver is out of date (no rs_sheet_max_shear_step); "
-                          "rebuild the extension (`python setup.py build_ext --inplace`)")
     lib.rs_sheet_max_shear_step.restype = ctypes.c_double
     lib.rs_sheet_max_shear_step.argtypes = []
     lib.rs_sheet_detect_pairs.restype = ctypes.c_int64
@@ -170,9 +165,6 @@ def _declare_detector(lib: ctypes.CDLL) -> None:
     lib.rs_sheet_detector_counters.argtypes = [ctypes.c_void_p, int64_p, double_p]
     lib.rs_sheet_order_counters.restype = ctypes.c_int
     lib.rs_sheet_order_counters.argtypes = [ctypes.c_void_p, int64_p]
-    if not hasattr(lib, "rs_sheet_set_threads"):
-        raise ImportError("ringsim._resolver is out of date (no rs_sheet_set_threads); "
-                          "rebuild the extension (`python setup.py build_ext --inplace`)")
     lib.rs_sheet_set_threads.restype = ctypes.c_int
     lib.rs_sheet_set_threads.argtypes = [ctypes.c_void_p, ctypes.c_int]
     lib.rs_sheet_openmp.restype = ctypes.c_int
@@ -183,6 +175,12 @@ def _declare_detector(lib: ctypes.CDLL) -> None:
     lib.rs_sheet_particles_per_thread.argtypes = []
 
 
+#: One function of each C source.  setup.py compiles every source into the one library, so
+#: a library without one of them is a broken build, refused when it is loaded.
+_ONE_SYMBOL_PER_SOURCE = ("rs_resolve", "rs_sheet_step", "rs_add_particles", "rs_ghost_field",
+                          "rs_p3m_short")
+
+
 def _load_library() -> ctypes.CDLL:
     """Load the compiled resolver and check it matches the running REBOUND."""
     os.environ.setdefault("OMP_WAIT_POLICY", OPENMP_WAIT_POLICY)
@@ -191,6 +189,10 @@ def _load_library() -> ctypes.CDLL:
         raise ImportError("ringsim._resolver is not built; run "
                           "`python setup.py build_ext --inplace` in the ringsim source tree")
     lib = ctypes.CDLL(spec.origin)
+    missing = [name for name in _ONE_SYMBOL_PER_SOURCE if not hasattr(lib, name)]
+    if missing:
+        raise ImportError(f"ringsim._resolver is incomplete (no {', '.join(missing)}); rebuild "
+                          "it from all of setup.py's sources (`pip install -e .`)")
     size_t = ctypes.c_size_t
     for name in ("rs_simulation_struct_size", "rs_resolver_struct_size", "rs_log_entry_size"):
         getattr(lib, name).restype = size_t
@@ -250,10 +252,8 @@ def _load_library() -> ctypes.CDLL:
 _LIB = _load_library()
 _RESOLVE_ADDRESS = ctypes.cast(_LIB.rs_resolve, ctypes.c_void_p).value
 _CONSTANT_COR_ADDRESS = ctypes.cast(_LIB.rs_constant_epsilon_cor, ctypes.c_void_p).value
-#: The sheet detector's step function (None if ringsim._resolver was built without
-#: rs_sheet_detect.c).
-_SHEET_STEP_ADDRESS = (ctypes.cast(_LIB.rs_sheet_step, ctypes.c_void_p).value
-                       if hasattr(_LIB, "rs_sheet_step") else None)
+#: The sheet detector's step function (a function's address, never NULL).
+_SHEET_STEP_ADDRESS = cast(int, ctypes.cast(_LIB.rs_sheet_step, ctypes.c_void_p).value)
 #: Type of REBOUND's post_timestep_modifications pointer.
 _POST_TIMESTEP = ctypes.CFUNCTYPE(None, ctypes.POINTER(rebound.Simulation))
 #: Values of ``collision_detection`` (the scenario's ``integration.collision_detection``):
@@ -270,16 +270,14 @@ def max_shear_step() -> float:
     """Largest 1.5 Omega dt (exclusive) the sheet detector accepts (RS_MAX_SHEAR_STEP).
 
     Line detection refuses longer steps, so ``config.scenario`` validates a fixed
-    ``integration.dt`` with it.  Returns inf if the library was built without the detector.
+    ``integration.dt`` with it.
     """
-    if not hasattr(_LIB, "rs_sheet_max_shear_step"):
-        return float("inf")
     return float(_LIB.rs_sheet_max_shear_step())
 
 
 def openmp_available() -> bool:
     """True if the sheet detector was compiled with OpenMP (more than one thread helps)."""
-    return hasattr(_LIB, "rs_sheet_openmp") and bool(_LIB.rs_sheet_openmp())
+    return bool(_LIB.rs_sheet_openmp())
 
 
 def checked_threads(threads) -> int:
@@ -299,8 +297,6 @@ def set_detector_threads(resolver_address: int, threads: int) -> int:
     thread whatever the number; without the detector (tree mode) nothing changes.
     """
     threads = checked_threads(threads)
-    if not hasattr(_LIB, "rs_sheet_set_threads"):
-        return 1
     done = int(_LIB.rs_sheet_set_threads(resolver_address, int(threads)))
     if done < 1:
         raise MemoryError("could not allocate the sheet detector")
@@ -310,16 +306,12 @@ def set_detector_threads(resolver_address: int, threads: int) -> int:
 def detector_threads_used(resolver_address: int) -> int:
     """Threads the last search of the sheet detector ran on (0 before the first search;
     fewer than asked where each would get fewer than `particles_per_thread`)."""
-    if not hasattr(_LIB, "rs_sheet_threads_used"):
-        return 0
     return int(_LIB.rs_sheet_threads_used(resolver_address))
 
 
 def particles_per_thread() -> int:
     """Particles per thread at least before the detector splits its search
     (RS_PARTICLES_PER_THREAD; below, starting the threads costs more than they save)."""
-    if not hasattr(_LIB, "rs_sheet_particles_per_thread"):
-        return 1
     return int(_LIB.rs_sheet_particles_per_thread())
 
 
@@ -361,10 +353,8 @@ class P3MStruct(ctypes.Structure):
     ]
 
 
-def _declare_p3m(lib: ctypes.CDLL) -> bool:
-    """Declare the P3M functions' prototypes; False if the library was built without them."""
-    if not hasattr(lib, "rs_p3m_short"):
-        return False
+def _declare_p3m(lib: ctypes.CDLL) -> None:
+    """Declare the P3M functions' prototypes (rs_p3m.c)."""
     sim_p, p3m_p = ctypes.c_void_p, ctypes.POINTER(P3MStruct)
     double_p = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
     for name, args, res in (("rs_p3m_init", [p3m_p], None),
@@ -378,11 +368,11 @@ def _declare_p3m(lib: ctypes.CDLL) -> bool:
                              ctypes.c_double)):
         getattr(lib, name).argtypes = args
         getattr(lib, name).restype = res
-    return True
 
 
-#: True if ringsim._resolver has the P3M solver.
-HAS_P3M = _declare_p3m(_LIB)
+_declare_p3m(_LIB)
+#: True: the library has the P3M solver, as it has every source (checked at load).
+HAS_P3M = True
 
 
 #: glibc's mallopt parameters (malloc.h) and the largest mmap threshold it accepts on a

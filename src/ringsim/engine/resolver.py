@@ -155,10 +155,6 @@ class ResolverHandle:
         if collision_detection not in COLLISION_DETECTIONS:
             raise ValueError(f"collision_detection: must be one of {COLLISION_DETECTIONS}, "
                              f"got {collision_detection!r}")
-        if collision_detection == "line" and _SHEET_STEP_ADDRESS is None:
-            raise ImportError("ringsim._resolver was built without rs_sheet_detect.c; add it "
-                              "to setup.py's sources and rebuild "
-                              "(`python setup.py build_ext --inplace`)")
         model, params = _validated(restitution)
         friction_model, friction_params, k = _spins.checked_friction(friction, inertia_factor)
         if isinstance(log_capacity, bool) or not isinstance(log_capacity, (int, np.integer)) \
@@ -185,8 +181,7 @@ class ResolverHandle:
         _spins.install_friction(address, friction_model, friction_params, k)
         # Function pointers into the loaded library; kept here so they live with the handle.
         self._resolve_fp = COLRFF(_RESOLVE_ADDRESS)
-        self._sheet_step_fp = (_POST_TIMESTEP(_SHEET_STEP_ADDRESS) if _SHEET_STEP_ADDRESS
-                               else _POST_TIMESTEP())
+        self._sheet_step_fp = _POST_TIMESTEP(_SHEET_STEP_ADDRESS)
         self._sim: rebound.Simulation | None = None
         self._finalizer = weakref.finalize(self, _free_resolver, address)
 
@@ -363,8 +358,7 @@ class ResolverHandle:
         search or without the sheet detector.
         """
         out = (ctypes.c_int64 * 6)()
-        if _SHEET_STEP_ADDRESS is not None:
-            _LIB.rs_sheet_order_counters(self.address, out)
+        _LIB.rs_sheet_order_counters(self.address, out)
         names = ("resolved", "rescheduled", "rechecks", "wide_rechecks", "span_limited",
                  "saturated")
         return dict(zip(names, (int(v) for v in out), strict=True))
@@ -383,9 +377,6 @@ class ResolverHandle:
         """
         counters = (ctypes.c_int64 * 6)()
         cell_size = ctypes.c_double()
-        if _SHEET_STEP_ADDRESS is None:
-            return {"steps": 0, "candidates": 0, "reports": 0, "cells": 0, "cell_size": 0.0,
-                    "error": "none", "half_shell": False}
         _LIB.rs_sheet_detector_counters(self.address, counters, ctypes.byref(cell_size))
         return {"steps": int(counters[0]), "candidates": int(counters[1]),
                 "reports": int(counters[2]), "cells": int(counters[3]),
@@ -407,8 +398,6 @@ class ResolverHandle:
         """
         if self._sim is None:
             raise ValueError("the resolver is not installed in a simulation")
-        if _SHEET_STEP_ADDRESS is None:
-            raise ImportError("ringsim._resolver was built without rs_sheet_detect.c")
         sim_address = ctypes.addressof(self._sim)
         capacity = 0
         while True:
