@@ -10,8 +10,8 @@ the run file and the entries of the equilibrium that ``ringsim analyze --json`` 
   (``analysis.equilibrium.QUANTITIES`` from `EQUILIBRIUM`, ``PLAIN_UNITS`` from `PLAIN`,
   ``analysis.gravitating.GRAVITY_QUANTITIES`` from `GRAVITY`; ``analysis.spins``);
 * the axis labels and speed unit of the figures (``plots.common``);
-* the table of time series in docs/run_file.md (`markdown_table`; tests/test_quantities.py
-  checks that the document holds the generated text).
+* the table of time series in docs/run_file.md (`timeseries_markdown`;
+  tests/test_quantities.py checks that the document holds the generated text).
 
 A name is the key users see.  An entry of a nested JSON object whose unit or meaning
 differs from the quantity of the same name, or whose name alone says little, is declared
@@ -101,7 +101,8 @@ _DECLARED = (
     Quantity("dt", "s", "the integration step in use"),
     _speed("velocity_dispersion", "1-D rms speed relative to the shear flow vy = -1.5 Ω x: "
            "sqrt(trace W / 3)", "velocity dispersion c", "number"),
-    _speed("velocity_dispersion_mass_weighted", "the same", weighting="mass"),
+    _speed("velocity_dispersion_mass_weighted", "the same as `velocity_dispersion`",
+           weighting="mass"),
     *(Quantity(f"sigma_{ij}", "m^2/s^2", "component of the mean-subtracted dispersion "
                "tensor W", weighting="number") for ij in ("xx", "yy", "zz", "xy")),
     Quantity("thickness", "m", "rms z about the mean", "thickness H (rms z)",
