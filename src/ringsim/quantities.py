@@ -297,7 +297,7 @@ def units(names) -> dict[str, str]:
 
 def table_rows(names) -> dict[str, tuple[str, str, str, float]]:
     """name -> (label, unit, shown unit, scale): the rows of the printed tables."""
-    return {name: (QUANTITY[name].label, QUANTITY[name].unit, QUANTITY[name].shown,
+    return {name: (QUANTITY[name].label, QUANTITY[name].unit, QUANTITY[name].shown or "",
                    QUANTITY[name].scale) for name in names}
 
 
