@@ -28,12 +28,14 @@ PACKAGE = ROOT / "src" / "ringsim"
 SCRIPT_DIRS = ("analysis", "benchmarks", "validation")
 
 #: Layer of each top-level name under ringsim.  "base" holds the helpers every layer may
-#: use (errors, argument checks, the Markdown section writer, the package root).
+#: use (errors, argument checks, the Markdown section writer, the declaration of the reported
+#: quantities, the package root).
 LAYERS = {
     "config": "config", "physics": "physics", "restitution": "physics", "engine": "engine",
     "store": "store", "analysis": "analysis", "plots": "plots", "cli": "cli",
     "sweep": "sweep", "testing": "testing",
-    "errors": "base", "checks": "base", "report": "base", "__init__": "base",
+    "errors": "base", "checks": "base", "report": "base", "quantities": "base",
+    "__init__": "base",
     "__version__": "base", "_resolver": "engine",
     "userlaw": "cli",  # the `ringsim epsilon --restitution` command's law, table and figure
 }

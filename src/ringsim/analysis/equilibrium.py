@@ -14,30 +14,20 @@ import math
 
 import numpy as np
 
+from ringsim import quantities
 from ringsim.analysis import snapshot, spins, tiling, timeseries
 from ringsim.physics import kinetic
 from ringsim.physics.restitution import RESTITUTION
 
-#: The equilibrium quantities, declared once: key -> (label, unit of the JSON number (SI
-#: unless the key says otherwise), unit shown in tables, scale from the JSON unit to it).
-QUANTITIES = {
-    "velocity_dispersion": ("velocity dispersion c", "m/s", "mm/s", 1e3),
-    "velocity_dispersion_rOmega": ("c / (<r> Omega)", "mean radius x Omega", "", 1.0),
-    "thickness": ("thickness H (rms z)", "m", "m", 1.0),
-    "thickness_r": ("H / <r>", "mean radii", "", 1.0),
-    "filling_factor": ("midplane filling factor", "dimensionless", "", 1.0),
-    "collision_frequency": ("collisions per particle per orbit", "1/orbit", "", 1.0),
-    "mean_epsilon": ("mean applied epsilon", "dimensionless", "", 1.0),
-    "translational_viscosity": ("translational viscosity", "m^2/s", "m^2/s", 1.0),
-    "collisional_viscosity": ("collisional viscosity", "m^2/s", "m^2/s", 1.0),
-}
+#: The equilibrium quantities (declared in ``ringsim.quantities``): key -> (label, unit of
+#: the JSON number (SI unless the key says otherwise), unit shown in tables, scale from the
+#: JSON unit to it).
+QUANTITIES = quantities.table_rows(quantities.EQUILIBRIUM)
 #: Rows of the plain-text tables: key -> (label, unit shown, scale from the JSON unit).
 TABLE_ROWS = {key: (label, shown, scale) for key, (label, _unit, shown, scale)
               in QUANTITIES.items()}
 #: Units of the plain numbers of an equilibrium (the JSON's ``units`` entry).
-PLAIN_UNITS = {"orbits": "orbits", "n_particles": "count", "mean_radius": "m",
-               "optical_depth": "dimensionless", "equilibrium_from_orbit": "orbits",
-               "r_low": "m", "r_high": "m", "n": "count"}
+PLAIN_UNITS = quantities.units(quantities.PLAIN)
 
 
 def _value(mean: float, stderr: float, units: str) -> dict:
@@ -71,6 +61,36 @@ def _interval_rates(ts: dict, n_particles: int, Omega: float, Lx: float, Ly: flo
             nu_col[i] = snapshot.collisional_viscosity(float(plog[i] - plog[i - 1]), elapsed,
                                                        Lx, Ly, surface_density, Omega)
     return frequency, nu_col
+
+
+def _table_quantities(ts: dict, start: int, radius: np.ndarray, mass: np.ndarray,
+                      Omega: float, Lx: float, Ly: float) -> dict:
+    """The `QUANTITIES` of an equilibrium window from row ``start``, in their order.
+
+    Parameters
+    ----------
+    ts : the run's time series
+    radius : array [m]
+    mass : array [kg]
+    Omega : float [1/s]
+    Lx, Ly : float [m]
+    """
+    r_mean = float(radius.mean())
+    c = _window_stats(ts["velocity_dispersion"], start, QUANTITIES["velocity_dispersion"][1])
+    h = _window_stats(ts["thickness"], start, QUANTITIES["thickness"][1])
+    out = {"velocity_dispersion": c,
+           "velocity_dispersion_rOmega": _scaled(c, 1.0 / (r_mean * Omega),
+                                                 QUANTITIES["velocity_dispersion_rOmega"][1]),
+           "thickness": h,
+           "thickness_r": _scaled(h, 1.0 / r_mean, QUANTITIES["thickness_r"][1])}
+    frequency, nu_col = _interval_rates(ts, radius.size, Omega, Lx, Ly,
+                                        float(mass.sum()) / (Lx * Ly))
+    for key, series in (("filling_factor", ts["filling_factor"]),
+                        ("collision_frequency", frequency), ("mean_epsilon", ts["mean_epsilon"]),
+                        ("translational_viscosity", ts["translational_viscosity"]),
+                        ("collisional_viscosity", nu_col)):
+        out[key] = _window_stats(series, start, QUANTITIES[key][1])
+    return out
 
 
 def stationary_window(orbits: np.ndarray, velocity_dispersion: np.ndarray,
@@ -151,29 +171,16 @@ def equilibrium(run) -> dict:
     orbits = ts["orbits"]
     first = run.snapshot(0)
     radius, mass = first["radius"], first["mass"]
-    r_mean = float(radius.mean())
     Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
 
     window, independent = _window(run, ts)
     start = window["start"]
 
     out: dict = {"name": sc.name}
-    c = _window_stats(ts["velocity_dispersion"], start, "m/s")
-    h = _window_stats(ts["thickness"], start, "m")
-    out["velocity_dispersion"] = c
-    out["velocity_dispersion_rOmega"] = _scaled(c, 1.0 / (r_mean * Omega),
-                                                QUANTITIES["velocity_dispersion_rOmega"][1])
-    out["thickness"] = h
-    out["thickness_r"] = _scaled(h, 1.0 / r_mean, QUANTITIES["thickness_r"][1])
-    frequency, nu_col = _interval_rates(ts, radius.size, Omega, Lx, Ly,
-                                        float(mass.sum()) / (Lx * Ly))
-    for key, series in (("filling_factor", ts["filling_factor"]),
-                        ("collision_frequency", frequency), ("mean_epsilon", ts["mean_epsilon"]),
-                        ("translational_viscosity", ts["translational_viscosity"]),
-                        ("collisional_viscosity", nu_col)):
-        out[key] = _window_stats(series, start, QUANTITIES[key][1])
+    out.update(_table_quantities(ts, start, radius, mass, Omega, Lx, Ly))
     out["equilibrium_from_orbit"] = _value(float(orbits[start]) if start < orbits.size
-                                           else math.nan, 0.0, "orbits")
+                                           else math.nan, 0.0,
+                                           quantities.unit("equilibrium_from_orbit"))
     out["per_size_bin"] = _per_size_bin(ts, start, radius, mass)
     out["size_ratio"] = size_dispersion_ratio(out["per_size_bin"])
     out["law_range"] = law_range(ts, start, sc.restitution.model)
@@ -186,15 +193,12 @@ def equilibrium(run) -> dict:
 
         out.update(gravity_equilibrium(run, start, out))
     if independent is not None:
-        out["tiled_copies_independent_from_orbit"] = _value(independent, 0.0, "orbits")
-    out["in_equilibrium"] = window["in_equilibrium"]
-    out["reason"] = window["reason"]
-    out["status"] = str(run.attrs.get("status", "unknown"))
-    out["orbits"] = float(orbits[-1])
-    out["n_particles"] = int(radius.size)
-    out["mean_radius"] = r_mean
-    out["optical_depth"] = float(ts["optical_depth"][-1])
-    out["units"] = dict(PLAIN_UNITS)
+        out["tiled_copies_independent_from_orbit"] = _value(
+            independent, 0.0, quantities.unit("tiled_copies_independent_from_orbit"))
+    out.update(in_equilibrium=window["in_equilibrium"], reason=window["reason"],
+               status=str(run.attrs.get("status", "unknown")), orbits=float(orbits[-1]),
+               n_particles=int(radius.size), mean_radius=float(radius.mean()),
+               optical_depth=float(ts["optical_depth"][-1]), units=dict(PLAIN_UNITS))
     out["restitution"] = sc.restitution_dict()
     out["scenario"] = sc.to_dict()
     out["kinetic_estimate"] = kinetic_estimate(sc.restitution_dict(), radius, mass,
@@ -234,8 +238,8 @@ def law_range(ts: dict, start: int, model: str) -> dict | None:
             "speeds": list(measured.speeds) if measured.speeds else None,
             "sizes": list(measured.sizes) if measured.sizes else None,
             "source": measured.source,
-            "units": {"outside_speeds": "fraction of impacts", "outside_sizes":
-                      "fraction of impacts", "speeds": "m/s", "sizes": "m"}}
+            "units": {key: quantities.unit(f"law_range.{key}") for key in
+                      ("outside_speeds", "outside_sizes", "speeds", "sizes")}}
 
 
 def law_range_lines(eq: dict) -> list[str]:
@@ -245,14 +249,15 @@ def law_range_lines(eq: dict) -> list[str]:
     if not rng:
         return []
     lines = []
-    for key, what, unit, scale in (("speeds", "impact speeds", "cm/s", 100.0),
-                                   ("sizes", "reduced radii", "cm", 100.0)):
+    for key in ("speeds", "sizes"):
         share = rng[f"outside_{key}"]
         if rng[key] is None or not math.isfinite(share):
             continue
-        lo, hi = (x * scale for x in rng[key])
-        text = (f"{100 * share:.1f} % of impacts outside the {what} the "
-                f"{eq['restitution']['model']} law was measured over ({lo:g}-{hi:g} {unit})")
+        shown = quantities.QUANTITY[f"law_range.{key}"]
+        lo, hi = (x * shown.scale for x in rng[key])
+        text = (f"{100 * share:.1f} % of impacts outside the {shown.label} the "
+                f"{eq['restitution']['model']} law was measured over ({lo:g}-{hi:g} "
+                f"{shown.shown})")
         lines.append(("WARNING: " if share > LAW_RANGE_WARNING else "") + text
                      + (": the result extrapolates the law" if share > LAW_RANGE_WARNING
                         else ""))
@@ -273,13 +278,14 @@ def _per_size_bin(ts: dict, start: int, radius: np.ndarray, mass: np.ndarray) ->
             "r_low": float(edges[k]),
             "r_high": float(edges[k + 1]),
             "velocity_dispersion": _window_stats(ts["size_bin_velocity_dispersion"][:, k], start,
-                                                 "m/s"),
-            "thickness": _window_stats(ts["size_bin_thickness"][:, k], start, "m"),
+                                                 quantities.unit("velocity_dispersion")),
+            "thickness": _window_stats(ts["size_bin_thickness"][:, k], start,
+                                       quantities.unit("thickness")),
             "n": int(round(float(np.mean(ts["size_bin_n"][start:, k])))),
             "mean_radius": _value(radius[members].mean() if members.any() else math.nan, 0.0,
-                                  "m"),
+                                  quantities.unit("mean_radius")),
             "mean_mass": _value(mass[members].mean() if members.any() else math.nan, 0.0,
-                                "kg"),
+                                quantities.unit("mean_mass")),
         })
     return rows
 
@@ -307,16 +313,17 @@ def size_dispersion_ratio(bins: list[dict], min_particles: int = 10) -> dict | N
             "small_bin_m": [small["r_low"], small["r_high"]],
             "large_bin_m": [large["r_low"], large["r_high"]],
             "equipartition": math.sqrt(large["mean_mass"]["mean"] / small["mean_mass"]["mean"]),
-            "units": {"small_bin_m": "m", "large_bin_m": "m", "equipartition": "dimensionless"}}
+            "units": {key: quantities.unit(f"size_ratio.{key}") for key in
+                      ("small_bin_m", "large_bin_m", "equipartition")}}
 
 
 def _ratio_of(a: dict, b: dict) -> dict:
     """a / b with first-order propagated standard error (independent a and b)."""
     if not (b["mean"] and math.isfinite(b["mean"]) and math.isfinite(a["mean"])):
-        return _value(math.nan, math.nan, "dimensionless")
+        return _value(math.nan, math.nan, quantities.unit("ratio"))
     r = a["mean"] / b["mean"]
     rel = math.hypot(a["stderr"] / a["mean"] if a["mean"] else 0.0, b["stderr"] / b["mean"])
-    return _value(r, abs(r) * rel, "dimensionless")
+    return _value(r, abs(r) * rel, quantities.unit("ratio"))
 
 
 def kinetic_estimate(restitution: dict, radius: np.ndarray, mass: np.ndarray,
@@ -335,8 +342,7 @@ def kinetic_estimate(restitution: dict, radius: np.ndarray, mass: np.ndarray,
     out = {key: (float(est[key]) if isinstance(est[key], (float, np.floating)) else est[key])
            for key in ("status", "reason", "representative", "velocity_dispersion",
                        "velocity_dispersion_rOmega", "epsilon_critical", "effective_epsilon")}
-    out["units"] = {"velocity_dispersion": "m/s",
-                    "velocity_dispersion_rOmega": "mean radius x Omega"}
+    out["units"] = quantities.units(("velocity_dispersion", "velocity_dispersion_rOmega"))
     return out
 
 
@@ -381,8 +387,9 @@ def equilibrium_table(eq: dict) -> str:
                      + (f"the copies are independent from orbit {when:.3g} (the window starts "
                         "no earlier)" if math.isfinite(when)
                         else "the copies are not independent by the last snapshot"))
-    for key, (label, unit, scale) in TABLE_ROWS.items():
-        lines.append(f"  {label + (f' [{unit}]' if unit else ''):<42} {_fmt(eq[key], scale)}")
+    for key in TABLE_ROWS:
+        q = quantities.QUANTITY[key]
+        lines.append(f"  {q.table_label:<42} {_fmt(eq[key], q.scale)}")
     from ringsim.analysis.gravitating import gravity_table_lines
 
     lines += gravity_table_lines(eq)
@@ -394,10 +401,13 @@ def equilibrium_table(eq: dict) -> str:
     else:
         lines.append(f"  {'dilute kinetic estimate':<42} {k['status']}: {k['reason']}")
     if eq["per_size_bin"]:
-        lines.append("  per size bin:   r [m]            n     c [mm/s]            H [m]")
+        c, h = quantities.QUANTITY["velocity_dispersion"], quantities.QUANTITY["thickness"]
+        lines.append(f"  per size bin:   r [m]            n     c [{c.shown}]            "
+                     f"H [{h.shown}]")
         for b in eq["per_size_bin"]:
             lines.append(f"    {b['r_low']:7.3g} - {b['r_high']:<7.3g} {b['n']:8d}   "
-                         f"{_fmt(b['velocity_dispersion'], 1e3):<18} {_fmt(b['thickness'])}")
+                         f"{_fmt(b['velocity_dispersion'], c.scale):<18} "
+                         f"{_fmt(b['thickness'], h.scale)}")
         line = size_ratio_line(eq.get("size_ratio"))
         if line:
             lines.append("  " + line)

@@ -53,23 +53,11 @@ from ringsim.analysis.snapshot import dispersion_tensor
 from ringsim.physics import gravity as patch
 from ringsim.physics.restitution import epsilon_for_pair
 from ringsim.physics.selfgravity import shear_offset
+from ringsim.quantities import GRAVITY, QUANTITY, table_rows, unit
 
-#: Gravity quantities of the equilibrium: key -> (label, JSON unit, unit shown, scale).
-GRAVITY_QUANTITIES = {
-    "r_h": ("Hill parameter r_h (mean pair)", "dimensionless", "", 1.0),
-    "toomre_Q": ("Toomre Q (from sigma_x)", "dimensionless", "", 1.0),
-    "toomre_Q_mass": ("Toomre Q (mass-weighted sigma_x)", "dimensionless", "", 1.0),
-    "lambda_cr": ("Toomre wavelength lambda_cr", "m", "m", 1.0),
-    "wake_wavelength": ("wake wavelength", "m", "m", 1.0),
-    "wake_pitch_angle": ("wake pitch angle (trailing > 0)", "deg", "deg", 1.0),
-    "wake_amplitude": ("wake amplitude (peak contrast)", "dimensionless", "", 1.0),
-    "gravitational_viscosity": ("gravitational viscosity", "m^2/s", "m^2/s", 1.0),
-    "viscous_heating": ("viscous heating (nu_t + nu_c + nu_g)", "W/m^2", "W/m^2", 1.0),
-    "collisional_dissipation": ("collisional dissipation", "W/m^2", "W/m^2", 1.0),
-    "kinetic_energy_change": ("d/dt random kinetic energy", "W/m^2", "W/m^2", 1.0),
-    "energy_closure": ("heating / (dissipation + d/dt E_kin)", "dimensionless", "", 1.0),
-    "energy_closure_without_gravity": ("the same without nu_g", "dimensionless", "", 1.0),
-}
+#: Gravity quantities of the equilibrium (declared in ``ringsim.quantities``): key ->
+#: (label, JSON unit, unit shown, scale).
+GRAVITY_QUANTITIES = table_rows(GRAVITY)
 #: Below this mass-weighted Toomre Q ``analyze`` warns that a slab run of identical
 #: particles misses what matters; ``SLAB_MIN_Q_MASS_SIZES`` for a size distribution.  The
 #: slab's kappa = 0 rings against P3M (analysis/kappa_selfgravity.md, docs/gravity.md 4c),
@@ -266,27 +254,28 @@ def energy_balance(run, start: int, viscosities: dict) -> dict:
     nu = sum(viscosities[k]["mean"] for k in names)
     nu_err = math.sqrt(sum(viscosities[k]["stderr"] ** 2 for k in names))
     factor = 2.25 * Omega**2 * Sigma
-    out = {"viscous_heating": _value(factor * nu, factor * nu_err, "W/m^2")}
+    out = {"viscous_heating": _value(factor * nu, factor * nu_err, unit("viscous_heating"))}
     rates = dissipation_rates(ts, sc.restitution_dict(), first["radius"], first["mass"], area)
     rows = slice(max(start, 1), None)
     t = np.asarray(ts["t"], dtype=float)[rows]
     if rates is None or t.size < 3 or sc.friction is not None:
-        out.update({key: _value(math.nan, math.nan, GRAVITY_QUANTITIES[key][1])
-                    for key in ENERGY_KEYS[1:]})
+        out.update({key: _value(math.nan, math.nan, unit(key)) for key in ENERGY_KEYS[1:]})
         return out
     mean, stderr, _ = timeseries.autocorrelated_mean(rates[rows])
-    out["collisional_dissipation"] = _value(mean, stderr, "W/m^2")
+    out["collisional_dissipation"] = _value(mean, stderr, unit("collisional_dissipation"))
     energy = 1.5 * Sigma * np.asarray(ts["velocity_dispersion"], dtype=float)[rows] ** 2
     coef, cov = np.polyfit(t - t.mean(), energy, 1, cov=True)
-    out["kinetic_energy_change"] = _value(coef[0], math.sqrt(cov[0, 0]), "W/m^2")
+    out["kinetic_energy_change"] = _value(coef[0], math.sqrt(cov[0, 0]),
+                                          unit("kinetic_energy_change"))
     sink = mean + coef[0]
     ratio = factor * nu / sink
     ratio_err = abs(ratio) * math.hypot(nu_err / nu if nu else math.nan,
                                         math.hypot(stderr, math.sqrt(cov[0, 0])) / sink)
-    out["energy_closure"] = _value(ratio, ratio_err, "dimensionless")
+    out["energy_closure"] = _value(ratio, ratio_err, unit("energy_closure"))
     nu_local = nu - viscosities["gravitational_viscosity"]["mean"]
     out["energy_closure_without_gravity"] = _value(factor * nu_local / sink,
-                                                   ratio_err * nu_local / nu, "dimensionless")
+                                                   ratio_err * nu_local / nu,
+                                                   unit("energy_closure_without_gravity"))
     return out
 
 
@@ -312,33 +301,33 @@ def gravity_equilibrium(run, start: int, viscosities: dict | None = None) -> dic
     indices = window_snapshot_indices(run, from_orbit) or [run.n_snapshots - 1]
     snaps = [run.snapshot(i) for i in indices]
     per = [snapshot_wakes(snap, Lx, Ly, Omega) for snap in snaps]
-    out = {"r_h": _value(const["r_h"], 0.0, "dimensionless"),
-           "lambda_cr": _value(const["lambda_cr"], 0.0, "m")}
+    out = {"r_h": _value(const["r_h"], 0.0, unit("r_h")),
+           "lambda_cr": _value(const["lambda_cr"], 0.0, unit("lambda_cr"))}
     if "toomre_Q" in ts:
         mean, stderr, _ = timeseries.autocorrelated_mean(np.asarray(ts["toomre_Q"][start:]))
-        out["toomre_Q"] = _value(mean, stderr, "dimensionless")
+        out["toomre_Q"] = _value(mean, stderr, unit("toomre_Q"))
     else:
-        out["toomre_Q"] = _value(math.nan, math.nan, "dimensionless")
+        out["toomre_Q"] = _value(math.nan, math.nan, unit("toomre_Q"))
     out["toomre_Q_mass"] = _over_snapshots(
         [mass_weighted_toomre_q(snap, const["Sigma"], Omega) for snap in snaps], math.nan,
-        "dimensionless")
+        unit("toomre_Q_mass"))
     out["wake_wavelength"] = _over_snapshots([s["wavelength"] for s in per],
-                                             per[0]["wavelength_err"], "m")
+                                             per[0]["wavelength_err"], unit("wake_wavelength"))
     out["wake_pitch_angle"] = _over_snapshots([s["pitch_angle_deg"] for s in per],
-                                              per[0]["pitch_angle_err_deg"], "deg")
+                                              per[0]["pitch_angle_err_deg"],
+                                              unit("wake_pitch_angle"))
     out["wake_amplitude"] = _over_snapshots([s["peak_amplitude"] for s in per], math.nan,
-                                            "dimensionless")
+                                            unit("wake_amplitude"))
     out["gravitational_viscosity"] = _over_snapshots(
-        [s["gravitational_viscosity"] for s in per], math.nan, "m^2/s")
+        [s["gravitational_viscosity"] for s in per], math.nan, unit("gravitational_viscosity"))
     if str(run.attrs.get("gravity_solver", "")) == "slab":
         # the slab solver has no horizontal force: no gravitational torque acted
-        out["gravitational_viscosity"] = _value(0.0, 0.0, "m^2/s")
+        out["gravitational_viscosity"] = _value(0.0, 0.0, unit("gravitational_viscosity"))
     if viscosities is not None:
         out.update(energy_balance(run, start, {**viscosities, "gravitational_viscosity":
                                                out["gravitational_viscosity"]}))
     else:
-        out.update({key: _value(math.nan, math.nan, GRAVITY_QUANTITIES[key][1])
-                    for key in ENERGY_KEYS})
+        out.update({key: _value(math.nan, math.nan, unit(key)) for key in ENERGY_KEYS})
     out["wake_snapshots"] = len(per)
     out["gravity_solver"] = str(run.attrs.get("gravity_solver", ""))
     out["wake_significant_fraction"] = float(np.mean([s["significant"] for s in per]))
@@ -352,14 +341,15 @@ def gravity_table_lines(eq: dict) -> list[str]:
     if "lambda_cr" not in eq:
         return []
     lines = []
-    for key, (label, _units, shown, scale) in GRAVITY_QUANTITIES.items():
+    for key in GRAVITY_QUANTITIES:
+        q = QUANTITY[key]
         value = eq[key]
-        mean = value["mean"] * scale
+        mean = value["mean"] * q.scale
         text = "n/a" if not math.isfinite(mean) else (
             f"{mean:.4g}" if not value["stderr"] else f"{mean:.4g} ± {value['stderr']:.2g}")
         if key == "r_h" and not math.isfinite(mean):
             text = "unknown (planet given by Omega only)"
-        lines.append(f"  {label + (f' [{shown}]' if shown else ''):<42} {text}")
+        lines.append(f"  {q.table_label:<42} {text}")
     q_mass = eq["toomre_Q_mass"]["mean"]
     sizes = bool(eq.get("per_size_bin"))
     q_min = SLAB_MIN_Q_MASS_SIZES if sizes else SLAB_MIN_Q_MASS

@@ -24,6 +24,7 @@ import numpy as np
 
 from ringsim.analysis import timeseries
 from ringsim.physics import friction as fr
+from ringsim.quantities import QUANTITY, unit
 
 #: The frame and sign convention, written with the numbers.
 SPIN_CONVENTION = ("w relative to the rotating frame of the sheet, in its axes (z along the "
@@ -62,16 +63,18 @@ def energy_budget(run, start: int) -> dict | None:
     normal = ts["normal_dissipation"] / (area * dt)
     tangential = ts.get("tangential_dissipation", np.zeros_like(normal)) / (area * dt)
     start = max(start, 1)
-    out = {"heating": _window(heating, start, "W/m^2"),
-           "normal_dissipation": _window(normal, start, "W/m^2"),
-           "tangential_dissipation": _window(tangential, start, "W/m^2")}
-    h, d = out["heating"], _window(normal + tangential, start, "W/m^2")
+    out = {key: _window(values, start, unit(f"energy_budget.{key}")) for key, values in
+           (("heating", heating), ("normal_dissipation", normal),
+            ("tangential_dissipation", tangential))}
+    h, d = out["heating"], _window(normal + tangential, start,
+                                   unit("energy_budget.normal_dissipation"))
     ratio = h["mean"] / d["mean"] if d["mean"] > 0 else math.nan
     out["ratio"] = _value(ratio, abs(ratio) * math.hypot(h["stderr"] / h["mean"],
                                                           d["stderr"] / d["mean"])
-                          if d["mean"] > 0 and h["mean"] != 0 else math.nan, "dimensionless")
+                          if d["mean"] > 0 and h["mean"] != 0 else math.nan,
+                          unit("energy_budget.ratio"))
     share = out["tangential_dissipation"]["mean"] / d["mean"] if d["mean"] > 0 else math.nan
-    out["tangential_share"] = _value(share, 0.0, "dimensionless")
+    out["tangential_share"] = _value(share, 0.0, unit("energy_budget.tangential_share"))
     return out
 
 
@@ -92,15 +95,14 @@ def spin_equilibrium(run, start: int, edges: np.ndarray | None) -> dict | None:
     friction = sc.friction_dict()
     k = float(sc.particles.inertia_factor)
     out = {"rotational_energy_fraction": _window(ts["rotational_energy_ratio"], start,
-                                                 "dimensionless"),
-           "mean_spin_z": _window(ts["mean_spin_z"], start, "Omega"),
-           "rms_spin": _window(ts["rms_spin"], start, "Omega"),
-           "rotational_energy": _window(ts["rotational_energy"], start, "J"),
+                                                 unit("rotational_energy_fraction")),
+           **{key: _window(ts[key], start, unit(key)) for key in
+              ("mean_spin_z", "rms_spin", "rotational_energy")},
            "friction": friction, "inertia_factor": k, "convention": SPIN_CONVENTION}
     collisions = float(np.sum(ts["collisions"][start:]))
     out["sliding_fraction"] = _value(float(np.sum(ts["sliding_collisions"][start:]))
                                      / collisions if collisions else math.nan, 0.0,
-                                     "dimensionless")
+                                     unit("sliding_fraction"))
     out["collisional_spin_ratio"] = (fr.collisional_spin_ratio(friction["beta"], k)
                                      if friction["model"] == "constant" else None)
     out["per_size_bin"] = spin_size_bins(run, float(ts["t"][min(start, ts["t"].size - 1)]),
@@ -154,21 +156,25 @@ def spin_table_lines(eq: dict) -> list[str]:
     lines = []
     b = eq.get("energy_budget")
     if b:
-        lines.append(f"  {'shear heating [W/m^2]':<42} {_fmt(b['heating'])}")
-        lines.append(f"  {'dissipation normal + tangential [W/m^2]':<42} "
+        heating, ratio = QUANTITY["energy_budget.heating"], QUANTITY["energy_budget.ratio"]
+        shown = QUANTITY["energy_budget.normal_dissipation"].shown
+        lines.append(f"  {heating.table_label:<42} {_fmt(b['heating'])}")
+        lines.append(f"  {f'dissipation normal + tangential [{shown}]':<42} "
                      f"{_fmt(b['normal_dissipation'])} + {_fmt(b['tangential_dissipation'])}")
-        lines.append(f"  {'heating / dissipation':<42} {_fmt(b['ratio'])}")
+        lines.append(f"  {ratio.table_label:<42} {_fmt(b['ratio'])}")
     s = eq.get("spin")
     if not s:
         return lines
     reference = s["collisional_spin_ratio"]
-    lines.append(f"  {'E_rot / E_tr':<42} {_fmt(s['rotational_energy_fraction'])}"
+    lines.append(f"  {QUANTITY['rotational_energy_fraction'].table_label:<42} "
+                 f"{_fmt(s['rotational_energy_fraction'])}"
                  + (f" (collisional balance, closed form: {reference:.4g})"
                     if reference is not None else ""))
-    lines.append(f"  {'mean w_z / Omega':<42} {_fmt(s['mean_spin_z'])}")
-    lines.append(f"  {'rms |w| / Omega':<42} {_fmt(s['rms_spin'])}")
+    for key in ("mean_spin_z", "rms_spin"):
+        lines.append(f"  {QUANTITY[key].table_label:<42} {_fmt(s[key])}")
     if s["friction"]["model"] == "coulomb":
-        lines.append(f"  {'sliding collisions':<42} {s['sliding_fraction']['mean']:.3g}")
+        lines.append(f"  {QUANTITY['sliding_fraction'].table_label:<42} "
+                     f"{s['sliding_fraction']['mean']:.3g}")
     lines.append(f"  spins: {s['convention']}")
     if s["per_size_bin"]:
         lines.append("  per size bin:   r [m]            n     E_tr [J]    E_rot [J]   "

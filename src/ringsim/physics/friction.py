@@ -86,6 +86,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ringsim import quantities
 from ringsim.physics.laws import DIMENSIONLESS, Law, LawTable, MeasuredRange, Parameter
 
 FloatArray = NDArray[np.float64]
@@ -535,9 +536,8 @@ def spin_statistics(w: ArrayLike, Omega: float, weights: ArrayLike | None = None
             "mean_z": float(np.average(w[:, 2], weights=weights)) / Omega}
 
 
-#: The spin rows of a run's time series (runs with friction): key -> unit.
-SPIN_ROW_UNITS = {"rotational_energy": "J", "rotational_energy_ratio": "dimensionless",
-                  "mean_spin_z": "Omega", "rms_spin": "Omega"}
+#: The spin rows of a run's time series (runs with friction): key -> unit (ringsim.quantities).
+SPIN_ROW_UNITS = quantities.units(quantities.SPIN_ROW)
 
 
 def spin_row(m: ArrayLike, R: ArrayLike, w: ArrayLike, k: float, Omega: float,

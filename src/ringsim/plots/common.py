@@ -14,12 +14,20 @@ from pathlib import Path
 
 import numpy as np
 
-#: The speed unit of every figure, and its size in m/s.
-SPEED_UNIT = "mm/s"
-SPEED_SCALE = 1e-3  # [m/s] per SPEED_UNIT
+from ringsim.quantities import QUANTITY, SPEED_FACTOR, SPEED_SHOWN
+
+#: The speed unit of every figure (``ringsim.quantities``), and its size in m/s.
+SPEED_UNIT = SPEED_SHOWN
+SPEED_SCALE = 1.0 / SPEED_FACTOR  # [m/s] per SPEED_UNIT
 
 #: Hatches that tell runs apart where their shaded windows overlap.
 HATCHES = ("//", "\\\\", "xx", "..", "++", "oo", "--", "||")
+
+
+def axis_label(name: str, separator: str = " ") -> str:
+    """The axis label of a quantity declared in ``ringsim.quantities``: its label, then its
+    shown unit in brackets (``separator`` between them, e.g. a line break)."""
+    return QUANTITY[name].axis_label(separator)
 
 
 def pyplot():

@@ -14,6 +14,7 @@ from ringsim.analysis.snapshot import peculiar_velocity, thickness
 from ringsim.plots.common import (
     SPEED_SCALE,
     SPEED_UNIT,
+    axis_label,
     equilibrium_start,
     label_fontsize,
     pyplot,
@@ -81,8 +82,8 @@ def size_bin_figure(entries):
             ax.set_xlabel("particle radius r [m]")
             ax.grid(alpha=0.3, which="both")
             ax.legend(fontsize=label_fontsize(len(entries)))
-    ax_c.set_ylabel(f"velocity dispersion c [{SPEED_UNIT}]")
-    ax_h.set_ylabel("thickness H (rms z) [m]")
+    ax_c.set_ylabel(axis_label("velocity_dispersion"))
+    ax_h.set_ylabel(axis_label("thickness"))
     fig.suptitle("Equilibrium per size bin: points at the mean radius of the bin's particles "
                  "(bars: bin range; error bars: standard errors)", fontsize=9)
     return fig

@@ -16,7 +16,7 @@ import numpy as np
 
 from ringsim.plots.common import (
     SPEED_SCALE,
-    SPEED_UNIT,
+    axis_label,
     label_fontsize,
     pyplot,
     run_style,
@@ -106,8 +106,8 @@ def sweep_figure(summary: dict, title: str = ""):
         shown = "dimensionless" if unit in ("", "text") and numeric else unit
         ax.set_xlabel(f"{x_key} [{shown}]" if shown and shown != "text" else x_key)
         ax.grid(alpha=0.3, which="both")
-    ax_c.set_ylabel(f"velocity dispersion c [{SPEED_UNIT}]")
-    ax_h.set_ylabel("thickness H (rms z) [m]")
+    ax_c.set_ylabel(axis_label("velocity_dispersion"))
+    ax_h.set_ylabel(axis_label("thickness"))
     ax_c.plot([], [], "o", mfc="white", color="0.3", label="open: NOT in equilibrium")
     if "seed" in keys:
         ax_c.plot([], [], "_", ms=12, color="k", label="black: mean over seeds ± scatter/√n")

@@ -17,7 +17,7 @@ from ringsim.analysis import timeseries as ts_stats
 from ringsim.analysis.snapshot import collision_frequency
 from ringsim.plots.common import (
     SPEED_SCALE,
-    SPEED_UNIT,
+    axis_label,
     equilibrium_note,
     equilibrium_start,
     label_fontsize,
@@ -119,14 +119,13 @@ def timeseries_figure(entries, title: str):
                              for run, eq, _ in entries])
     r_mean = _common_scale([eq["mean_radius"] for _run, eq, _ in entries])
     _panel(axes[0], entries, lambda run: run.timeseries["velocity_dispersion"] / SPEED_SCALE,
-           f"velocity dispersion c [{SPEED_UNIT}]",
+           axis_label("velocity_dispersion"),
            None if r_omega is None else (r_omega / SPEED_SCALE, "c / (⟨r⟩Ω) [dimensionless]"))
-    _panel(axes[1], entries, lambda run: run.timeseries["thickness"],
-           "thickness H (rms z) [m]",
+    _panel(axes[1], entries, lambda run: run.timeseries["thickness"], axis_label("thickness"),
            None if r_mean is None else (r_mean, "H / ⟨r⟩ [dimensionless]"))
     _panel(axes[2], entries, collision_rate, "collision rate\n[per particle per orbit]")
     _panel(axes[3], entries, lambda run: run.timeseries["filling_factor"],
-           "midplane filling factor\n[dimensionless]", log=False)
+           axis_label("filling_factor", "\n"), log=False)
     orbits = np.concatenate([run.timeseries["orbits"] for run, _eq, _s in entries])
     set_readable_axis(axes[3], "x", orbits, log=False, pad=0.0, include_zero=True, max_ticks=8)
     axes[3].set_xlabel("time [orbits]")
@@ -213,8 +212,8 @@ def per_size_timeseries_figure(run, eq: dict):
         shade_equilibrium(ax, eq, float(orbits[-1]), {"color": "0.3", "hatch": "//"})
         set_readable_axis(ax, "y", values[1:])
         ax.grid(alpha=0.3)
-    ax_c.set_ylabel(f"velocity dispersion c [{SPEED_UNIT}]")
-    ax_h.set_ylabel("thickness H (rms z) [m]")
+    ax_c.set_ylabel(axis_label("velocity_dispersion"))
+    ax_h.set_ylabel(axis_label("thickness"))
     set_readable_axis(ax_h, "x", orbits, log=False, pad=0.0, include_zero=True, max_ticks=8)
     ax_h.set_xlabel("time [orbits]")
     ax_c.legend(fontsize=label_fontsize(edges.size - 1), loc="upper left",

@@ -38,6 +38,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from ringsim import quantities
 from ringsim.errors import InputError
 from ringsim.store import bulk
 from ringsim.store.bulk import (  # noqa: F401 (the layout's names, declared in bulk)
@@ -66,50 +67,14 @@ UNVERSIONED = "1.0"
 CHECKPOINT_KEYS = ("rows", "snapshots", "guard_events", "dt_warned", "overlap_warned",
                    "rand_seed", "root_size", "N_root_x", "N_root_y", "N_root_z", "t")
 
-#: Units of the time-series quantities (per-bin arrays share the units of their scalar).
-TIMESERIES_UNITS = {
-    "t": "s",
-    "orbits": "orbits",
-    "dt": "s",
-    "velocity_dispersion": "m/s",
-    "velocity_dispersion_mass_weighted": "m/s",
-    "sigma_xx": "m^2/s^2",
-    "sigma_yy": "m^2/s^2",
-    "sigma_zz": "m^2/s^2",
-    "sigma_xy": "m^2/s^2",
-    "thickness": "m",
-    "thickness_mass_weighted": "m",
-    "filling_factor": "dimensionless",
-    "optical_depth": "dimensionless",
-    "collisions": "count",
-    "collisions_log_n": "count",
-    "collisions_plog": "kg m^2/s",
-    "mean_epsilon": "dimensionless",
-    "mean_impact_speed": "m/s",
-    "translational_viscosity": "m^2/s",
-    "max_vertical_amplitude": "m",
-    "z_half_period": "m",
-    "overlapping_pairs": "count",
-    "multi_encounters": "count",
-    "law_outside_speeds": "count",
-    "law_outside_sizes": "count",
-    "momentum_residual": "m/s",
-    "toomre_Q": "dimensionless",
-    "size_bin_velocity_dispersion": "m/s",
-    "size_bin_thickness": "m",
-    "size_bin_n": "count",
-    "one_minus_epsilon_histogram": "count",
-    "impact_speed_histogram": "count",
-    "normal_dissipation": "J",  # all runs; the rest with friction only (SPIN_ROW_UNITS)
-    "tangential_dissipation": "J", "sliding_collisions": "count", "rotational_energy": "J",
-    "rotational_energy_ratio": "dimensionless", "mean_spin_z": "Omega", "rms_spin": "Omega",
-}
+#: Units of the time-series quantities, in the order of a row (per-bin arrays share the
+#: units of their scalar): a view of ``ringsim.quantities``, where each is declared.
+TIMESERIES_UNITS = quantities.units(quantities.TIMESERIES)
 
 #: Bin edges stored beside the histogram time series: name -> (edges dataset, units).
-HISTOGRAM_EDGES = {
-    "one_minus_epsilon_histogram": ("one_minus_epsilon_bin_edges", "dimensionless"),
-    "impact_speed_histogram": ("impact_speed_bin_edges", "m/s"),
-}
+HISTOGRAM_EDGES = {name: (edges, quantities.unit(edges)) for name, edges in (
+    ("one_minus_epsilon_histogram", "one_minus_epsilon_bin_edges"),
+    ("impact_speed_histogram", "impact_speed_bin_edges"))}
 
 
 def units_of(name: str) -> str:
@@ -311,7 +276,7 @@ class RunFileWriter:
             if size_bin_edges is not None:
                 edges = ts.create_dataset("size_bin_edges",
                                           data=np.asarray(size_bin_edges, float))
-                edges.attrs["units"] = "m"
+                edges.attrs["units"] = quantities.unit("size_bin_edges")
             for name, edges in histogram_edges.items():
                 dataset, units = HISTOGRAM_EDGES[name]
                 ts.create_dataset(dataset, data=np.asarray(edges, float)).attrs["units"] = units
@@ -320,7 +285,7 @@ class RunFileWriter:
             for name in ("t", "orbits"):
                 ds = guards.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8",
                                            chunks=(256,))
-                ds.attrs["units"] = "s" if name == "t" else "orbits"
+                ds.attrs["units"] = quantities.unit(name)
             msg = guards.create_dataset("message", shape=(0,), maxshape=(None,),
                                         dtype=h5py.string_dtype(), chunks=(256,))
             msg.attrs["units"] = "text"

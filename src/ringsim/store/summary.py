@@ -13,30 +13,30 @@ from typing import Any
 
 import numpy as np
 
+from ringsim import quantities
 from ringsim.physics.restitution import RESTITUTION
 
 #: Equilibrium quantities of the summary: (key of ``compare.equilibrium``, column stem with
-#: the unit in its name, unit).  Each gives the columns ``<stem>_mean`` and ``<stem>_stderr``.
-EQUILIBRIUM_COLUMNS: tuple[tuple[str, str, str], ...] = (
-    ("velocity_dispersion", "velocity_dispersion_m_s", "m/s"),
-    ("velocity_dispersion_rOmega", "velocity_dispersion_rOmega", "mean radius x Omega"),
-    ("thickness", "thickness_m", "m"),
-    ("thickness_r", "thickness_r", "mean radii"),
-    ("filling_factor", "filling_factor", "dimensionless"),
-    ("collision_frequency", "collision_frequency_per_orbit", "1/orbit (per particle)"),
-    ("mean_epsilon", "mean_epsilon", "dimensionless"),
-    ("translational_viscosity", "translational_viscosity_m2_s", "m^2/s"),
-    ("collisional_viscosity", "collisional_viscosity_m2_s", "m^2/s"),
-    ("equilibrium_from_orbit", "equilibrium_from_orbit", "orbits"),
-)
+#: the unit in its name, unit: the declared one of ``ringsim.quantities`` with a note where
+#: given).  Each gives the columns ``<stem>_mean`` and ``<stem>_stderr``.
+EQUILIBRIUM_COLUMNS: tuple[tuple[str, str, str], ...] = tuple(
+    (key, stem, quantities.unit(key) + note) for key, stem, note in (
+        ("velocity_dispersion", "velocity_dispersion_m_s", ""),
+        ("velocity_dispersion_rOmega", "velocity_dispersion_rOmega", ""),
+        ("thickness", "thickness_m", ""),
+        ("thickness_r", "thickness_r", ""),
+        ("filling_factor", "filling_factor", ""),
+        ("collision_frequency", "collision_frequency_per_orbit", " (per particle)"),
+        ("mean_epsilon", "mean_epsilon", ""),
+        ("translational_viscosity", "translational_viscosity_m2_s", ""),
+        ("collisional_viscosity", "collisional_viscosity_m2_s", ""),
+        ("equilibrium_from_orbit", "equilibrium_from_orbit", "")))
 
 #: Further numbers of each point's equilibrium: (key, column, unit).
-_RUN_COLUMNS: tuple[tuple[str, str, str], ...] = (
-    ("orbits", "orbits", "orbits"),
-    ("n_particles", "n_particles", "count"),
-    ("mean_radius", "mean_radius_m", "m"),
-    ("optical_depth", "optical_depth", "dimensionless"),
-)
+_RUN_COLUMNS: tuple[tuple[str, str, str], ...] = tuple(
+    (key, column, quantities.unit(key)) for key, column in (
+        ("orbits", "orbits"), ("n_particles", "n_particles"), ("mean_radius", "mean_radius_m"),
+        ("optical_depth", "optical_depth")))
 
 #: Units of the scenario keys a grid may vary (list indices written as N), for summary.h5.
 _PARAMETER_UNITS: dict[str, str] = {
