@@ -90,3 +90,15 @@ def p3m_auto_split(first_split: float, height_span: float, n_particles: int, Lx:
         k -= 1
         split = floor * P3M_SPLIT_RUNG**k
     return split
+
+
+def p3m_first_split(p3m_split: float | str, mean_radius: float) -> float:
+    """The (first) split scale r_s [m] of ``sheet.p3m_split``: the number given, or, for
+    "auto", P3M_SPLIT_RADII mean radii, the smallest split auto chooses.
+
+    Parameters
+    ----------
+    p3m_split : float [m] or "auto"
+    mean_radius : float [m]
+    """
+    return P3M_SPLIT_RADII * mean_radius if p3m_split == "auto" else float(p3m_split)
