@@ -41,7 +41,7 @@ import numpy as np
 import rebound
 
 from ringsim.config.scenario import load_scenario, with_overrides
-from ringsim.engine import invariants, native, sheet, timestep
+from ringsim.engine import box, invariants, native, sheet, timestep
 from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.resolver import install_resolver
 from ringsim.engine.runner import Runner
@@ -75,10 +75,10 @@ def lattice_sheet(sc):
     radii = sc.particles.size_distribution.draw_radii(n, rng)
     masses = sc.particles.density * 4.0 / 3.0 * np.pi * radii**3
     a = 2.2 * float(radii.max())
-    geometry = sheet.box_geometry(radii, sc.sheet.optical_depth, 1.0, Omega, 1.0)
+    geometry = box.box_geometry(radii, sc.sheet.optical_depth, 1.0, Omega, 1.0)
     nx, ny = int(geometry.Lx // a), int(geometry.Ly // a)
     layers = math.ceil(n / (nx * ny))
-    geometry = sheet.box_geometry(radii, sc.sheet.optical_depth, 1.0, Omega, 2.0 * layers * a)
+    geometry = box.box_geometry(radii, sc.sheet.optical_depth, 1.0, Omega, 2.0 * layers * a)
     sites = rng.permutation(nx * ny * layers)[:n]
     ix, iy, iz = sites % nx, (sites // nx) % ny, sites // (nx * ny)
     play = (0.5 * a - radii)[:, None] * rng.uniform(-1.0, 1.0, (n, 3))
@@ -133,12 +133,12 @@ def output_work(sim, geometry, handle, Omega: float, repeat: int) -> dict[str, f
         "particle copies": _cpu_per(lambda: sheet.particle_arrays(sim), repeat),
         "invariants": _cpu_per(invariant_checks, repeat),
         "diagnostics": _cpu_per(diagnostics, repeat),
-        "overlap count": _cpu_per(lambda: sheet.count_overlaps(arrays, geometry, sim.t),
+        "overlap count": _cpu_per(lambda: box.count_overlaps(arrays, geometry, sim.t),
                                   repeat),
         "overlap count, numpy twin (before)": _cpu_per(
             lambda: count_overlaps_numpy(arrays, geometry.Lx, geometry.Ly,
                                          1.5 * Omega * geometry.Lx * sim.t,
-                                         sheet.OVERLAP_REPORT_FRACTION), repeat),
+                                         box.OVERLAP_REPORT_FRACTION), repeat),
         "guards": _cpu_per(lambda: sheet.max_vertical_amplitude(arrays, Omega), repeat),
         "resolver statistics": _cpu_per(handle.stats, repeat),
     }

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import rebound
 
+from ringsim.engine import box, invariants, p3m, sheet
 from ringsim.engine import gravity as eg
-from ringsim.engine import invariants, p3m, sheet
 from ringsim.engine.native import _LIB, keep_freed_memory
 from ringsim.physics import p3m_scales as scales
 from ringsim.physics import selfgravity as sg
@@ -39,7 +39,7 @@ def test_pair_term_is_plummer_minus_the_mesh_part():
     solver = p3m.installed_solver(sim)
     rs, b = solver.params.split, solver.params.softening
     two = rebound.Simulation()
-    sheet.configure_box(two, s["geometry"])
+    box.configure_box(two, s["geometry"])
     two.G = G_SI
     two.add(m=1.0e4, x=0.0, y=0.0, z=0.0)
     two.add(m=2.0e4)
@@ -92,7 +92,7 @@ def test_pairs_just_inside_the_cutoff_are_summed_in_one_column():
     heights = np.array([30.1, 0.0, 52.0, 7.0, 44.95, 14.9]) - 20.0
     masses = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0]) * 1.0e4
     col = rebound.Simulation()
-    sheet.configure_box(col, s["geometry"])
+    box.configure_box(col, s["geometry"])
     col.G = G_SI
     for z, m in zip(heights, masses, strict=True):
         col.add(m=m, x=3.0, y=-4.0, z=z)

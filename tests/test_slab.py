@@ -13,8 +13,8 @@ import ringsim
 from ringsim.analysis.gravitating import gravity_equilibrium
 from ringsim.config.scenario import scenario_from_dict, with_overrides
 from ringsim.config.schema import ScenarioError
+from ringsim.engine import box, sheet
 from ringsim.engine import gravity as eg
-from ringsim.engine import sheet
 from ringsim.physics.constants import G_SI
 from ringsim.physics.selfgravity import slab_field
 
@@ -22,7 +22,7 @@ from ringsim.physics.selfgravity import slab_field
 def slab_simulation(s):
     """A REBOUND shearing sheet of ``s`` (``eg.random_sheet``) with the slab field only."""
     sim = rebound.Simulation()
-    sheet.configure_box(sim, s["geometry"])
+    box.configure_box(sim, s["geometry"])
     sim.collision = "none"
     eg.install_gravity(sim, "slab", softening=0.0)
     state = {k: s["pos"][:, i] for i, k in enumerate("xyz")}

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from ringsim.analysis import snapshot
-from ringsim.engine import gravity, invariants, p3m, sheet, timestep
+from ringsim.engine import box, gravity, invariants, p3m, sheet, timestep
 from ringsim.engine.binary import simulation_binary, simulation_from_binary
 from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.progress import progress_bar
@@ -200,7 +200,7 @@ class Runner:
             self.state = LoopState(int(st["rows"]), int(st["snapshots"]),
                                    int(st["guard_events"]), int(st["dt_warned"]),
                                    int(st["overlap_warned"]))
-            self.geometry = sheet.SheetGeometry(float(st["root_size"]), int(st["N_root_x"]),
+            self.geometry = box.SheetGeometry(float(st["root_size"]), int(st["N_root_x"]),
                                                 int(st["N_root_y"]), int(st["N_root_z"]),
                                                 self.Omega)
             rand_seed = int(st["rand_seed"])
@@ -279,7 +279,7 @@ class Runner:
             "mean_impact_speed": float(stats["mean_vn"]) if count else float("nan"),
             "max_vertical_amplitude": sheet.max_vertical_amplitude(arrays, self.Omega),
             "z_half_period": 0.5 * g.z_period,
-            "overlapping_pairs": sheet.count_overlaps(arrays, g, self.sim.t),
+            "overlapping_pairs": box.count_overlaps(arrays, g, self.sim.t),
             "multi_encounters": int(stats["multi_encounters"]),
             "law_outside_speeds": int(stats["outside_speeds"]),
             "law_outside_sizes": int(stats["outside_sizes"]),
@@ -336,7 +336,7 @@ class Runner:
         if overlapping_pairs and not self.state.overlap_warned:
             self.state.overlap_warned = 1
             self._guard_event(f"WARNING: {overlapping_pairs} pairs overlap by more than "
-                              f"{sheet.OVERLAP_REPORT_FRACTION:.0%} of the smaller radius "
+                              f"{box.OVERLAP_REPORT_FRACTION:.0%} of the smaller radius "
                               "(collisions missed or particles sinking into each other); "
                               "counts per output are in /timeseries/overlapping_pairs")
         # vertical: never let a particle's oscillation reach the periodic z boundary
