@@ -32,10 +32,10 @@ import numpy as np
 import rebound
 
 from ringsim.config.scenario import scenario_from_dict
-from ringsim.engine.gravity import install_scenario_gravity
 from ringsim.engine.native import set_straight_paths
 from ringsim.engine.resolver import install_resolver
 from ringsim.engine.sheet import build_sheet
+from ringsim.gravity.registry import install_scenario_gravity
 
 LAW = {"model": "bridges", "v_c": 7.7e-5, "exponent": 0.234}
 DT_ORBITS = 1e-3

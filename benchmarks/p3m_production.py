@@ -38,9 +38,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ringsim.engine import p3m
 from ringsim.engine.runner import Runner
 from ringsim.engine.sheet import particle_arrays
+from ringsim.gravity import p3m
 from ringsim.store.runfile import open_run
 
 #: Stages of P3MSolver.apply, in order.

@@ -3,7 +3,7 @@
 Two measurements, each printed as a Markdown table for docs/performance.md ("P3M in
 thick rings"):
 
-* ``force``: one force evaluation of a random sheet (``engine.gravity.random_sheet``, 1 m
+* ``force``: one force evaluation of a random sheet (``testing.random_sheet``, 1 m
   ice at tau = 0.5, Omega = 1.95e-4 1/s) with the Gaussian scale height given, for fixed
   splits and for ``auto``: CPU milliseconds per evaluation (median of 5, after a warm-up
   that builds the kernel tables), rms and median relative error against the direct
@@ -46,11 +46,11 @@ def force_table(n: int, height: float, splits: list[str]) -> list[str]:
     """Markdown rows: cost and error of one force evaluation per split."""
     import rebound
 
-    from ringsim.engine import gravity as eg
-    from ringsim.engine import p3m
+    from ringsim import testing
+    from ringsim.gravity import p3m
     from ringsim.physics import selfgravity as sg
 
-    s = eg.random_sheet(n, optical_depth=0.5, Omega=OMEGA, dispersion=height * OMEGA, seed=11)
+    s = testing.random_sheet(n, optical_depth=0.5, Omega=OMEGA, dispersion=height * OMEGA, seed=11)
     rng = np.random.default_rng(0)
     targets = np.sort(rng.choice(n, min(n, 300), replace=False))
     t = T_SNAPSHOT * 2.0 * np.pi / OMEGA
@@ -63,7 +63,7 @@ def force_table(n: int, height: float, splits: list[str]) -> list[str]:
             "median error | mesh nx x ny x nz |", "|---|---|---|---|---|---|"]
     for split in splits:
         auto = split == "auto"
-        sim = p3m.p3m_simulation(s, t=t, split=None if auto else float(split), auto=auto)
+        sim = testing.p3m_simulation(s, t=t, split=None if auto else float(split), auto=auto)
 
         def evaluate(sim=sim):
             rebound.clibrebound.reb_simulation_update_acceleration(ctypes.byref(sim))
@@ -73,7 +73,7 @@ def force_table(n: int, height: float, splits: list[str]) -> list[str]:
             t0 = time.process_time()
             evaluate()
             times.append(time.process_time() - t0)
-        err = eg.force_errors(p3m.accelerations(sim)[targets], ref)
+        err = testing.force_errors(testing.accelerations(sim)[targets], ref)
         par = p3m.installed_solver(sim).params
         label = f"auto ({par.split:.2f})" if auto else f"{float(split):g}"
         cost = float(np.median(times))
@@ -86,8 +86,8 @@ def force_table(n: int, height: float, splits: list[str]) -> list[str]:
 def one_run(label: str, steps: int, scenario: str) -> dict:
     """``steps`` steps of ``scenario`` with the solver setting ``label`` (this process)."""
     from ringsim.config.scenario import load_scenario, with_overrides
-    from ringsim.engine import p3m
     from ringsim.engine.sheet import build_sheet
+    from ringsim.gravity import p3m
 
     sc = with_overrides(load_scenario(scenario), {**SETTINGS[label],
                                                   "integration.until_equilibrium": False})

@@ -29,6 +29,7 @@ SCRIPT_DIRS = ("analysis", "benchmarks")
 #: use (errors, argument checks, the Markdown section writer, the package root).
 LAYERS = {
     "config": "config", "physics": "physics", "restitution": "physics", "engine": "engine",
+    "gravity": "gravity",  # the self-gravity solvers in REBOUND: at the engine's level
     "store": "store", "analysis": "analysis", "plots": "plots", "cli": "cli",
     "sweep": "sweep", "testing": "testing", "validation": "validation",
     "errors": "base", "checks": "base", "report": "base", "__init__": "base",
@@ -39,14 +40,16 @@ LAYERS = {
 _FRONT_ENDS = {"cli", "sweep", "validation"}
 #: Layer -> the layers it must not import.
 FORBIDDEN = {
-    "base": {"config", "physics", "engine", "store", "analysis", "plots", "testing"}
+    "base": {"config", "physics", "engine", "gravity", "store", "analysis", "plots", "testing"}
     | _FRONT_ENDS,
-    "physics": {"config", "engine", "store", "analysis", "plots", "testing"} | _FRONT_ENDS,
-    "config": {"engine", "store", "analysis", "plots", "testing"} | _FRONT_ENDS,
+    "physics": {"config", "engine", "gravity", "store", "analysis", "plots", "testing"}
+    | _FRONT_ENDS,
+    "config": {"engine", "gravity", "store", "analysis", "plots", "testing"} | _FRONT_ENDS,
     "engine": {"analysis", "plots", "testing"} | _FRONT_ENDS,
-    "store": {"engine", "analysis", "plots", "testing"} | _FRONT_ENDS,
-    "analysis": {"engine", "testing"} | _FRONT_ENDS,
-    "plots": {"engine", "testing"} | _FRONT_ENDS,
+    "gravity": {"analysis", "plots", "testing"} | _FRONT_ENDS,
+    "store": {"engine", "gravity", "analysis", "plots", "testing"} | _FRONT_ENDS,
+    "analysis": {"engine", "gravity", "testing"} | _FRONT_ENDS,
+    "plots": {"engine", "gravity", "testing"} | _FRONT_ENDS,
     "testing": {"store", "analysis", "plots"} | _FRONT_ENDS,
     "sweep": {"cli", "validation", "testing"},
     "cli": {"validation", "testing"},

@@ -67,7 +67,7 @@ def test_size_distribution_drawn_with_the_seed():
 
 def test_gravity_sets_tree_gravity_one_ghost_ring_and_the_field_beyond():
     # one ring plus the analytic field of the sheet beyond it (issue 12, docs/gravity.md)
-    from ringsim.engine.gravity import has_ghost_field
+    from ringsim.gravity.tree import has_ghost_field
 
     sc = with_overrides(scenario_from_dict(BASE), {"sheet.gravity": True,
                                                    "sheet.gravity_solver": "tree",

@@ -25,6 +25,11 @@ from ringsim.engine.box import SheetGeometry, box_geometry, configure_box
 from ringsim.engine.initial_file import read_initial_state, refuse_copies_alike
 from ringsim.engine.placement import OverlapGrid, wrap_horizontal
 from ringsim.engine.timestep import choose_dt
+from ringsim.gravity.registry import (
+    install_gravity,
+    installed_gravity,
+    scenario_gravity_arguments,
+)
 from ringsim.physics.constants import SHEAR
 from ringsim.physics.sizes import size_bin_edges
 
@@ -152,9 +157,9 @@ def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *,
     ----------
     geometry : SheetGeometry
     gravity : dict or None
-        Self-gravity: the arguments of ``engine.gravity.install_gravity`` (solver,
-        softening [m], opening_angle [rad], p3m_setting; a scenario's are
-        ``engine.gravity.scenario_gravity_arguments``); None for none.
+        Self-gravity: the arguments of ``gravity.registry.install_gravity`` (solver,
+        softening [m] and the solver's keywords; a scenario's are
+        ``gravity.registry.scenario_gravity_arguments``); None for none.
     collision_detection : "tree" (overlaps at step ends) or "line" (swept paths: REBOUND's
         linetree here; ``install_resolver`` replaces it by ringsim's sheet detector)
     rand_seed : int
@@ -164,8 +169,6 @@ def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *,
     sim.collision = "linetree" if collision_detection == "line" else "tree"
     sim.N_ghost_x, sim.N_ghost_y = 1, 1
     if gravity is not None:
-        from ringsim.engine.gravity import install_gravity
-
         install_gravity(sim, **gravity)
     else:
         sim.gravity = "none"
@@ -262,8 +265,6 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
     columns, else None (REBOUND particles have no spins: `build_sheet` gives them to the
     resolver). `ringsim export --rebound` saves this simulation, so that a REBOUND
     user's continuation and ringsim's are the same."""
-    from ringsim.engine.gravity import scenario_gravity_arguments
-
     Omega = scenario.orbital_frequency
     sheet_cfg = scenario.sheet
     if sheet_cfg.initial_state is not None:
@@ -409,17 +410,8 @@ def enlarged_copy(sim: rebound.Simulation, geometry: SheetGeometry,
     """
     new_geometry = SheetGeometry(geometry.root_size, geometry.n_root_x, geometry.n_root_y,
                                  n_root_z, geometry.Omega)
-    from ringsim.engine.gravity import installed_solver_name
-    from ringsim.engine.p3m import installed_solver
-
-    p3m = installed_solver(sim)
-    solver = installed_solver_name(sim)
     new = rebound.Simulation()
-    gravity = None if solver is None else {
-        "solver": solver, "softening": sim.softening,
-        "opening_angle": math.sqrt(sim.opening_angle2),
-        "p3m_setting": None if p3m is None else p3m.setting}
-    configure_simulation(new, new_geometry, gravity=gravity,
+    configure_simulation(new, new_geometry, gravity=installed_gravity(sim),
                          collision_detection="tree" if sim.collision == "tree" else "line",
                          rand_seed=0)
     arrays = particle_arrays(sim)

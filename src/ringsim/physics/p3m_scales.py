@@ -1,8 +1,8 @@
 """The length scales of the P3M self-gravity solver (issue 12): the split scale r_s and the
 multiples of it that set the pair sum's cutoff, the mesh's cells and its layers; the split
 that ``sheet.p3m_split: auto`` takes from the layer's height span; the fixed ladder of layer
-counts the mesh is padded to.  Declared once here; the solver (``engine.p3m``), its mesh
-(``physics.selfgravity.P3MMesh``), the scenario keys (``config.gravity_keys``), the
+counts the mesh is padded to.  Declared once here; the solver (``gravity.p3m``), its mesh
+(``physics.selfgravity.P3MMesh``), the scenario key (``physics.gravity_solvers``), the
 benchmarks and the docs derive from these (docs/gravity.md, section 4b).  Pure functions.
 """
 
