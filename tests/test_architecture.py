@@ -9,6 +9,8 @@
    needed fails the test too, so that the lists only shrink).  This holds for the scripts
    under ``analysis/`` and ``benchmarks/`` too (``SCRIPT_DIRS``): they are code users read
    and rerun.
+3. No import cycle between the package's modules, counting imports inside functions (not
+   those under ``if TYPE_CHECKING:``, which never run).
 """
 
 from __future__ import annotations
@@ -183,6 +185,57 @@ def test_the_checker_sees_imports_at_both_levels(tmp_path):
     assert ("ringsim.engine.sheet", "module", 1) in found
     assert ("ringsim.analysis.snapshot", "function", 6) in found
     assert not any(name == "ringsim.plots" for name, _, _ in found), "TYPE_CHECKING only"
+
+
+def import_graph() -> dict[str, set[str]]:
+    """Module -> the package's modules it imports at run time (module or function level;
+    the package root ``ringsim``, whose names load lazily, left out)."""
+    known = {name for name, _ in _modules()}
+    return {module: {name for name, _, _ in imports(module, path)
+                     if name in known and name not in (module, "ringsim")}
+            for module, path in _modules()}
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """One import cycle of ``graph`` as [a, b, ..., a], or None if it is acyclic (a depth-
+    first search; a module met again while still on the path closes a cycle)."""
+    state: dict[str, str] = {}      # "open": on the current path, "done": fully explored
+    path: list[str] = []
+
+    def visit(module: str) -> list[str] | None:
+        state[module] = "open"
+        path.append(module)
+        for imported in sorted(graph.get(module, ())):
+            if state.get(imported) == "open":
+                return path[path.index(imported):] + [imported]
+            if imported not in state:
+                cycle = visit(imported)
+                if cycle:
+                    return cycle
+        path.pop()
+        state[module] = "done"
+        return None
+
+    for module in sorted(graph):
+        if module not in state:
+            cycle = visit(module)
+            if cycle:
+                return cycle
+    return None
+
+
+def test_no_import_cycles():
+    cycle = find_cycle(import_graph())
+    assert cycle is None, "import cycle (imports inside functions count): " + " -> ".join(
+        cycle or [])
+
+
+def test_the_cycle_finder_finds_cycles():
+    # a test that cannot fail is a defect: a cycle through three modules, and none without it
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
+    assert find_cycle(graph) == ["a", "b", "c", "a"]
+    graph["c"] = set()
+    assert find_cycle(graph) is None
 
 
 def _sizes():
