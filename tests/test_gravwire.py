@@ -6,14 +6,16 @@ import math
 import h5py
 import numpy as np
 import pytest
+import rebound
 
 import ringsim
 from ringsim import testing
 from ringsim.config.scenario import DEFAULTS, scenario_from_dict, with_overrides
-from ringsim.engine import invariants, sheet
-from ringsim.gravity import tree
+from ringsim.engine import box, invariants, sheet
+from ringsim.gravity import registry, tree
 from ringsim.physics import ghost_field
 from ringsim.physics import gravity as patch
+from ringsim.physics.gravity_solvers import GRAVITY_SOLVERS
 
 
 def gravitating_scenario(**overrides):
@@ -87,6 +89,24 @@ def test_momentum_of_a_gravitating_sheet_without_collisions():
 
 
 # --- the sheet and the run --------------------------------------------------------------------
+
+@pytest.mark.parametrize("name, keywords", [("tree", {"opening_angle": 0.5}),
+                                            ("p3m", {"p3m_setting": (3.0, True)}),
+                                            ("slab", {})])
+def test_each_declared_solver_installs_and_recognises_itself(name, keywords):
+    """The registry holds one solver per declaration, in the declarations' order; each
+    installs in a shearing sheet and is recognised there with the keywords it was given
+    (what a box enlargement installs again), and no other solver claims that sheet."""
+    assert list(registry.SOLVERS) == list(GRAVITY_SOLVERS)
+    assert registry.SOLVERS[name].declaration is GRAVITY_SOLVERS[name]
+    sim = rebound.Simulation()
+    box.configure_box(sim, box.SheetGeometry(20.0, 2, 2, 4, 2.0e-4))
+    assert registry.installed_gravity(sim) is None
+    registry.install_gravity(sim, name, softening=0.1, **keywords)
+    assert registry.installed_gravity(sim) == {"solver": name, "softening": 0.1, **keywords}
+    assert [other for other, solver in registry.SOLVERS.items()
+            if solver.recognise(sim) is not None] == [name]
+
 
 def test_gravitating_sheet_has_one_ghost_ring_the_field_and_opening_angle_0_3():
     sc = gravitating_scenario(**{"sheet.gravity_solver": "tree"})
