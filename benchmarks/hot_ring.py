@@ -74,7 +74,7 @@ def tree_probe(sc, snapshot: dict, t: float, steps: int) -> tuple[float, float]:
             sheet.VERTICAL_GUARD_FRACTION * 0.5)
         n_root_z = math.ceil(1.5 * needed / geometry.root_size)
         geometry = box.SheetGeometry(geometry.root_size, geometry.n_root_x,
-                                       geometry.n_root_y, n_root_z, geometry.Omega)
+                                     geometry.n_root_y, n_root_z, geometry.Omega)
         sim = rebound.Simulation()
         sheet.configure_simulation(sim, geometry, gravity=None, collision_detection="tree",
                                    rand_seed=sc.seed)

@@ -300,7 +300,7 @@ def test_spins_survive_reinstall_into_an_enlarged_box():
     w = handle.spins()
     assert np.any(w != 0.0) and handle.stats()["count"] > 0
     g = box.SheetGeometry(sim.root_size, sim.N_root_x, sim.N_root_y, sim.N_root_z,
-                            tf.OMEGA)
+                          tf.OMEGA)
     new_sim, _ = sheet.enlarged_copy(sim, g, 2 * sim.N_root_z)
     handle.reinstall(new_sim)
     assert np.array_equal(handle.spins(), w), "spins kept by particle index"

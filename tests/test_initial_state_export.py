@@ -122,7 +122,7 @@ def _hill_sheet(arrays: dict, Lx: float, Ly: float, n_root_x: int, Omega: float,
     """Particles without collisions or gravity in a shearing box (plain REBOUND, SEI)."""
     sim = rebound.Simulation()
     box.configure_box(sim, box.SheetGeometry(Lx / n_root_x, n_root_x,
-                                                 round(n_root_x * Ly / Lx), 4, Omega))
+                                             round(n_root_x * Ly / Lx), 4, Omega))
     sim.dt = 1e-3 * 2 * np.pi / Omega
     sim.t = t
     for k in range(arrays["x"].size):

@@ -198,8 +198,8 @@ class Runner:
                                    int(st["guard_events"]), int(st["dt_warned"]),
                                    int(st["overlap_warned"]))
             self.geometry = box.SheetGeometry(float(st["root_size"]), int(st["N_root_x"]),
-                                                int(st["N_root_y"]), int(st["N_root_z"]),
-                                                self.Omega)
+                                              int(st["N_root_y"]), int(st["N_root_z"]),
+                                              self.Omega)
             rand_seed = int(st["rand_seed"])
         except (TypeError, ValueError) as exc:
             raise runfile.RunFileError(self.path, f"holds an unusable counter ({exc})",
