@@ -2,7 +2,7 @@
 
 Solvers (both at the defaults of ``sheet.gravity: true``): REBOUND's tree (opening angle 0.3,
 one ring of ghost boxes) with ringsim's field of the sheet beyond the ghost boxes, and
-ringsim's P3M (``ringsim.engine.p3m``: Gaussian split r_s = 3 mean radii, mesh cells of r_s,
+ringsim's P3M (``ringsim.gravity.p3m``: Gaussian split r_s = 3 mean radii, mesh cells of r_s,
 layers 0.75 r_s, pair sum in C within 5 r_s).  For each: the CPU time of one force evaluation
 (``reb_simulation_update_acceleration``) and its error against the converged direct image
 sum on random target particles; then the whole step of a gravitating sheet built by
@@ -29,10 +29,11 @@ import numpy as np
 import rebound
 import scipy
 
+from ringsim import testing
 from ringsim.config.scenario import scenario_from_dict
-from ringsim.engine import gravity as eg
-from ringsim.engine import p3m, sheet
+from ringsim.engine import sheet
 from ringsim.engine.native import set_detector_threads
+from ringsim.gravity import p3m, tree
 from ringsim.physics import p3m_scales as scales
 from ringsim.physics import selfgravity as sg
 from ringsim.report import replace_section
@@ -51,22 +52,22 @@ def cpu(fn, repeats):
 
 def force_row(n, repeats, n_targets):
     """Force-evaluation cost [s] and errors of both solvers on a random sheet of n."""
-    s = eg.random_sheet(n, seed=11)
+    s = testing.random_sheet(n, seed=11)
     rng = np.random.default_rng(0)
     targets = np.sort(rng.choice(n, min(n, n_targets), replace=False))
     shift = sg.shear_offset(s["geometry"].Omega, s["Lx"], s["Ly"], T_SNAPSHOT)
     ref = sg.direct_accelerations(s["pos"], s["mass"], s["Lx"], s["Ly"], shift,
-                                  eg.DEFAULT_SOFTENING_FRACTION * 1.0, n_rows=4,
+                                  testing.DEFAULT_SOFTENING_FRACTION * 1.0, n_rows=4,
                                   targets=targets, chunk=16)
     row = {"n": n, "box": s["Lx"]}
-    for name, sim in (("tree", eg.tree_simulation(s, t=T_SNAPSHOT, ghost_field=True)),
-                      ("p3m", p3m.p3m_simulation(s, t=T_SNAPSHOT))):
+    for name, sim in (("tree", testing.tree_simulation(s, t=T_SNAPSHOT, ghost_field=True)),
+                      ("p3m", testing.p3m_simulation(s, t=T_SNAPSHOT))):
         def evaluate(sim=sim):
             rebound.clibrebound.reb_simulation_update_acceleration(ctypes.byref(sim))
         evaluate()                                    # warm-up (P3M kernel tables)
         row[f"{name}_s"], _ = cpu(evaluate, repeats)
-        acc = p3m.accelerations(sim)
-        row[name] = eg.force_errors(acc[targets], ref)
+        acc = testing.accelerations(sim)
+        row[name] = testing.force_errors(acc[targets], ref)
         if name == "p3m":
             par = p3m.installed_solver(sim).params
             row["mesh"] = (par.nx, par.ny, par.nz)
@@ -158,9 +159,9 @@ whole P3M + line step in wall-clock microseconds on 1 and 2 threads (`integratio
 line detection's search, P3M's interpolation and pair sum, scipy's FFTs; median of the
 repeats).
 
-Tree: REBOUND's tree at opening angle {eg.DEFAULT_OPENING_ANGLE}, {eg.DEFAULT_GHOST_BOXES}
+Tree: REBOUND's tree at opening angle {testing.DEFAULT_OPENING_ANGLE}, {tree.DEFAULT_GHOST_BOXES}
 ring of ghost boxes, plus the field of the sheet beyond them (`rs_ghost_field`).  P3M:
-`ringsim.engine.p3m` at its defaults (split r_s = {scales.P3M_SPLIT_RADII} mean radii, cutoff
+`ringsim.gravity.p3m` at its defaults (split r_s = {scales.P3M_SPLIT_RADII} mean radii, cutoff
 {scales.P3M_CUTOFF_SPLITS} r_s, cells {scales.P3M_CELL_SPLITS} r_s, layers {scales.P3M_LAYER_SPLITS}
 r_s; docs/gravity.md, section "P3M").
 

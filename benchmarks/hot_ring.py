@@ -40,7 +40,7 @@ import rebound
 import ringsim
 from ringsim.analysis.equilibrium import equilibrium
 from ringsim.config.scenario import load_scenario, scenario_from_dict, with_overrides
-from ringsim.engine import sheet, timestep
+from ringsim.engine import box, sheet, timestep
 from ringsim.engine.resolver import install_resolver
 from ringsim.report import replace_section
 from ringsim.store.runfile import open_run
@@ -73,8 +73,8 @@ def tree_probe(sc, snapshot: dict, t: float, steps: int) -> tuple[float, float]:
         needed = sheet.max_vertical_amplitude(arrays, geometry.Omega) / (
             sheet.VERTICAL_GUARD_FRACTION * 0.5)
         n_root_z = math.ceil(1.5 * needed / geometry.root_size)
-        geometry = sheet.SheetGeometry(geometry.root_size, geometry.n_root_x,
-                                       geometry.n_root_y, n_root_z, geometry.Omega)
+        geometry = box.SheetGeometry(geometry.root_size, geometry.n_root_x,
+                                     geometry.n_root_y, n_root_z, geometry.Omega)
         sim = rebound.Simulation()
         sheet.configure_simulation(sim, geometry, gravity=None, collision_detection="tree",
                                    rand_seed=sc.seed)

@@ -11,6 +11,8 @@
    needed fails the test too, so that the lists only shrink).  This holds for the scripts
    under ``analysis/``, ``benchmarks/`` and ``validation/`` too (``SCRIPT_DIRS``): they are
    code users read and rerun.
+3. No import cycle between the package's modules, counting imports inside functions (not
+   those under ``if TYPE_CHECKING:``, which never run).
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ SCRIPT_DIRS = ("analysis", "benchmarks", "validation")
 #: quantities, the package root).
 LAYERS = {
     "config": "config", "physics": "physics", "restitution": "physics", "engine": "engine",
+    "gravity": "gravity",  # the self-gravity solvers in REBOUND: at the engine's level
     "store": "store", "analysis": "analysis", "plots": "plots", "cli": "cli",
     "sweep": "sweep", "testing": "testing",
     "errors": "base", "checks": "base", "report": "base", "quantities": "base",
@@ -43,14 +46,16 @@ LAYERS = {
 _FRONT_ENDS = {"cli", "sweep"}
 #: Layer -> the layers it must not import.
 FORBIDDEN = {
-    "base": {"config", "physics", "engine", "store", "analysis", "plots", "testing"}
+    "base": {"config", "physics", "engine", "gravity", "store", "analysis", "plots", "testing"}
     | _FRONT_ENDS,
-    "physics": {"config", "engine", "store", "analysis", "plots", "testing"} | _FRONT_ENDS,
-    "config": {"engine", "store", "analysis", "plots", "testing"} | _FRONT_ENDS,
+    "physics": {"config", "engine", "gravity", "store", "analysis", "plots", "testing"}
+    | _FRONT_ENDS,
+    "config": {"engine", "gravity", "store", "analysis", "plots", "testing"} | _FRONT_ENDS,
     "engine": {"analysis", "plots", "testing"} | _FRONT_ENDS,
-    "store": {"engine", "analysis", "plots", "testing"} | _FRONT_ENDS,
-    "analysis": {"engine", "testing"} | _FRONT_ENDS,
-    "plots": {"engine", "testing"} | _FRONT_ENDS,
+    "gravity": {"analysis", "plots", "testing"} | _FRONT_ENDS,
+    "store": {"engine", "gravity", "analysis", "plots", "testing"} | _FRONT_ENDS,
+    "analysis": {"engine", "gravity", "testing"} | _FRONT_ENDS,
+    "plots": {"engine", "gravity", "testing"} | _FRONT_ENDS,
     "testing": {"store", "analysis", "plots"} | _FRONT_ENDS,
     "sweep": {"cli", "testing"},
     "cli": {"testing"},
@@ -203,6 +208,57 @@ def test_the_checker_sees_imports_at_both_levels(tmp_path):
     assert ("ringsim.engine.sheet", "module", 1) in found
     assert ("ringsim.analysis.snapshot", "function", 6) in found
     assert not any(name == "ringsim.plots" for name, _, _ in found), "TYPE_CHECKING only"
+
+
+def import_graph() -> dict[str, set[str]]:
+    """Module -> the package's modules it imports at run time (module or function level;
+    the package root ``ringsim``, whose names load lazily, left out)."""
+    known = {name for name, _ in _modules()}
+    return {module: {name for name, _, _ in imports(module, path)
+                     if name in known and name not in (module, "ringsim")}
+            for module, path in _modules()}
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """One import cycle of ``graph`` as [a, b, ..., a], or None if it is acyclic (a depth-
+    first search; a module met again while still on the path closes a cycle)."""
+    state: dict[str, str] = {}      # "open": on the current path, "done": fully explored
+    path: list[str] = []
+
+    def visit(module: str) -> list[str] | None:
+        state[module] = "open"
+        path.append(module)
+        for imported in sorted(graph.get(module, ())):
+            if state.get(imported) == "open":
+                return path[path.index(imported):] + [imported]
+            if imported not in state:
+                cycle = visit(imported)
+                if cycle:
+                    return cycle
+        path.pop()
+        state[module] = "done"
+        return None
+
+    for module in sorted(graph):
+        if module not in state:
+            cycle = visit(module)
+            if cycle:
+                return cycle
+    return None
+
+
+def test_no_import_cycles():
+    cycle = find_cycle(import_graph())
+    assert cycle is None, "import cycle (imports inside functions count): " + " -> ".join(
+        cycle or [])
+
+
+def test_the_cycle_finder_finds_cycles():
+    # a test that cannot fail is a defect: a cycle through three modules, and none without it
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
+    assert find_cycle(graph) == ["a", "b", "c", "a"]
+    graph["c"] = set()
+    assert find_cycle(graph) is None
 
 
 def _sizes():

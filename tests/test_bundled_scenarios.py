@@ -15,7 +15,7 @@ import pytest
 
 import ringsim
 from ringsim.config.scenario import load_scenario, with_overrides
-from ringsim.engine import sheet
+from ringsim.engine import box, sheet
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 BUNDLED = sorted(p for p in SCENARIOS.glob("*.yaml") if not p.name.startswith("sweep"))
@@ -75,7 +75,7 @@ def test_initial_layer_is_in_vertical_equilibrium():
     h = np.std(arrays["z"])
     assert h == pytest.approx(sheet.minimum_scale_height(built.radii, built.geometry.Lx
                                                          * built.geometry.Ly), rel=0.05)
-    assert sheet.count_overlaps(arrays, built.geometry, fraction=0.0) == 0
+    assert box.count_overlaps(arrays, built.geometry, fraction=0.0) == 0
 
 
 def test_automatic_box_leaves_room_for_shear_kicked_small_particles():

@@ -32,7 +32,7 @@ import pytest
 import test_friction as tf
 from test_resolver import ORBIT, make_sheet, phase_space
 
-from ringsim.engine import native, sheet
+from ringsim.engine import box, native, sheet
 from ringsim.engine.resolver import collision_records, install_resolver
 from ringsim.physics import friction as fr
 from ringsim.physics.laws import Parameter
@@ -299,8 +299,8 @@ def test_spins_survive_reinstall_into_an_enlarged_box():
     sim.integrate(0.2 * ORBIT)
     w = handle.spins()
     assert np.any(w != 0.0) and handle.stats()["count"] > 0
-    g = sheet.SheetGeometry(sim.root_size, sim.N_root_x, sim.N_root_y, sim.N_root_z,
-                            tf.OMEGA)
+    g = box.SheetGeometry(sim.root_size, sim.N_root_x, sim.N_root_y, sim.N_root_z,
+                          tf.OMEGA)
     new_sim, _ = sheet.enlarged_copy(sim, g, 2 * sim.N_root_z)
     handle.reinstall(new_sim)
     assert np.array_equal(handle.spins(), w), "spins kept by particle index"

@@ -6,12 +6,16 @@ import math
 import h5py
 import numpy as np
 import pytest
+import rebound
 
 import ringsim
+from ringsim import testing
 from ringsim.config.scenario import DEFAULTS, scenario_from_dict, with_overrides
-from ringsim.engine import gravity as eg
-from ringsim.engine import invariants, sheet
+from ringsim.engine import box, invariants, sheet
+from ringsim.gravity import registry, tree
+from ringsim.physics import ghost_field
 from ringsim.physics import gravity as patch
+from ringsim.physics.gravity_solvers import GRAVITY_SOLVERS
 
 
 def gravitating_scenario(**overrides):
@@ -37,14 +41,14 @@ def gravitating_scenario(**overrides):
 def test_c_field_is_the_python_twin(t):
     """rs_ghost_field (C, called by REBOUND after its tree gravity) adds exactly
     ghost_truncation_field (numpy) at the simulation's time: same formulae, round-off only."""
-    s = eg.random_sheet(300, seed=11)
-    with_field = eg.tree_accelerations(eg.tree_simulation(s, t=t, ghost_field=True))
-    sim = eg.tree_simulation(s, t=t)
-    raw = eg.tree_accelerations(sim)
+    s = testing.random_sheet(300, seed=11)
+    with_field = testing.tree_accelerations(testing.tree_simulation(s, t=t, ghost_field=True))
+    sim = testing.tree_simulation(s, t=t)
+    raw = testing.tree_accelerations(sim)
     arrays = sheet.particle_arrays(sim)
     pos = np.column_stack([arrays["x"], arrays["y"], arrays["z"]])
-    field = eg.ghost_truncation_field(pos, arrays["mass"], s["Lx"], s["Ly"],
-                                      s["geometry"].Omega, t, 1, 1)
+    field = ghost_field.ghost_truncation_field(pos, arrays["mass"], s["Lx"], s["Ly"],
+                                               s["geometry"].Omega, t, 1, 1)
     scale = np.max(np.abs(raw + field))
     assert np.max(np.abs(with_field - (raw + field))) < 1e-12 * scale
 
@@ -53,13 +57,13 @@ def test_tree_with_field_is_within_one_percent_of_the_direct_sum():
     """At the defaults (opening angle 0.3, one ghost ring, softening 0.1 r) the forces of a
     random tau = 0.5 sheet match the converged shear-periodic image sum to < 1 % rms
     (measured 0.55 %); REBOUND's tree alone is ~50 % off."""
-    s = eg.random_sheet(400, seed=3)
+    s = testing.random_sheet(400, seed=3)
     t = 2345.6
-    sim = eg.tree_simulation(s, t=t, opening_angle=DEFAULTS["sheet.opening_angle"],
-                             ghost_field=True)
-    ref = eg.reference_for(s, t=t)
-    corrected = eg.force_errors(eg.tree_accelerations(sim), ref)
-    raw = eg.force_errors(eg.tree_accelerations(eg.tree_simulation(s, t=t)), ref)
+    sim = testing.tree_simulation(s, t=t, opening_angle=DEFAULTS["sheet.opening_angle"],
+                                  ghost_field=True)
+    ref = testing.reference_for(s, t=t)
+    corrected = testing.force_errors(testing.tree_accelerations(sim), ref)
+    raw = testing.force_errors(testing.tree_accelerations(testing.tree_simulation(s, t=t)), ref)
     assert corrected["rms_relative"] < 0.01, corrected
     assert raw["rms_relative"] > 0.1, "the field must be what makes the difference"
 
@@ -70,13 +74,13 @@ def test_momentum_of_a_gravitating_sheet_without_collisions():
     flow drifts, measured 1.1-1.2e-4 of rms|a| t over 0.1-0.25 orbit (400 particles); the net
     force of the tree is 1.2e-4 of sum m|a| at one instant.  Bound: 1e-3 of rms|a| t (a field
     that keeps only the infinite-sheet term would leave 1-2 %)."""
-    s = eg.random_sheet(400, seed=5)
+    s = testing.random_sheet(400, seed=5)
     Omega = s["geometry"].Omega
     orbit = 2.0 * math.pi / Omega
-    sim = eg.tree_simulation(s, ghost_field=True)
+    sim = testing.tree_simulation(s, ghost_field=True)
     sim.dt = 1e-3 * orbit
     reference = invariants.sheet_momentum(sheet.particle_arrays(sim), Omega, sim.t)
-    acc = eg.tree_accelerations(sim)
+    acc = testing.tree_accelerations(sim)
     rms_acc = float(np.sqrt(np.mean(np.sum(acc**2, axis=1))))
     sim.integrate(0.2 * orbit, exact_finish_time=0)
     now = invariants.sheet_momentum(sheet.particle_arrays(sim), Omega, sim.t)
@@ -86,6 +90,24 @@ def test_momentum_of_a_gravitating_sheet_without_collisions():
 
 # --- the sheet and the run --------------------------------------------------------------------
 
+@pytest.mark.parametrize("name, keywords", [("tree", {"opening_angle": 0.5}),
+                                            ("p3m", {"p3m_setting": (3.0, True)}),
+                                            ("slab", {})])
+def test_each_declared_solver_installs_and_recognises_itself(name, keywords):
+    """The registry holds one solver per declaration, in the declarations' order; each
+    installs in a shearing sheet and is recognised there with the keywords it was given
+    (what a box enlargement installs again), and no other solver claims that sheet."""
+    assert list(registry.SOLVERS) == list(GRAVITY_SOLVERS)
+    assert registry.SOLVERS[name].declaration is GRAVITY_SOLVERS[name]
+    sim = rebound.Simulation()
+    box.configure_box(sim, box.SheetGeometry(20.0, 2, 2, 4, 2.0e-4))
+    assert registry.installed_gravity(sim) is None
+    registry.install_gravity(sim, name, softening=0.1, **keywords)
+    assert registry.installed_gravity(sim) == {"solver": name, "softening": 0.1, **keywords}
+    assert [other for other, solver in registry.SOLVERS.items()
+            if solver.recognise(sim) is not None] == [name]
+
+
 def test_gravitating_sheet_has_one_ghost_ring_the_field_and_opening_angle_0_3():
     sc = gravitating_scenario(**{"sheet.gravity_solver": "tree"})
     sim, geometry, radii, masses, _ = sheet.new_simulation(sc)
@@ -93,10 +115,10 @@ def test_gravitating_sheet_has_one_ghost_ring_the_field_and_opening_angle_0_3():
     assert (sim.N_ghost_x, sim.N_ghost_y, sim.N_ghost_z) == (1, 1, 0)
     assert sim.opening_angle2 == pytest.approx(0.09)
     assert sim.softening == pytest.approx(0.1)
-    assert eg.has_ghost_field(sim)
+    assert tree.has_ghost_field(sim)
     plain, *_ = sheet.new_simulation(with_overrides(gravitating_scenario(),
                                                     {"sheet.gravity": False}))
-    assert not eg.has_ghost_field(plain)
+    assert not tree.has_ghost_field(plain)
 
 
 def test_run_prints_and_stores_the_numbers_of_a_gravitating_sheet(tmp_path, capsys):

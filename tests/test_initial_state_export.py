@@ -16,7 +16,7 @@ from ringsim.analysis.tiling import copy_correlation
 from ringsim.cli import main
 from ringsim.config.scenario import scenario_from_dict, scenario_from_text
 from ringsim.config.schema import ScenarioError
-from ringsim.engine import export, sheet
+from ringsim.engine import box, export, sheet
 from ringsim.engine.initial_file import (
     CSV_COLUMNS,
     CSV_SPIN_COLUMNS,
@@ -121,8 +121,8 @@ def _hill_sheet(arrays: dict, Lx: float, Ly: float, n_root_x: int, Omega: float,
                 t: float) -> rebound.Simulation:
     """Particles without collisions or gravity in a shearing box (plain REBOUND, SEI)."""
     sim = rebound.Simulation()
-    sheet.configure_box(sim, sheet.SheetGeometry(Lx / n_root_x, n_root_x,
-                                                 round(n_root_x * Ly / Lx), 4, Omega))
+    box.configure_box(sim, box.SheetGeometry(Lx / n_root_x, n_root_x,
+                                             round(n_root_x * Ly / Lx), 4, Omega))
     sim.dt = 1e-3 * 2 * np.pi / Omega
     sim.t = t
     for k in range(arrays["x"].size):

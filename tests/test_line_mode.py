@@ -34,6 +34,7 @@ import rebound
 from ringsim.analysis import snapshot, timeseries
 from ringsim.config.scenario import scenario_from_dict, with_overrides
 from ringsim.engine import sheet
+from ringsim.engine.box import SheetGeometry
 from ringsim.engine.resolver import install_resolver
 from ringsim.physics import restitution as rs
 from validation.encounters import (
@@ -347,7 +348,7 @@ def ring_arrays(n: int, tau: float, dispersion_rOmega: float, seed: int) -> tupl
     rng = np.random.default_rng(seed)
     radii = np.ones(n)
     box = math.sqrt(n * math.pi / tau)
-    geometry = sheet.SheetGeometry(box, 1, 1, max(1, math.ceil(2000.0 / box)), OMEGA)
+    geometry = SheetGeometry(box, 1, 1, max(1, math.ceil(2000.0 / box)), OMEGA)
     state = sheet.initial_state(radii, geometry, dispersion_rOmega * OMEGA, rng)
     state.update(radius=radii, mass=900.0 * 4.0 / 3.0 * math.pi * radii**3)
     return state, box

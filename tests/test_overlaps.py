@@ -1,5 +1,5 @@
 """The overlap count of every output: the C count (``rs_count_overlaps`` behind
-``engine.sheet.count_overlaps``) against its numpy twin (``testing.count_overlaps_numpy``),
+``engine.box.count_overlaps``) against its numpy twin (``testing.count_overlaps_numpy``),
 exactly (both test a pair with the same operations on the same coordinates)."""
 
 import numpy as np
@@ -7,7 +7,7 @@ import pytest
 
 import ringsim
 from ringsim.config.scenario import scenario_from_dict
-from ringsim.engine import sheet
+from ringsim.engine import box
 from ringsim.testing import count_overlaps_numpy
 
 OMEGA = 2.0e-4  # [1/s]
@@ -16,7 +16,7 @@ OMEGA = 2.0e-4  # [1/s]
 def _both(arrays, geometry, t, fraction):
     """(C count, numpy count) of one state."""
     shift = 1.5 * geometry.Omega * geometry.Lx * t
-    return (sheet.count_overlaps(arrays, geometry, t, fraction),
+    return (box.count_overlaps(arrays, geometry, t, fraction),
             count_overlaps_numpy(arrays, geometry.Lx, geometry.Ly, shift, fraction))
 
 
@@ -54,7 +54,7 @@ def _straddling(rng, arrays, geometry, t, k):
 @pytest.mark.parametrize("t_orbits", [0.0, 0.123, 1.7, 250.3])
 def test_c_count_equals_numpy_with_pairs_straddling_the_radial_boundary(t_orbits):
     rng = np.random.default_rng(int(t_orbits * 1000) + 1)
-    geometry = sheet.SheetGeometry(40.0, 2, 3, 4, OMEGA)
+    geometry = box.SheetGeometry(40.0, 2, 3, 4, OMEGA)
     t = t_orbits * geometry.orbit
     n = 800
     arrays = _sheet(rng, n, geometry, rng.uniform(0.3, 2.0, n), 2.0)
@@ -76,7 +76,7 @@ def test_c_count_equals_numpy_on_very_polydisperse_sheets(seed):
     """Radii over 6 decades (10 radius classes of the count's grid, a factor 4 each), and
     over 4^33 (beyond the grid's 32 classes: the largest take the last class)."""
     rng = np.random.default_rng(seed)
-    geometry = sheet.SheetGeometry(30.0, 1, 1, 2, OMEGA)
+    geometry = box.SheetGeometry(30.0, 1, 1, 2, OMEGA)
     for low, high in ((1e-4, 1e2 / 50.0), (1e-20, 5.0)):
         n = 3000
         radii = np.exp(rng.uniform(np.log(low), np.log(high), n))
@@ -87,7 +87,7 @@ def test_c_count_equals_numpy_on_very_polydisperse_sheets(seed):
 
 
 def test_two_particles_and_fewer():
-    geometry = sheet.SheetGeometry(10.0, 1, 1, 1, OMEGA)
+    geometry = box.SheetGeometry(10.0, 1, 1, 1, OMEGA)
     t = 0.4 * geometry.orbit
     shift = 1.5 * OMEGA * geometry.Lx * t
     y_image = (1.0 + shift + 5.0) % 10.0 - 5.0   # where the image of y = 1 beyond x = +5 lands
@@ -104,7 +104,7 @@ def test_two_particles_and_fewer():
 def test_a_pair_deep_directly_and_across_the_boundary_counts_once():
     """A box narrower than the pair's reach: the pair overlaps both directly and through
     the radial image; it is one physical pair."""
-    geometry = sheet.SheetGeometry(2.5, 1, 4, 1, OMEGA)
+    geometry = box.SheetGeometry(2.5, 1, 4, 1, OMEGA)
     two = {"x": np.array([-0.6, 0.6]), "y": np.array([0.0, 0.0]), "z": np.zeros(2),
            "radius": np.array([1.0, 1.0])}
     assert _both(two, geometry, 0.0, 0.1) == (1, 1)
@@ -130,6 +130,6 @@ def test_a_runs_overlapping_pairs_are_the_numpy_count_of_its_snapshots(tmp_path)
         snap = run.snapshot(k)
         shift = 1.5 * a["Omega"] * a["Lx"] * snap["t"]
         twin.append(count_overlaps_numpy(snap, a["Lx"], a["Ly"], shift,
-                                         sheet.OVERLAP_REPORT_FRACTION))
+                                         box.OVERLAP_REPORT_FRACTION))
         assert counted[snap["t"]] == twin[-1], f"snapshot {k}"
     assert run.n_snapshots == 7 and sum(twin) > 0, "pairs overlapped"

@@ -1,4 +1,4 @@
-"""The P3M self-gravity solver (engine/p3m.py, csrc/rs_p3m.c, physics/selfgravity.P3MMesh):
+"""The P3M self-gravity solver (gravity/p3m.py, csrc/rs_p3m.c, physics/selfgravity.P3MMesh):
 the pair term against its formula, forces against the converged direct image sum, and the
 momentum and energy budgets of a gravitating sheet without collisions, for each solver."""
 
@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 import rebound
 
-from ringsim.engine import gravity as eg
-from ringsim.engine import invariants, p3m, sheet
+from ringsim import testing
+from ringsim.engine import box, invariants, sheet
 from ringsim.engine.native import _LIB, keep_freed_memory
+from ringsim.gravity import p3m
 from ringsim.physics import p3m_scales as scales
 from ringsim.physics import selfgravity as sg
 from ringsim.physics.constants import G_SI
@@ -22,24 +23,24 @@ T_REF = 2345.6    # s: a non-trivial shear offset
 
 @pytest.fixture(scope="module")
 def sheet400():
-    return eg.random_sheet(400, seed=5)
+    return testing.random_sheet(400, seed=5)
 
 
 @pytest.fixture(scope="module")
 def reference400(sheet400):
-    return eg.reference_for(sheet400, t=T_REF, n_rows=4)
+    return testing.reference_for(sheet400, t=T_REF, n_rows=4)
 
 
 def test_pair_term_is_plummer_minus_the_mesh_part():
     """rs_p3m_short on two particles adds -G m d [(r^2 + b^2)^-3/2 - L(r) / r^3] (file header
     of rs_p3m.c); the table of L(r)/r^3 is interpolated linearly in r^2 (4096 nodes), so the
     long-range term is exact to ~1e-6 of itself and the sum to round-off where it dominates."""
-    s = eg.random_sheet(400, seed=1)
-    sim = p3m.p3m_simulation(s, t=0.0)
+    s = testing.random_sheet(400, seed=1)
+    sim = testing.p3m_simulation(s, t=0.0)
     solver = p3m.installed_solver(sim)
     rs, b = solver.params.split, solver.params.softening
     two = rebound.Simulation()
-    sheet.configure_box(two, s["geometry"])
+    box.configure_box(two, s["geometry"])
     two.G = G_SI
     two.add(m=1.0e4, x=0.0, y=0.0, z=0.0)
     two.add(m=2.0e4)
@@ -61,8 +62,8 @@ def test_pair_term_is_plummer_minus_the_mesh_part():
 def test_p3m_at_defaults_is_within_one_percent_of_the_direct_sum(sheet400, reference400):
     """Issue 12's bound, < 1 % rms relative error at the default settings (measured 0.87 %
     on this 400-particle sheet, 0.62 % on 10^4 particles); the median error is below 0.5 %."""
-    sim = p3m.p3m_simulation(sheet400, t=T_REF)
-    err = eg.force_errors(p3m.accelerations(sim), reference400)
+    sim = testing.p3m_simulation(sheet400, t=T_REF)
+    err = testing.force_errors(testing.accelerations(sim), reference400)
     assert err["rms_relative"] < 0.01, err
     assert err["median_relative"] < 0.005, err
 
@@ -71,8 +72,8 @@ def test_cell_list_and_all_images_paths_agree(sheet400):
     """On the 50 m box a cutoff of 19.9 m gives a 5 x 5 cell list (cells of at least r_c / 2),
     20.2 m the all-pairs path over 3 x 3 images; the forces differ only by the split's
     remainder between them, 1 - L(6.6 r_s) ~ 1e-8 of a pair force there."""
-    a = p3m.accelerations(p3m.p3m_simulation(sheet400, t=T_REF, cutoff=19.9))
-    b = p3m.accelerations(p3m.p3m_simulation(sheet400, t=T_REF, cutoff=20.2))
+    a = testing.accelerations(testing.p3m_simulation(sheet400, t=T_REF, cutoff=19.9))
+    b = testing.accelerations(testing.p3m_simulation(sheet400, t=T_REF, cutoff=20.2))
     scale = np.sqrt(np.mean(np.sum(a * a, axis=1)))
     assert np.max(np.abs(a - b)) < 1e-5 * scale
 
@@ -84,15 +85,15 @@ def test_pairs_just_inside_the_cutoff_are_summed_in_one_column():
     the pair term (test above).  The pair at 14.9 m adds 0.63 % of a Newtonian pull there
     (1 - L(14.9 m) at r_s = 3 m), over 1e3 times the table's tolerance, so a pair lost at
     the cutoff fails this test (checked: a search cut at 0.992 r_c in height fails it)."""
-    s = eg.random_sheet(400, seed=1)
-    sim = p3m.p3m_simulation(s, t=0.0)
+    s = testing.random_sheet(400, seed=1)
+    sim = testing.p3m_simulation(s, t=0.0)
     par = p3m.installed_solver(sim).params
     assert par.cutoff == pytest.approx(15.0) and s["Lx"] > 2.5 * par.cutoff  # cell list
     rs, b, rc = par.split, par.softening, par.cutoff
     heights = np.array([30.1, 0.0, 52.0, 7.0, 44.95, 14.9]) - 20.0
     masses = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0]) * 1.0e4
     col = rebound.Simulation()
-    sheet.configure_box(col, s["geometry"])
+    box.configure_box(col, s["geometry"])
     col.G = G_SI
     for z, m in zip(heights, masses, strict=True):
         col.add(m=m, x=3.0, y=-4.0, z=z)
@@ -127,8 +128,8 @@ def test_cell_list_finds_every_close_pair_in_a_thick_ring(thick600):
     momentum to round-off."""
     assert thick600["Lx"] == pytest.approx(61.4, abs=0.1)
     assert np.std(thick600["pos"][:, 2]) > 2.0 * 24.6
-    a = p3m.accelerations(p3m.p3m_simulation(thick600, t=T_REF, cutoff=24.0))
-    b = p3m.accelerations(p3m.p3m_simulation(thick600, t=T_REF, cutoff=24.6))
+    a = testing.accelerations(testing.p3m_simulation(thick600, t=T_REF, cutoff=24.0))
+    b = testing.accelerations(testing.p3m_simulation(thick600, t=T_REF, cutoff=24.6))
     scale = np.sqrt(np.mean(np.sum(a * a, axis=1)))
     assert np.max(np.abs(a - b)) < 1e-5 * scale
     total = np.sum(thick600["mass"][:, None] * a, axis=0)
@@ -138,15 +139,15 @@ def test_cell_list_finds_every_close_pair_in_a_thick_ring(thick600):
 def test_p3m_forces_conserve_momentum_to_round_off(sheet400):
     """Pair forces antisymmetric, mesh assignment and interpolation with the same kernel:
     the net force vanishes to round-off (measured 1e-17 of M rms|a|)."""
-    a = p3m.accelerations(p3m.p3m_simulation(sheet400, t=T_REF))
+    a = testing.accelerations(testing.p3m_simulation(sheet400, t=T_REF))
     total = np.sum(sheet400["mass"][:, None] * a, axis=0)
     scale = np.sum(sheet400["mass"]) * np.sqrt(np.mean(np.sum(a * a, axis=1)))
     assert np.all(np.abs(total) < 1e-13 * scale), total / scale
 
 
 def test_p3m_is_repeatable_and_raises_after_a_failing_step(sheet400):
-    sim = p3m.p3m_simulation(sheet400, t=T_REF)
-    assert np.array_equal(p3m.accelerations(sim), p3m.accelerations(sim))
+    sim = testing.p3m_simulation(sheet400, t=T_REF)
+    assert np.array_equal(testing.accelerations(sim), testing.accelerations(sim))
     solver = p3m.installed_solver(sim)
     solver.mesh.fields = None          # the callback now fails inside REBOUND's step
     sim.dt = 10.0
@@ -158,8 +159,8 @@ def test_p3m_is_repeatable_and_raises_after_a_failing_step(sheet400):
 
 def _solver_sim(s, solver, t=0.0, softening=None, **p3m_kwargs):
     if solver == "tree":
-        return eg.tree_simulation(s, t=t, ghost_field=True, softening=softening)
-    return p3m.p3m_simulation(s, t=t, softening=softening, **p3m_kwargs)
+        return testing.tree_simulation(s, t=t, ghost_field=True, softening=softening)
+    return testing.p3m_simulation(s, t=t, softening=softening, **p3m_kwargs)
 
 
 @pytest.mark.parametrize("solver", ["tree", "p3m"])
@@ -177,7 +178,7 @@ def test_momentum_budget_over_one_orbit(solver, sheet400):
     sim.dt = 1e-3 * orbit
     arrays = sheet.particle_arrays(sim)
     reference = invariants.sheet_momentum(arrays, Omega, sim.t)
-    acc = eg.tree_accelerations(sim) if solver == "tree" else p3m.accelerations(sim)
+    acc = testing.tree_accelerations(sim) if solver == "tree" else testing.accelerations(sim)
     rms_acc = float(np.sqrt(np.mean(np.sum(acc**2, axis=1))))
     sim.integrate(orbit, exact_finish_time=0)
     p3m.raise_pending(sim)
@@ -190,7 +191,7 @@ def test_momentum_budget_over_one_orbit(solver, sheet400):
 def clump(n=60, sigma=5.0, box_tau=0.02, seed=7):
     """A self-gravitating clump in the middle of a large shear-periodic box: Gaussian of
     ``sigma`` [m] in x, y, z, on the shear flow with a 0.3 mm/s dispersion; 1 m ice."""
-    s = eg.random_sheet(n, optical_depth=box_tau, seed=seed)
+    s = testing.random_sheet(n, optical_depth=box_tau, seed=seed)
     rng = np.random.default_rng(seed)
     pos = rng.normal(0.0, sigma, (n, 3))
     vel = rng.normal(0.0, 3e-4, (n, 3))
@@ -316,12 +317,12 @@ def test_p3m_gives_the_same_bits_on_one_and_two_threads():
     scipy's FFTs split independent transforms: the accelerations are identical (==) on
     1 and 2 threads.  5000 particles: above the 2048 per thread at which a second thread
     starts (RS_P3M_PARTICLES_PER_THREAD)."""
-    s = eg.random_sheet(5000, seed=8)
+    s = testing.random_sheet(5000, seed=8)
     results = []
     for threads in (1, 2):
-        sim = p3m.p3m_simulation(s, t=T_REF)
+        sim = testing.p3m_simulation(s, t=T_REF)
         p3m.installed_solver(sim).set_threads(threads)
-        results.append(p3m.accelerations(sim))
+        results.append(testing.accelerations(sim))
     assert np.array_equal(results[0], results[1])
 
 
@@ -332,8 +333,8 @@ def test_mean_vertical_field_of_a_thick_ring_is_the_direct_erf_sum():
     over the particles: within the fine layers' interpolation error (layers r_s / 16
     apart: < 1e-3 of the field's scale, docs/gravity.md 4b); a window cut too short (or a
     wrong sign of the far masses) is off by up to the whole field."""
-    s = eg.random_sheet(400, dispersion=0.05, seed=9)   # 1 m ice, z scale height 250 m
-    sim = p3m.p3m_simulation(s)
+    s = testing.random_sheet(400, dispersion=0.05, seed=9)   # 1 m ice, z scale height 250 m
+    sim = testing.p3m_simulation(s)
     solver = p3m.installed_solver(sim)
     rs = solver.params.split
     z = s["pos"][:, 2]
@@ -353,7 +354,7 @@ def test_mean_vertical_field_of_a_thick_ring_is_the_direct_erf_sum():
 def test_p3m_solver_keeps_freed_memory_on_glibc():
     """The solver's mesh temporaries reuse freed memory (docs/performance.md, Self-gravity):
     glibc accepts both mallopt settings, and asking again changes nothing."""
-    sheet_ = eg.random_sheet(200, 0.5, 1.0, seed=3)
+    sheet_ = testing.random_sheet(200, 0.5, 1.0, seed=3)
     p3m.P3MSolver(sheet_["Lx"], sheet_["Ly"], 0.1, 3.0)
     expected = platform.libc_ver()[0] == "glibc"
     assert keep_freed_memory() is expected
@@ -448,15 +449,15 @@ def test_kernel_tables_are_bounded():
 @pytest.fixture(scope="module")
 def thick600():
     """600 particles of 1 m at tau = 0.5 with a scale height of 60 m (a hot ring)."""
-    return eg.random_sheet(600, dispersion=60.0 * 2.0e-4, seed=21)
+    return testing.random_sheet(600, dispersion=60.0 * 2.0e-4, seed=21)
 
 
 def test_auto_split_in_a_thick_ring_is_within_one_percent_and_conserves_momentum(thick600):
     """In a hot ring auto takes a rung above the first, and its forces stay within the
     issue's 1 % rms of the direct shear-periodic sum (measured 0.3 % at 6 m in a 1200-
     particle ring) and sum to zero to round-off."""
-    sim = p3m.p3m_simulation(thick600, t=T_REF, auto=True)
-    acc = p3m.accelerations(sim)
+    sim = testing.p3m_simulation(thick600, t=T_REF, auto=True)
+    acc = testing.accelerations(sim)
     solver = p3m.installed_solver(sim)
     assert solver.params.split > 1.4 * solver.first_split
     rng = np.random.default_rng(0)
@@ -465,7 +466,7 @@ def test_auto_split_in_a_thick_ring_is_within_one_percent_and_conserves_momentum
     ref = sg.direct_accelerations(thick600["pos"], thick600["mass"], thick600["Lx"],
                                   thick600["Ly"], shift, 0.1, n_rows=4, targets=targets,
                                   chunk=16)
-    assert eg.force_errors(acc[targets], ref)["rms_relative"] < 0.01
+    assert testing.force_errors(acc[targets], ref)["rms_relative"] < 0.01
     force = thick600["mass"][:, None] * acc
     assert np.all(np.abs(force.sum(axis=0)) < 1e-12 * np.abs(force).sum(axis=0))
 

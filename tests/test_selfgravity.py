@@ -3,7 +3,9 @@
 import numpy as np
 import pytest
 
-from ringsim.engine import gravity as eg
+from ringsim import testing
+from ringsim.gravity import tree
+from ringsim.physics import ghost_field
 from ringsim.physics import selfgravity as sg
 from ringsim.physics.constants import G_SI
 
@@ -39,7 +41,7 @@ def test_shear_offset_wraps_and_matches_rebound_rows():
     s = sg.shear_offset(Omega, Lx, Ly, t)
     assert -0.5 * Ly <= s < 0.5 * Ly
     assert (s - 1.5 * Omega * Lx * t) / Ly == pytest.approx(round((s - 1.5 * Omega * Lx * t) / Ly))
-    rows = eg.rebound_row_offsets(Omega, Lx, Ly, t, 2)     # i = -2..2
+    rows = ghost_field.rebound_row_offsets(Omega, Lx, Ly, t, 2)     # i = -2..2
     for i, off in zip(range(-2, 3), rows, strict=True):
         k = (off + i * s) / Ly                             # REBOUND: row i at y - i s (mod Ly)
         assert k == pytest.approx(round(k), abs=1e-9)
@@ -69,7 +71,7 @@ def test_pm_reproduces_the_wave_with_second_order_layers():
 
 @pytest.fixture(scope="module")
 def sheet():
-    return eg.random_sheet(400, seed=5)
+    return testing.random_sheet(400, seed=5)
 
 
 @pytest.fixture(scope="module")
@@ -79,12 +81,12 @@ def t_ref():
 
 @pytest.fixture(scope="module")
 def reference(sheet, t_ref):
-    return {k: eg.reference_for(sheet, t=t_ref, n_rows=k) for k in (2, 4, 6)}
+    return {k: testing.reference_for(sheet, t=t_ref, n_rows=k) for k in (2, 4, 6)}
 
 
 def test_reference_converges_as_k_to_minus_two(reference):
-    e2 = eg.force_errors(reference[2], reference[6])["normalised"]
-    e4 = eg.force_errors(reference[4], reference[6])["normalised"]
+    e2 = testing.force_errors(reference[2], reference[6])["normalised"]
+    e4 = testing.force_errors(reference[4], reference[6])["normalised"]
     assert e4 < 1e-4, f"K = 4 not converged: {e4:.2g}"
     assert e2 / e4 > 3.0, "truncation error does not fall at least as K^-1.6"
 
@@ -105,12 +107,12 @@ def test_pm_conserves_momentum(sheet, t_ref):
 
 
 def test_tree_at_defaults_with_truncation_field_is_within_one_percent(sheet, t_ref, reference):
-    sim = eg.tree_simulation(sheet, t=t_ref)      # defaults: opening angle 0.3, 1 ghost ring
-    raw = eg.tree_accelerations(sim)
-    missing = eg.ghost_truncation_field(sheet["pos"], sheet["mass"], sheet["Lx"], sheet["Ly"],
-                                        sheet["geometry"].Omega, t_ref, eg.DEFAULT_GHOST_BOXES,
-                                        eg.DEFAULT_GHOST_BOXES)
-    corrected = eg.force_errors(raw + missing, reference[6])
+    sim = testing.tree_simulation(sheet, t=t_ref)      # defaults: opening angle 0.3, 1 ghost ring
+    raw = testing.tree_accelerations(sim)
+    missing = ghost_field.ghost_truncation_field(
+        sheet["pos"], sheet["mass"], sheet["Lx"], sheet["Ly"], sheet["geometry"].Omega, t_ref,
+        tree.DEFAULT_GHOST_BOXES, tree.DEFAULT_GHOST_BOXES)
+    corrected = testing.force_errors(raw + missing, reference[6])
     assert corrected["rms_relative"] < 0.01, corrected
     # without the field the truncated sheet is off by ~1 / (2 N_ghost + 1) of the field
-    assert eg.force_errors(raw, reference[6])["normalised"] > 0.05
+    assert testing.force_errors(raw, reference[6])["normalised"] > 0.05

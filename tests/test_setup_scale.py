@@ -10,7 +10,7 @@ import pytest
 import rebound
 
 from ringsim.config.scenario import scenario_from_dict
-from ringsim.engine import placement, sheet
+from ringsim.engine import box, placement, sheet
 
 DENSE = {
     "name": "dense", "seed": 5, "planet": {"Omega": 2.0e-4},
@@ -72,7 +72,7 @@ def test_dense_sheet_starts_without_overlaps():
     built = sheet.build_sheet(scenario_from_dict(DENSE, source="<test>"))
     arrays = sheet.particle_arrays(built.sim)
     assert built.sim.N == 20000
-    assert sheet.count_overlaps(arrays, built.geometry, fraction=0.0) == 0
+    assert box.count_overlaps(arrays, built.geometry, fraction=0.0) == 0
 
 
 def test_add_particles_builds_what_sim_add_builds():
@@ -102,7 +102,7 @@ def test_add_particles_builds_what_sim_add_builds():
 
 def test_add_particles_refuses_arrays_of_other_lengths():
     sim = rebound.Simulation()
-    geometry = sheet.SheetGeometry(10.0, 1, 1, 1, 2.0e-4)
+    geometry = box.SheetGeometry(10.0, 1, 1, 1, 2.0e-4)
     sheet.configure_simulation(sim, geometry, gravity=None,
                                collision_detection="tree", rand_seed=1)
     state = {key: np.zeros(3) for key in ("x", "y", "z", "vx", "vy", "vz")}

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from ringsim.config.scenario import scenario_from_dict, with_overrides
-from ringsim.engine import sheet, timestep
+from ringsim.engine import box, sheet, timestep
 
 BASE = {
     "name": "sheet-test", "seed": 11, "planet": {"Omega": 2.0e-4},
@@ -46,7 +46,7 @@ def test_simulation_settings(built):
 def test_initial_state(built):
     arrays = sheet.particle_arrays(built.sim)
     g = built.geometry
-    assert sheet.count_overlaps(arrays, g, fraction=0.0) == 0, "no initial overlaps"
+    assert box.count_overlaps(arrays, g, fraction=0.0) == 0, "no initial overlaps"
     assert np.all(np.abs(arrays["x"]) <= g.Lx / 2) and np.all(np.abs(arrays["y"]) <= g.Ly / 2)
     w_y = arrays["vy"] + 1.5 * 2e-4 * arrays["x"]
     c = 2.0 * np.mean(arrays["radius"]) * 2e-4  # initial_dispersion default: 2 <r> Omega
@@ -67,7 +67,7 @@ def test_size_distribution_drawn_with_the_seed():
 
 def test_gravity_sets_tree_gravity_one_ghost_ring_and_the_field_beyond():
     # one ring plus the analytic field of the sheet beyond it (issue 12, docs/gravity.md)
-    from ringsim.engine.gravity import has_ghost_field
+    from ringsim.gravity.tree import has_ghost_field
 
     sc = with_overrides(scenario_from_dict(BASE), {"sheet.gravity": True,
                                                    "sheet.gravity_solver": "tree",
@@ -143,20 +143,20 @@ def test_enlarged_copy_keeps_the_state(built):
 @pytest.mark.parametrize("t_orbits", [0.0, 0.37, 5.2])
 def test_overlaps_across_the_shearing_boundary(t_orbits):
     """A pair straddling the radial boundary overlaps only at the sheared image position."""
-    g = sheet.SheetGeometry(100.0, 1, 1, 4, 2.0e-4)
+    g = box.SheetGeometry(100.0, 1, 1, 4, 2.0e-4)
     t = t_orbits * g.orbit
     shift = 1.5 * g.Omega * g.Lx * t
     y_image = (10.0 + shift + 50.0) % 100.0 - 50.0  # image of the particle at x = 49.5
     arrays = {"x": np.array([49.5, -49.6]), "y": np.array([10.0, y_image + 0.3]),
               "z": np.zeros(2), "vx": np.zeros(2), "vy": np.zeros(2), "vz": np.zeros(2),
               "radius": np.array([0.5, 0.5]), "mass": np.ones(2)}
-    assert sheet.count_overlaps(arrays, g, t) == 1
+    assert box.count_overlaps(arrays, g, t) == 1
     arrays["y"][1] = y_image + 3.0
-    assert sheet.count_overlaps(arrays, g, t) == 0
+    assert box.count_overlaps(arrays, g, t) == 0
     if t_orbits:
         # without the shear offset the ghost lands elsewhere
         arrays["y"][1] = 10.3
-        assert sheet.count_overlaps(arrays, g, t) == 0
+        assert box.count_overlaps(arrays, g, t) == 0
 
 
 def test_centre_of_mass_starts_at_rest_in_the_shear_flow():

@@ -10,21 +10,22 @@ import pytest
 import rebound
 
 import ringsim
+from ringsim import testing
 from ringsim.analysis.gravitating import gravity_equilibrium
 from ringsim.config.scenario import scenario_from_dict, with_overrides
 from ringsim.config.schema import ScenarioError
-from ringsim.engine import gravity as eg
-from ringsim.engine import sheet
+from ringsim.engine import box, sheet
+from ringsim.gravity import registry
 from ringsim.physics.constants import G_SI
 from ringsim.physics.selfgravity import slab_field
 
 
 def slab_simulation(s):
-    """A REBOUND shearing sheet of ``s`` (``eg.random_sheet``) with the slab field only."""
+    """A REBOUND shearing sheet of ``s`` (``testing.random_sheet``) with the slab field only."""
     sim = rebound.Simulation()
-    sheet.configure_box(sim, s["geometry"])
+    box.configure_box(sim, s["geometry"])
     sim.collision = "none"
-    eg.install_gravity(sim, "slab", softening=0.0)
+    registry.install_gravity(sim, "slab", softening=0.0)
     state = {k: s["pos"][:, i] for i, k in enumerate("xyz")}
     state.update({k: s["vel"][:, i] for i, k in enumerate(("vx", "vy", "vz"))})
     sheet.add_particles(sim, state, s["radius"], s["mass"])
@@ -40,9 +41,9 @@ def accelerations(sim):
 
 
 def test_c_slab_field_is_the_numpy_twin_and_vertical():
-    s = eg.random_sheet(400, seed=5, dispersion=0.02)
+    s = testing.random_sheet(400, seed=5, dispersion=0.02)
     sim = slab_simulation(s)
-    assert eg.installed_solver_name(sim) == "slab" and sim.gravity == "none"
+    assert registry.installed_solver_name(sim) == "slab" and sim.gravity == "none"
     acc = accelerations(sim)
     expected = slab_field(s["pos"][:, 2], s["mass"], s["Lx"], s["Ly"])
     assert np.all(acc[:, :2] == 0.0)
@@ -61,7 +62,7 @@ def test_slab_field_counted_by_hand():
 
 
 def test_slab_field_conserves_vertical_momentum():
-    s = eg.random_sheet(1000, seed=8, dispersion=0.05)
+    s = testing.random_sheet(1000, seed=8, dispersion=0.05)
     acc = accelerations(slab_simulation(s))
     force = s["mass"] * acc[:, 2]
     assert abs(force.sum()) < 1e-13 * np.abs(force).sum()

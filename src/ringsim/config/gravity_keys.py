@@ -1,9 +1,10 @@
 """The self-gravity keys of the ``sheet`` section: which solver, and its parameters.
 
-``sheet.gravity_solver`` (tree | p3m | slab, default DEFAULTS["sheet.gravity_solver"]),
-``sheet.softening``, the tree's ``sheet.opening_angle`` and P3M's ``sheet.p3m_split``: read
-and validated here, for ``config.scenario``; the solvers' own parameters are declared in
-``physics.selfgravity`` and ``physics.p3m_scales``.
+``sheet.gravity_solver`` (default DEFAULTS["sheet.gravity_solver"]) and the solvers' own
+keys (``sheet.softening``, the tree's ``sheet.opening_angle``, P3M's ``sheet.p3m_split``):
+read and validated here, for ``config.scenario``, from the solvers' declarations
+(``physics.gravity_solvers``: names, parameters with unit, default, range and ``auto``,
+the keys each solver refuses, the box each needs).  Nothing here names a solver.
 """
 
 from __future__ import annotations
@@ -11,59 +12,73 @@ from __future__ import annotations
 from typing import Any
 
 from ringsim.config.schema import Section
-from ringsim.physics.p3m_scales import P3M_CUTOFF_SPLITS, P3M_SPLIT_RADII
-from ringsim.physics.selfgravity import GRAVITY_SOLVERS
+from ringsim.physics.gravity_solvers import GRAVITY_SOLVERS, P3M, SOLVER_PARAMETERS
+from ringsim.physics.laws import DIMENSIONLESS, Parameter
+from ringsim.physics.p3m_scales import p3m_first_split
 
+#: The solvers' keys of the ``sheet`` section, in the order a scenario writes them.
+SOLVER_KEYS = tuple(SOLVER_PARAMETERS)
 #: Keys that only a gravitating sheet may set.
-GRAVITY_ONLY_KEYS = ("gravity_solver", "softening", "opening_angle", "p3m_split")
+GRAVITY_ONLY_KEYS = ("gravity_solver", *SOLVER_KEYS)
+
+
+def _users(key: str) -> list[str]:
+    """The solvers that use ``key``, in declaration order."""
+    return [s.name for s in GRAVITY_SOLVERS.values() if key in s.names]
+
+
+def _default_solver(sec: Section, d: dict[str, Any]) -> str:
+    """The solver of a section without ``gravity_solver``: the one a key given implies
+    (a scenario written for the tree before P3M became the default keeps the tree), else
+    the default."""
+    if not sec.has("gravity_solver"):
+        for declaration in GRAVITY_SOLVERS.values():
+            if any(sec.has(key) for key in declaration.implied_by):
+                return declaration.name
+    return d["sheet.gravity_solver"]
+
+
+def _refuse_unused_keys(sec: Section, solver: str) -> None:
+    """A key the chosen solver does not use is an error naming the solvers that use it;
+    keys of a single solver are named before keys that several share."""
+    declaration = GRAVITY_SOLVERS[solver]
+    unused = sorted((key for key in SOLVER_KEYS if key not in declaration.names),
+                    key=lambda key: len(_users(key)))
+    for key in (k for k in unused if sec.has(k)):
+        users = _users(key)
+        problem = (f"only used with gravity_solver: {users[0]}" if len(users) == 1 else
+                   f"not used with gravity_solver: {solver}"
+                   + (f" ({declaration.lacks})" if declaration.lacks else ""))
+        raise sec.error(key, problem,
+                        f"remove the key, or set sheet.gravity_solver: {' or '.join(users)}")
+
+
+def _read_parameter(sec: Section, par: Parameter) -> float | str:
+    """A solver's key as its declaration allows: a number in range, or "auto"."""
+    unit = "" if par.unit == DIMENSIONLESS else par.unit
+    if par.auto:
+        return sec.number_or_auto(par.name, par.default, unit=unit, **par.limits())
+    return sec.number(par.name, par.default, unit=unit, **par.limits())
 
 
 def read_gravity_keys(sec: Section, d: dict[str, Any]) -> dict[str, Any]:
-    """``gravity``, ``gravity_solver``, ``softening`` [m or "auto"], ``opening_angle``
-    [rad] and ``p3m_split`` [m or "auto"] of a sheet section (None where not used), with
-    defaults ``d``."""
+    """``gravity``, ``gravity_solver`` and every solver key of `SOLVER_KEYS` (numbers in
+    their units, or "auto"; None where the solver does not use it) of a sheet section,
+    with defaults ``d`` for ``gravity`` and ``gravity_solver``."""
     gravity = sec.boolean("gravity", d["sheet.gravity"])
     if not gravity:
         for name in GRAVITY_ONLY_KEYS:
             if sec.has(name):
                 raise sec.error(name, "only used with self-gravity",
                                 "set sheet.gravity: true, or remove the key")
-        return {"gravity": False, "gravity_solver": None, "softening": None,
-                "opening_angle": None, "p3m_split": None}
-    # a scenario that sets the tree's opening angle and no solver keeps the tree (scenarios
-    # written before the P3M solver existed run as they did)
-    default_solver = ("tree" if sec.has("opening_angle") and not sec.has("gravity_solver")
-                      else d["sheet.gravity_solver"])
-    solver = sec.string("gravity_solver", default_solver, choices=GRAVITY_SOLVERS)
-    if solver != "tree" and sec.has("opening_angle"):
-        raise sec.error("opening_angle", "only used with gravity_solver: tree",
-                        "remove the key, or set sheet.gravity_solver: tree")
-    if solver != "p3m" and sec.has("p3m_split"):
-        raise sec.error("p3m_split", "only used with gravity_solver: p3m",
-                        "remove the key, or set sheet.gravity_solver: p3m")
-    if solver == "slab" and sec.has("softening"):
-        raise sec.error("softening", "not used with gravity_solver: slab (no pair forces)",
-                        "remove the key, or set sheet.gravity_solver: tree or p3m")
-    return {"gravity": True, "gravity_solver": solver,
-            "softening": (sec.number_or_auto("softening", d["sheet.softening"], unit="m",
-                                              ge=0.0) if solver != "slab" else None),
-            "opening_angle": (sec.number("opening_angle", d["sheet.opening_angle"],
-                                         unit="rad", gt=0.0, le=1.0)
-                              if solver == "tree" else None),
-            "p3m_split": (sec.number_or_auto("p3m_split", d["sheet.p3m_split"], unit="m",
-                                             gt=0.0) if solver == "p3m" else None)}
-
-
-def p3m_first_split(p3m_split: float | str, mean_radius: float) -> float:
-    """The (first) split scale r_s [m] of ``sheet.p3m_split``: the number given, or, for
-    "auto", P3M_SPLIT_RADII mean radii, the smallest split auto chooses.
-
-    Parameters
-    ----------
-    p3m_split : float [m] or "auto"
-    mean_radius : float [m]
-    """
-    return P3M_SPLIT_RADII * mean_radius if p3m_split == "auto" else float(p3m_split)
+        return {"gravity": False, "gravity_solver": None, **dict.fromkeys(SOLVER_KEYS)}
+    solver = sec.string("gravity_solver", _default_solver(sec, d),
+                        choices=tuple(GRAVITY_SOLVERS))
+    _refuse_unused_keys(sec, solver)
+    values: dict[str, Any] = dict.fromkeys(SOLVER_KEYS)
+    for par in GRAVITY_SOLVERS[solver].parameters:
+        values[par.name] = _read_parameter(sec, par)
+    return {"gravity": True, "gravity_solver": solver, **values}
 
 
 def p3m_setting(sheet, mean_radius: float) -> tuple[float, bool] | None:
@@ -75,14 +90,14 @@ def p3m_setting(sheet, mean_radius: float) -> tuple[float, bool] | None:
     sheet : SheetConfig
     mean_radius : float [m]
     """
-    if sheet.gravity_solver != "p3m":
+    if sheet.gravity_solver != P3M.name:
         return None
     return p3m_first_split(sheet.p3m_split, mean_radius), sheet.p3m_split == "auto"
 
 
-def check_p3m_box(top: Section, sheet, mean_radius: float, lx: float, ly: float) -> None:
-    """The P3M pair sum needs a box wider than its cutoff (``rs_p3m.c``) at the first split
-    scale (``auto`` never chooses a cutoff the box cannot hold).
+def check_gravity_box(top: Section, sheet, mean_radius: float, lx: float, ly: float) -> None:
+    """The box must suit the sheet's solver (its declaration's ``check_box``: P3M's pair
+    sum needs a box wider than its cutoff).
 
     Parameters
     ----------
@@ -91,11 +106,10 @@ def check_p3m_box(top: Section, sheet, mean_radius: float, lx: float, ly: float)
     lx, ly : float [m]
         The box the scenario makes.
     """
-    if sheet.gravity_solver != "p3m":
+    declaration = GRAVITY_SOLVERS.get(sheet.gravity_solver)    # None without gravity
+    if declaration is None or declaration.check_box is None:
         return
-    cutoff = P3M_CUTOFF_SPLITS * p3m_first_split(sheet.p3m_split, mean_radius)
-    if min(lx, ly) <= cutoff:
-        raise top.error("sheet.gravity_solver",
-                        f"p3m needs a box wider than its pair-sum cutoff ({cutoff:.3g} m); "
-                        f"{sheet.n_particles} particles make {lx:.3g} m x {ly:.3g} m",
-                        "tree, a smaller sheet.p3m_split, or more particles")
+    values = {key: getattr(sheet, key) for key in declaration.names}
+    refused = declaration.check_box(values, mean_radius, sheet.n_particles, lx, ly)
+    if refused is not None:
+        raise top.error("sheet.gravity_solver", *refused)

@@ -38,7 +38,12 @@ from typing import Any
 
 import yaml
 
-from ringsim.config.gravity_keys import check_p3m_box, p3m_setting, read_gravity_keys
+from ringsim.config.gravity_keys import (
+    SOLVER_KEYS,
+    check_gravity_box,
+    p3m_setting,
+    read_gravity_keys,
+)
 from ringsim.config.initial_state import check_tiled_stop, read_initial_state
 from ringsim.config.schema import (
     REQUIRED,
@@ -60,6 +65,7 @@ from ringsim.config.sections import (
     read_threads,
 )
 from ringsim.physics.friction import FRICTION, INERTIA_FACTOR
+from ringsim.physics.gravity_solvers import AUTO_SOFTENING_FRACTION, SOLVER_PARAMETERS
 from ringsim.physics.laws import DIMENSIONLESS
 from ringsim.physics.restitution import RESTITUTION
 from ringsim.physics.sizes import (
@@ -99,9 +105,6 @@ MAX_OPTICAL_DEPTH = 3.0
 MAX_DT_ORBITS = 0.1
 #: Tolerance on the sum of a mixture's number fractions.
 FRACTION_SUM_TOLERANCE = 1e-9
-#: Softening used by ``softening: auto``, as a fraction of the smallest particle radius
-#: (REBOUND's shearing-sheet example: 0.1 m for 1 m particles).
-AUTO_SOFTENING_FRACTION = 0.1
 
 # Keys of each section, in the order they are written by Scenario.to_dict().
 _SECTION_KEYS: dict[str, tuple[str, ...]] = {
@@ -110,8 +113,7 @@ _SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "planet": ("Omega", "GM", "a"),
     "particles": ("density", "size_distribution", "inertia_factor"),
     "sheet": ("optical_depth", "n_particles", "aspect", "gravity", "gravity_solver",
-              "softening", "opening_angle", "p3m_split", "initial_dispersion", "z_box",
-              "initial_state"),
+              *SOLVER_KEYS, "initial_dispersion", "z_box", "initial_state"),
     "integration": ("orbits", "dt", "dt_safety", "collision_detection", "until_equilibrium",
                     "threads"),
     "output": ("path", "timeseries_every", "snapshot_every", "checkpoint_every",
@@ -135,12 +137,8 @@ DEFAULTS: dict[str, Any] = {
     # chosen by benchmarks/gravity.py: equal force accuracy (< 1 % rms) at a fraction of
     # the tree's cost (docs/performance.md, "Self-gravity")
     "sheet.gravity_solver": "p3m",
-    "sheet.softening": "auto",
-    # 0.3: < 1 % rms force error with the ghost-box truncation field, 0.5 gives 2 %
-    # (docs/gravity.md); engine.gravity.DEFAULT_OPENING_ANGLE is this value
-    "sheet.opening_angle": 0.3,
-    # auto: follows the layer's height span (physics.p3m_scales.p3m_auto_split, gravity.md 4b)
-    "sheet.p3m_split": "auto",
+    # the solvers' keys (softening, opening_angle, p3m_split): physics.gravity_solvers
+    **{f"sheet.{p.name}": p.default for p in SOLVER_PARAMETERS.values()},
     "sheet.initial_dispersion": 2.0,
     "sheet.z_box": "auto",
     "integration.orbits": 10.0,
@@ -362,14 +360,11 @@ def _read_sheet(top: Section) -> SheetConfig:
                                  le=MAX_OPTICAL_DEPTH),
         n_particles=sec.integer("n_particles", d["sheet.n_particles"], ge=2),
         aspect=sec.number("aspect", d["sheet.aspect"], gt=0.0),
-        gravity=grav["gravity"], softening=grav["softening"],
-        opening_angle=grav["opening_angle"],
         initial_dispersion=sec.number("initial_dispersion", d["sheet.initial_dispersion"],
                                       unit="mean radius x Omega", ge=0.0),
         z_box=sec.number_or_auto("z_box", d["sheet.z_box"], unit="mean radii", gt=0.0),
         initial_state=initial_state,
-        gravity_solver=grav["gravity_solver"],
-        p3m_split=grav["p3m_split"],
+        **grav,
     )
 
 
@@ -471,7 +466,7 @@ def _check_geometry(top: Section, particles: Particles, sheet: SheetConfig,
                         f"{sheet.n_particles} particles make a {lx:.3g} m x {ly:.3g} m box, "
                         f"not wider than the largest particle (diameter {2 * r_max:g} m)",
                         "more particles, a lower optical depth or an aspect nearer 1")
-    check_p3m_box(top, sheet, particles.size_distribution.mean_radius, lx, ly)
+    check_gravity_box(top, sheet, particles.size_distribution.mean_radius, lx, ly)
     if sheet.z_box != "auto":
         r_mean = particles.size_distribution.mean_radius
         if sheet.z_box * r_mean <= 2.0 * r_max:

@@ -14,6 +14,7 @@ from typing import Any
 
 from ringsim.config.initial_state import InitialStateFile, sheet_dict_with_file
 from ringsim.physics.friction import INERTIA_FACTOR
+from ringsim.physics.gravity_solvers import SOLVER_PARAMETERS
 from ringsim.physics.sizes import SizeDistribution
 
 # --- the frozen scenario ----------------------------------------------------------------------
@@ -101,7 +102,7 @@ class SheetConfig:
         Self-gravity (solver: ``gravity_solver``).
     gravity_solver : "tree", "p3m", "slab" or None
         REBOUND's tree plus the field beyond its ghost boxes, or ringsim's P3M solver
-        (physics.selfgravity.GRAVITY_SOLVERS); None without gravity.
+        (physics.gravity_solvers.GRAVITY_SOLVERS); None without gravity.
     softening : float [m] or "auto" or None
         Gravitational softening length; "auto" = 0.1 x smallest radius; None without gravity.
     opening_angle : float [rad] or None
@@ -136,12 +137,9 @@ class SheetConfig:
         if not self.gravity:
             return {}
         d: dict[str, Any] = {"gravity_solver": self.gravity_solver}
-        if self.softening is not None:
-            d["softening"] = self.softening
-        if self.opening_angle is not None:
-            d["opening_angle"] = self.opening_angle
-        if self.p3m_split is not None:
-            d["p3m_split"] = self.p3m_split
+        for key in SOLVER_PARAMETERS:       # the solvers' keys, None where not used
+            if getattr(self, key) is not None:
+                d[key] = getattr(self, key)
         return d
 
     def to_dict(self) -> dict[str, Any]:

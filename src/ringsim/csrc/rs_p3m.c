@@ -5,7 +5,7 @@
  *
  * | effect     | self-gravity of a shear-periodic sheet, particle-particle particle-mesh  |
  * |------------|--------------------------------------------------------------------------|
- * | installed  | ringsim.engine.p3m.install_p3m: a Python additional_forces that calls     |
+ * | installed  | ringsim.gravity.p3m.install_p3m: a Python additional_forces that calls     |
  * |            | (rs_p3m_height_span for `p3m_split: auto`), rs_p3m_prepare, rs_p3m_assign, |
  * |            | (numpy FFT), rs_p3m_interpolate, rs_p3m_short; REBOUND's gravity "none"  |
  * | parameters | struct rs_p3m: split scale r_s [m], cutoff r_c [m], Plummer softening b   |
@@ -115,7 +115,7 @@ static int rs_p3m_threads(const struct rs_p3m* p, size_t n){
 }
 
 /* Height span zmax - zmin [m] of the particles (0 for fewer than two), and their number in
- * *count: what the layers must span, from which ringsim.engine.p3m chooses the split scale
+ * *count: what the layers must span, from which ringsim.gravity.p3m chooses the split scale
  * of `sheet.p3m_split: auto` (ringsim.physics.selfgravity.p3m_auto_split) before
  * rs_p3m_prepare. */
 double rs_p3m_height_span(const struct reb_simulation* const r, int* count){

@@ -71,11 +71,11 @@ def export_rebound(run, index: int, out: str | Path) -> tuple[Path, dict]:
     """Write the REBOUND simulation continuing snapshot ``index``; returns the path and
     what REBOUND's file does not keep (its function pointers and the spins): restitution,
     collision_detection, friction and inertia_factor, gravity (None, or the keywords of
-    `engine.gravity.install_gravity`), spins (whether the snapshot has spins that a rough
+    `gravity.registry.install_gravity`), spins (whether the snapshot has spins that a rough
     continuation needs), with the file's rand_seed, t [s] and orbits of the shear phase;
     `continuation_code` writes them as Python."""
-    from ringsim.engine.gravity import scenario_gravity_arguments
     from ringsim.engine.sheet import new_simulation
+    from ringsim.gravity.registry import scenario_gravity_arguments
 
     index = _snapshot_index(run, index)
     scenario = continuation_scenario(run, index)

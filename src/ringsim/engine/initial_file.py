@@ -36,6 +36,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ringsim.engine.box import (
+    OVERLAP_REPORT_FRACTION,
+    SheetGeometry,
+    box_geometry,
+    count_overlaps,
+)
 from ringsim.errors import InputError
 from ringsim.physics.constants import SHEAR
 from ringsim.physics.selfgravity import shear_offset
@@ -228,13 +234,6 @@ def read_initial_state(scenario):
     written with friction or a CSV with spin columns; else None.  The geometry's
     vertical extent is a placeholder (one root box): the caller sizes it.
     """
-    from ringsim.engine.sheet import (
-        OVERLAP_REPORT_FRACTION,
-        SheetGeometry,
-        box_geometry,
-        count_overlaps,
-    )
-
     path = resolve_path(scenario)
     if not path.is_file():
         raise _error(scenario, f"no such file: {path}")

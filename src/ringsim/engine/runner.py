@@ -36,12 +36,13 @@ from pathlib import Path
 import numpy as np
 
 from ringsim.analysis import snapshot
-from ringsim.engine import gravity, invariants, p3m, sheet, timestep
+from ringsim.engine import box, gravity, invariants, sheet, timestep
 from ringsim.engine.binary import simulation_binary, simulation_from_binary
 from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.progress import progress_bar
 from ringsim.engine.stop import StopRequest as _StopRequest
 from ringsim.errors import InputError
+from ringsim.gravity.registry import install_scenario_gravity, raise_pending, set_gravity_threads
 from ringsim.physics import friction
 from ringsim.physics.gravity import toomre_q
 from ringsim.store import runfile
@@ -158,18 +159,14 @@ class Runner:
         self._output(first=True)
 
     def _set_threads(self) -> None:
-        """Line detection's search and P3M on ``integration.threads`` threads (no effect on
-        results)."""
-        from ringsim.engine.p3m import installed_solver
-
+        """Line detection's search and the gravity solver (P3M) on ``integration.threads``
+        threads (no effect on results)."""
         threads = self.scenario.integration.thread_count()
         if self.scenario.integration.collision_detection == "line":
             from ringsim.engine.native import set_detector_threads
 
             set_detector_threads(self.handle.address, threads)
-        solver = installed_solver(self.sim)
-        if solver is not None:
-            solver.set_threads(threads)
+        set_gravity_threads(self.sim, threads)
 
     def _check_resumable(self, run) -> tuple[float, float]:
         """Old and new ``integration.orbits``; InputError unless only they (or the thread
@@ -200,9 +197,9 @@ class Runner:
             self.state = LoopState(int(st["rows"]), int(st["snapshots"]),
                                    int(st["guard_events"]), int(st["dt_warned"]),
                                    int(st["overlap_warned"]))
-            self.geometry = sheet.SheetGeometry(float(st["root_size"]), int(st["N_root_x"]),
-                                                int(st["N_root_y"]), int(st["N_root_z"]),
-                                                self.Omega)
+            self.geometry = box.SheetGeometry(float(st["root_size"]), int(st["N_root_x"]),
+                                              int(st["N_root_y"]), int(st["N_root_z"]),
+                                              self.Omega)
             rand_seed = int(st["rand_seed"])
         except (TypeError, ValueError) as exc:
             raise runfile.RunFileError(self.path, f"holds an unusable counter ({exc})",
@@ -220,7 +217,7 @@ class Runner:
         sim.rand_seed = rand_seed
         self.sim = sim
         if self.scenario.sheet.gravity:   # REBOUND does not save function pointers
-            gravity.install_scenario_gravity(sim, self.scenario)
+            install_scenario_gravity(sim, self.scenario)
             arrays = sheet.particle_arrays(sim)
             self.gravity = gravity.scenario_gravity(self.scenario, arrays["radius"],
                                                     arrays["mass"], self.geometry)
@@ -279,7 +276,7 @@ class Runner:
             "mean_impact_speed": float(stats["mean_vn"]) if count else float("nan"),
             "max_vertical_amplitude": sheet.max_vertical_amplitude(arrays, self.Omega),
             "z_half_period": 0.5 * g.z_period,
-            "overlapping_pairs": sheet.count_overlaps(arrays, g, self.sim.t),
+            "overlapping_pairs": box.count_overlaps(arrays, g, self.sim.t),
             "multi_encounters": int(stats["multi_encounters"]),
             "law_outside_speeds": int(stats["outside_speeds"]),
             "law_outside_sizes": int(stats["outside_sizes"]),
@@ -336,7 +333,7 @@ class Runner:
         if overlapping_pairs and not self.state.overlap_warned:
             self.state.overlap_warned = 1
             self._guard_event(f"WARNING: {overlapping_pairs} pairs overlap by more than "
-                              f"{sheet.OVERLAP_REPORT_FRACTION:.0%} of the smaller radius "
+                              f"{box.OVERLAP_REPORT_FRACTION:.0%} of the smaller radius "
                               "(collisions missed or particles sinking into each other); "
                               "counts per output are in /timeseries/overlapping_pairs")
         # vertical: never let a particle's oscillation reach the periodic z boundary
@@ -457,7 +454,7 @@ class Runner:
     def _advance(self, t_next: float) -> None:
         """Integrate to the first step end at or after ``t_next`` [s]."""
         self.sim.integrate(t_next, exact_finish_time=0)
-        p3m.raise_pending(self.sim)   # an error in the P3M callback, which ctypes swallows
+        raise_pending(self.sim)   # an error in a solver's callback, which ctypes swallows
 
     def equilibrium_reached(self) -> str | None:
         """With ``integration.until_equilibrium``: the reason to stop if the equilibrium

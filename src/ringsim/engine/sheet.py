@@ -1,4 +1,5 @@
-"""Scenario -> REBOUND shearing sheet: box, size distribution, initial state and guards.
+"""Scenario -> REBOUND shearing sheet: size distribution, initial state and guards in the
+box of ``engine.box``.
 
 The patch is REBOUND's shearing sheet (Wisdom & Tremaine 1988): Hill's equations
 integrated with the symplectic epicycle integrator SEI (Rein & Tremaine 2011), shear-
@@ -15,97 +16,25 @@ from __future__ import annotations
 import ctypes
 import math
 from dataclasses import dataclass
-from fractions import Fraction
 
 import numpy as np
 import rebound
 
 from ringsim.engine.blas import one_blas_thread
+from ringsim.engine.box import SheetGeometry, box_geometry, configure_box
+from ringsim.engine.initial_file import read_initial_state, refuse_copies_alike
 from ringsim.engine.placement import OverlapGrid, wrap_horizontal
 from ringsim.engine.timestep import choose_dt
+from ringsim.gravity.registry import (
+    install_gravity,
+    installed_gravity,
+    scenario_gravity_arguments,
+)
 from ringsim.physics.constants import SHEAR
 from ringsim.physics.sizes import size_bin_edges
 
 #: A particle's vertical amplitude may reach this fraction of the half z period.
 VERTICAL_GUARD_FRACTION = 0.4
-#: Overlaps deeper than this fraction of the smaller radius are reported.
-OVERLAP_REPORT_FRACTION = 0.1
-
-
-@dataclass(frozen=True)
-class SheetGeometry:
-    """The box of a sheet.
-
-    Attributes
-    ----------
-    root_size : float [m]
-        Edge of one cubic root box.
-    n_root_x, n_root_y, n_root_z : int
-        Root boxes along x, y, z.
-    Omega : float [1/s]
-    """
-
-    root_size: float
-    n_root_x: int
-    n_root_y: int
-    n_root_z: int
-    Omega: float
-
-    @property
-    def Lx(self) -> float:
-        """Radial box size [m]."""
-        return self.root_size * self.n_root_x
-
-    @property
-    def Ly(self) -> float:
-        """Azimuthal box size [m]."""
-        return self.root_size * self.n_root_y
-
-    @property
-    def z_period(self) -> float:
-        """Vertical period of the box [m]."""
-        return self.root_size * self.n_root_z
-
-    @property
-    def orbit(self) -> float:
-        """Orbital period 2 pi / Omega [s]."""
-        return 2.0 * math.pi / self.Omega
-
-    def attributes(self) -> dict:
-        """Geometry as run-file attributes (SI)."""
-        return {"root_size": self.root_size, "N_root_x": self.n_root_x,
-                "N_root_y": self.n_root_y, "N_root_z": self.n_root_z, "Lx": self.Lx,
-                "Ly": self.Ly, "Omega": self.Omega}
-
-
-# --- box ---------------------------------------------------------------------------------------
-
-def box_geometry(radii: np.ndarray, optical_depth: float, aspect: float, Omega: float,
-                 z_half_height: float) -> SheetGeometry:
-    """Root boxes holding ``radii`` at dynamical optical depth ``optical_depth``.
-
-    The horizontal box satisfies sum(pi r^2) = tau Lx Ly exactly; Ly/Lx is the closest
-    ratio of small integers to ``aspect`` (REBOUND's root boxes are cubes).  The vertical
-    period is at least 2 ``z_half_height``.
-
-    Parameters
-    ----------
-    radii : array [m]
-    optical_depth : float [dimensionless]
-    aspect : float [dimensionless]
-        Requested Ly / Lx.
-    Omega : float [1/s]
-    z_half_height : float [m]
-        Half of the smallest acceptable vertical period.
-    """
-    ratio = Fraction(aspect).limit_denominator(8)
-    if ratio <= 0:
-        ratio = Fraction(1, 8)
-    n_x, n_y = ratio.denominator, ratio.numerator
-    area = float(np.sum(np.pi * radii**2)) / optical_depth
-    root_size = math.sqrt(area / (n_x * n_y))
-    n_z = max(1, math.ceil(2.0 * z_half_height / root_size))
-    return SheetGeometry(root_size, n_x, n_y, n_z, Omega)
 
 
 # --- initial state -----------------------------------------------------------------------------
@@ -219,21 +148,6 @@ def centre_of_mass_at_rest(state: dict[str, np.ndarray], masses: np.ndarray,
 
 # --- the simulation ----------------------------------------------------------------------------
 
-def configure_box(sim: rebound.Simulation, geometry: SheetGeometry) -> None:
-    """Hill's equations (SEI, OMEGA = OMEGAZ) in the shear-periodic box of ``geometry``.
-
-    REBOUND 5.2 has no configure_box: the root grid is set field by field, before any
-    particle is added (the tree is built as particles arrive).
-    """
-    sim.integrator = "sei"
-    sim.OMEGA = geometry.Omega
-    sim.OMEGAZ = geometry.Omega
-    sim.root_size = geometry.root_size
-    sim.N_root_x, sim.N_root_y, sim.N_root_z = (geometry.n_root_x, geometry.n_root_y,
-                                                geometry.n_root_z)
-    sim.boundary = "shear"
-
-
 def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *,
                          gravity: dict | None, collision_detection: str,
                          rand_seed: int) -> None:
@@ -243,9 +157,9 @@ def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *,
     ----------
     geometry : SheetGeometry
     gravity : dict or None
-        Self-gravity: the arguments of ``engine.gravity.install_gravity`` (solver,
-        softening [m], opening_angle [rad], p3m_setting; a scenario's are
-        ``engine.gravity.scenario_gravity_arguments``); None for none.
+        Self-gravity: the arguments of ``gravity.registry.install_gravity`` (solver,
+        softening [m] and the solver's keywords; a scenario's are
+        ``gravity.registry.scenario_gravity_arguments``); None for none.
     collision_detection : "tree" (overlaps at step ends) or "line" (swept paths: REBOUND's
         linetree here; ``install_resolver`` replaces it by ringsim's sheet detector)
     rand_seed : int
@@ -255,8 +169,6 @@ def configure_simulation(sim: rebound.Simulation, geometry: SheetGeometry, *,
     sim.collision = "linetree" if collision_detection == "line" else "tree"
     sim.N_ghost_x, sim.N_ghost_y = 1, 1
     if gravity is not None:
-        from ringsim.engine.gravity import install_gravity
-
         install_gravity(sim, **gravity)
     else:
         sim.gravity = "none"
@@ -331,7 +243,6 @@ def build_sheet(scenario) -> BuiltSheet:
     ``sheet.initial_state`` the particles come from the file instead
     (`ringsim.engine.initial_file`).
     """
-    from ringsim.engine.initial_file import refuse_copies_alike
     from ringsim.engine.resolver import install_resolver
 
     sim, geometry, radii, masses, spins = new_simulation(scenario)
@@ -354,13 +265,9 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
     columns, else None (REBOUND particles have no spins: `build_sheet` gives them to the
     resolver). `ringsim export --rebound` saves this simulation, so that a REBOUND
     user's continuation and ringsim's are the same."""
-    from ringsim.engine.gravity import scenario_gravity_arguments
-
     Omega = scenario.orbital_frequency
     sheet_cfg = scenario.sheet
     if sheet_cfg.initial_state is not None:
-        from ringsim.engine.initial_file import read_initial_state
-
         radii, masses, state, geometry, t0, spins = read_initial_state(scenario)
         w = np.column_stack([state["vx"], state["vy"] + 1.5 * Omega * state["x"],
                              state["vz"]])
@@ -493,39 +400,6 @@ def vertical_guard_ok(arrays: dict[str, np.ndarray], geometry: SheetGeometry) ->
             < VERTICAL_GUARD_FRACTION * 0.5 * geometry.z_period)
 
 
-def count_overlaps(arrays: dict[str, np.ndarray], geometry: SheetGeometry, t: float = 0.0,
-                   fraction: float = OVERLAP_REPORT_FRACTION) -> int:
-    """Pairs overlapping by more than ``fraction`` of the smaller radius, each pair once.
-
-    Shear-periodic like the sheet: periodic in y; across the radial boundary a particle's
-    image at x +- Lx is shifted in y by -+ 1.5 Omega Lx t (the shear flow carries the
-    neighbouring boxes along), so pairs straddling that boundary are counted correctly; not
-    periodic in z.  Counted in C (``rs_count_overlaps`` in ``csrc/rs_setup.c``, on the
-    placement's per-radius-class grids); ``ringsim.testing.count_overlaps_numpy`` is the
-    numpy twin the tests compare it with.
-
-    Parameters
-    ----------
-    arrays : particle arrays (SI): x, y, z [m] in the box, radius [m]
-    geometry : SheetGeometry
-    t : float [s]
-        Time of the state (sets the shear offset of the radial images).
-    fraction : float [dimensionless]
-    """
-    from ringsim.engine.native import _LIB
-
-    columns = [np.ascontiguousarray(arrays[key], dtype=np.float64)
-               for key in ("x", "y", "z", "radius")]
-    double_p = ctypes.POINTER(ctypes.c_double)
-    count = _LIB.rs_count_overlaps(columns[3].size, *(c.ctypes.data_as(double_p)
-                                                      for c in columns),
-                                   geometry.Lx, geometry.Ly,
-                                   SHEAR * geometry.Omega * geometry.Lx * t, fraction)
-    if count < 0:
-        raise MemoryError(f"rs_count_overlaps: no memory for {columns[3].size} particles")
-    return int(count)
-
-
 def enlarged_copy(sim: rebound.Simulation, geometry: SheetGeometry,
                   n_root_z: int) -> tuple[rebound.Simulation, SheetGeometry]:
     """A copy of ``sim`` with a taller box (``n_root_z`` root boxes), state unchanged.
@@ -536,17 +410,8 @@ def enlarged_copy(sim: rebound.Simulation, geometry: SheetGeometry,
     """
     new_geometry = SheetGeometry(geometry.root_size, geometry.n_root_x, geometry.n_root_y,
                                  n_root_z, geometry.Omega)
-    from ringsim.engine.gravity import installed_solver_name
-    from ringsim.engine.p3m import installed_solver
-
-    p3m = installed_solver(sim)
-    solver = installed_solver_name(sim)
     new = rebound.Simulation()
-    gravity = None if solver is None else {
-        "solver": solver, "softening": sim.softening,
-        "opening_angle": math.sqrt(sim.opening_angle2),
-        "p3m_setting": None if p3m is None else p3m.setting}
-    configure_simulation(new, new_geometry, gravity=gravity,
+    configure_simulation(new, new_geometry, gravity=installed_gravity(sim),
                          collision_detection="tree" if sim.collision == "tree" else "line",
                          rand_seed=0)
     arrays = particle_arrays(sim)

@@ -27,6 +27,8 @@ from typing import Any
 
 #: Unit of a dimensionless parameter (as HDF5 attributes and JSON carry it).
 DIMENSIONLESS = "dimensionless"
+#: The value of a parameter whose ``auto`` says how ringsim chooses it.
+AUTO = "auto"
 
 
 @dataclass(frozen=True)
@@ -43,8 +45,8 @@ class Parameter:
         One line for the docs.
     source : str
         Paper and equation the parameter (and its default) comes from.
-    default : float or None
-        None: the user must give it.
+    default : float, "auto" or None
+        None: the user must give it; "auto" (only with ``auto``): chosen as ``auto`` says.
     lower, upper : float
         Allowed range; ``-inf``/``inf`` for an unbounded side.  A value must be finite.
     lower_closed, upper_closed : bool
@@ -52,28 +54,36 @@ class Parameter:
     slot : int
         Index of the C struct's ``param[]`` the value is packed into.
     example : float or None
-        A typical value when there is no default (start of fits, examples in the docs).
+        A typical value when there is no numeric default (start of fits, examples in the
+        docs).
+    auto : str
+        What the value ``"auto"`` means where the key accepts it (the scenario reader's
+        ``number_or_auto``); "" : numbers only.
     """
 
     name: str
     unit: str
     meaning: str
     source: str
-    default: float | None = None
+    default: float | str | None = None
     lower: float = -math.inf
     upper: float = math.inf
     lower_closed: bool = False
     upper_closed: bool = False
     slot: int = 0
     example: float | None = None
+    auto: str = ""
 
     def __post_init__(self) -> None:
         if not self.lower < self.upper:
             raise ValueError(f"{self.name}: declared range is empty")
-        if self.default is not None and not self.contains(self.default):
+        if self.default == AUTO:
+            if not self.auto:
+                raise ValueError(f"{self.name}: default 'auto' without its meaning")
+        elif self.default is not None and not self.contains(self.default):
             raise ValueError(f"{self.name}: default {self.default} outside its range")
         if self.typical is None:
-            raise ValueError(f"{self.name}: a required parameter needs an example value")
+            raise ValueError(f"{self.name}: without a numeric default it needs an example value")
 
     @property
     def required(self) -> bool:
@@ -81,8 +91,8 @@ class Parameter:
 
     @property
     def typical(self) -> float | None:
-        """The default, or the example of a required parameter."""
-        return self.default if self.default is not None else self.example
+        """The numeric default, else the example."""
+        return self.example if self.default is None or self.default == AUTO else self.default
 
     def contains(self, x: float) -> bool:
         """True if ``x`` is finite and inside the declared range."""

@@ -1,8 +1,8 @@
 """The length scales of the P3M self-gravity solver (issue 12): the split scale r_s and the
 multiples of it that set the pair sum's cutoff, the mesh's cells and its layers; the split
 that ``sheet.p3m_split: auto`` takes from the layer's height span; the fixed ladder of layer
-counts the mesh is padded to.  Declared once here; the solver (``engine.p3m``), its mesh
-(``physics.selfgravity.P3MMesh``), the scenario keys (``config.gravity_keys``), the
+counts the mesh is padded to.  Declared once here; the solver (``gravity.p3m``), its mesh
+(``physics.selfgravity.P3MMesh``), the scenario key (``physics.gravity_solvers``), the
 benchmarks and the docs derive from these (docs/gravity.md, section 4b).  Pure functions.
 """
 
@@ -90,3 +90,15 @@ def p3m_auto_split(first_split: float, height_span: float, n_particles: int, Lx:
         k -= 1
         split = floor * P3M_SPLIT_RUNG**k
     return split
+
+
+def p3m_first_split(p3m_split: float | str, mean_radius: float) -> float:
+    """The (first) split scale r_s [m] of ``sheet.p3m_split``: the number given, or, for
+    "auto", P3M_SPLIT_RADII mean radii, the smallest split auto chooses.
+
+    Parameters
+    ----------
+    p3m_split : float [m] or "auto"
+    mean_radius : float [m]
+    """
+    return P3M_SPLIT_RADII * mean_radius if p3m_split == "auto" else float(p3m_split)

@@ -370,10 +370,7 @@ def slab_field(z, mass, Lx, Ly, G=G_SI):
 
 # --- P3M: Gaussian force split (the mesh part; the pair part is ringsim/csrc/rs_p3m.c) ----------
 
-#: Self-gravity solvers of ``sheet.gravity_solver``: REBOUND's tree with the ghost-box
-#: truncation field, the P3M solver, or the slab (the field of the horizontally averaged
-#: layer only, for hot rings where the pull between neighbours is negligible; docs/gravity.md).
-GRAVITY_SOLVERS = ("tree", "p3m", "slab")
+
 def long_range_fraction(r, split):
     """L(r): the fraction of the Newtonian pair force G m / r^2 carried by the mesh [-].
 

@@ -318,7 +318,7 @@ OVERLAP_CHUNK = 1 << 13
 def count_overlaps_numpy(arrays: dict[str, np.ndarray], Lx: float, Ly: float, shift: float,
                          fraction: float) -> int:
     """Pairs overlapping by more than ``fraction`` of the smaller radius (the numpy twin of
-    ``rs_count_overlaps``, behind ``engine.sheet.count_overlaps``; the engine's count until
+    ``rs_count_overlaps``, behind ``engine.box.count_overlaps``; the engine's count until
     issue 16).
 
     Candidates within twice the largest radius come from scipy's cKDTree over the particles

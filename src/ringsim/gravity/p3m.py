@@ -8,7 +8,9 @@ is off (``sim.gravity = "none"``); one Python ``additional_forces`` callback per
 evaluation (SEI: once per step, at the half-step positions, time ``sim.t`` of mid-step) does
 prepare -> assign -> FFT solve -> interpolate -> pair sum.  ctypes swallows exceptions raised
 in a callback, so the callback stores the first one and :func:`raise_pending` re-raises it
-after the step (the run loop calls it after every chunk of steps).
+after the step (the run loop calls it after every chunk of steps).  `SOLVER` is the solver
+behind ``ringsim.gravity.base.GravitySolver``: its keyword ``p3m_setting`` is (split [m],
+auto).
 """
 
 from __future__ import annotations
@@ -30,12 +32,13 @@ from ringsim.engine.native import (
     checked_threads,
     keep_freed_memory,
 )
+from ringsim.gravity.base import GravitySolver
 from ringsim.physics.constants import G_SI
+from ringsim.physics.gravity_solvers import P3M
 from ringsim.physics.p3m_scales import (
     P3M_CELL_SPLITS,
     P3M_CUTOFF_SPLITS,
     P3M_LAYER_SPLITS,
-    P3M_SPLIT_RADII,
     layer_bucket,
     p3m_auto_split,
 )
@@ -85,7 +88,7 @@ def describe(Lx, Ly, softening, split, auto=False) -> dict:
     """
     p = p3m_parameters(Lx, Ly, split)
     largest = p3m_auto_split(split, math.inf, 1, Lx, Ly) if auto else p["split"]
-    return {"gravity_solver": "p3m",
+    return {"gravity_solver": P3M.name,
             "p3m_split": p["split"], "units_p3m_split": "m",
             "p3m_split_auto": int(bool(auto)),
             "units_p3m_split_auto": "1: the split follows the height span, 0: fixed",
@@ -248,34 +251,39 @@ def raise_pending(sim: rebound.Simulation) -> None:
         raise RuntimeError(f"P3M self-gravity failed during a step: {exc}") from exc
 
 
-def p3m_simulation(sheet, t=0.0, split=None, softening=None, G=G_SI, **kwargs):
-    """A REBOUND shearing sheet holding ``sheet`` (``engine.gravity.random_sheet``) with P3M
-    gravity; ``split`` [m] defaults to P3M_SPLIT_RADII x the mean radius, softening [m]
-    to engine.gravity.DEFAULT_SOFTENING_FRACTION x the smallest radius; ``t`` [s]."""
-    from ringsim.engine.gravity import DEFAULT_SOFTENING_FRACTION
-    from ringsim.engine.sheet import configure_box
-
-    sim = rebound.Simulation()
-    configure_box(sim, sheet["geometry"])
-    sim.collision = "none"
-    sim.G = G
-    sim.N_ghost_x, sim.N_ghost_y, sim.N_ghost_z = 1, 1, 0
-    b = (DEFAULT_SOFTENING_FRACTION * float(np.min(sheet["radius"])) if softening is None
-         else softening)
-    rs = P3M_SPLIT_RADII * float(np.mean(sheet["radius"])) if split is None else split
-    install_p3m(sim, P3MSolver(sheet["Lx"], sheet["Ly"], b, rs, G=G, **kwargs))
-    sim.t = t
-    for p, v, m, r in zip(sheet["pos"], sheet["vel"], sheet["mass"], sheet["radius"],
-                          strict=True):
-        sim.add(m=m, r=r, x=p[0], y=p[1], z=p[2], vx=v[0], vy=v[1], vz=v[2])
-    return sim
+def set_threads(sim: rebound.Simulation, threads: int) -> None:
+    """The installed P3M solver's threads (`P3MSolver.set_threads`; nothing without P3M)."""
+    solver = installed_solver(sim)
+    if solver is not None:
+        solver.set_threads(threads)
 
 
-def accelerations(sim) -> np.ndarray:
-    """Accelerations [m/s^2] (N, 3) of the simulation's forces at its current state."""
-    rebound.clibrebound.reb_simulation_update_acceleration(ctypes.byref(sim))
-    raise_pending(sim)
-    acc = np.empty((sim.N, 3))
-    for i, p in enumerate(sim.particles):
-        acc[i] = (p.ax, p.ay, p.az)
-    return acc
+def install(sim: rebound.Simulation, *, p3m_setting: tuple[float, bool]) -> None:
+    """A `P3MSolver` of ``sim``'s box and softening with ``p3m_setting`` = (split scale
+    [m], auto: the split follows the height span from there up), the other parameters at
+    their defaults (``physics.p3m_scales.P3M_*``)."""
+    split, auto = p3m_setting
+    Lx = sim.root_size * sim.N_root_x
+    Ly = sim.root_size * sim.N_root_y
+    install_p3m(sim, P3MSolver(Lx, Ly, sim.softening, split, G=G_SI, auto=auto))
+
+
+def arguments(scenario) -> dict:
+    """``p3m_setting`` (split [m], auto) of a scenario's P3M solver."""
+    return {"p3m_setting": scenario.p3m_setting}
+
+
+def recognise(sim: rebound.Simulation) -> dict | None:
+    """``p3m_setting`` of the P3M solver installed in ``sim`` (None: none)."""
+    solver = installed_solver(sim)
+    return None if solver is None else {"p3m_setting": solver.setting}
+
+
+def attributes(keywords: dict, geometry) -> dict:
+    """`describe` of the solver in ``geometry``'s box (Lx, Ly [m])."""
+    return describe(geometry.Lx, geometry.Ly, keywords["softening"], *keywords["p3m_setting"])
+
+
+SOLVER = GravitySolver(P3M, install=install, arguments=arguments, recognise=recognise,
+                       attributes=attributes, set_threads=set_threads,
+                       raise_pending=raise_pending)

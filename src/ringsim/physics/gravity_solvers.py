@@ -1,0 +1,123 @@
+"""The self-gravity solvers a scenario may choose, declared once: name and parameters.
+
+Each solver of ``sheet.gravity_solver`` is a `SolverDeclaration`: its name, one line of
+meaning, its keys of the ``sheet`` section as `ringsim.physics.laws.Parameter` (unit,
+default, range, meaning, source, and what ``auto`` means where a key accepts it), and, where
+it has one, its check of the box.  `GRAVITY_SOLVERS` collects them by name, in the order
+the docs and the scenario's error messages list them.  The scenario's gravity keys
+(``config.gravity_keys``) are validated from these declarations; the installation of each
+solver in a REBOUND simulation is ``ringsim.gravity.<name>``, which names its declaration.
+
+The declarations live here, not beside the installation, because the scenario reader
+(config) may import physics but not the REBOUND machinery (``ringsim.gravity`` is at the
+engine's level).  Pure Python: no numpy, no REBOUND.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from ringsim.physics.laws import AUTO, Parameter
+from ringsim.physics.p3m_scales import P3M_CUTOFF_SPLITS, P3M_SPLIT_RADII, p3m_first_split
+
+#: Softening used by ``sheet.softening: auto``, as a fraction of the smallest particle
+#: radius (REBOUND's shearing-sheet example: 0.1 m for 1 m particles).
+AUTO_SOFTENING_FRACTION = 0.1
+
+SOFTENING = Parameter(
+    "softening", "m", default=AUTO, lower=0.0, lower_closed=True, example=0.1,
+    auto=f"{AUTO_SOFTENING_FRACTION:g} x the smallest particle radius",
+    meaning="gravitational (Plummer) softening length of the pair forces",
+    source="REBOUND's shearing-sheet example (0.1 m for 1 m particles)")
+OPENING_ANGLE = Parameter(
+    "opening_angle", "rad", default=0.3, lower=0.0, upper=1.0, upper_closed=True,
+    meaning="Barnes-Hut opening angle of REBOUND's tree (its opening_angle2 is the square)",
+    source="docs/gravity.md: < 1 % rms force error with the field beyond the ghost boxes, "
+           "2 % at 0.5")
+P3M_SPLIT = Parameter(
+    "p3m_split", "m", default=AUTO, lower=0.0, example=3.0,
+    auto=f"follows the layer's height span, from {P3M_SPLIT_RADII:g} mean radii up "
+         "(physics.p3m_scales.p3m_auto_split)",
+    meaning="split scale r_s of P3M's Gaussian force split (cutoff, mesh cells and layers "
+            "are multiples of it)",
+    source="docs/gravity.md, section 4b (benchmarks/gravity.py, benchmarks/p3m_split.py)")
+
+
+@dataclass(frozen=True)
+class SolverDeclaration:
+    """One self-gravity solver as a scenario chooses it.
+
+    Attributes
+    ----------
+    name : str
+        Value of ``sheet.gravity_solver``.
+    meaning : str
+        One line for the docs.
+    parameters : tuple of Parameter
+        Its keys of the ``sheet`` section (a key several solvers use is one `Parameter`,
+        shared by their declarations).
+    lacks : str
+        What the solver does without: the reason given when a scenario sets a key that
+        other solvers use ("no pair forces"); "": nothing to say.
+    implied_by : tuple of str
+        Keys that choose this solver when a scenario gives no ``gravity_solver``.
+    check_box : callable or None
+        ``check_box(values, mean_radius, n_particles, Lx, Ly)`` with the solver's
+        parameter ``values`` (as given: numbers or "auto"), the mean radius and the box
+        [m]: None if the box suits the solver, else (problem, what is allowed), the
+        scenario error naming ``sheet.gravity_solver``.
+    """
+
+    name: str
+    meaning: str
+    parameters: tuple[Parameter, ...] = ()
+    lacks: str = ""
+    implied_by: tuple[str, ...] = ()
+    check_box: Callable[..., tuple[str, str] | None] | None = None
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The solver's keys of the ``sheet`` section."""
+        return tuple(p.name for p in self.parameters)
+
+
+def _p3m_box(values: Mapping[str, Any], mean_radius: float, n_particles: int, Lx: float,
+             Ly: float) -> tuple[str, str] | None:
+    """P3M's pair sum needs a box wider than its cutoff (``rs_p3m.c``) at the first split
+    scale (``auto`` never chooses a cutoff the box cannot hold).
+
+    Parameters
+    ----------
+    values : P3M's keys (``p3m_split`` [m] or "auto")
+    mean_radius : float [m]
+    n_particles : int
+    Lx, Ly : float [m]
+    """
+    cutoff = P3M_CUTOFF_SPLITS * p3m_first_split(values["p3m_split"], mean_radius)
+    if min(Lx, Ly) > cutoff:
+        return None
+    return (f"p3m needs a box wider than its pair-sum cutoff ({cutoff:.3g} m); "
+            f"{n_particles} particles make {Lx:.3g} m x {Ly:.3g} m",
+            "tree, a smaller sheet.p3m_split, or more particles")
+
+
+TREE = SolverDeclaration(
+    "tree", "REBOUND's tree, one ring of ghost boxes and the field of the sheet beyond them",
+    (SOFTENING, OPENING_ANGLE),
+    # scenarios that set the opening angle and no solver were written for the tree, before
+    # P3M became the default: they run as they did
+    implied_by=("opening_angle",))
+P3M = SolverDeclaration(
+    "p3m", "ringsim's shear-periodic P3M: a layered mesh with scipy.fft plus a pair sum in C",
+    (SOFTENING, P3M_SPLIT), check_box=_p3m_box)
+SLAB = SolverDeclaration(
+    "slab", "the vertical field of the horizontally averaged layer only (hot rings)",
+    lacks="no pair forces")
+
+#: The solvers by name, in the order the docs and the error messages list them.
+GRAVITY_SOLVERS: dict[str, SolverDeclaration] = {s.name: s for s in (TREE, P3M, SLAB)}
+#: Every solver parameter by key, once, in the order of the solvers' declarations.
+SOLVER_PARAMETERS: dict[str, Parameter] = {
+    p.name: p for s in GRAVITY_SOLVERS.values() for p in s.parameters}

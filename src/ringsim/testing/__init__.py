@@ -1,0 +1,45 @@
+"""For tests and benchmarks (nothing of the library imports it).
+
+* ``twins``: the pure-Python twins of the C code, the resolver
+  (`PythonReferenceResolver`, ``sim.collision_resolve = twin``) and the overlap count of
+  the outputs (`count_overlaps_numpy`), and `run_file_datasets`, with which tests compare
+  run files bit for bit;
+* ``gravity``: the self-gravity harness, random sheets in REBOUND with the tree or P3M,
+  their accelerations and their errors against the converged image sum.
+
+Every name is importable from ``ringsim.testing`` itself.
+"""
+
+from ringsim.testing.gravity import (
+    DEFAULT_OPENING_ANGLE,
+    DEFAULT_SOFTENING_FRACTION,
+    accelerations,
+    force_errors,
+    p3m_simulation,
+    random_sheet,
+    reference_for,
+    tree_accelerations,
+    tree_simulation,
+)
+from ringsim.testing.twins import (
+    OVERLAP_CHUNK,
+    PythonReferenceResolver,
+    count_overlaps_numpy,
+    run_file_datasets,
+)
+
+__all__ = [
+    "DEFAULT_OPENING_ANGLE",
+    "DEFAULT_SOFTENING_FRACTION",
+    "OVERLAP_CHUNK",
+    "PythonReferenceResolver",
+    "accelerations",
+    "count_overlaps_numpy",
+    "force_errors",
+    "p3m_simulation",
+    "random_sheet",
+    "reference_for",
+    "run_file_datasets",
+    "tree_accelerations",
+    "tree_simulation",
+]
