@@ -148,11 +148,11 @@ def _cmd_run(args) -> int:
                progress=not args.no_progress)
     from ringsim.store.runfile import open_run
 
-    run = open_run(path)
-    status = run.attrs.get("status")
+    run_file = open_run(path)
+    status = str(run_file.attrs.get("status"))
     print(f"{scenario.name}: {status}; run file {path}")
     if status == "failed":
-        print(f"ringsim: error: {path}: the run failed: {run.attrs.get('failure')}",
+        print(f"ringsim: error: {path}: the run failed: {run_file.attrs.get('failure')}",
               file=sys.stderr)
     return {"finished": EXIT_OK, "stopped": EXIT_INTERRUPTED}.get(status, EXIT_FAILURE)
 

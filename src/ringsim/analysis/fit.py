@@ -145,6 +145,14 @@ def _weights(data: RestitutionData) -> np.ndarray:
     return 1.0 / data.sigma if data.sigma is not None else np.ones_like(data.v)
 
 
+def _sizes(data: RestitutionData) -> tuple[np.ndarray, np.ndarray]:
+    """R_bar [m] and M_bar [kg] of data that has them (checked by `fit_model` for the
+    dilley model); ValueError otherwise."""
+    if data.R_bar is None or data.M_bar is None:
+        raise ValueError(f"{data.source}: no reduced radii and masses")
+    return data.R_bar, data.M_bar
+
+
 def _linearised_starts(model: str, data: RestitutionData, fixed: Mapping[str, float]
                        ) -> list[dict[str, float]]:
     """Starts from straight-line fits: ln xi (dilley) or ln epsilon (bridges) vs ln v."""
@@ -153,11 +161,12 @@ def _linearised_starts(model: str, data: RestitutionData, fixed: Mapping[str, fl
         return []
     v = data.v[inside]
     if model == "dilley":
+        R_bar, M_bar = _sizes(data)
         xi = np.asarray(rs.xi_from_epsilon(data.epsilon[inside]))
-        target = np.log(xi) + rs.RADIUS_EXPONENT * np.log(data.R_bar[inside] / rs.R_REF)
+        target = np.log(xi) + rs.RADIUS_EXPONENT * np.log(R_bar[inside] / rs.R_REF)
         columns = [np.ones_like(v), np.log(v / rs.V_REF)]
         if "kappa" not in fixed:
-            columns.append(-np.log(data.M_bar[inside] / rs.M_REF))
+            columns.append(-np.log(M_bar[inside] / rs.M_REF))
         coef, *_ = np.linalg.lstsq(np.column_stack(columns), target, rcond=None)
         start = {"xi0": float(np.exp(coef[0])), "p": float(coef[1])}
         start["kappa"] = float(coef[2]) if "kappa" not in fixed else fixed["kappa"]
@@ -219,13 +228,14 @@ def _identifiability_notes(data: RestitutionData) -> tuple[dict[str, float], lis
     """Parameters fixed because the data cannot constrain them, and notes about the data."""
     fixed: dict[str, float] = {}
     notes: list[str] = []
-    if np.unique(data.M_bar).size == 1:
+    R_bar, M_bar = _sizes(data)
+    if np.unique(M_bar).size == 1:
         fixed["kappa"] = 0.0
         notes.append(f"kappa fixed at 0: every point has the same reduced mass "
-                     f"({data.M_bar[0]:.6g} kg), so (M_bar/60 g)^-kappa is a constant "
+                     f"({M_bar[0]:.6g} kg), so (M_bar/60 g)^-kappa is a constant "
                      "absorbed by xi0")
-    elif np.unique(data.R_bar).size > 1:
-        ln_r, ln_m = np.log(data.R_bar), np.log(data.M_bar)
+    elif np.unique(R_bar).size > 1:
+        ln_r, ln_m = np.log(R_bar), np.log(M_bar)
         slope, intercept = np.polyfit(ln_r, ln_m, 1)
         if np.max(np.abs(ln_m - (slope * ln_r + intercept))) < 1e-9:
             notes.append(f"M_bar varies only as R_bar^{slope:.3g}: kappa is separated from "
@@ -428,7 +438,7 @@ def _check_restitution_yaml(text: str, path: str) -> None:
 
 def _groups(data: RestitutionData) -> list[tuple[float | None, float | None, np.ndarray]]:
     """(R_bar [m], M_bar [kg], mask) of each distinct size-mass pair of the data."""
-    if not data.has_sizes:
+    if data.R_bar is None or data.M_bar is None:   # not data.has_sizes
         return [(None, None, np.ones(len(data), dtype=bool))]
     pairs = np.column_stack([data.R_bar, data.M_bar])
     unique = np.unique(pairs, axis=0)
@@ -460,8 +470,11 @@ def plot_fits(data: RestitutionData, results: Sequence[dict], path: str | Path) 
     plt = pyplot()
     groups = _groups(data)
     shared = len(groups) > MAX_PANELS
-    panels = ([(float(np.median(data.R_bar)), float(np.median(data.M_bar)),
-                np.ones(len(data), dtype=bool))] if shared else groups)
+    panels = groups
+    if shared:   # many size-mass groups (so the data have sizes): one panel at the medians
+        R_bar, M_bar = _sizes(data)
+        panels = [(float(np.median(R_bar)), float(np.median(M_bar)),
+                   np.ones(len(data), dtype=bool))]
     ncols = min(len(panels), 4)
     nrows = math.ceil(len(panels) / ncols)
     fig, axes = plt.subplots(nrows, ncols, figsize=(4.2 * ncols + 0.8, 3.6 * nrows + 0.6),

@@ -405,10 +405,11 @@ def _read_integration(top: Section, planet: Planet) -> Integration:
                            choices=_COLLISION_DETECTIONS)
     dt = sec.number_or_auto("dt", d["integration.dt"], unit="orbits", gt=0.0,
                             le=MAX_DT_ORBITS)
-    if dt != "auto" and dt > orbits:
+    # a number unless it is a string (the only one allowed is "auto")
+    if not isinstance(dt, str) and dt > orbits:
         raise sec.error("dt", f"dt = {dt:g} orbits is longer than the run ({orbits:g} orbits)",
                         "dt <= integration.orbits")
-    if dt != "auto" and detection == "line":
+    if not isinstance(dt, str) and detection == "line":
         _check_line_dt(sec, dt, planet.orbital_frequency)
     return Integration(
         orbits=orbits,
@@ -467,7 +468,7 @@ def _check_geometry(top: Section, particles: Particles, sheet: SheetConfig,
                         f"not wider than the largest particle (diameter {2 * r_max:g} m)",
                         "more particles, a lower optical depth or an aspect nearer 1")
     check_gravity_box(top, sheet, particles.size_distribution.mean_radius, lx, ly)
-    if sheet.z_box != "auto":
+    if not isinstance(sheet.z_box, str):   # a number, not "auto"
         r_mean = particles.size_distribution.mean_radius
         if sheet.z_box * r_mean <= 2.0 * r_max:
             raise top.error("sheet.z_box",

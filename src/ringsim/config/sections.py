@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ringsim.config.initial_state import InitialStateFile, sheet_dict_with_file
-from ringsim.physics.friction import INERTIA_FACTOR
+from ringsim.physics.friction import SOLID_SPHERE_INERTIA
 from ringsim.physics.gravity_solvers import SOLVER_PARAMETERS
 from ringsim.physics.sizes import SizeDistribution
 
@@ -42,7 +42,14 @@ class Planet:
         """Omega [1/s]: as given, or sqrt(GM / a^3)."""
         if self.Omega is not None:
             return self.Omega
-        return math.sqrt(self.GM / self.a**3)
+        GM, a = self._gm_and_a()
+        return math.sqrt(GM / a**3)
+
+    def _gm_and_a(self) -> tuple[float, float]:
+        """GM and a of a planet given without Omega; ValueError if either is missing."""
+        if self.GM is None or self.a is None:
+            raise ValueError("planet: give Omega, or both GM and a")
+        return self.GM, self.a
 
     @property
     def orbital_period(self) -> float:
@@ -52,7 +59,8 @@ class Planet:
     def to_dict(self) -> dict[str, float]:
         if self.Omega is not None:
             return {"Omega": self.Omega}
-        return {"GM": self.GM, "a": self.a}
+        GM, a = self._gm_and_a()
+        return {"GM": GM, "a": a}
 
 
 
@@ -72,7 +80,7 @@ class Particles:
 
     density: float
     size_distribution: SizeDistribution
-    inertia_factor: float = INERTIA_FACTOR.default
+    inertia_factor: float = SOLID_SPHERE_INERTIA
 
     @property
     def mean_mass(self) -> float:
@@ -81,7 +89,7 @@ class Particles:
 
     def to_dict(self) -> dict[str, Any]:
         d = {"density": self.density, "size_distribution": self.size_distribution.to_dict()}
-        if self.inertia_factor != INERTIA_FACTOR.default:   # only written with friction
+        if self.inertia_factor != SOLID_SPHERE_INERTIA:   # only written with friction
             d["inertia_factor"] = self.inertia_factor
         return d
 

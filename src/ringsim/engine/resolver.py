@@ -52,7 +52,7 @@ import ctypes
 import math
 import weakref
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import rebound
@@ -173,7 +173,7 @@ class ResolverHandle:
         self.log_every = int(log_every)
         self.collision_detection = collision_detection
         self._address: int | None = address
-        self._struct = _Resolver.from_address(address)
+        self._struct: _Resolver | None = _Resolver.from_address(address)
         self._struct.measured[:] = measured_range(model)
         self.friction = (None if friction_model == "none"
                          else {"model": friction_model, **friction_params})
@@ -258,7 +258,7 @@ class ResolverHandle:
         self.close()
 
     def __repr__(self) -> str:
-        state = "closed" if self.closed else f"{self._struct.stats.count} collisions"
+        state = "closed" if self.closed else f"{self._open().stats.count} collisions"
         return f"<ResolverHandle {self.model} {self.parameters} ({state})>"
 
     # -- spins ----------------------------------------------------------------------------
@@ -289,7 +289,7 @@ class ResolverHandle:
         _spins.write_spin_state(self.address, self._open(), spins,
                                 self._sim.N if self._sim is not None else None)
 
-    def _open(self) -> Any:
+    def _open(self) -> _Resolver:
         if self._struct is None:
             raise ValueError("the resolver handle is closed")
         return self._struct
@@ -416,8 +416,7 @@ class ResolverHandle:
         capacity = self.log_capacity
         if capacity == 0 or written == 0:
             return np.zeros(0, dtype=LOG_DTYPE)
-        raw = (ctypes.c_char * (capacity * LOG_DTYPE.itemsize)).from_address(self._struct.log)
-        entries = np.frombuffer(raw, dtype=LOG_DTYPE)
+        entries = self._raw_log()
         if written <= capacity:
             return entries[:written].copy()
         return np.roll(entries, -(written % capacity)).copy()   # oldest first
@@ -454,7 +453,7 @@ class ResolverHandle:
         if log.dtype != LOG_DTYPE or log.shape != (self.log_capacity,):
             raise ValueError(f"statistics: log must hold {self.log_capacity} entries of "
                              f"LOG_DTYPE, got {log.shape} {log.dtype}")
-        _statistics.restore(self._struct.stats, values)
+        _statistics.restore(self._open().stats, values)
         self._raw_log()[...] = log
 
     def _raw_log(self) -> np.ndarray:
@@ -462,8 +461,9 @@ class ResolverHandle:
         if self.log_capacity == 0:
             return np.zeros(0, dtype=LOG_DTYPE)
         raw = (ctypes.c_char * (self.log_capacity * LOG_DTYPE.itemsize)).from_address(
-            self._struct.log)
-        return np.frombuffer(raw, dtype=LOG_DTYPE)
+            self._open().log)
+        # numpy's stubs do not list ctypes arrays among frombuffer's buffers
+        return np.frombuffer(raw, dtype=LOG_DTYPE)  # type: ignore[call-overload]
 
     def resolve_batch(self, collisions: np.ndarray) -> int:
         """Resolve a list of collisions in the attached simulation with one C call.
@@ -584,6 +584,6 @@ def constant_epsilon_callback_address() -> int:
 
         sim._coefficient_of_restitution = CORFF(constant_epsilon_callback_address())
     """
-    return _CONSTANT_COR_ADDRESS
+    return cast(int, _CONSTANT_COR_ADDRESS)   # a loaded function's address is never NULL
 
 

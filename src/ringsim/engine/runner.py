@@ -32,6 +32,7 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -40,6 +41,7 @@ from ringsim.engine import box, gravity, invariants, sheet, timestep
 from ringsim.engine.binary import simulation_binary, simulation_from_binary
 from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.progress import progress_bar
+from ringsim.engine.resolver import ResolverHandle, install_resolver
 from ringsim.engine.stop import StopRequest as _StopRequest
 from ringsim.errors import InputError
 from ringsim.gravity.registry import install_scenario_gravity, raise_pending, set_gravity_threads
@@ -140,7 +142,8 @@ class Runner:
         e.g. to time the loop apart from the set-up), or a new one; first output."""
         if built is None:
             built = sheet.build_sheet(self.scenario)
-        self.sim, self.geometry, self.handle = built.sim, built.geometry, built.resolver
+        self.sim, self.geometry = built.sim, built.geometry
+        self.handle = cast(ResolverHandle, built.resolver)  # BuiltSheet.resolver: object
         self._set_threads()
         self.edges = built.size_bin_edges
         self.n_particles = self.sim.N
@@ -223,8 +226,6 @@ class Runner:
                                                     arrays["mass"], self.geometry)
         edges = run.timeseries.get("size_bin_edges")
         self.edges = None if edges is None else np.asarray(edges)
-        from ringsim.engine.resolver import install_resolver
-
         self.handle = install_resolver(
             sim, self.scenario.restitution_dict(), self.scenario.friction_dict(),
             self.scenario.particles.inertia_factor,
@@ -246,7 +247,10 @@ class Runner:
         self.momentum = (invariants.SheetMomentum.from_attributes(st)
                          or invariants.sheet_momentum(sheet.particle_arrays(sim), self.Omega,
                                                       sim.t))
-        self.wall_before = float(run.attrs.get("wall_time_s", 0.0))
+        wall = run.attrs.get("wall_time_s", 0.0)
+        if not isinstance(wall, (int, float)):
+            raise runfile.RunFileError(self.path, f"{wall!r} is not a number", "wall_time_s")
+        self.wall_before = float(wall)
         attributes = {"status": "running"}
         if new_orbits > old_orbits:
             # a longer run of the same scenario: continue it, and let the file say so
@@ -290,7 +294,8 @@ class Runner:
                 arrays["mass"], arrays["radius"], self.handle.spins(),
                 self.scenario.particles.inertia_factor, self.Omega,
                 1.5 * float(np.sum(arrays["mass"]))
-                * summary["velocity_dispersion_mass_weighted"] ** 2),
+                # snapshot_summary's values are typed object; this one is a float
+                * cast(float, summary["velocity_dispersion_mass_weighted"]) ** 2),
                 tangential_dissipation=float(stats["tangential_dissipation"]),
                 sliding_collisions=int(stats["n_sliding"]))
         for key in runfile.TIMESERIES_UNITS:

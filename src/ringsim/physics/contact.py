@@ -61,8 +61,9 @@ def _integrate(accel, v: float, time_scale: float, length_scale: float) -> Conta
     def separated(s, y):
         return y[0]
 
-    separated.terminal = True
-    separated.direction = -1
+    # solve_ivp reads these attributes of an event function, which mypy does not know
+    separated.terminal = True  # type: ignore[attr-defined]
+    separated.direction = -1  # type: ignore[attr-defined]
 
     def turning(s, y):
         return y[1]

@@ -530,10 +530,11 @@ def spin_statistics(w: ArrayLike, Omega: float, weights: ArrayLike | None = None
         Weights of the particles (e.g. mass or cross section); equal by default.
     """
     w = np.atleast_2d(np.asarray(w, dtype=float))
+    wts = None if weights is None else np.asarray(weights, dtype=float)
     size = np.sqrt(np.sum(w * w, axis=1))
-    return {"mean_abs": float(np.average(size, weights=weights)) / Omega,
-            "rms": math.sqrt(float(np.average(size * size, weights=weights))) / Omega,
-            "mean_z": float(np.average(w[:, 2], weights=weights)) / Omega}
+    return {"mean_abs": float(np.average(size, weights=wts)) / Omega,
+            "rms": math.sqrt(float(np.average(size * size, weights=wts))) / Omega,
+            "mean_z": float(np.average(w[:, 2], weights=wts)) / Omega}
 
 
 #: The spin rows of a run's time series (runs with friction): key -> unit (ringsim.quantities).

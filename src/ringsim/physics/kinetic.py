@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from functools import lru_cache
+from typing import TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -234,15 +235,22 @@ def effective_epsilon(restitution: Mapping[str, object], velocity_dispersion: fl
     return float(math.sqrt(np.dot(weights, eps * eps) / np.sum(weights)))
 
 
+class _Balance(TypedDict):
+    """One thermal balance of `_balances`: the velocity dispersion [m/s] and its stability."""
+
+    velocity_dispersion: float
+    stable: bool
+
+
 def _balances(excess, c_min: float, c_max: float,
-              n_scan: int) -> tuple[list[dict[str, object]], np.ndarray]:
+              n_scan: int) -> tuple[list[_Balance], np.ndarray]:
     """Roots of ``excess(ln c)`` (eps_eff - eps_cr) bracketed by a log-spaced scan of c over
     [c_min, c_max] [m/s] and refined by Brent's method; a root is stable where the excess
     falls through zero as c grows (hotter -> more dissipative).  Returns the roots and the
     scanned excess."""
     log_c = np.linspace(math.log(c_min), math.log(c_max), n_scan)
     f = np.array([excess(x) for x in log_c])
-    roots: list[dict[str, object]] = []
+    roots: list[_Balance] = []
     for i in range(log_c.size - 1):
         if f[i] == 0.0:
             roots.append({"velocity_dispersion": math.exp(log_c[i]),

@@ -23,12 +23,21 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypedDict
 
 #: Unit of a dimensionless parameter (as HDF5 attributes and JSON carry it).
 DIMENSIONLESS = "dimensionless"
 #: The value of a parameter whose ``auto`` says how ringsim chooses it.
 AUTO = "auto"
+
+
+class Limits(TypedDict, total=False):
+    """A parameter's range as the keywords of ``Section.number``: its finite ends only."""
+
+    gt: float
+    ge: float
+    lt: float
+    le: float
 
 
 @dataclass(frozen=True)
@@ -82,7 +91,7 @@ class Parameter:
                 raise ValueError(f"{self.name}: default 'auto' without its meaning")
         elif self.default is not None and not self.contains(self.default):
             raise ValueError(f"{self.name}: default {self.default} outside its range")
-        if self.typical is None:
+        if self.example is None and (self.default is None or self.default == AUTO):
             raise ValueError(f"{self.name}: without a numeric default it needs an example value")
 
     @property
@@ -90,9 +99,13 @@ class Parameter:
         return self.default is None
 
     @property
-    def typical(self) -> float | None:
-        """The numeric default, else the example."""
-        return self.example if self.default is None or self.default == AUTO else self.default
+    def typical(self) -> float:
+        """The numeric default, else the example (one of them is set)."""
+        if self.default is not None and self.default != AUTO:
+            return float(self.default)
+        if self.example is None:   # refused by __post_init__
+            raise ValueError(f"{self.name}: without a numeric default it needs an example value")
+        return self.example
 
     def contains(self, x: float) -> bool:
         """True if ``x`` is finite and inside the declared range."""
@@ -102,13 +115,19 @@ class Parameter:
         below = x <= self.upper if self.upper_closed else x < self.upper
         return above and below
 
-    def limits(self) -> dict[str, float]:
+    def limits(self) -> Limits:
         """The range as keywords ``gt``/``ge``/``lt``/``le`` (finite ends only)."""
-        out: dict[str, float] = {}
+        out: Limits = {}
         if math.isfinite(self.lower):
-            out["ge" if self.lower_closed else "gt"] = self.lower
+            if self.lower_closed:
+                out["ge"] = self.lower
+            else:
+                out["gt"] = self.lower
         if math.isfinite(self.upper):
-            out["le" if self.upper_closed else "lt"] = self.upper
+            if self.upper_closed:
+                out["le"] = self.upper
+            else:
+                out["lt"] = self.upper
         return out
 
     def range_text(self) -> str:
@@ -218,7 +237,7 @@ class Law:
         out: dict[str, float] = {}
         for par in self.parameters:
             if par.name not in values:
-                if par.required:
+                if par.default is None:
                     raise ValueError(f"{par.name}: required by model {self.name!r}")
                 out[par.name] = float(par.default)
             else:

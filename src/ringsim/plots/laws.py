@@ -27,7 +27,7 @@ class Curve:
         Legend text.
     v : array [m/s]
     epsilon : array [dimensionless]
-    style : str
+    style : str or (offset, dash sequence)
         Matplotlib line style.
     """
 
@@ -35,7 +35,7 @@ class Curve:
     label: str
     v: np.ndarray
     epsilon: np.ndarray
-    style: str = "-"
+    style: str | tuple[int, tuple[int, ...]] = "-"
 
 
 PANEL_TITLES = {
@@ -60,7 +60,8 @@ def paper_curves(v: np.ndarray | None = None) -> list[Curve]:
     curves: list[Curve] = []
     # Fig. 1b-d: the experiment's sphere against a brick; only the size enters (eq. 5.13).
     for radius_cm in (2.5, 5.0, 10.0, 20.0):
-        eps = rs.dilley_epsilon(v, rs.reduced_radius(radius_cm * CM, np.inf), rs.M_REF)
+        eps = np.asarray(rs.dilley_epsilon(v, rs.reduced_radius(radius_cm * CM, np.inf),
+                                           rs.M_REF))
         curves.append(Curve("fig1", f"R = {radius_cm:g} cm", v, eps))
     # Fig. 5: equal-density spheres, smaller radius R1, delta = 0 (brick) and 1 (twin).
     for kappa in (0.0, 0.1):
@@ -75,15 +76,15 @@ def paper_curves(v: np.ndarray | None = None) -> list[Curve]:
     # Plastic-deformation models of section 4 against the viscous fit, R = 2.5 cm.
     curves += [
         Curve("plastic", "viscous (Dilley), R = 2.5 cm", v,
-              rs.dilley_epsilon(v, rs.R_REF, rs.M_REF)),
+              np.asarray(rs.dilley_epsilon(v, rs.R_REF, rs.M_REF))),
         Curve("plastic", "Tabor, v_c = 0.809 mm/s, q = 0.371 (curve c)", v,
-              rs.tabor_epsilon(v, 0.0809 * CM_S, 0.371), "-."),
+              np.asarray(rs.tabor_epsilon(v, 0.0809 * CM_S, 0.371)), "-."),
         Curve("plastic", "Tabor, v_c = 0.314 mm/s, q = 0.42 (curve d)", v,
-              rs.tabor_epsilon(v, 0.0314 * CM_S, 0.42), ":"),
+              np.asarray(rs.tabor_epsilon(v, 0.0314 * CM_S, 0.42)), ":"),
         Curve("plastic", "Andrews, v_c = 0.809 mm/s (eq. 4.3)", v,
-              rs.andrews_epsilon(v, 0.0809 * CM_S), "--"),
-        Curve("plastic", "Bridges et al. 1984, v_c = 0.077 mm/s", v, rs.bridges_epsilon(v),
-              (0, (5, 1, 1, 1))),
+              np.asarray(rs.andrews_epsilon(v, 0.0809 * CM_S)), "--"),
+        Curve("plastic", "Bridges et al. 1984, v_c = 0.077 mm/s", v,
+              np.asarray(rs.bridges_epsilon(v)), (0, (5, 1, 1, 1))),
     ]
     return curves
 

@@ -11,6 +11,7 @@ run-to-run scatter.  Points not in equilibrium are drawn as open markers.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -32,7 +33,7 @@ def read_summary(path: str | Path) -> dict:
 
     with h5py.File(path, "r") as f:
         keys = [k.decode() if isinstance(k, bytes) else str(k) for k in f.attrs["grid_keys"]]
-        out = {"grid_keys": keys, "units": {}, "parameters": {}}
+        out: dict[str, Any] = {"grid_keys": keys, "units": {}, "parameters": {}}
         for key in keys:
             ds = f["parameters"][key]
             out["parameters"][key] = ds.asstr()[...] if ds.dtype.kind == "O" else ds[...]
@@ -57,7 +58,7 @@ def sweep_figure(summary: dict, title: str = ""):
     x_key = _axis_key(keys)
     x_raw = summary["parameters"][x_key]
     numeric = np.issubdtype(np.asarray(x_raw).dtype, np.number)
-    categories = list(dict.fromkeys(x_raw.tolist())) if not numeric else None
+    categories = [] if numeric else list(dict.fromkeys(x_raw.tolist()))   # a text key's values
     x = (np.asarray(x_raw, dtype=float) if numeric
          else np.array([categories.index(v) for v in x_raw.tolist()], dtype=float))
     series_keys = [k for k in keys if k not in (x_key, "seed")]
