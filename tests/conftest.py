@@ -17,8 +17,10 @@ units, durations in orbits.
 A base gives no ``output.path`` and no ``output.checkpoint_every``: left out, they follow
 ``name`` and ``output.snapshot_every`` through every override, as in a scenario file.
 
-`scenario_dict` gives the same mappings as plain dicts, unvalidated, for tests that write
-a scenario file or need a document the validator refuses.
+`small_scenario` and `rough_scenario` (the same with a friction section) build the variant
+of the ring that the run, friction and spin tests share.  `scenario_dict` gives the bases'
+mappings as plain dicts, unvalidated, for tests that write a scenario file or need a
+document the validator refuses.
 """
 
 from __future__ import annotations
@@ -82,6 +84,14 @@ BROAD: dict[str, Any] = {
     "restitution": {"model": "dilley", "kappa": 0.1},
 }
 
+#: The run tests' variant of `RING` (test_run, test_friction_run, test_spin_diagnostics): 150
+#: particles of 1-2 m, Dilley's law with kappa = 0.1, 0.6 orbit, a row every 0.05 orbit and a
+#: snapshot every 0.2.
+SMALL: dict[str, Any] = {
+    "name": "small", "seed": 7, "particles.size_distribution.r_max": 2.0,
+    "sheet.n_particles": 150, "restitution.kappa": 0.1, "integration.orbits": 0.6,
+    "output.timeseries_every": 0.05, "output.snapshot_every": 0.2}
+
 BASES: dict[str, dict[str, Any]] = {"ring": RING, "gravitating": GRAVITATING, "line": LINE,
                                     "broad": BROAD}
 
@@ -115,6 +125,20 @@ def _build_dict(base: Mapping, *layers: Mapping[str, Any], **keys: Any) -> dict[
 def ring_scenario() -> Callable[..., Scenario]:
     """Factory of `RING` scenarios: ``ring_scenario(*overrides, source=..., **keys)``."""
     return partial(_build_scenario, RING)
+
+
+@pytest.fixture(scope="session")
+def small_scenario(ring_scenario) -> Callable[..., Scenario]:
+    """Factory of `SMALL` rings: ``small_scenario(**{key: value})``."""
+    return lambda **overrides: ring_scenario(SMALL, overrides)
+
+
+@pytest.fixture(scope="session")
+def rough_scenario(small_scenario) -> Callable[..., Scenario]:
+    """Factory of `SMALL` rings with a friction section (docs/friction.md):
+    ``rough_scenario({"model": "coulomb", "mu": 0.5}, **{key: value})``."""
+    return lambda friction, **overrides: with_overrides(small_scenario(**overrides),
+                                                        {"friction": friction})
 
 
 @pytest.fixture(scope="session")

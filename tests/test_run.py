@@ -20,18 +20,6 @@ from ringsim.testing import run_file_datasets
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 
 
-#: The run tests' variant of the ring: 150 particles of 1-2 m, Dilley kappa = 0.1, 0.6 orbit.
-SMALL = {"name": "small", "seed": 7, "particles.size_distribution.r_max": 2.0,
-         "sheet.n_particles": 150, "restitution.kappa": 0.1, "integration.orbits": 0.6,
-         "output.timeseries_every": 0.05, "output.snapshot_every": 0.2}
-
-
-@pytest.fixture(scope="module")
-def small_scenario(ring_scenario):
-    """Factory: the `SMALL` ring with dotted overrides, ``small_scenario(**{key: value})``."""
-    return lambda **overrides: ring_scenario(SMALL, overrides)
-
-
 def test_same_scenario_twice_gives_identical_files(tmp_path, small_scenario):
     sc = small_scenario()
     a = ringsim.run(sc, output=tmp_path / "a.h5", progress=False)
