@@ -7,7 +7,7 @@ import pytest
 
 import ringsim
 from ringsim.cli import main
-from ringsim.config.scenario import scenario_from_dict, with_overrides
+from ringsim.config.scenario import with_overrides
 
 CONTRACT_KEYS = {"name", "velocity_dispersion", "velocity_dispersion_rOmega", "thickness",
                  "thickness_r", "filling_factor", "collision_frequency", "mean_epsilon",
@@ -15,16 +15,9 @@ CONTRACT_KEYS = {"name", "velocity_dispersion", "velocity_dispersion_rOmega", "t
 
 
 @pytest.fixture(scope="module")
-def two_runs(tmp_path_factory):
-    base = scenario_from_dict({
-        "name": "k0", "seed": 3, "planet": {"Omega": 2.0e-4},
-        "particles": {"density": 900.0, "size_distribution": {
-            "kind": "powerlaw", "q": 3.0, "r_min": 1.0, "r_max": 3.0}},
-        "sheet": {"optical_depth": 0.3, "n_particles": 200},
-        "restitution": {"model": "constant", "epsilon": 0.5},
-        "integration": {"orbits": 2.0},
-        "output": {"timeseries_every": 0.02, "snapshot_every": 1.0},
-    }, source="<test>")
+def two_runs(tmp_path_factory, ring_scenario):
+    base = ring_scenario(name="k0", restitution={"model": "constant", "epsilon": 0.5}, **{
+        "sheet.optical_depth": 0.3, "integration.orbits": 2.0, "output.snapshot_every": 1.0})
     other = with_overrides(base, {"name": "k1", "restitution.epsilon": 0.3})
     d = tmp_path_factory.mktemp("runs")
     return [ringsim.run(sc, output=d / f"{sc.name}.h5", progress=False) for sc in (base, other)]

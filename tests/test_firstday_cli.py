@@ -14,20 +14,10 @@ import pytest
 
 import ringsim
 from ringsim.cli import main
-from ringsim.config.scenario import scenario_from_dict
 from ringsim.engine.progress import ProgressLog
 from ringsim.physics import restitution as rs
 from ringsim.store.runfile import set_attributes
 from ringsim.sweep import PointTask, _LabelledStream, run_point
-
-SMALL = {
-    "name": "small", "seed": 5, "planet": {"Omega": 2.0e-4},
-    "particles": {"size_distribution": {"kind": "monodisperse", "radius": 1.0}},
-    "sheet": {"n_particles": 60, "optical_depth": 0.2},
-    "restitution": {"model": "constant", "epsilon": 0.5},
-    "integration": {"orbits": 0.3, "collision_detection": "line"},
-    "output": {"timeseries_every": 0.05, "snapshot_every": 0.1},
-}
 
 
 def _cli(*args, **kwargs) -> subprocess.CompletedProcess:
@@ -39,9 +29,9 @@ def _cli(*args, **kwargs) -> subprocess.CompletedProcess:
 
 
 @pytest.fixture(scope="module")
-def run_file(tmp_path_factory) -> Path:
+def run_file(tmp_path_factory, line_scenario) -> Path:
     out = tmp_path_factory.mktemp("runs") / "small.h5"
-    return ringsim.run(scenario_from_dict(SMALL), output=out, progress=False)
+    return ringsim.run(line_scenario(name="small"), output=out, progress=False)
 
 
 def test_closed_stdout_still_writes_figures_and_json(run_file, tmp_path):
@@ -107,9 +97,9 @@ def test_analyze_header_says_status_and_warns_when_not_finished(run_file, tmp_pa
     assert "is not finished: it was stopped" in captured.err and "--resume" in captured.err
 
 
-def test_progress_in_a_log_is_plain_lines(tmp_path):
+def test_progress_in_a_log_is_plain_lines(tmp_path, line_scenario):
     scenario = tmp_path / "s.yaml"
-    scenario.write_text(scenario_from_dict(SMALL).to_yaml())
+    scenario.write_text(line_scenario(name="small").to_yaml())
     done = _cli("run", str(scenario), "-o", str(tmp_path / "r.h5"))  # stderr is a pipe
     assert done.returncode == 0, done.stderr
     assert "\r" not in done.stderr
@@ -143,12 +133,12 @@ def test_labelled_stream_prefixes_every_line():
                              "continued\n"
 
 
-def test_sweep_point_warnings_carry_the_run_file_name(tmp_path, capfd):
-    d = dict(SMALL, name="hot", integration={"orbits": 0.1, "dt": 1.0e-3,
-                                              "collision_detection": "tree"},
-             sheet={"n_particles": 60, "optical_depth": 0.2, "initial_dispersion": 50.0})
+def test_sweep_point_warnings_carry_the_run_file_name(tmp_path, capfd, line_scenario):
+    sc = line_scenario(name="hot", integration={"orbits": 0.1, "dt": 1.0e-3,
+                                                "collision_detection": "tree"},
+                       **{"sheet.initial_dispersion": 50.0})
     path = tmp_path / "seed=5.h5"
-    task = PointTask(index=0, params={"seed": 5}, scenario=scenario_from_dict(d),
+    task = PointTask(index=0, params={"seed": 5}, scenario=sc,
                      path=str(path), action="run")
     assert run_point(task).status == "finished"
     err = capfd.readouterr().err

@@ -15,18 +15,12 @@ import warnings
 import h5py
 import numpy as np
 import rebound
-from test_run import small_scenario
 
 import ringsim
 from ringsim.store import runfile
 from ringsim.testing import run_file_datasets
 
 ROUGH = {"model": "coulomb", "mu": 0.5}
-
-
-def rough_scenario(friction: dict, **overrides):
-    sc = small_scenario(**overrides)
-    return ringsim.config.scenario.with_overrides(sc, {"friction": friction})
 
 
 def loaded_state(path) -> np.ndarray:
@@ -43,7 +37,8 @@ def loaded_state(path) -> np.ndarray:
     return state
 
 
-def test_beta_minus_one_run_equals_run_without_friction(tmp_path):
+def test_beta_minus_one_run_equals_run_without_friction(tmp_path, small_scenario,
+                                                        rough_scenario):
     smooth = ringsim.run(small_scenario(), output=tmp_path / "smooth.h5", progress=False)
     rough = ringsim.run(rough_scenario({"model": "constant", "beta": -1.0}),
                         output=tmp_path / "rough.h5", progress=False)
@@ -59,7 +54,7 @@ def test_beta_minus_one_run_equals_run_without_friction(tmp_path):
     assert np.array_equal(loaded_state(smooth), loaded_state(rough)), "checkpoint state"
 
 
-def test_resumed_rough_run_equals_uninterrupted(tmp_path):
+def test_resumed_rough_run_equals_uninterrupted(tmp_path, rough_scenario):
     long = rough_scenario(ROUGH, **{"integration.orbits": 0.8})
     short = rough_scenario(ROUGH, **{"integration.orbits": 0.4})
     direct = ringsim.run(long, output=tmp_path / "direct.h5", progress=False)

@@ -10,30 +10,12 @@ import rebound
 
 import ringsim
 from ringsim import testing
-from ringsim.config.scenario import DEFAULTS, scenario_from_dict, with_overrides
+from ringsim.config.scenario import DEFAULTS, with_overrides
 from ringsim.engine import box, invariants, sheet
 from ringsim.gravity import registry, tree
 from ringsim.physics import ghost_field
 from ringsim.physics import gravity as patch
 from ringsim.physics.gravity_solvers import GRAVITY_SOLVERS
-
-
-def gravitating_scenario(**overrides):
-    """200 identical 1 m ice particles at tau = 0.5, 1e8 m from Saturn, 0.2 orbit."""
-    base = {
-        "name": "grav",
-        "seed": 3,
-        "planet": {"GM": 3.7931e16, "a": 1.0e8},
-        "particles": {"density": 900.0, "size_distribution": {"kind": "monodisperse",
-                                                              "radius": 1.0}},
-        "sheet": {"optical_depth": 0.5, "n_particles": 200, "gravity": True},
-        "restitution": {"model": "bridges", "v_c": 7.7e-5, "exponent": 0.234},
-        "integration": {"orbits": 0.2},
-        "output": {"path": "runs/grav.h5", "timeseries_every": 0.05, "snapshot_every": 0.1},
-    }
-    sc = scenario_from_dict(base, source="<test>")
-    return with_overrides(sc, overrides) if overrides else sc
-
 
 # --- the C field ------------------------------------------------------------------------------
 
@@ -108,7 +90,7 @@ def test_each_declared_solver_installs_and_recognises_itself(name, keywords):
             if solver.recognise(sim) is not None] == [name]
 
 
-def test_gravitating_sheet_has_one_ghost_ring_the_field_and_opening_angle_0_3():
+def test_gravitating_sheet_has_one_ghost_ring_the_field_and_opening_angle_0_3(gravitating_scenario):
     sc = gravitating_scenario(**{"sheet.gravity_solver": "tree"})
     sim, geometry, radii, masses, _ = sheet.new_simulation(sc)
     assert sim.gravity == "tree"
@@ -121,7 +103,8 @@ def test_gravitating_sheet_has_one_ghost_ring_the_field_and_opening_angle_0_3():
     assert not tree.has_ghost_field(plain)
 
 
-def test_run_prints_and_stores_the_numbers_of_a_gravitating_sheet(tmp_path, capsys):
+def test_run_prints_and_stores_the_numbers_of_a_gravitating_sheet(tmp_path, capsys,
+                                                                  gravitating_scenario):
     sc = gravitating_scenario()
     path = ringsim.run(sc, output=tmp_path / "g.h5", progress=False)
     line = [x for x in capsys.readouterr().err.splitlines() if "self-gravity" in x]
@@ -146,14 +129,14 @@ def test_run_prints_and_stores_the_numbers_of_a_gravitating_sheet(tmp_path, caps
         assert f["timeseries/toomre_Q"].attrs["units"] == "dimensionless"
 
 
-def test_planet_given_by_omega_only_has_unknown_r_h(tmp_path, capsys):
+def test_planet_given_by_omega_only_has_unknown_r_h(tmp_path, capsys, gravitating_scenario):
     sc = gravitating_scenario(**{"planet": {"Omega": 1.9476e-4}, "integration.orbits": 0.05})
     path = ringsim.run(sc, output=tmp_path / "o.h5", progress=False)
     assert "r_h unknown" in capsys.readouterr().err
     assert math.isnan(ringsim.open_run(path).attrs["r_h"])
 
 
-def test_extending_a_gravitating_run_is_bit_identical(tmp_path):
+def test_extending_a_gravitating_run_is_bit_identical(tmp_path, gravitating_scenario):
     """REBOUND does not save function pointers: a resumed run must re-install the field, or
     its forces (and bits) differ from the uninterrupted run's."""
     long = ringsim.run(gravitating_scenario(), output=tmp_path / "long.h5", progress=False)
@@ -169,7 +152,7 @@ def test_extending_a_gravitating_run_is_bit_identical(tmp_path):
 
 
 
-def test_analyze_a_gravitating_run_reports_the_gravity_numbers(tmp_path):
+def test_analyze_a_gravitating_run_reports_the_gravity_numbers(tmp_path, gravitating_scenario):
     """`ringsim analyze --json --plots` on a gravitating run: r_h, toomre_Q, lambda_cr,
     wake wavelength and pitch angle, gravitational viscosity, each {mean, stderr, units};
     the numbers are those of the tested functions; the top-view figure is written."""

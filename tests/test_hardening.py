@@ -23,7 +23,7 @@ import pytest
 
 import ringsim
 from ringsim.cli import main
-from ringsim.config.scenario import scenario_from_dict, with_overrides
+from ringsim.config.scenario import with_overrides
 from ringsim.engine import invariants
 from ringsim.engine.runner import Runner
 from ringsim.store import runfile
@@ -34,18 +34,16 @@ DATA = Path(__file__).resolve().parent / "data"
 FORMAT_1_0 = DATA / "format_1_0.h5"
 
 
-def tiny_scenario(**overrides):
-    """60 particles of 1-2 m, Dilley kappa = 0.1, 0.2 orbit."""
-    sc = scenario_from_dict({
-        "name": "tiny", "seed": 11, "planet": {"Omega": 2.0e-4},
-        "particles": {"density": 900.0, "size_distribution": {
-            "kind": "powerlaw", "q": 3.0, "r_min": 1.0, "r_max": 2.0}},
-        "sheet": {"optical_depth": 0.25, "n_particles": 60},
-        "restitution": {"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.1},
-        "integration": {"orbits": 0.2},
-        "output": {"path": "runs/tiny.h5", "timeseries_every": 0.02, "snapshot_every": 0.1},
-    }, source="<test>")
-    return with_overrides(sc, overrides) if overrides else sc
+#: The hardening tests' variant of the ring: 60 particles of 1-2 m, Dilley kappa = 0.1,
+#: 0.2 orbit.
+TINY = {"name": "tiny", "seed": 11, "particles.size_distribution.r_max": 2.0,
+        "sheet.n_particles": 60, "restitution.kappa": 0.1, "integration.orbits": 0.2}
+
+
+@pytest.fixture(scope="module")
+def tiny_scenario(ring_scenario):
+    """Factory: the `TINY` ring with dotted overrides, ``tiny_scenario(**{key: value})``."""
+    return lambda **overrides: ring_scenario(TINY, overrides)
 
 
 def sha256(path: Path) -> str:
@@ -53,7 +51,7 @@ def sha256(path: Path) -> str:
 
 
 @pytest.fixture(scope="module")
-def good_run(tmp_path_factory):
+def good_run(tmp_path_factory, tiny_scenario):
     """A finished tiny run and the scenario file that made it."""
     folder = tmp_path_factory.mktemp("good")
     sc = tiny_scenario()
@@ -303,7 +301,7 @@ def test_stale_lock_of_a_killed_writer_is_taken_over(good_run, tmp_path):
         assert held.held
 
 
-def test_two_concurrent_runs_one_writes_the_other_exits_2(tmp_path):
+def test_two_concurrent_runs_one_writes_the_other_exits_2(tmp_path, tiny_scenario):
     sc = tiny_scenario(**{"integration.orbits": 1.0, "sheet.n_particles": 150})
     scenario_file = tmp_path / "s.yaml"
     scenario_file.write_text(sc.to_yaml())
@@ -343,7 +341,7 @@ CORRUPTIONS = {"nan": (_corrupt_nan, "not finite"),
 
 
 @pytest.mark.parametrize("name", list(CORRUPTIONS))
-def test_injected_violation_stops_the_run(tmp_path, monkeypatch, capsys, name):
+def test_injected_violation_stops_the_run(tmp_path, monkeypatch, capsys, name, tiny_scenario):
     corrupt, words = CORRUPTIONS[name]
     sc = tiny_scenario(**{"integration.orbits": 0.3})
     scenario_file = tmp_path / "s.yaml"
@@ -371,7 +369,7 @@ def test_injected_violation_stops_the_run(tmp_path, monkeypatch, capsys, name):
     assert checkpoint.state["t"] < run.timeseries["t"][-1]
 
 
-def test_normal_runs_conserve_momentum_far_below_the_tolerance(tmp_path):
+def test_normal_runs_conserve_momentum_far_below_the_tolerance(tmp_path, tiny_scenario):
     """A tree and a line run: the invariant never trips, residuals stay at round-off."""
     for mode in ("tree", "line"):
         sc = tiny_scenario(**{"integration.orbits": 1.0, "sheet.n_particles": 150,
@@ -385,7 +383,7 @@ def test_normal_runs_conserve_momentum_far_below_the_tolerance(tmp_path):
 
 
 @pytest.mark.slow
-def test_long_hot_run_never_trips_the_invariants(tmp_path):
+def test_long_hot_run_never_trips_the_invariants(tmp_path, tiny_scenario):
     sc = tiny_scenario(**{"integration.orbits": 5.0, "sheet.n_particles": 400,
                           "restitution": {"model": "constant", "epsilon": 0.9},
                           "sheet.initial_dispersion": 5.0})
@@ -500,7 +498,7 @@ def _identity(path):
     return st.st_ino, st.st_mtime_ns
 
 
-def _interrupted_chain(tmp_path, sig, seed, n_stops=5):
+def _interrupted_chain(tiny_scenario, tmp_path, sig, seed, n_stops=5):
     """Run, stop with ``sig`` at ``n_stops`` seeded moments (resuming in between), resume to
     the end; compare with the uninterrupted run dataset by dataset."""
     sc = tiny_scenario(**{"integration.orbits": 1.0, "sheet.n_particles": 200,
@@ -574,12 +572,12 @@ def _interrupted_chain(tmp_path, sig, seed, n_stops=5):
     assert _checkpoint_state(reference) == _checkpoint_state(path)
 
 
-def test_sigkill_at_random_moments_then_resume_is_identical(tmp_path):
-    _interrupted_chain(tmp_path, signal.SIGKILL, seed=5)
+def test_sigkill_at_random_moments_then_resume_is_identical(tmp_path, tiny_scenario):
+    _interrupted_chain(tiny_scenario, tmp_path, signal.SIGKILL, seed=5)
 
 
-def test_sigint_at_random_moments_then_resume_is_identical(tmp_path):
-    _interrupted_chain(tmp_path, signal.SIGINT, seed=6)
+def test_sigint_at_random_moments_then_resume_is_identical(tmp_path, tiny_scenario):
+    _interrupted_chain(tiny_scenario, tmp_path, signal.SIGINT, seed=6)
 
 
 def test_resolver_statistics_restore_bit_for_bit():
@@ -606,7 +604,7 @@ def test_resolver_statistics_restore_bit_for_bit():
         install_resolver(rebound.Simulation(), {"model": "dilley"}).set_stats(saved)
 
 
-def test_stop_inside_an_interval_then_resume_is_identical(tmp_path):
+def test_stop_inside_an_interval_then_resume_is_identical(tmp_path, tiny_scenario):
     """REBOUND turns SIGINT into KeyboardInterrupt after a complete step, inside an interval:
     the checkpoint then carries the interval's statistics, and the resumed row spanning the
     stop (collisions, mean_epsilon, histograms, multi_encounters) equals the uninterrupted

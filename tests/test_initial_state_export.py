@@ -414,20 +414,16 @@ def test_rebound_export_continues_bit_for_bit(source_run, rough_source_run, tmp_
 
 
 @pytest.mark.parametrize("solver", ["tree", "p3m", "slab"])
-def test_rebound_export_of_a_gravitating_run_continues_bit_for_bit(solver, tmp_path, capsys):
+def test_rebound_export_of_a_gravitating_run_continues_bit_for_bit(solver, tmp_path, capsys,
+                                                                   gravitating_scenario):
     """Self-gravity is a function pointer REBOUND does not save (the tree's ghost field,
     P3M, the slab): the printed code installs the run's solver again.  Without it the
     continuation departs in the first step (checked: the same code without its
     install_gravity line does not match)."""
-    d = {"name": "g", "seed": 3, "planet": {"GM": 3.7931e16, "a": 1.0e8},
-         "particles": {"size_distribution": {"kind": "monodisperse", "radius": 1.0}},
-         "sheet": {"optical_depth": 0.5, "n_particles": 200, "gravity": True,
-                   "gravity_solver": solver},
-         "restitution": {"model": "bridges", "v_c": 7.7e-5, "exponent": 0.234},
-         "integration": {"orbits": 0.11, "collision_detection": "line"},
-         "output": {"timeseries_every": 0.05, "snapshot_every": 0.1}}
-    run = ringsim.open_run(ringsim.run(scenario_from_dict(d), output=tmp_path / "g.h5",
-                                       progress=False))
+    sc = gravitating_scenario(name="g", **{"sheet.gravity_solver": solver,
+                                           "integration.orbits": 0.11,
+                                           "integration.collision_detection": "line"})
+    run = ringsim.open_run(ringsim.run(sc, output=tmp_path / "g.h5", progress=False))
     code = _printed_continuation(capsys, run.path, tmp_path / "g.bin")
     assert f"install_gravity(sim, {solver!r}" in code
     _assert_continues_bit_for_bit(code, run)

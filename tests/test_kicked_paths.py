@@ -128,7 +128,7 @@ def test_a_pair_turned_back_by_the_kick_collides_again_in_the_same_step():
     assert x[1] - x[0] >= 2 * RADIUS * (1 - 1e-12)
 
 
-def test_self_gravitating_sheet_in_line_mode_keeps_contacts_and_momentum():
+def test_self_gravitating_sheet_in_line_mode_keeps_contacts_and_momentum(gravitating_scenario):
     """400 identical 1 m ice particles at tau = 0.5, 1e8 m from Saturn (r_h = 0.82), P3M
     gravity, line detection at 1e-3 orbit, 0.3 orbit (300 steps, about 1300 collisions):
     after every tenth step no pair overlaps by more than 1e-9 of the radius (round-off of
@@ -137,18 +137,12 @@ def test_self_gravitating_sheet_in_line_mode_keeps_contacts_and_momentum():
     free epicycle to round-off: P3M's forces and the impulses sum to zero exactly (bound
     1e-9 of rms|a| t, as tests/test_p3m.py, whose forces alone give ~1e-13)."""
     from ringsim import testing
-    from ringsim.config.scenario import scenario_from_dict
     from ringsim.engine import box, invariants, sheet
     from ringsim.gravity import p3m
 
-    sc = scenario_from_dict({
-        "name": "kicked", "seed": 3, "planet": {"GM": 3.7931e16, "a": 1.0e8},
-        "particles": {"density": 900.0,
-                      "size_distribution": {"kind": "monodisperse", "radius": 1.0}},
-        "sheet": {"optical_depth": 0.5, "n_particles": 400, "gravity": True},
-        "restitution": {"model": "bridges", "v_c": 7.7e-5, "exponent": 0.234},
-        "integration": {"orbits": 0.3, "dt": 1e-3, "collision_detection": "line"},
-        "output": {"path": "unused.h5"}}, source="<test>")
+    sc = gravitating_scenario({"sheet.n_particles": 400, "integration.orbits": 0.3,
+                               "integration.dt": 1e-3, "integration.collision_detection": "line"},
+                              name="kicked", output={"path": "unused.h5"})
     built = sheet.build_sheet(sc)
     sim, geometry, Omega = built.sim, built.geometry, sc.orbital_frequency
     reference = invariants.sheet_momentum(sheet.particle_arrays(sim), Omega, sim.t)
@@ -164,7 +158,8 @@ def test_self_gravitating_sheet_in_line_mode_keeps_contacts_and_momentum():
     assert residual < 1e-9 * rms_acc * sim.t, residual / (rms_acc * sim.t)
 
 
-def test_one_kicked_step_equals_sixteen_sub_steps_in_a_gravitating_sheet(tmp_path):
+def test_one_kicked_step_equals_sixteen_sub_steps_in_a_gravitating_sheet(tmp_path,
+                                                                         gravitating_scenario):
     """The per-step measurement of docs/gravity.md ("Line detection with self-gravity"),
     with P3M (about 6 CPU-seconds a seed): from 20 states of a wake-forming sheet (1000
     particles of 1 m ice, tau = 0.5, r_h = 0.82, one orbit after the start) for each of
@@ -179,21 +174,17 @@ def test_one_kicked_step_equals_sixteen_sub_steps_in_a_gravitating_sheet(tmp_pat
     errors from the mean."""
     import warnings
 
-    from ringsim.config.scenario import scenario_from_dict
     from ringsim.engine import sheet
     from ringsim.gravity.registry import install_scenario_gravity
 
     law = {"model": "bridges", "v_c": 7.7e-5, "exponent": 0.234}
     totals = {"kicked": np.zeros(2), "sub-steps": np.zeros(2)}
     for seed in range(1, 7):
-        sc = scenario_from_dict({
-            "name": "steps", "seed": seed, "planet": {"GM": 3.7931e16, "a": 1.0e8},
-            "particles": {"density": 900.0,
-                          "size_distribution": {"kind": "monodisperse", "radius": 1.0}},
-            "sheet": {"optical_depth": 0.5, "n_particles": 1000, "gravity": True},
-            "restitution": law,
-            "integration": {"orbits": 2, "dt": 1e-3, "collision_detection": "line"},
-            "output": {"path": "unused.h5"}}, source="<test>")
+        sc = gravitating_scenario({"sheet.n_particles": 1000, "integration.orbits": 2,
+                                   "integration.dt": 1e-3,
+                                   "integration.collision_detection": "line"},
+                                  name="steps", seed=seed, restitution=law,
+                                  output={"path": "unused.h5"})
         sim = sheet.build_sheet(sc).sim
         sim.integrate(1.0 * sc.orbital_period, exact_finish_time=0)
         for k in range(20):

@@ -32,7 +32,7 @@ import pytest
 import rebound
 
 from ringsim.analysis import snapshot, timeseries
-from ringsim.config.scenario import scenario_from_dict, with_overrides
+from ringsim.config.scenario import with_overrides
 from ringsim.engine import sheet
 from ringsim.engine.box import SheetGeometry
 from ringsim.engine.resolver import install_resolver
@@ -354,7 +354,7 @@ def ring_arrays(n: int, tau: float, dispersion_rOmega: float, seed: int) -> tupl
     return state, box
 
 
-def test_dense_ring_runs_at_the_orbit_limit_within_the_detectors_limits():
+def test_dense_ring_runs_at_the_orbit_limit_within_the_detectors_limits(cold_dense_scenario):
     """dt: auto gives line mode 1e-3 orbit even in a cold dense ring, where a particle often
     meets several partners in one step; the time-ordered resolution never reaches its
     limits there (contacts per particle and step, search span)."""
@@ -365,18 +365,18 @@ def test_dense_ring_runs_at_the_orbit_limit_within_the_detectors_limits():
     assert counters["saturated"] == 0 and counters["span_limited"] == 0, counters
 
 
-def cold_dense_scenario(detection: str, dt: float | str, n: int = 300):
-    """1 m ice, constant eps = 0.5, tau = 1: a cold, dense ring."""
-    return scenario_from_dict({
-        "name": "cold-dense", "seed": 3, "planet": {"Omega": OMEGA},
-        "particles": {"density": 900.0,
-                      "size_distribution": {"kind": "monodisperse", "radius": 1.0}},
-        "sheet": {"optical_depth": 1.0, "n_particles": n, "aspect": 1.0, "gravity": False},
-        "restitution": CONSTANT_HALF,
-        "integration": {"orbits": 1.0, "dt": dt, "collision_detection": detection},
-        "output": {"path": "runs/cold-dense.h5", "timeseries_every": 0.1,
-                   "snapshot_every": 1.0},
-    }, source="<test>")
+@pytest.fixture(scope="module")
+def cold_dense_scenario(line_scenario):
+    """Factory ``cold_dense_scenario(detection, dt, n=300)``: 1 m ice, constant eps = 0.5,
+    tau = 1: a cold, dense ring."""
+    def make(detection: str, dt: float | str, n: int = 300):
+        return line_scenario({"planet.Omega": OMEGA, "sheet.optical_depth": 1.0,
+                              "sheet.n_particles": n, "output.timeseries_every": 0.1,
+                              "output.snapshot_every": 1.0},
+                             name="cold-dense", seed=3, restitution=CONSTANT_HALF,
+                             integration={"orbits": 1.0, "dt": dt,
+                                          "collision_detection": detection})
+    return make
 
 
 def integrate_sheet(sc, orbits: float, every: float = 0.1):
@@ -400,7 +400,8 @@ def integrate_sheet(sc, orbits: float, every: float = 0.1):
     return np.array(rows), sim, handle
 
 
-def test_straight_path_prediction_is_a_lower_bound_of_measured_multi_encounters():
+def test_straight_path_prediction_is_a_lower_bound_of_measured_multi_encounters(
+        cold_dense_scenario):
     """The prediction sees only second contacts already on course at the start of a step;
     the time-ordered detector also resolves those a deflection causes, so the measured
     fraction is larger (1.7-3.6 times in docs/validation.md), and still rare at 1e-3 orbit."""
@@ -412,7 +413,7 @@ def test_straight_path_prediction_is_a_lower_bound_of_measured_multi_encounters(
     assert predicted < measured < 0.05, f"measured {measured:.4f}, predicted {predicted:.4f}"
 
 
-def test_cold_dense_equilibrium_agrees_with_tree_reference():
+def test_cold_dense_equilibrium_agrees_with_tree_reference(cold_dense_scenario):
     """c and H after the transient, line mode at 1e-3 orbit against tree mode at dt: auto,
     each the mean of 4 seeds.  The uncertainty is the seeds' scatter: one run's
     autocorrelation-corrected standard error (~0.35 %) is 4-5 times smaller than the
@@ -438,7 +439,7 @@ def test_cold_dense_equilibrium_agrees_with_tree_reference():
 
 # --- restart -------------------------------------------------------------------------------
 
-def test_line_mode_resume_from_binary_is_bit_identical(tmp_path):
+def test_line_mode_resume_from_binary_is_bit_identical(tmp_path, cold_dense_scenario):
     sc = cold_dense_scenario("line", 1e-3, n=200)
     _, sim, handle = integrate_sheet(sc, 0.3)
     path = tmp_path / "checkpoint.bin"

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 import ringsim
-from ringsim.config.scenario import scenario_from_dict
 from ringsim.engine import box
 from ringsim.testing import count_overlaps_numpy
 
@@ -110,18 +109,12 @@ def test_a_pair_deep_directly_and_across_the_boundary_counts_once():
     assert _both(two, geometry, 0.0, 0.1) == (1, 1)
 
 
-def test_a_runs_overlapping_pairs_are_the_numpy_count_of_its_snapshots(tmp_path):
+def test_a_runs_overlapping_pairs_are_the_numpy_count_of_its_snapshots(tmp_path, ring_scenario):
     """Tree detection with a coarse fixed step misses collisions: pairs overlap, and every
     output's count in /timeseries/overlapping_pairs is the twin's count of the state."""
-    sc = scenario_from_dict({
-        "name": "overlapping", "seed": 5, "planet": {"Omega": OMEGA},
-        "particles": {"density": 900.0, "size_distribution": {
-            "kind": "powerlaw", "q": 3.0, "r_min": 1.0, "r_max": 3.0}},
-        "sheet": {"optical_depth": 0.4, "n_particles": 200, "aspect": 1.0},
-        "restitution": {"model": "dilley", "kappa": 0.0},
-        "integration": {"orbits": 0.6, "dt": 0.02, "collision_detection": "tree"},
-        "output": {"timeseries_every": 0.1, "snapshot_every": 0.1},
-    }, source="<test>")
+    sc = ring_scenario(name="overlapping", seed=5, **{
+        "planet.Omega": OMEGA, "sheet.optical_depth": 0.4, "integration.orbits": 0.6,
+        "integration.dt": 0.02, "output.timeseries_every": 0.1})
     run = ringsim.open_run(ringsim.run(sc, output=tmp_path / "o.h5", progress=False))
     a = run.attrs
     counted = dict(zip(run.timeseries["t"], run.timeseries["overlapping_pairs"], strict=True))

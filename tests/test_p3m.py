@@ -254,18 +254,9 @@ def test_energy_budget_of_a_clump_over_one_orbit(solver, mesh):
 
 # --- the scenario key and the run file ---------------------------------------------------------
 
-def _gravitating(**sheet_keys):
-    from ringsim.config.scenario import scenario_from_dict
-
-    return {
-        "name": "grav", "seed": 3, "planet": {"GM": 3.7931e16, "a": 1.0e8},
-        "particles": {"density": 900.0,
-                      "size_distribution": {"kind": "monodisperse", "radius": 1.0}},
-        "sheet": {"optical_depth": 0.5, "n_particles": 200, "gravity": True, **sheet_keys},
-        "restitution": {"model": "bridges", "v_c": 7.7e-5, "exponent": 0.234},
-        "integration": {"orbits": 0.05},
-        "output": {"path": "runs/grav.h5", "timeseries_every": 0.025, "snapshot_every": 0.05},
-    }, scenario_from_dict
+#: The gravitating sheet for 0.05 orbit, a row every 0.025 orbit and a snapshot at the end.
+SHORT = {"integration.orbits": 0.05, "output.timeseries_every": 0.025,
+         "output.snapshot_every": 0.05}
 
 
 @pytest.mark.parametrize("sheet_keys, key", [
@@ -277,7 +268,8 @@ def _gravitating(**sheet_keys):
     ({"gravity_solver": "p3m", "p3m_split": "big"}, "sheet.p3m_split"),
     ({"gravity_solver": "p3m", "p3m_split": 8.0}, "sheet.gravity_solver"),
 ])
-def test_bad_gravity_solver_keys_exit_2_naming_the_key(tmp_path, capsys, sheet_keys, key):
+def test_bad_gravity_solver_keys_exit_2_naming_the_key(tmp_path, capsys, sheet_keys, key,
+                                                       scenario_dict):
     """A bad solver, a tree key with P3M, a P3M key with the tree, a split that is not
     positive or auto, or a box narrower than P3M's cutoff (20 particles make 11 m, the
     cutoff is 15 m; 200 make 35 m, a split of 8 m a cutoff of 40 m): exit 2, one line
@@ -286,7 +278,7 @@ def test_bad_gravity_solver_keys_exit_2_naming_the_key(tmp_path, capsys, sheet_k
 
     from ringsim.cli import main
 
-    data, _ = _gravitating(**sheet_keys)
+    data = scenario_dict("gravitating", SHORT, {f"sheet.{k}": v for k, v in sheet_keys.items()})
     path = tmp_path / "s.yaml"
     path.write_text(yaml.safe_dump(data))
     assert main(["run", str(path), "-o", str(tmp_path / "r.h5"), "--no-progress"]) == 2
@@ -295,14 +287,14 @@ def test_bad_gravity_solver_keys_exit_2_naming_the_key(tmp_path, capsys, sheet_k
     assert not (tmp_path / "r.h5").exists()
 
 
-def test_solver_defaults_and_the_run_file_records_the_solver(tmp_path):
+def test_solver_defaults_and_the_run_file_records_the_solver(tmp_path, gravitating_scenario):
     import ringsim
 
-    data, build = _gravitating()
-    assert build(data, source="<t>").sheet.gravity_solver == "p3m"
-    tree_by_angle, _ = _gravitating(opening_angle=0.5)
-    assert build(tree_by_angle, source="<t>").sheet.gravity_solver == "tree"
-    path = ringsim.run(build(data, source="<t>"), output=tmp_path / "g.h5", progress=False)
+    sc = gravitating_scenario(SHORT, source="<t>")
+    assert sc.sheet.gravity_solver == "p3m"
+    tree_by_angle = gravitating_scenario(SHORT, {"sheet.opening_angle": 0.5}, source="<t>")
+    assert tree_by_angle.sheet.gravity_solver == "tree"
+    path = ringsim.run(sc, output=tmp_path / "g.h5", progress=False)
     attrs = ringsim.open_run(path).attrs
     assert attrs["gravity_solver"] == "p3m"
     assert attrs["p3m_split"] == pytest.approx(3.0) and attrs["units_p3m_split"] == "m"
@@ -471,16 +463,15 @@ def test_auto_split_in_a_thick_ring_is_within_one_percent_and_conserves_momentum
     assert np.all(np.abs(force.sum(axis=0)) < 1e-12 * np.abs(force).sum(axis=0))
 
 
-def test_hot_p3m_run_with_auto_split_resumes_bit_for_bit(tmp_path):
+def test_hot_p3m_run_with_auto_split_resumes_bit_for_bit(tmp_path, gravitating_scenario):
     """The split auto chooses is a function of the state alone, so a run stopped and
     resumed (its solver made anew) is the uninterrupted run, bit for bit."""
     import ringsim
     from ringsim.config.scenario import with_overrides
 
-    data, build = _gravitating(n_particles=600, initial_dispersion=60.0)
-    data["integration"].update(orbits=0.2, collision_detection="line")
-    data["output"].update(timeseries_every=0.05, snapshot_every=0.1)
-    sc = build(data, source="<t>")
+    sc = gravitating_scenario(source="<t>", **{"sheet.n_particles": 600,
+                                               "sheet.initial_dispersion": 60.0,
+                                               "integration.collision_detection": "line"})
     assert sc.p3m_setting == (3.0, True)
     built = sheet.build_sheet(sc)
     built.sim.steps(1)

@@ -204,16 +204,10 @@ def test_velocity_ellipsoid_recovers_a_rotated_tensor():
 # --- figures of real runs ------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def two_runs(tmp_path_factory):
-    base = scenario_from_dict({
-        "name": "p0", "seed": 4, "planet": {"Omega": 2.0e-4},
-        "particles": {"density": 900.0, "size_distribution": {
-            "kind": "powerlaw", "q": 3.0, "r_min": 1.0, "r_max": 3.0}},
-        "sheet": {"optical_depth": 0.3, "n_particles": 150},
-        "restitution": {"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.0},
-        "integration": {"orbits": 1.0, "collision_detection": "line"},
-        "output": {"timeseries_every": 0.02, "snapshot_every": 0.25},
-    }, source="<test>")
+def two_runs(tmp_path_factory, ring_scenario):
+    base = ring_scenario(name="p0", seed=4, **{
+        "sheet.optical_depth": 0.3, "sheet.n_particles": 150, "integration.orbits": 1.0,
+        "integration.collision_detection": "line", "output.snapshot_every": 0.25})
     other = with_overrides(base, {"name": "p1", "restitution.kappa": 0.1})
     d = tmp_path_factory.mktemp("plotruns")
     paths = [ringsim.run(sc, output=d / f"{sc.name}.h5", progress=False)

@@ -10,25 +10,18 @@ import pytest
 import ringsim
 from ringsim.analysis.clumps import clump_statistics
 from ringsim.analysis.gravitating import snapshot_wakes
-from ringsim.config.scenario import scenario_from_dict
 from ringsim.physics import gravity as patch
 from ringsim.physics.selfgravity import shear_offset
 
 GM = 3.7931e16           # [m^3/s^2] Saturn
 
 
-def regime_run(r_h, n, orbits, path, seed=1):
+def regime_run(gravitating_scenario, r_h, n, orbits, path, seed=1):
     a = 1.0e8 * r_h / float(patch.hill_parameter(1.0, 1.0, 900.0, GM, 1.0e8))
-    sc = scenario_from_dict({
-        "name": f"regime-rh{r_h}", "seed": seed, "planet": {"GM": GM, "a": a},
-        "particles": {"density": 900.0, "size_distribution": {"kind": "monodisperse",
-                                                              "radius": 1.0}},
-        "sheet": {"optical_depth": 0.25, "n_particles": n, "aspect": 1.0, "gravity": True},
-        "restitution": {"model": "bridges", "v_c": 7.7e-5, "exponent": 0.234},
-        "integration": {"orbits": orbits, "dt": 5e-4, "dt_safety": 0.2,
-                        "collision_detection": "tree"},
-        "output": {"path": "runs/r.h5", "timeseries_every": 0.05, "snapshot_every": 0.25},
-    }, source="<test>")
+    sc = gravitating_scenario(name=f"regime-rh{r_h}", seed=seed, **{
+        "planet.a": a, "sheet.optical_depth": 0.25, "sheet.n_particles": n,
+        "integration.orbits": orbits, "integration.dt": 5e-4, "integration.dt_safety": 0.2,
+        "output.path": "runs/r.h5", "output.snapshot_every": 0.25})
     run = ringsim.open_run(ringsim.run(sc, output=path, progress=False))
     Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
     Omega = sc.orbital_frequency
@@ -42,17 +35,17 @@ def regime_run(r_h, n, orbits, path, seed=1):
 
 
 @pytest.mark.slow
-def test_no_wakes_and_no_aggregates_at_r_h_0_6(tmp_path):
+def test_no_wakes_and_no_aggregates_at_r_h_0_6(tmp_path, gravitating_scenario):
     """Measured: no snapshot's wake significant (p >= 0.03), contrast at the Poisson level,
     no group of 10 touching particles, no group inside its Hill sphere."""
-    stats = regime_run(0.6, 800, 1.0, tmp_path / "a.h5")
+    stats = regime_run(gravitating_scenario, 0.6, 800, 1.0, tmp_path / "a.h5")
     assert not any(s["significant"] for s in stats), [s["p_value"] for s in stats]
     assert all(s["amplitude"] < 1.05 * s["poisson_amplitude"] for s in stats)
     assert all(s["grouped"] == 0.0 and s["hill_groups"] == 0 for s in stats)
 
 
 @pytest.mark.slow
-def test_aggregates_at_r_h_1_3(tmp_path):
+def test_aggregates_at_r_h_1_3(tmp_path, gravitating_scenario):
     """Aggregates form in every one of three seeds at orbit 0.75.  One run is one draw of a
     chaotic collapse: seeds 1-3 put 42, 31 and 19 % of the mass in groups that fit their
     Hill sphere (largest 199, 122, 73 particles) with the code of b7787d7, and 20, 26 and
@@ -63,7 +56,8 @@ def test_aggregates_at_r_h_1_3(tmp_path):
     the six runs; in contact groups of >= 10 particles 62-68 %, surface-density contrast
     1.35-1.47 times Poisson.  At r_h = 0.6 (above) there is no group at all."""
     for seed in (1, 2, 3):
-        late = regime_run(1.3, 2000, 0.75, tmp_path / f"b{seed}.h5", seed=seed)[-1]
+        late = regime_run(gravitating_scenario, 1.3, 2000, 0.75, tmp_path / f"b{seed}.h5",
+                          seed=seed)[-1]
         assert late["significant"], seed
         assert late["grouped"] > 0.3 and late["in_hill_groups"] > 0.09, (seed, late)
         assert late["largest_hill_group"] >= 20, (seed, late)

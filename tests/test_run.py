@@ -14,30 +14,13 @@ import yaml
 
 import ringsim
 from ringsim.cli import main
-from ringsim.config.scenario import load_scenario, scenario_from_dict, with_overrides
+from ringsim.config.scenario import load_scenario, with_overrides
 from ringsim.testing import run_file_datasets
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 
 
-def small_scenario(**overrides):
-    """A 150-particle sheet of 1-2 m particles, Dilley kappa = 0.1, 0.6 orbit."""
-    base = {
-        "name": "small",
-        "seed": 7,
-        "planet": {"Omega": 2.0e-4},
-        "particles": {"density": 900.0, "size_distribution": {
-            "kind": "powerlaw", "q": 3.0, "r_min": 1.0, "r_max": 2.0}},
-        "sheet": {"optical_depth": 0.25, "n_particles": 150, "aspect": 1.0, "gravity": False},
-        "restitution": {"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.1},
-        "integration": {"orbits": 0.6, "dt": "auto", "collision_detection": "tree"},
-        "output": {"path": "runs/small.h5", "timeseries_every": 0.05, "snapshot_every": 0.2},
-    }
-    sc = scenario_from_dict(base, source="<test>")
-    return with_overrides(sc, overrides) if overrides else sc
-
-
-def test_same_scenario_twice_gives_identical_files(tmp_path):
+def test_same_scenario_twice_gives_identical_files(tmp_path, small_scenario):
     sc = small_scenario()
     a = ringsim.run(sc, output=tmp_path / "a.h5", progress=False)
     b = ringsim.run(sc, output=tmp_path / "b.h5", progress=False)
@@ -57,7 +40,7 @@ def test_same_scenario_twice_gives_identical_files(tmp_path):
             assert f["snapshots/000000"][field].attrs["units"] in ("m", "m/s", "kg")
 
 
-def test_different_seed_gives_different_run(tmp_path):
+def test_different_seed_gives_different_run(tmp_path, small_scenario):
     a = ringsim.run(small_scenario(**{"integration.orbits": 0.1}), output=tmp_path / "a.h5",
                     progress=False)
     b = ringsim.run(small_scenario(**{"integration.orbits": 0.1, "seed": 8}),
@@ -66,7 +49,7 @@ def test_different_seed_gives_different_run(tmp_path):
         ringsim.open_run(b).snapshot(-1)["x"].tobytes()
 
 
-def test_sigkill_then_resume_is_bit_identical(tmp_path):
+def test_sigkill_then_resume_is_bit_identical(tmp_path, small_scenario):
     sc = small_scenario(**{"integration.orbits": 1.2, "output.snapshot_every": 0.2,
                            "sheet.n_particles": 300})
     scenario_file = tmp_path / "s.yaml"
@@ -108,7 +91,7 @@ def test_sigkill_then_resume_is_bit_identical(tmp_path):
         assert np.array_equal(series, res.timeseries[name], equal_nan=True), name
 
 
-def test_hot_ring_never_wraps_in_z(tmp_path):
+def test_hot_ring_never_wraps_in_z(tmp_path, small_scenario):
     """Nearly elastic collisions heat the ring; the vertical guard must enlarge the box."""
     sc = small_scenario(**{"restitution": {"model": "constant", "epsilon": 0.95},
                            "sheet.initial_dispersion": 20.0, "sheet.z_box": 30.0,
@@ -125,14 +108,14 @@ def test_hot_ring_never_wraps_in_z(tmp_path):
         assert np.all(np.abs(z) < 0.5 * ts["z_half_period"].max())
 
 
-def test_fixed_dt_violation_is_reported(tmp_path):
+def test_fixed_dt_violation_is_reported(tmp_path, small_scenario):
     sc = small_scenario(**{"integration.dt": 1.0e-3, "sheet.initial_dispersion": 50.0,
                            "integration.orbits": 0.1})
     run = ringsim.open_run(ringsim.run(sc, output=tmp_path / "w.h5", progress=False))
     assert any("WARNING: fixed dt" in m for _, m in run.guard_events)
 
 
-def test_refuses_to_overwrite_without_force(tmp_path, capsys):
+def test_refuses_to_overwrite_without_force(tmp_path, capsys, small_scenario):
     scenario_file = tmp_path / "s.yaml"
     scenario_file.write_text(small_scenario(**{"integration.orbits": 0.05}).to_yaml())
     out = tmp_path / "out.h5"
@@ -145,26 +128,30 @@ def test_refuses_to_overwrite_without_force(tmp_path, capsys):
     assert h5py.is_hdf5(out)
 
 
-def _broken(mutate):
-    """YAML text of the small scenario with one thing broken by ``mutate(dict)``."""
+@pytest.fixture
+def text(request, small_scenario):
+    """The parameter if it is text, else YAML text of the small scenario with one thing
+    broken by the parameter, a ``mutate(dict)``."""
+    if isinstance(request.param, str):
+        return request.param
     d = small_scenario().to_dict()
-    mutate(d)
+    request.param(d)
     return yaml.safe_dump(d)
 
 
 @pytest.mark.parametrize("text, key", [
-    (_broken(lambda d: d.pop("name")), "name"),
-    (_broken(lambda d: d.update(colour="red")), "colour"),
-    (_broken(lambda d: d["particles"].update(size_distribution={"kind": "monodisperse",
-                                                                "radius": -1.0})),
+    (lambda d: d.pop("name"), "name"),
+    (lambda d: d.update(colour="red"), "colour"),
+    (lambda d: d["particles"].update(size_distribution={"kind": "monodisperse",
+                                                        "radius": -1.0}),
      "particles.size_distribution.radius"),
-    (_broken(lambda d: d["particles"]["size_distribution"].update(r_min=5.0, r_max=1.0)),
+    (lambda d: d["particles"]["size_distribution"].update(r_min=5.0, r_max=1.0),
      "particles.size_distribution.r_m"),
-    (_broken(lambda d: d["sheet"].update(optical_depth=0.0)), "sheet.optical_depth"),
-    (_broken(lambda d: d["restitution"].update(kappa="abc")), "restitution.kappa"),
+    (lambda d: d["sheet"].update(optical_depth=0.0), "sheet.optical_depth"),
+    (lambda d: d["restitution"].update(kappa="abc"), "restitution.kappa"),
     ("name: x\nseed: [1\n", "<yaml>"),
 ], ids=["missing-name", "unknown-key", "negative-radius", "rmin>rmax", "tau=0",
-        "kappa-not-number", "bad-yaml"])
+        "kappa-not-number", "bad-yaml"], indirect=["text"])
 def test_bad_scenarios_exit_2_with_one_line(tmp_path, capsys, text, key):
     bad = tmp_path / "bad.yaml"
     bad.write_text(text)
@@ -199,7 +186,7 @@ def test_bundled_scenarios_smoke(tmp_path, scenario_file):
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
-def test_interrupt_stops_cleanly_and_resumes(tmp_path, sig):
+def test_interrupt_stops_cleanly_and_resumes(tmp_path, sig, small_scenario):
     """Ctrl-C (or SIGTERM) stops with a checkpoint; --resume ends on the same states."""
     sc = small_scenario(**{"integration.orbits": 1.0, "sheet.n_particles": 300})
     scenario_file = tmp_path / "s.yaml"
@@ -238,7 +225,7 @@ def test_interrupt_stops_cleanly_and_resumes(tmp_path, sig):
         assert np.array_equal(ref.timeseries[name], res.timeseries[name]), name
 
 
-def test_extending_a_finished_run_equals_a_longer_run(tmp_path):
+def test_extending_a_finished_run_equals_a_longer_run(tmp_path, small_scenario):
     """--resume with a larger integration.orbits continues a finished run bit-exactly."""
     short = small_scenario(**{"integration.orbits": 0.4})
     long = small_scenario(**{"integration.orbits": 0.8})
@@ -259,18 +246,13 @@ def test_extending_a_finished_run_equals_a_longer_run(tmp_path):
         ringsim.run(other, output=path, resume=True, progress=False)
 
 
-def test_until_equilibrium_stops_when_stationary_and_says_why(tmp_path):
+def test_until_equilibrium_stops_when_stationary_and_says_why(tmp_path, line_scenario):
     """A cold dense ring settles within an orbit or two: with until_equilibrium the run stops
     long before its maximum, at an output where analyze calls it stationary; without it,
     it runs to the end.  Both files say why they stopped."""
-    base = scenario_from_dict({
-        "name": "settle", "seed": 2, "planet": {"Omega": 2.0e-4},
-        "particles": {"size_distribution": {"kind": "monodisperse", "radius": 1.0}},
-        "sheet": {"optical_depth": 0.8, "n_particles": 150},
-        "restitution": {"model": "constant", "epsilon": 0.5},
-        "integration": {"orbits": 60.0, "collision_detection": "line",
-                        "until_equilibrium": True},
-        "output": {"timeseries_every": 0.05, "snapshot_every": 5.0}})
+    base = line_scenario(name="settle", seed=2, **{
+        "sheet.optical_depth": 0.8, "sheet.n_particles": 150, "integration.orbits": 60.0,
+        "integration.until_equilibrium": True, "output.snapshot_every": 5.0})
     path = ringsim.run(base, output=tmp_path / "settle.h5", progress=False)
     run = ringsim.open_run(path)
     assert run.attrs["status"] == "finished"

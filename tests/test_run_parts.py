@@ -16,20 +16,14 @@ import pytest
 
 import ringsim
 from ringsim.cli import main
-from ringsim.config.scenario import scenario_from_dict, with_overrides
+from ringsim.config.scenario import with_overrides
 from ringsim.engine.runner import Runner
 from ringsim.store import bulk, runfile
 from ringsim.testing import run_file_datasets
 
-SCENARIO = {
-    "name": "parts", "seed": 3, "planet": {"Omega": 2.0e-4},
-    "particles": {"density": 900.0, "size_distribution": {
-        "kind": "powerlaw", "q": 3.0, "r_min": 1.0, "r_max": 3.0}},
-    "sheet": {"optical_depth": 0.25, "n_particles": 200},
-    "restitution": {"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.0},
-    "integration": {"orbits": 0.3, "collision_detection": "line"},
-    "output": {"timeseries_every": 0.02, "snapshot_every": 0.1, "checkpoint_every": 0.1},
-}
+#: The ring in line mode, a checkpoint with every snapshot.
+PARTS = {"name": "parts", "integration.collision_detection": "line",
+         "output.checkpoint_every": 0.1}
 
 
 def _run_in_parts(scenario, path):
@@ -41,9 +35,9 @@ def _run_in_parts(scenario, path):
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
+def runs(tmp_path_factory, ring_scenario):
     folder = tmp_path_factory.mktemp("parts")
-    sc = scenario_from_dict(SCENARIO, source="<test>")
+    sc = ring_scenario(PARTS)
     ringsim.run(sc, output=folder / "one.h5", progress=False)
     _run_in_parts(sc, folder / "parts.h5")
     return {"scenario": sc, "one": folder / "one.h5", "parts": folder / "parts.h5"}
@@ -207,10 +201,10 @@ def test_a_finished_run_is_packed_into_one_file(runs, tmp_path):
     assert runfile.pack(path) == 0
 
 
-def test_ringsim_run_leaves_no_part_files(tmp_path, monkeypatch):
+def test_ringsim_run_leaves_no_part_files(tmp_path, monkeypatch, ring_scenario):
     # a run whose snapshots go into part files while it runs ends as one file
     monkeypatch.setattr(bulk, "EXTERNAL_BYTES", 0)   # every item in a part file
-    sc = scenario_from_dict(SCENARIO, source="<test>")
+    sc = ring_scenario(PARTS)
     seen = []
     monkeypatch.setattr(runfile, "pack", lambda p, pack=runfile.pack: seen.append(pack(p)))
     path = ringsim.run(sc, output=tmp_path / "run.h5", progress=False)

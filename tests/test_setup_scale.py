@@ -9,17 +9,11 @@ import numpy as np
 import pytest
 import rebound
 
-from ringsim.config.scenario import scenario_from_dict
 from ringsim.engine import box, placement, sheet
 
-DENSE = {
-    "name": "dense", "seed": 5, "planet": {"Omega": 2.0e-4},
-    "particles": {"density": 900.0, "size_distribution": {
-        "kind": "powerlaw", "q": 3.0, "r_min": 0.5, "r_max": 5.0}},
-    "sheet": {"optical_depth": 1.5, "n_particles": 20000},
-    "restitution": {"model": "dilley", "kappa": 0.1},
-    "integration": {"collision_detection": "line"},
-}
+#: The broad sheet packed to tau = 1.5 with 20000 particles, in line mode.
+DENSE = {"name": "dense", "seed": 5, "sheet.optical_depth": 1.5, "sheet.n_particles": 20000,
+         "integration.collision_detection": "line"}
 
 
 def _brute_force(x, y, z, radii, Lx, Ly, searched=None):
@@ -67,17 +61,16 @@ def test_grid_search_finds_exactly_the_brute_force_pairs(Lx, Ly, radii_kind):
     assert max(moved[0], moved[1]) in found
 
 
-def test_dense_sheet_starts_without_overlaps():
+def test_dense_sheet_starts_without_overlaps(broad_scenario):
     # tau = 1.5 with radii spanning a factor 10: the densest set-up the issue asks for
-    built = sheet.build_sheet(scenario_from_dict(DENSE, source="<test>"))
+    built = sheet.build_sheet(broad_scenario(DENSE))
     arrays = sheet.particle_arrays(built.sim)
     assert built.sim.N == 20000
     assert box.count_overlaps(arrays, built.geometry, fraction=0.0) == 0
 
 
-def test_add_particles_builds_what_sim_add_builds():
-    sc = scenario_from_dict({**DENSE, "sheet": {"optical_depth": 0.3, "n_particles": 300}},
-                            source="<test>")
+def test_add_particles_builds_what_sim_add_builds(broad_scenario):
+    sc = broad_scenario(DENSE, {"sheet.optical_depth": 0.3, "sheet.n_particles": 300})
     built = sheet.build_sheet(sc)
     arrays = sheet.particle_arrays(built.sim)
     sims = []

@@ -5,21 +5,16 @@ import math
 import numpy as np
 import pytest
 
-from ringsim.config.scenario import scenario_from_dict, with_overrides
+from ringsim.config.scenario import scenario_from_dict
 from ringsim.engine import box, sheet, timestep
 
-BASE = {
-    "name": "sheet-test", "seed": 11, "planet": {"Omega": 2.0e-4},
-    "particles": {"density": 900.0, "size_distribution": {
-        "kind": "powerlaw", "q": 3.0, "r_min": 0.5, "r_max": 5.0}},
-    "sheet": {"optical_depth": 0.4, "n_particles": 400, "aspect": 2.0},
-    "restitution": {"model": "dilley", "kappa": 0.1},
-}
+#: The broad sheet, twice as long along the orbit (y) as across it (x).
+LONG = {"name": "sheet-test", "sheet.aspect": 2.0}
 
 
 @pytest.fixture(scope="module")
-def built():
-    return sheet.build_sheet(scenario_from_dict(BASE, source="<test>"))
+def built(broad_scenario):
+    return sheet.build_sheet(broad_scenario(LONG))
 
 
 def test_box_holds_the_optical_depth_exactly(built):
@@ -54,24 +49,23 @@ def test_initial_state(built):
     assert sheet.vertical_guard_ok(arrays, g)
 
 
-def test_size_distribution_drawn_with_the_seed():
-    a = sheet.build_sheet(scenario_from_dict(BASE, source="<a>"))
-    b = sheet.build_sheet(scenario_from_dict(BASE, source="<b>"))
+def test_size_distribution_drawn_with_the_seed(broad_scenario):
+    a = sheet.build_sheet(broad_scenario(LONG, source="<a>"))
+    b = sheet.build_sheet(broad_scenario(LONG, source="<b>"))
     np.testing.assert_array_equal(a.radii, b.radii)
     assert a.radii.min() >= 0.5 and a.radii.max() <= 5.0
-    c = sheet.build_sheet(with_overrides(scenario_from_dict(BASE), {"seed": 12}))
+    c = sheet.build_sheet(broad_scenario(LONG, seed=12))
     assert not np.array_equal(a.radii, c.radii)
     np.testing.assert_array_equal(a.size_bin_edges, c.size_bin_edges)
     assert a.size_bin_edges[0] == 0.5 and 5.0 < a.size_bin_edges[-1] < 5.0 * (1 + 1e-8)
 
 
-def test_gravity_sets_tree_gravity_one_ghost_ring_and_the_field_beyond():
+def test_gravity_sets_tree_gravity_one_ghost_ring_and_the_field_beyond(broad_scenario):
     # one ring plus the analytic field of the sheet beyond it (issue 12, docs/gravity.md)
     from ringsim.gravity.tree import has_ghost_field
 
-    sc = with_overrides(scenario_from_dict(BASE), {"sheet.gravity": True,
-                                                   "sheet.gravity_solver": "tree",
-                                                   "sheet.n_particles": 50})
+    sc = broad_scenario(LONG, {"sheet.gravity": True, "sheet.gravity_solver": "tree",
+                               "sheet.n_particles": 50})
     sim = sheet.build_sheet(sc).sim
     assert sim.gravity == "tree" and sim.N_ghost_x == 1 and sim.N_ghost_y == 1
     assert has_ghost_field(sim)

@@ -12,7 +12,7 @@ import rebound
 import ringsim
 from ringsim import testing
 from ringsim.analysis.gravitating import gravity_equilibrium
-from ringsim.config.scenario import scenario_from_dict, with_overrides
+from ringsim.config.scenario import scenario_from_dict
 from ringsim.config.schema import ScenarioError
 from ringsim.engine import box, sheet
 from ringsim.gravity import registry
@@ -83,31 +83,27 @@ def test_slab_field_of_a_thick_gaussian_layer_is_the_erf_profile():
     assert np.max(np.abs(g - expected)) < 0.02 * 2.0 * math.pi * G_SI * Sigma
 
 
-def slab_scenario(**overrides):
-    """200 identical 1 m ice particles at tau = 0.5, 1e8 m from Saturn, slab gravity."""
-    sc = scenario_from_dict({
-        "name": "slab", "seed": 3,
-        "planet": {"GM": 3.7931e16, "a": 1.0e8},
-        "particles": {"density": 900.0, "size_distribution": {"kind": "monodisperse",
-                                                              "radius": 1.0}},
-        "sheet": {"optical_depth": 0.5, "n_particles": 200, "gravity": True,
-                  "gravity_solver": "slab"},
-        "restitution": {"model": "bridges", "v_c": 7.7e-5, "exponent": 0.234},
-        "integration": {"orbits": 0.2},
-        "output": {"path": "runs/slab.h5", "timeseries_every": 0.05, "snapshot_every": 0.1},
-    }, source="<test>")
-    return with_overrides(sc, overrides) if overrides else sc
+#: The gravitating sheet with the slab solver.
+SLAB = {"name": "slab", "sheet.gravity_solver": "slab"}
+
+
+@pytest.fixture(scope="module")
+def slab_scenario(gravitating_scenario):
+    """Factory: 200 identical 1 m ice particles at tau = 0.5, 1e8 m from Saturn, slab
+    gravity, with dotted overrides, ``slab_scenario(**{key: value})``."""
+    return lambda **overrides: gravitating_scenario(SLAB, overrides)
 
 
 @pytest.mark.parametrize("key, value", [("opening_angle", 0.3), ("softening", 0.1)])
-def test_slab_refuses_the_keys_it_does_not_use(key, value):
+def test_slab_refuses_the_keys_it_does_not_use(key, value, slab_scenario):
     d = slab_scenario().to_dict()
     d["sheet"][key] = value
     with pytest.raises(ScenarioError, match=f"sheet.{key}"):
         scenario_from_dict(d, source="<test>")
 
 
-def test_extending_a_slab_run_is_bit_identical_and_has_no_gravitational_viscosity(tmp_path):
+def test_extending_a_slab_run_is_bit_identical_and_has_no_gravitational_viscosity(tmp_path,
+                                                                                  slab_scenario):
     """REBOUND does not save function pointers: the resumed run re-installs the slab field,
     so it ends in the bits of the uninterrupted run; the field acted (the run differs from
     the same run without gravity); no torque acted, so the gravitational viscosity is 0."""

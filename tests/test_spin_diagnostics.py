@@ -16,7 +16,6 @@ import json
 import numpy as np
 import pytest
 import rebound
-from test_friction_run import rough_scenario
 
 import ringsim
 from ringsim.cli import main
@@ -74,7 +73,7 @@ def test_dissipation_counters_close_the_energy_of_a_box(friction):
 
 
 @pytest.fixture(scope="module")
-def rough_run(tmp_path_factory):
+def rough_run(tmp_path_factory, rough_scenario):
     path = tmp_path_factory.mktemp("rough") / "rough.h5"
     # 0.8 orbit: the last snapshot, written with the final checkpoint, is 288 degrees on
     sc = rough_scenario({"model": "constant", "beta": 0.0}, **{"integration.orbits": 0.8})
