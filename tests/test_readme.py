@@ -36,3 +36,13 @@ def test_readme_python_example_runs_from_the_repository_root(tmp_path):
     result = json.loads(done.stdout.strip().splitlines()[-1])
     assert result["units"] == "m/s"
     assert output.is_file()
+
+
+def test_ci_runs_the_readmes_test_command():
+    """The README's second set-up command (install, checks, API reference, tests) is the
+    command .ci/run runs from a clean clone, letter for letter."""
+    commands = re.findall(r"```bash\n(.*?)\n```", (ROOT / "README.md").read_text(), re.S)
+    setup = [c for c in commands if c.startswith("python3 -m venv")]
+    assert len(setup) == 2, "the README has exactly two set-up commands"
+    assert "pytest" in setup[1] and "mypy" in setup[1] and "sphinx-build" in setup[1]
+    assert f"bash -c '{setup[1]}'" in (ROOT / ".ci" / "run").read_text()
