@@ -276,6 +276,12 @@ def _cmd_sweep(args) -> int:
     return sweep_command(args)
 
 
+def _cmd_study(args) -> int:
+    from ringsim.study import study_command
+
+    return study_command(args)
+
+
 def _cmd_fit(args) -> int:
     from ringsim.analysis.fit import fit_command
 
@@ -352,6 +358,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "H against the swept parameter) into DIR")
     p.set_defaults(func=_cmd_sweep)
 
+    _add_study_parser(sub)
+
     p = sub.add_parser("fit", help="fit restitution laws to measured epsilon(v, R, M)")
     p.add_argument("data", metavar="DATA.csv")
     p.add_argument("--model", default="dilley", help="dilley, bridges, constant, andrews, "
@@ -362,6 +370,25 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write the best fit as a scenario 'restitution' section")
     p.set_defaults(func=_cmd_fit)
     return parser
+
+
+def _add_study_parser(sub) -> None:
+    p = sub.add_parser("study", help="run a study file (cases x seeds, ratios, variants) and "
+                       "write its report (docs/studies.md)")
+    p.add_argument("study", metavar="STUDY.yaml")
+    p.add_argument("--out", metavar="DIR", help="report and run files (default: "
+                   "<study>.report/, or <study>.quick.report/, beside the study file)")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local worker processes (default: number of CPUs)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address; needs "
+                   "the 'dask' extra")
+    p.add_argument("--quick", action="store_true", help="the study's quick form (reduced "
+                   "particles and length)")
+    p.add_argument("--report-only", action="store_true", help="write the report from the "
+                   "summaries alone; run nothing")
+    p.add_argument("--threads", type=int, default=None, metavar="N", help="integration."
+                   "threads of every run (changes the speed, never a result)")
+    p.set_defaults(func=_cmd_study)
 
 
 def main(argv: list[str] | None = None) -> int:
