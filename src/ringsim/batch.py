@@ -7,7 +7,8 @@ What happens to the run file a batch asks for (`existing_action`):
   rerun (``reuse``);
 * a file left ``running`` (its process died) or ``stopped`` (SIGINT/SIGTERM) continues
   from its last checkpoint, bit-identical to an uninterrupted run (``resume``), or is
-  run again from the start when it has no checkpoint yet (``restart``);
+  run again from the start when it has no checkpoint yet (``restart``), also when its
+  process died before the first output, which leaves a file without time series;
 * with ``extend=True`` (the study), a file whose scenario differs only by a smaller
   ``integration.orbits`` is continued to the longer duration (``extend``: ``ringsim run
   --resume`` with the larger value, docs/interface.md "Extending a run"); a file holding
@@ -101,16 +102,19 @@ def existing_action(path: str | Path, scenario, *, extend: bool = False,
         (``store.runfile.RunFileError``), was made by another scenario, holds more orbits
         than asked (with ``extend``) or has an unknown status.
     """
-    from ringsim.store.runfile import open_run, read_checkpoint
+    from ringsim.store.runfile import RunFileError, open_run, read_checkpoint
 
-    run = open_run(path)                 # RunFileError: damaged, newer format, locked
+    try:
+        run = open_run(path)             # RunFileError: damaged, newer format, locked
+    except RunFileError:
+        made_by = _died_at_start(path)
+        if made_by is None:
+            raise
+        _check_same(path, made_by, scenario, extend, asker, advice)
+        return "restart"
     checkpoint = read_checkpoint(path)   # RunFileError: damaged checkpoint
     status = run.attrs.get("status")
-    difference = first_difference(_compared(run.scenario, extend),
-                                  _compared(scenario, extend), asker=asker)
-    if difference:
-        raise InputError(str(path), "scenario", f"the existing run file was made by a "
-                         f"different scenario ({difference}); {advice}")
+    _check_same(path, run.scenario, scenario, extend, asker, advice)
     had, asked = run.scenario.integration.orbits, scenario.integration.orbits
     if extend and had > asked:
         raise InputError(str(path), "integration.orbits", f"the run file holds a run of "
@@ -123,6 +127,39 @@ def existing_action(path: str | Path, scenario, *, extend: bool = False,
             return "restart"
         return "extend" if had < asked else "resume"
     raise InputError(str(path), "status", f"unknown run status {status!r}; {advice}")
+
+
+def _check_same(path, made_by, scenario, extend: bool, asker: str, advice: str) -> None:
+    difference = first_difference(_compared(made_by, extend), _compared(scenario, extend),
+                                  asker=asker)
+    if difference:
+        raise InputError(str(path), "scenario", f"the existing run file was made by a "
+                         f"different scenario ({difference}); {advice}")
+
+
+def _died_at_start(path: str | Path):
+    """The scenario of a run file whose process died before the run's first output (status
+    ``running``, not a time-series row, snapshot or checkpoint written, nobody writing it),
+    else None: such a file holds nothing to keep and is run again from the start."""
+    import h5py
+
+    from ringsim.config.scenario import scenario_from_text
+    from ringsim.config.schema import ScenarioError
+    from ringsim.store.lock import writer_of
+
+    if writer_of(path) is not None:
+        return None
+    try:
+        with h5py.File(path, "r") as f:
+            status, text = f.attrs.get("status"), f.attrs.get("scenario_yaml")
+            empty = ("checkpoint" not in f and "t" not in f.get("timeseries", {"t": 0})
+                     and not len(f.get("snapshots", [0])))
+        if not empty or status not in ("running", b"running") or text is None:
+            return None
+        return scenario_from_text(text.decode() if isinstance(text, bytes) else str(text),
+                                  source=str(path))
+    except (OSError, ValueError, ScenarioError):
+        return None
 
 
 def run_to_file(scenario, path: str | Path, action: str) -> None:

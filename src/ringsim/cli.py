@@ -348,10 +348,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("sweep", help="run a grid of scenarios (local processes or Dask)")
     p.add_argument("sweep", metavar="SWEEP.yaml")
-    p.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="local worker processes (default: number of CPUs)")
-    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address "
-                   "(e.g. tcp://127.0.0.1:8786); needs the 'dask' extra")
+    _add_pool_options(p)
     p.add_argument("--out", metavar="DIR", help="output directory (default: "
                    "runs/<sweep file name>)")
     p.add_argument("--plots", metavar="DIR", help="write PNG figures of the summary (c and "
@@ -372,16 +369,21 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _add_pool_options(p) -> None:
+    """``--workers`` and ``--scheduler`` of the commands that run batches of runs."""
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local worker processes (default: number of CPUs)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address "
+                   "(e.g. tcp://127.0.0.1:8786); needs the 'dask' extra")
+
+
 def _add_study_parser(sub) -> None:
     p = sub.add_parser("study", help="run a study file (cases x seeds, ratios, variants) and "
                        "write its report (docs/studies.md)")
     p.add_argument("study", metavar="STUDY.yaml")
     p.add_argument("--out", metavar="DIR", help="report and run files (default: "
                    "<study>.report/, or <study>.quick.report/, beside the study file)")
-    p.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="local worker processes (default: number of CPUs)")
-    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address; needs "
-                   "the 'dask' extra")
+    _add_pool_options(p)
     p.add_argument("--quick", action="store_true", help="the study's quick form (reduced "
                    "particles and length)")
     p.add_argument("--report-only", action="store_true", help="write the report from the "
