@@ -28,7 +28,11 @@ raises is turned into a failed result by the caller's ``failed`` function.
 
 from __future__ import annotations
 
+import contextlib
 import io
+import os
+import signal
+import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -203,22 +207,75 @@ class LabelledStream(io.TextIOBase):
 
 # --- executors --------------------------------------------------------------------------------
 
+def _quiet_worker() -> None:
+    """Worker processes ignore SIGINT between tasks, so that Ctrl-C never kills an idle
+    worker, and end on SIGTERM (the handler of the parent they were forked from is not
+    theirs); a run installs its own handlers and stops at a checkpoint (``engine.stop``)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    """SIGTERM raises KeyboardInterrupt in this (main) thread while the pool runs."""
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:   # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def run_local(fn: Callable[[Any], Any], tasks: Sequence[Any], workers: int,
               report: Callable[[Any], None],
               failed: Callable[[Any, BaseException], Any]) -> None:
     """``fn(task)`` for every task in ``workers`` local processes; ``report`` receives each
-    result as it arrives (``failed(task, exc)`` for a task that raised)."""
+    result as it arrives (``failed(task, exc)`` for a task that raised).
+
+    On SIGINT or SIGTERM the tasks not started are dropped, the worker processes (the
+    children of this process) are sent SIGTERM until they have ended (a run stops at its
+    next output with a checkpoint, ``engine.stop``; an idle worker ends), and
+    KeyboardInterrupt is raised.  SIGTERM, not SIGINT:
+    REBOUND installs its own SIGINT handler whenever it integrates, which drops a SIGINT
+    that arrives between two integrations.
+    """
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        futures = {pool.submit(fn, task): task for task in tasks}
-        for future in as_completed(futures):
-            task = futures[future]
-            try:
-                result = future.result()
-            except Exception as exc:  # noqa: BLE001 - any failure of one task is reported
-                result = failed(task, exc)
-            report(result)
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=_quiet_worker)
+    try:
+        with _sigterm_as_interrupt():
+            futures = {pool.submit(fn, task): task for task in tasks}
+            for future in as_completed(futures):
+                task = futures[future]
+                try:
+                    result = future.result()
+                except Exception as exc:  # noqa: BLE001 - any failure of one task is reported
+                    result = failed(task, exc)
+                report(result)
+    except KeyboardInterrupt:
+        pool.shutdown(wait=False, cancel_futures=True)
+        _stop_children()
+        raise
+    pool.shutdown(wait=True)
+
+
+def _stop_children(poll: float = 0.2) -> None:
+    """Send SIGTERM to this process's children until none is left: a run stops at its next
+    output, an idle worker ends, and a worker that took a queued task meanwhile gets the
+    next signal (poll [s])."""
+    import multiprocessing
+
+    while children := multiprocessing.active_children():
+        for child in children:
+            with contextlib.suppress(OSError):
+                os.kill(child.pid, signal.SIGTERM)
+        time.sleep(poll)
 
 
 def dask_client(address: str):
@@ -246,10 +303,14 @@ def run_dask(client, fn: Callable[[Any], Any], tasks: Sequence[Any],
 
     futures = client.map(fn, list(tasks), pure=False)
     by_future = dict(zip(futures, tasks, strict=True))
-    for future in as_completed(futures):
-        task = by_future[future]
-        try:
-            result = future.result()
-        except Exception as exc:  # noqa: BLE001 - any failure of one task is reported
-            result = failed(task, exc)
-        report(result)
+    try:
+        for future in as_completed(futures):
+            task = by_future[future]
+            try:
+                result = future.result()
+            except Exception as exc:  # noqa: BLE001 - any failure of one task is reported
+                result = failed(task, exc)
+            report(result)
+    except KeyboardInterrupt:   # tasks not started are dropped; running ones go on
+        client.cancel(futures)
+        raise
