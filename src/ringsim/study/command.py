@@ -74,7 +74,7 @@ def read_summaries(runs: dict, folder: Path) -> dict[str, dict]:
         path = folder / f"{rid}.json"
         summary = read_summary(path)
         state = summary_state(summary, run.scenario)
-        if state != "same":
+        if summary is None or state != "same":
             why = {"missing": "no summary", "shorter": "the summary is of a shorter run",
                    "longer": "the summary is of a longer run",
                    "other": "the summary is of another scenario"}[state]

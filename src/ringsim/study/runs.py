@@ -287,7 +287,9 @@ def _run_task(task: RunTask) -> TaskResult:
         eq = equilibrium(run)
         cpu = (None if task.action == "reuse"
                else time.process_time() - cpu0 + (task.cpu_before or 0.0))
-        cost = {"cpu_time_s": cpu, "run_wall_time_s": float(run.attrs.get("wall_time_s", 0.0))}
+        wall = run.attrs.get("wall_time_s", 0.0)
+        cost = {"cpu_time_s": cpu,
+                "run_wall_time_s": float(wall) if isinstance(wall, (int, float)) else None}
         write_json(task.summary, make_summary(task.run_id, run, eq, QUANTITIES, cost))
     elif status == "stopped":
         result.error = "stopped before the end; start the study again to continue it"
