@@ -190,7 +190,11 @@ def _status(path: Path) -> str:
         return str(f.attrs["status"])
 
 
-def test_killed_study_resumes_to_the_same_report(reference, tmp_path):
+@pytest.mark.parametrize("how", ["SIGKILL to the process group", "SIGTERM to the study"])
+def test_killed_study_resumes_to_the_same_report(reference, tmp_path, how):
+    """A crash (SIGKILL of the study and its workers) leaves runs ``running``; a SIGTERM to
+    the study alone stops its workers' runs at a checkpoint (``stopped``, exit status 130).
+    Started again, the study resumes them and writes the uninterrupted report."""
     study = copy_study(reference, tmp_path / "killed", summaries=False)
     out = tmp_path / "killed" / "study.quick.report"
     proc = subprocess.Popen([sys.executable, "-m", "ringsim.cli", "study", str(study),
@@ -204,10 +208,15 @@ def test_killed_study_resumes_to_the_same_report(reference, tmp_path):
             assert time.monotonic() < deadline, "no run reached a checkpoint"
             time.sleep(0.02)
     finally:
-        os.killpg(proc.pid, signal.SIGKILL)  # the study and its workers, as a crash would
-        proc.wait(timeout=60)
-    unfinished = [p for p in (out / "runs").glob("*.h5") if _status(p) == "running"]
-    assert unfinished, "killed in the middle of a run"
+        if how.startswith("SIGKILL") or proc.poll() is not None:
+            os.killpg(proc.pid, signal.SIGKILL)  # the study and its workers, as a crash would
+        else:
+            proc.send_signal(signal.SIGTERM)
+        status = proc.wait(timeout=120)
+    left = {"SIGKILL": ("running", -signal.SIGKILL), "SIGTERM": ("stopped", 130)}
+    expected_status, expected_exit = left[how.split()[0]]
+    assert status == expected_exit
+    assert expected_status in {_status(p) for p in (out / "runs").glob("*.h5")}
     result = run_study(study, quick=True, workers=2, echo=None, command=COMMAND)
     assert "resume" in {r.action for r in result.results}
     assert all(r.status == "finished" for r in result.results)

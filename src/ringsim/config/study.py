@@ -2,11 +2,11 @@
 and the method variants that measure the ratios' systematic error (docs/studies.md).
 
 Every run of a study is the base scenario with, in this order (a later one wins): the
-study's ``length``, the case's overrides, with ``--quick`` the ``quick`` overrides, the
-variant's overrides, and the seed.  Overrides are dotted scenario keys, as in a sweep file
-(``ringsim.config.scenario.with_overrides``).  Every value is checked when the file is read,
-in both its full and its quick form, so that a bad key is bad input (one line naming the
-key) before anything runs.
+study's ``length``, its ``overrides`` (of every run), the case's overrides, with ``--quick``
+the ``quick`` overrides, the variant's overrides, and the seed.  Overrides are dotted
+scenario keys, as in a sweep file (``ringsim.config.scenario.with_overrides``).  Every value
+is checked when the file is read, in both its full and its quick form, so that a bad key is
+bad input (one line naming the key) before anything runs.
 """
 
 from __future__ import annotations
@@ -30,8 +30,8 @@ from ringsim.config.schema import (
 )
 
 #: Keys of a study file.
-STUDY_KEYS = ("name", "description", "base", "seeds", "cases", "ratios", "quantities",
-              "variants", "variant_seeds", "length", "quick", "report")
+STUDY_KEYS = ("name", "description", "base", "seeds", "overrides", "cases", "ratios",
+              "quantities", "variants", "variant_seeds", "length", "quick", "report")
 #: Keys of the ``quick`` section besides dotted scenario overrides.
 QUICK_KEYS = ("length", "seeds", "variant_seeds", "variants")
 #: Keys of a ``length`` section.
@@ -98,6 +98,8 @@ class Study:
     base : Scenario
     base_file : str
         The base scenario as the study file names it (relative to the study file).
+    overrides : dict
+        Dotted overrides of every run, before the case's.
     cases : tuple of (name, dict of dotted overrides)
         In file order.
     ratios : tuple of (numerator, denominator)
@@ -116,6 +118,7 @@ class Study:
     source: str
     base: Scenario
     base_file: str
+    overrides: dict
     cases: tuple[tuple[str, dict], ...]
     ratios: tuple[tuple[str, str], ...]
     quantities: tuple[str, ...] | None
@@ -159,9 +162,10 @@ class Study:
 
 def _scenario(study: Study, mode: Mode, case: Mapping, variant: Mapping,
               seed: int) -> Scenario:
-    """The base with the length, the case, the quick overrides, the variant and the seed."""
-    return with_overrides(study.base, {**mode.length, **case, **mode.overrides, **variant,
-                                       "seed": seed})
+    """The base with the length, the study's and the case's overrides, the quick
+    overrides, the variant and the seed."""
+    return with_overrides(study.base, {**mode.length, **study.overrides, **case,
+                                       **mode.overrides, **variant, "seed": seed})
 
 
 # --- reading ----------------------------------------------------------------------------------
@@ -384,13 +388,15 @@ def load_study(path: str | PathLike, quantities: Sequence[str] | None = None) ->
                         "a scenario file, relative to the study file")
     base = load_scenario(base_path)
     full = _full_mode(top, base)
-    cases = _cases(top, base, full.length)
+    overrides = (_check_overrides(top, "overrides", base, full.length)
+                 if top.has("overrides") else {})
+    cases = _cases(top, base, {**full.length, **overrides})
     ratios = _ratios(top, [case for case, _ in cases])
     if full.variants and not ratios:
         raise top.error("variants", "given without ratios", "variants measure the "
                         "systematic part of the ratios: add ratios, or remove variants")
     study = Study(name=name, description=description, source=source, base=base,
-                  base_file=base_file, cases=cases, ratios=ratios,
+                  base_file=base_file, overrides=overrides, cases=cases, ratios=ratios,
                   quantities=_quantities(top, quantities), full=full,
                   quick_mode=_quick_mode(top, base, full),
                   report=_report(top, Path(source).parent))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Mapping, Sequence
 
@@ -27,6 +28,25 @@ def _label(quantity: str) -> str:
 def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
     return (["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
             + ["| " + " | ".join(row) + " |" for row in rows])
+
+
+def _changes(overrides: Mapping) -> str:
+    """``key: value`` pairs, values as YAML writes them (``true``, ``5e-4``)."""
+    return ", ".join(f"`{k}: {v if isinstance(v, str) else json.dumps(v)}`"
+                     for k, v in overrides.items()) or "none"
+
+
+def setup_section(report: Mapping) -> list[str]:
+    """What was run: the base, the changes of every run, the cases and the variants."""
+    lines = ["## Set-up", "", f"Base scenario `{report['base']}`; every run: "
+             f"{_changes({**report['length'], **report['overrides']})}"
+             + (f"; quick form: {_changes(report['quick_overrides'])}"
+                if report["form"] == "quick" else "") + f". Seeds {report['seeds']}.", ""]
+    lines += [f"- case `{case}`: {_changes(entry['overrides'])}"
+              for case, entry in report["cases"].items()]
+    lines += [f"- variant `{name}` (seeds {report['variant_seeds']}): "
+              f"{_changes(v['overrides'])}" for name, v in report["variants"].items()]
+    return lines + [""]
 
 
 def equilibria_section(report: Mapping) -> list[str]:
@@ -133,7 +153,8 @@ def report_markdown(report: Mapping, summaries: Mapping[str, dict], prose: str,
               "Every number is also in `report.json`.", ""]
     if prose.strip():
         lines += [prose.strip(), ""]
-    lines += equilibria_section(report) + ratios_section(report, figure)
+    lines += setup_section(report) + equilibria_section(report)
+    lines += ratios_section(report, figure)
     lines += runs_section(report) + cost_section(report, summaries)
     if report["warnings"]:
         lines += ["## Warnings", ""] + [f"- {w}" for w in report["warnings"]] + [""]
