@@ -337,3 +337,23 @@ def test_run_file_of_a_process_killed_before_its_first_output_is_run_again(refer
     assert [(r.run_id, r.action, r.status) for r in result.results] == \
         [(victim.stem, "restart", "finished")]
     assert (out / "report.json").read_bytes() == reference["json"]
+
+
+def test_bundled_study_report_comes_back_from_its_committed_summaries(tmp_path):
+    """studies/kappa-powerlaw: both forms are valid, and --report-only rewrites the committed
+    quick report from the committed summaries (the same text but for the version that wrote
+    it; ``ringsim study studies/kappa-powerlaw/study.yaml --quick --report-only`` brings it
+    up to date)."""
+    root = Path(__file__).resolve().parent.parent
+    study = root / "studies" / "kappa-powerlaw" / "study.yaml"
+    committed = study.parent / "study.quick.report"
+    assert len(load_study(study).specs(quick=False)) == 12
+    run_study(study, out=tmp_path, quick=True, report_only=True, echo=None,
+              command="ringsim study studies/kappa-powerlaw/study.yaml --quick")
+    old = json.loads((committed / "report.json").read_text())
+    new = json.loads((tmp_path / "report.json").read_text())
+    assert new.pop("ringsim_version") == ringsim.__version__
+    version = old.pop("ringsim_version")
+    assert new == old
+    assert (tmp_path / "report.md").read_text() == (committed / "report.md").read_text(
+        ).replace(f"ringsim {version} ", f"ringsim {ringsim.__version__} ")

@@ -40,7 +40,7 @@ def setup_section(report: Mapping) -> list[str]:
     """What was run: the base, the changes of every run, the cases and the variants."""
     lines = ["## Set-up", "", f"Base scenario `{report['base']}`; every run: "
              f"{_changes({**report['length'], **report['overrides']})}"
-             + (f"; quick form: {_changes(report['quick_overrides'])}"
+             + (f"; the quick form then sets {_changes(report['quick_overrides'])}"
                 if report["form"] == "quick" else "") + f". Seeds {report['seeds']}.", ""]
     lines += [f"- case `{case}`: {_changes(entry['overrides'])}"
               for case, entry in report["cases"].items()]
