@@ -274,7 +274,8 @@ def _stop_children(poll: float = 0.2) -> None:
     while children := multiprocessing.active_children():
         for child in children:
             with contextlib.suppress(OSError):
-                os.kill(child.pid, signal.SIGTERM)
+                if child.pid is not None:
+                    os.kill(child.pid, signal.SIGTERM)
         time.sleep(poll)
 
 

@@ -110,7 +110,8 @@ class Study:
     quick_mode : Mode or None
         The ``--quick`` form (None: the study has no ``quick`` section).
     report : str or None
-        The study's prose: a Markdown file (absolute path) spliced into its report.
+        The study's prose: a Markdown file spliced into its report (its path, beside the
+        study file).
     """
 
     name: str
@@ -170,10 +171,10 @@ def _scenario(study: Study, mode: Mode, case: Mapping, variant: Mapping,
 
 # --- reading ----------------------------------------------------------------------------------
 
-def _name(sec: Section, key: str, value: Any) -> str:
+def _name(sec: Section, key: str, value: Any, what: str) -> str:
+    """``value`` if it can name a study, case or variant (``what``)."""
     if not isinstance(value, str) or not _NAME.fullmatch(value):
-        raise sec.error(key, f"{show(value)} cannot name a {key.rsplit('.', 1)[-1]}",
-                        _NAME_TEXT)
+        raise sec.error(key, f"{show(value)} cannot name a {what}", _NAME_TEXT)
     return value
 
 
@@ -243,7 +244,7 @@ def _cases(top: Section, base: Scenario, length: dict) -> tuple[tuple[str, dict]
         raise top.error("cases", "is empty", "case name -> dotted overrides (may be {})")
     out = []
     for key in cases.mapping:
-        name = _name(cases, str(key), key)
+        name = _name(cases, str(key), key, "case")
         if cases.mapping[key] is None:
             raise cases.error(name, "no value given", "a mapping of overrides ({} for none)")
         out.append((name, _check_overrides(cases, name, base, length)))
@@ -292,7 +293,7 @@ def _variants(sec: Section, base: Scenario, before: dict) -> tuple[tuple[str, di
     variants = sec.section("variants", allowed="variant name -> dotted overrides")
     out = []
     for key in variants.mapping:
-        name = _name(variants, str(key), key)
+        name = _name(variants, str(key), key, "variant")
         changes = _check_overrides(variants, name, base, before)
         if not changes:
             raise variants.error(name, "is empty", "the overrides that change the method")
@@ -379,7 +380,7 @@ def load_study(path: str | PathLike, quantities: Sequence[str] | None = None) ->
                             "a YAML mapping with keys name, base, seeds and cases")
     top = Section(source, "", data)
     top.check_keys(STUDY_KEYS)
-    name = _name(top, "name", top.get("name", REQUIRED, _NAME_TEXT))
+    name = _name(top, "name", top.get("name", REQUIRED, _NAME_TEXT), "study")
     description = top.string("description", "", allow_empty=True)
     base_file = top.string("base", what="a scenario file, relative to the study file")
     base_path = Path(source).parent / base_file
