@@ -180,8 +180,8 @@ def run_to_file(scenario, path: str | Path, action: str) -> None:
 
 
 class LabelledStream(io.TextIOBase):
-    """A text stream that starts every line with ``label: `` (the run file a worker is
-    on), so that the guard warnings of parallel workers say which run they come from."""
+    """A text stream that starts every line with a label and a colon (the run file a worker
+    is on), so that the guard warnings of parallel workers say which run they come from."""
 
     def __init__(self, stream, label: str):
         self.stream = stream
