@@ -15,24 +15,32 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 
-from ringsim import __version__
+from ringsim import __version__, quantities
 from ringsim.analysis import budget
 from ringsim.analysis.compare import ratio
 from ringsim.analysis.equilibrium import NOT_IN_EQUILIBRIUM, QUANTITIES
 
-#: What each headline quantity weights equally: every particle ("number"), every
-#: collision, every unit of mass or the particles' volume.
-WEIGHTING = {
-    "velocity_dispersion": "number: every particle counts once",
-    "velocity_dispersion_rOmega": "number: every particle counts once",
-    "thickness": "number: every particle counts once",
-    "thickness_r": "number: every particle counts once",
+#: What a particle weighting of ``ringsim.quantities`` counts equally.
+_WEIGHTINGS = {"number": "number: every particle counts once",
+               "mass": "mass: each particle by its mass"}
+#: What the equilibrium quantities without a declared particle weighting count equally.
+_OTHER_WEIGHTINGS = {
+    "velocity_dispersion_rOmega": "number: c over the mean radius times Omega",
+    "thickness_r": "number: H over the mean radius",
     "filling_factor": "volume: the particles' volume in the midplane slab",
     "collision_frequency": "number: collisions per particle",
     "mean_epsilon": "collision: every collision counts once",
-    "translational_viscosity": "mass: the mass-weighted velocity correlation",
     "collisional_viscosity": "mass: the momentum the collisions carry",
 }
+
+
+def weighting(quantity: str) -> str:
+    """What an equilibrium quantity counts equally: its declared particle weighting
+    (``ringsim.quantities``), else what it averages over."""
+    declared = quantities.QUANTITY[quantity].weighting
+    return _WEIGHTINGS[declared] if declared else _OTHER_WEIGHTINGS.get(quantity, "")
+
+
 #: How a case's equilibrium is averaged (the report says it once).
 AVERAGING = ("each run: the time average over its equilibrium window with a standard error "
              "corrected for autocorrelation (ringsim analyze); each case: the mean over its "
@@ -96,7 +104,7 @@ def case_entry(overrides: Mapping, runs: Runs, case: str) -> dict:
     equilibrium = {}
     for quantity in QUANTITIES:
         value = seed_mean(members, quantity)
-        value["weighting"] = WEIGHTING.get(quantity, "")
+        value["weighting"] = weighting(quantity)
         equilibrium[quantity] = value
     return {"overrides": dict(overrides), "runs": runs.entries(case),
             "in_equilibrium": all(s["in_equilibrium"] for s in members),
