@@ -46,6 +46,8 @@ LAYERS = {
     "__init__": "base",
     "__version__": "base", "_resolver": "engine",
     "userlaw": "cli",  # the `ringsim epsilon --restitution` command's law, table and figure
+    # front ends of batches of runs, like the sweep: the shared run-file policy and studies
+    "batch": "sweep", "study": "sweep",
 }
 
 _FRONT_ENDS = {"cli", "sweep"}

@@ -6,7 +6,6 @@ module (``swept``) and copied where a test changes files.
 
 import csv
 import hashlib
-import importlib.util
 import os
 import shutil
 import sys
@@ -247,9 +246,10 @@ def test_zero_workers_is_bad_input(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
-@pytest.mark.skipif(importlib.util.find_spec("dask") is not None, reason="dask is installed")
-def test_scheduler_without_dask_is_bad_input(tmp_path, capsys):
+def test_scheduler_without_dask_is_bad_input(tmp_path, capsys, monkeypatch):
     sweep_file = write_sweep(tmp_path)
+    for name in ("dask", "dask.distributed"):  # an import of None raises ImportError
+        monkeypatch.setitem(sys.modules, name, None)
     status = main(["sweep", str(sweep_file), "--scheduler", "tcp://127.0.0.1:8786",
                    "--out", str(tmp_path / "out")])
     assert status == 2

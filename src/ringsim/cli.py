@@ -276,6 +276,12 @@ def _cmd_sweep(args) -> int:
     return sweep_command(args)
 
 
+def _cmd_study(args) -> int:
+    from ringsim.study import study_command
+
+    return study_command(args)
+
+
 def _cmd_fit(args) -> int:
     from ringsim.analysis.fit import fit_command
 
@@ -342,15 +348,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("sweep", help="run a grid of scenarios (local processes or Dask)")
     p.add_argument("sweep", metavar="SWEEP.yaml")
-    p.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="local worker processes (default: number of CPUs)")
-    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address "
-                   "(e.g. tcp://127.0.0.1:8786); needs the 'dask' extra")
+    _add_pool_options(p)
     p.add_argument("--out", metavar="DIR", help="output directory (default: "
                    "runs/<sweep file name>)")
     p.add_argument("--plots", metavar="DIR", help="write PNG figures of the summary (c and "
                    "H against the swept parameter) into DIR")
     p.set_defaults(func=_cmd_sweep)
+
+    _add_study_parser(sub)
 
     p = sub.add_parser("fit", help="fit restitution laws to measured epsilon(v, R, M)")
     p.add_argument("data", metavar="DATA.csv")
@@ -362,6 +367,30 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write the best fit as a scenario 'restitution' section")
     p.set_defaults(func=_cmd_fit)
     return parser
+
+
+def _add_pool_options(p) -> None:
+    """``--workers`` and ``--scheduler`` of the commands that run batches of runs."""
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local worker processes (default: number of CPUs)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address "
+                   "(e.g. tcp://127.0.0.1:8786); needs the 'dask' extra")
+
+
+def _add_study_parser(sub) -> None:
+    p = sub.add_parser("study", help="run a study file (cases x seeds, ratios, variants) and "
+                       "write its report (docs/studies.md)")
+    p.add_argument("study", metavar="STUDY.yaml")
+    p.add_argument("--out", metavar="DIR", help="report and run files (default: "
+                   "<study>.report/, or <study>.quick.report/, beside the study file)")
+    _add_pool_options(p)
+    p.add_argument("--quick", action="store_true", help="the study's quick form (reduced "
+                   "particles and length)")
+    p.add_argument("--report-only", action="store_true", help="write the report from the "
+                   "summaries alone; run nothing")
+    p.add_argument("--threads", type=int, default=None, metavar="N", help="integration."
+                   "threads of every run (changes the speed, never a result)")
+    p.set_defaults(func=_cmd_study)
 
 
 def main(argv: list[str] | None = None) -> int:

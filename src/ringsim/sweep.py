@@ -10,7 +10,11 @@ directory (default ``runs/<sweep file stem>/``), named from the point's paramete
   from its last checkpoint (``ringsim.run(resume=True)``, bit-identical to an uninterrupted
   run);
 * a file made by a different scenario is never touched: the sweep refuses to start (bad
-  input, exit status 2) and says which key differs.
+  input, exit status 2) and says which key differs (``integration.threads`` is not
+  compared: it changes the speed, never a result).
+
+This policy is ``ringsim.batch``'s, shared with ``ringsim study`` (which also lengthens a
+finished run when more orbits are asked; a sweep point takes its length from the grid).
 
 Points run in local worker processes (``concurrent.futures.ProcessPoolExecutor``) or, with
 ``--scheduler ADDRESS``, on a Dask cluster (``dask.distributed.Client``; the output
@@ -33,7 +37,6 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
-import io
 import os
 import re
 import sys
@@ -43,6 +46,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ringsim.batch import LabelledStream as _LabelledStream
+from ringsim.batch import dask_client as _dask_client
+from ringsim.batch import existing_action, run_dask, run_local, run_to_file
 from ringsim.errors import InputError
 from ringsim.store.summary import write_summary
 
@@ -61,7 +67,6 @@ __all__ = [
 _MAX_STEM = 150
 _UNSAFE = re.compile(r"[^A-Za-z0-9.+-]")
 _UNSAFE_KEY = re.compile(r"[^A-Za-z0-9._-]")
-_RESUMABLE = ("running", "stopped")
 
 
 # --- naming -----------------------------------------------------------------------------------
@@ -167,44 +172,11 @@ class PointResult:
     error: str = ""
 
 
-def _first_difference(a: Any, b: Any, prefix: str = "") -> str | None:
-    """The first dotted key whose values differ between two nested mappings, with both."""
-    if isinstance(a, Mapping) and isinstance(b, Mapping):
-        for key in list(a) + [k for k in b if k not in a]:
-            here = f"{prefix}.{key}" if prefix else str(key)
-            if key not in a or key not in b:
-                return f"{here} present in only one of them"
-            found = _first_difference(a[key], b[key], here)
-            if found:
-                return found
-        return None
-    if a != b:
-        return f"{prefix or '<scenario>'}: {a!r} in the file, {b!r} in the sweep"
-    return None
-
-
 def _existing_action(path: Path, scenario) -> str:
-    """How to treat an existing run file of a point: reuse, resume or restart.
-
-    Raises InputError if the file is damaged, of a newer format or being written by another
-    process (``store.runfile.RunFileError``), or was made by another scenario.  A file whose
-    run failed a runtime invariant is reused as it is: the sweep reports it as failed.
-    """
-    from ringsim.store.runfile import open_run, read_checkpoint
-
-    advice = "delete it or choose another --out"
-    run = open_run(path)                 # RunFileError: damaged, newer format, locked
-    checkpoint = read_checkpoint(path)   # RunFileError: damaged checkpoint
-    status = run.attrs.get("status")
-    difference = _first_difference(run.scenario.to_dict(), scenario.to_dict())
-    if difference:
-        raise InputError(str(path), "scenario", f"the existing run file was made by a "
-                         f"different scenario ({difference}); {advice}")
-    if status in ("finished", "failed"):
-        return "reuse"
-    if status in _RESUMABLE:
-        return "resume" if checkpoint is not None else "restart"
-    raise InputError(str(path), "status", f"unknown run status {status!r}; {advice}")
+    """How to treat an existing run file of a point: reuse, resume or restart (the shared
+    policy, ``batch.existing_action``; a point is never extended: a different
+    ``integration.orbits`` is a different scenario)."""
+    return existing_action(path, scenario)
 
 
 def _point_scenario(base, params: Mapping[str, Any], stem: str):
@@ -247,32 +219,6 @@ def plan_sweep(sweep, out: str | os.PathLike) -> list[PointTask]:
 
 # --- one point (runs in a worker) -------------------------------------------------------------
 
-class _LabelledStream(io.TextIOBase):
-    """A text stream that starts every line with ``label: `` (the point's run file), so that
-    the guard warnings of parallel workers say which run they come from."""
-
-    def __init__(self, stream, label: str):
-        self.stream = stream
-        self.label = label
-        self.at_line_start = True
-
-    def write(self, text: str) -> int:
-        pieces = []
-        for piece in text.splitlines(keepends=True):
-            if self.at_line_start and piece.strip():
-                pieces.append(f"{self.label}: ")
-            pieces.append(piece)
-            self.at_line_start = piece.endswith(("\n", "\r"))
-        self.stream.write("".join(pieces))
-        return len(text)
-
-    def flush(self) -> None:
-        self.stream.flush()
-
-    def isatty(self) -> bool:
-        return False
-
-
 def run_point(task: PointTask) -> PointResult:
     """Run (or resume, or reuse) one grid point and compute its equilibrium.
 
@@ -286,14 +232,10 @@ def run_point(task: PointTask) -> PointResult:
 
 def _run_point(task: PointTask) -> PointResult:
     from ringsim.analysis.equilibrium import equilibrium
-    from ringsim.engine.runner import run
     from ringsim.store.runfile import open_run
 
     start = time.perf_counter()
-    if task.action in ("run", "restart"):
-        run(task.scenario, output=task.path, force=task.action == "restart", progress=False)
-    elif task.action == "resume":
-        run(task.scenario, output=task.path, resume=True, progress=False)
+    run_to_file(task.scenario, task.path, task.action)
     result = PointResult(index=task.index, params=task.params, file=Path(task.path).name,
                          status="failed", action=task.action)
     run_file = open_run(task.path)
@@ -322,47 +264,12 @@ def _failed(task: PointTask, exc: BaseException) -> PointResult:
 
 def _run_local(tasks: Sequence[PointTask], workers: int,
                report: Callable[[PointResult], None]) -> None:
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        futures = {pool.submit(run_point, task): task for task in tasks}
-        for future in as_completed(futures):
-            task = futures[future]
-            try:
-                result = future.result()
-            except Exception as exc:  # noqa: BLE001 - any failure of one point is reported
-                result = _failed(task, exc)
-            report(result)
-
-
-def _dask_client(address: str):
-    """A connected ``dask.distributed.Client``; InputError if Dask is missing or the
-    scheduler cannot be reached."""
-    try:
-        from dask.distributed import Client
-    except ImportError:
-        raise InputError("<command line>", "--scheduler", "Dask is not installed: "
-                         "pip install ringsim[dask]") from None
-    try:
-        return Client(address)
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise InputError("<command line>", "--scheduler",
-                         f"cannot connect to the Dask scheduler {address!r} ({exc})") from None
+    run_local(run_point, tasks, workers, report, _failed)
 
 
 def _run_dask(client, tasks: Sequence[PointTask],
               report: Callable[[PointResult], None]) -> None:
-    from dask.distributed import as_completed
-
-    futures = client.map(run_point, list(tasks), pure=False)
-    by_future = dict(zip(futures, tasks, strict=True))
-    for future in as_completed(futures):
-        task = by_future[future]
-        try:
-            result = future.result()
-        except Exception as exc:  # noqa: BLE001 - any failure of one point is reported
-            result = _failed(task, exc)
-        report(result)
+    run_dask(client, run_point, tasks, report, _failed)
 
 
 # --- the sweep --------------------------------------------------------------------------------

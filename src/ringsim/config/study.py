@@ -1,0 +1,405 @@
+"""Study files: a base scenario, named cases run with several seeds, the ratios between cases
+and the method variants that measure the ratios' systematic error (docs/studies.md).
+
+Every run of a study is the base scenario with, in this order (a later one wins): the
+study's ``length``, its ``overrides`` (of every run), the case's overrides, with ``--quick``
+the ``quick`` overrides, the variant's overrides, and the seed.  Overrides are dotted
+scenario keys, as in a sweep file (``ringsim.config.scenario.with_overrides``).  Every value
+is checked when the file is read, in both its full and its quick form, so that a bad key is
+bad input (one line naming the key) before anything runs.
+"""
+
+from __future__ import annotations
+
+import difflib
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from os import PathLike
+from pathlib import Path
+from typing import Any
+
+from ringsim.config.scenario import MAX_SEED, Scenario, load_scenario, with_overrides
+from ringsim.config.schema import (
+    REQUIRED,
+    ScenarioError,
+    Section,
+    parse_yaml,
+    read_text,
+    show,
+)
+
+#: Keys of a study file.
+STUDY_KEYS = ("name", "description", "base", "seeds", "overrides", "cases", "ratios",
+              "quantities", "variants", "variant_seeds", "length", "quick", "report")
+#: Keys of the ``quick`` section besides dotted scenario overrides.
+QUICK_KEYS = ("length", "seeds", "variant_seeds", "variants")
+#: Keys of a ``length`` section.
+LENGTH_KEYS = ("orbits", "until_equilibrium", "max_orbits")
+#: Scenario keys a study sets itself, which cases, variants and ``quick`` may not set: the
+#: seed comes from ``seeds``; a run's name, description and output path are labels, set
+#: from the run's hash (``ringsim.study.runs``).
+RESERVED_KEYS = ("seed", "name", "description", "output.path")
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
+_NAME_TEXT = "letters, digits, '.', '_' and '-', starting with a letter or digit"
+
+
+@dataclass(frozen=True)
+class Mode:
+    """What the study runs in one of its forms (full, or reduced with ``--quick``).
+
+    Attributes
+    ----------
+    quick : bool
+    seeds : tuple of int
+        The seeds of every case.
+    variant_seeds : tuple of int
+        The seeds the variants run with (a subset of ``seeds``).
+    length : dict
+        Dotted overrides of the run length (``integration.orbits`` [orbits],
+        ``integration.until_equilibrium``).
+    overrides : dict
+        ``quick``'s dotted overrides of every run (empty in the full form).
+    variants : tuple of (name, dict of dotted overrides)
+    """
+
+    quick: bool
+    seeds: tuple[int, ...]
+    variant_seeds: tuple[int, ...]
+    length: dict
+    overrides: dict
+    variants: tuple[tuple[str, dict], ...]
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run a study asks for: a case (or a variant of it) with one seed."""
+
+    case: str
+    variant: str | None
+    seed: int
+    scenario: Scenario
+
+    @property
+    def label(self) -> str:
+        """``k01 seed 2`` or ``k01 [half_dt] seed 1``."""
+        return f"{self.case}{f' [{self.variant}]' if self.variant else ''} seed {self.seed}"
+
+
+@dataclass(frozen=True)
+class Study:
+    """A validated study file.
+
+    Attributes
+    ----------
+    name, description : str
+    source : str
+        The study file.
+    base : Scenario
+    base_file : str
+        The base scenario as the study file names it (relative to the study file).
+    overrides : dict
+        Dotted overrides of every run, before the case's.
+    cases : tuple of (name, dict of dotted overrides)
+        In file order.
+    ratios : tuple of (numerator, denominator)
+        Case names.
+    quantities : tuple of str or None
+        Equilibrium quantities of the ratios (None: every table quantity).
+    full : Mode
+    quick_mode : Mode or None
+        The ``--quick`` form (None: the study has no ``quick`` section).
+    report : str or None
+        The study's prose: a Markdown file spliced into its report (its path, beside the
+        study file).
+    """
+
+    name: str
+    description: str
+    source: str
+    base: Scenario
+    base_file: str
+    overrides: dict
+    cases: tuple[tuple[str, dict], ...]
+    ratios: tuple[tuple[str, str], ...]
+    quantities: tuple[str, ...] | None
+    full: Mode
+    quick_mode: Mode | None
+    report: str | None
+
+    @property
+    def folder(self) -> Path:
+        """The study file's folder."""
+        return Path(self.source).parent
+
+    def mode(self, quick: bool) -> Mode:
+        """The full or the quick form; ScenarioError if there is no quick form."""
+        if not quick:
+            return self.full
+        if self.quick_mode is None:
+            raise ScenarioError(self.source, "quick", "--quick given, but the study has no "
+                                "quick section", "a quick section: reduced overrides and "
+                                "length that run in minutes")
+        return self.quick_mode
+
+    def ratio_cases(self) -> list[str]:
+        """The cases that appear in a ratio, in case order (the variants run these)."""
+        used = {name for pair in self.ratios for name in pair}
+        return [name for name, _ in self.cases if name in used]
+
+    def specs(self, quick: bool = False) -> list[RunSpec]:
+        """Every run of a form: each case with each seed, then each variant of each case
+        of the ratios with each variant seed."""
+        mode = self.mode(quick)
+        overrides = dict(self.cases)
+        out = [RunSpec(case, None, seed, _scenario(self, mode, overrides[case], {}, seed))
+               for case, _ in self.cases for seed in mode.seeds]
+        for variant, changes in mode.variants:
+            out += [RunSpec(case, variant, seed,
+                            _scenario(self, mode, overrides[case], changes, seed))
+                    for case in self.ratio_cases() for seed in mode.variant_seeds]
+        return out
+
+
+def _scenario(study: Study, mode: Mode, case: Mapping, variant: Mapping,
+              seed: int) -> Scenario:
+    """The base with the length, the study's and the case's overrides, the quick
+    overrides, the variant and the seed."""
+    return with_overrides(study.base, {**mode.length, **study.overrides, **case,
+                                       **mode.overrides, **variant, "seed": seed})
+
+
+# --- reading ----------------------------------------------------------------------------------
+
+def _name(sec: Section, key: str, value: Any, what: str) -> str:
+    """``value`` if it can name a study, case or variant (``what``)."""
+    if not isinstance(value, str) or not _NAME.fullmatch(value):
+        raise sec.error(key, f"{show(value)} cannot name a {what}", _NAME_TEXT)
+    return value
+
+
+def _seeds(sec: Section, key: str, within: Sequence[int] | None = None) -> tuple[int, ...]:
+    allowed = (f"a non-empty list of distinct integers in [0, {MAX_SEED}]"
+               + (f" among the seeds {list(within)}" if within is not None else ""))
+    value = sec.get(key, None, allowed)
+    if not isinstance(value, list) or not value:
+        raise sec.error(key, f"got {show(value)}", allowed)
+    for item in value:
+        if isinstance(item, bool) or not isinstance(item, int) or not 0 <= item <= MAX_SEED \
+                or (within is not None and item not in within):
+            raise sec.error(key, f"{show(item)} is not allowed", allowed)
+    if len(set(value)) != len(value):
+        raise sec.error(key, f"{value} repeats a seed", allowed)
+    return tuple(value)
+
+
+def _length(sec: Section, key: str) -> dict:
+    """``{orbits: N}`` or ``{until_equilibrium: true, max_orbits: N}`` as dotted overrides."""
+    allowed = "{orbits: N} (a fixed length) or {until_equilibrium: true, max_orbits: N}"
+    length = sec.section(key, allowed=allowed)
+    length.check_keys(LENGTH_KEYS)
+    until = length.boolean("until_equilibrium", False)
+    need, refuse = ("max_orbits", "orbits") if until else ("orbits", "max_orbits")
+    if length.has(refuse):
+        raise length.error(refuse, f"not with until_equilibrium: {str(until).lower()}",
+                           f"give {need}")
+    orbits = length.number(need, unit="orbits", gt=0.0)
+    return {"integration.orbits": orbits, "integration.until_equilibrium": until}
+
+
+def _check_overrides(sec: Section, key: str, base: Scenario, before: Mapping) -> dict:
+    """A mapping of dotted scenario overrides, each valid on ``base`` with ``before``
+    applied, and valid together."""
+    allowed = "a mapping of dotted scenario keys -> values, e.g. {restitution.kappa: 0.1}"
+    value = sec.get(key, None, allowed)
+    if not isinstance(value, Mapping):
+        raise sec.error(key, f"got {show(value)}", allowed)
+    here = Section(sec.file, sec.key(key), value)
+    for dotted, item in value.items():
+        _check_override(here, str(dotted), item, base, before)
+    try:
+        with_overrides(base, {**before, **value})
+    except ScenarioError as exc:
+        raise sec.error(key, f"together these give an invalid scenario: {exc.key}: "
+                        f"{exc.problem}", exc.allowed) from None
+    return {str(k): v for k, v in value.items()}
+
+
+def _check_override(sec: Section, dotted: str, value: Any, base: Scenario,
+                    before: Mapping) -> None:
+    if dotted in RESERVED_KEYS:
+        raise sec.error(dotted, "is set by the study", "seeds come from 'seeds'; a run's "
+                        "name, description and output path come from its hash")
+    try:
+        with_overrides(base, {**before, dotted: value})
+    except ScenarioError as exc:
+        raise sec.error(dotted, exc.problem if exc.key == dotted else
+                        f"{show(value)} gives an invalid scenario: {exc.key}: {exc.problem}",
+                        exc.allowed) from None
+
+
+def _cases(top: Section, base: Scenario, length: dict) -> tuple[tuple[str, dict], ...]:
+    cases = top.section("cases", required=True, allowed="case name -> dotted overrides")
+    if not cases.mapping:
+        raise top.error("cases", "is empty", "case name -> dotted overrides (may be {})")
+    out = []
+    for key in cases.mapping:
+        name = _name(cases, str(key), key, "case")
+        if cases.mapping[key] is None:
+            raise cases.error(name, "no value given", "a mapping of overrides ({} for none)")
+        out.append((name, _check_overrides(cases, name, base, length)))
+    return tuple(out)
+
+
+def _ratios(top: Section, cases: Sequence[str]) -> tuple[tuple[str, str], ...]:
+    allowed = "a list of [numerator, denominator] pairs of case names"
+    value = top.get("ratios", [], allowed)
+    if not isinstance(value, list):
+        raise top.error("ratios", f"got {show(value)}", allowed)
+    out: list[tuple[str, str]] = []
+    for i, pair in enumerate(value):
+        if not (isinstance(pair, list) and len(pair) == 2):
+            raise top.error(f"ratios.{i}", f"got {show(pair)}", allowed)
+        for name in pair:
+            if name not in cases:
+                close = difflib.get_close_matches(str(name), cases, n=1, cutoff=0.6)
+                hint = f"did you mean {close[0]!r}? " if close else ""
+                raise top.error(f"ratios.{i}", f"unknown case {show(name)}",
+                                f"{hint}the cases: {', '.join(cases)}")
+        if pair[0] == pair[1] or tuple(pair) in out:
+            raise top.error(f"ratios.{i}", f"{pair} is a case over itself or repeated",
+                            allowed)
+        out.append((pair[0], pair[1]))
+    return tuple(out)
+
+
+def _quantities(top: Section, known: Sequence[str] | None) -> tuple[str, ...] | None:
+    if not top.has("quantities"):
+        return None
+    allowed = ("a non-empty list of equilibrium quantities"
+               + (f": {', '.join(known)}" if known else ""))
+    value = top.get("quantities", None, allowed)
+    if not isinstance(value, list) or not value or len(set(map(str, value))) != len(value):
+        raise top.error("quantities", f"got {show(value)}", allowed)
+    for name in value:
+        if known is not None and name not in known:
+            close = difflib.get_close_matches(str(name), known, n=1, cutoff=0.6)
+            raise top.error("quantities", f"unknown quantity {show(name)}",
+                            (f"did you mean {close[0]!r}? " if close else "") + allowed)
+    return tuple(str(name) for name in value)
+
+
+def _variants(sec: Section, base: Scenario, before: dict) -> tuple[tuple[str, dict], ...]:
+    variants = sec.section("variants", allowed="variant name -> dotted overrides")
+    out = []
+    for key in variants.mapping:
+        name = _name(variants, str(key), key, "variant")
+        changes = _check_overrides(variants, name, base, before)
+        if not changes:
+            raise variants.error(name, "is empty", "the overrides that change the method")
+        out.append((name, changes))
+    return tuple(out)
+
+
+def _full_mode(top: Section, base: Scenario) -> Mode:
+    seeds = _seeds(top, "seeds")
+    length = _length(top, "length") if top.has("length") else {}
+    variants = _variants(top, base, length)
+    if top.has("variant_seeds") and not variants:
+        raise top.error("variant_seeds", "given without variants", "remove it, or add variants")
+    variant_seeds = (_seeds(top, "variant_seeds", within=seeds) if top.has("variant_seeds")
+                     else seeds[:1])
+    return Mode(False, seeds, variant_seeds, length, {}, variants)
+
+
+def _quick_mode(top: Section, base: Scenario, full: Mode) -> Mode | None:
+    if not top.has("quick"):
+        return None
+    quick = top.section("quick", allowed="the --quick form: length, seeds, variant_seeds, "
+                        "variants and dotted scenario overrides")
+    for key in quick.mapping:
+        name = str(key)
+        close = difflib.get_close_matches(name, QUICK_KEYS, n=1, cutoff=0.6)
+        if "." not in name and name not in QUICK_KEYS and close:
+            raise quick.error(name, f"unknown key {name!r}", f"did you mean {close[0]!r}? "
+                              f"allowed here: {', '.join(QUICK_KEYS)} and dotted scenario "
+                              "keys")
+    length = _length(quick, "length") if quick.has("length") else full.length
+    scenario_keys = {k: v for k, v in quick.mapping.items() if k not in QUICK_KEYS}
+    overrides = _check_overrides(Section(top.file, "", {"quick": scenario_keys}), "quick",
+                                 base, length)
+    seeds = _seeds(quick, "seeds") if quick.has("seeds") else full.seeds
+    variants = (_variants(quick, base, {**length, **overrides}) if quick.has("variants")
+                else full.variants)
+    if quick.has("variant_seeds"):
+        if not variants:
+            raise quick.error("variant_seeds", "given without variants", "remove it")
+        variant_seeds = _seeds(quick, "variant_seeds", within=seeds)
+    else:
+        variant_seeds = (full.variant_seeds if set(full.variant_seeds) <= set(seeds)
+                         else seeds[:1])
+    return Mode(True, seeds, variant_seeds, length, overrides, variants)
+
+
+def _report(top: Section, folder: Path) -> str | None:
+    if not top.has("report"):
+        return None
+    name = top.string("report", what="a Markdown file, relative to the study file")
+    path = folder / name
+    if not path.is_file():
+        raise top.error("report", f"no file {show(str(path))}",
+                        "a Markdown file beside the study file: the study's prose")
+    return str(path)
+
+
+def _check_runs(study: Study) -> None:
+    """Every run of both forms is a valid scenario (cases and variants can clash)."""
+    for quick in (False, True) if study.quick_mode is not None else (False,):
+        try:
+            study.specs(quick)
+        except ScenarioError as exc:
+            raise ScenarioError(study.source, "quick" if quick else "cases",
+                                f"a run of the {'quick' if quick else 'full'} form is not a "
+                                f"valid scenario: {exc.key}: {exc.problem}",
+                                exc.allowed) from None
+
+
+def load_study(path: str | PathLike, quantities: Sequence[str] | None = None) -> Study:
+    """Read and check a study file (docs/studies.md); ScenarioError naming the key if it is
+    invalid.
+
+    Parameters
+    ----------
+    path : the study file (YAML)
+    quantities : the equilibrium quantities ``quantities`` may name (None: not checked)
+    """
+    source = str(path)
+    data = parse_yaml(read_text(path), source)
+    if not isinstance(data, Mapping):
+        raise ScenarioError(source, "<yaml>", "the top level is not a mapping",
+                            "a YAML mapping with keys name, base, seeds and cases")
+    top = Section(source, "", data)
+    top.check_keys(STUDY_KEYS)
+    name = _name(top, "name", top.get("name", REQUIRED, _NAME_TEXT), "study")
+    description = top.string("description", "", allow_empty=True)
+    base_file = top.string("base", what="a scenario file, relative to the study file")
+    base_path = Path(source).parent / base_file
+    if not base_path.is_file():
+        raise top.error("base", f"no scenario file {show(str(base_path))}",
+                        "a scenario file, relative to the study file")
+    base = load_scenario(base_path)
+    full = _full_mode(top, base)
+    overrides = (_check_overrides(top, "overrides", base, full.length)
+                 if top.has("overrides") else {})
+    cases = _cases(top, base, {**full.length, **overrides})
+    ratios = _ratios(top, [case for case, _ in cases])
+    if full.variants and not ratios:
+        raise top.error("variants", "given without ratios", "variants measure the "
+                        "systematic part of the ratios: add ratios, or remove variants")
+    study = Study(name=name, description=description, source=source, base=base,
+                  base_file=base_file, overrides=overrides, cases=cases, ratios=ratios,
+                  quantities=_quantities(top, quantities), full=full,
+                  quick_mode=_quick_mode(top, base, full),
+                  report=_report(top, Path(source).parent))
+    _check_runs(study)
+    return study

@@ -1,0 +1,69 @@
+"""Figure of a study (``ringsim study``): its ratios, one point per equilibrium quantity.
+
+Each ratio of the study (numerator case / denominator case) is one series: its value for
+every quantity of the report, a thick error bar for the statistical error and a thin one
+for the total (statistical and systematic in quadrature, where measured).  The ratios are
+pure numbers; the dashed line marks 1 (no change).  The legend sits above the axes, off
+the data.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from ringsim.analysis.equilibrium import TABLE_ROWS
+from ringsim.plots.common import pyplot, run_style, save_figure, set_readable_axis
+
+
+def _finite(x) -> float:
+    return float(x) if x is not None and math.isfinite(x) else math.nan
+
+
+def ratio_figure(report: Mapping):
+    """The figure of a study's ``report.json`` content; None without ratios."""
+    entries = report["ratios"]
+    if not entries:
+        return None
+    plt = pyplot()
+    quantities = list(report["quantities"])
+    pairs = list(dict.fromkeys((e["numerator"], e["denominator"]) for e in entries))
+    by = {(e["numerator"], e["denominator"], e["quantity"]): e for e in entries}
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.0 * len(quantities) + 2.5), 5.2),
+                           layout="constrained")
+    width = 0.6 / max(len(pairs), 1)
+    shown = [1.0]
+    for i, (num, den) in enumerate(pairs):
+        style = run_style(i)
+        x = np.arange(len(quantities)) + (i - (len(pairs) - 1) / 2) * width
+        mean = np.array([_finite(by[(num, den, q)]["mean"]) for q in quantities])
+        stat = np.array([_finite(by[(num, den, q)]["stat"]) for q in quantities])
+        total = np.array([_finite(by[(num, den, q)]["total"]) for q in quantities])
+        total = np.where(np.isfinite(total), total, stat)
+        ax.errorbar(x, mean, yerr=total, fmt="none", ecolor=style["color"], elinewidth=0.9,
+                    capsize=4)
+        ax.errorbar(x, mean, yerr=stat, fmt=style["marker"], color=style["color"],
+                    elinewidth=2.6, capsize=0, label=f"{num} / {den}")
+        shown += list(mean - total) + list(mean + total)
+    ax.axhline(1.0, color="0.4", linestyle="--", linewidth=0.8, label="1 (no change)")
+    positive = [v for v in shown if math.isfinite(v) and v > 0]
+    set_readable_axis(ax, "y", positive if len(positive) == len(shown) else shown)
+    ax.set_xticks(range(len(quantities)))
+    ax.set_xticklabels([TABLE_ROWS[q][0] for q in quantities], rotation=30, ha="right")
+    ax.set_xlim(-0.6, len(quantities) - 0.4)
+    ax.set_xlabel("equilibrium quantity (each ratio divides like by like)")
+    ax.set_ylabel("ratio [dimensionless]")
+    ax.grid(axis="y", color="0.9")
+    fig.legend(loc="outside upper center", ncols=min(len(pairs) + 1, 4), frameon=False,
+               title=f"study {report['study']} ({report['form']} form): thick bars "
+                     "statistical, thin bars total error")
+    return fig
+
+
+def plot_ratios(report: Mapping, directory: str | Path) -> Path | None:
+    """Write ``ratios.png`` into ``directory``; None (nothing written) without ratios."""
+    fig = ratio_figure(report)
+    return None if fig is None else save_figure(fig, Path(directory) / "ratios.png")

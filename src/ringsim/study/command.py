@@ -1,0 +1,225 @@
+"""``ringsim study STUDY.yaml``: run every run of a study and write its report.
+
+The runs go to local worker processes or, with ``--scheduler``, to a Dask cluster (the
+output directory and the study's folder must then be on a file system the workers share);
+the numbers are the same either way.  The report is written only when every run has a
+summary; a run that fails makes the command exit with status 1, an interrupted one with
+130 (start it again to continue), bad input with 2 before anything is written.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ringsim.batch import ACTIONS, dask_client, run_dask, run_local
+from ringsim.config.study import load_study
+from ringsim.errors import InputError
+from ringsim.study.runs import (
+    TaskResult,
+    collect,
+    failed,
+    plan_run,
+    read_summary,
+    run_task,
+    summary_state,
+    write_json,
+)
+
+#: Folder of a study's run summaries, beside the study file.
+SUMMARIES = "summaries"
+
+
+@dataclass
+class StudyResult:
+    """The outcome of `run_study`: the output directory, what became of each run that had
+    work to do, and the report's files (None when it was not written)."""
+
+    out: Path
+    results: list[TaskResult] = field(default_factory=list)
+    files: list[Path] = field(default_factory=list)
+
+    @property
+    def n_failed(self) -> int:
+        return sum(r.status == "failed" for r in self.results)
+
+    @property
+    def n_stopped(self) -> int:
+        return sum(r.status == "stopped" for r in self.results)
+
+
+def default_output_dir(study_path: str | os.PathLike, quick: bool = False) -> Path:
+    """``<stem>.report/`` (``<stem>.quick.report/`` with ``--quick``) beside the study."""
+    path = Path(study_path)
+    return path.parent / f"{path.stem}{'.quick' if quick else ''}.report"
+
+
+def _check_options(workers: int | None, threads: int | None, out: Path) -> None:
+    for option, value in (("--workers", workers), ("--threads", threads)):
+        if value is not None and value < 1:
+            raise InputError("<command line>", option, f"{value} is not a positive number")
+    if out.exists() and not out.is_dir():
+        raise InputError(str(out), "--out", "exists and is not a directory")
+
+
+def read_summaries(runs: dict, folder: Path) -> dict[str, dict]:
+    """The summary of every run; InputError naming the first that is missing or is not of
+    the run asked (the report needs them all)."""
+    out = {}
+    for rid, run in runs.items():
+        path = folder / f"{rid}.json"
+        summary = read_summary(path)
+        state = summary_state(summary, run.scenario)
+        if summary is None or state != "same":
+            why = {"missing": "no summary", "shorter": "the summary is of a shorter run",
+                   "longer": "the summary is of a longer run",
+                   "other": "the summary is of another scenario"}[state]
+            raise InputError(str(path), "summary", f"{why} for {', '.join(run.labels)}; "
+                             "run the study (without --report-only) first")
+        out[rid] = summary
+    return out
+
+
+def _plan_line(path, n_runs: int, tasks: list, out: Path, where: str) -> str:
+    counts = {a: sum(t.action == a for t in tasks) for a in ACTIONS}
+    return (f"study {path}: {n_runs} runs -> {out}/ ({counts['run']} new, {counts['resume']} "
+            f"to resume, {counts['extend']} to lengthen, {counts['restart']} to restart, "
+            f"{counts['reuse']} to summarise, {n_runs - len(tasks)} done already; {where})")
+
+
+def _execute(tasks: list, workers: int | None, scheduler: str | None,
+             say: Callable[[str], None], plan: Callable[[str], str]) -> list[TaskResult]:
+    """Run the tasks locally or on Dask, reporting each result as it arrives."""
+    client = dask_client(scheduler) if scheduler and tasks else None
+    n_workers = max(1, min(workers or os.cpu_count() or 1, len(tasks) or 1))
+    say(plan(f"Dask scheduler {scheduler}" if client is not None else
+             f"{n_workers} worker process{'es' if n_workers > 1 else ''}" if tasks
+             else "nothing to run"))
+    results: list[TaskResult] = []
+    start = time.perf_counter()
+
+    def report(result: TaskResult) -> None:
+        results.append(result)
+        line = (f"[{len(results)}/{len(tasks)}] run {result.run_id} "
+                f"({'; '.join(result.labels)}): {result.status} ({result.action}, "
+                f"{result.wall_time:.1f} s); study time {time.perf_counter() - start:.1f} s")
+        say(line + (f": {result.error}" if result.error else ""))
+
+    try:
+        if client is not None:
+            run_dask(client, run_task, tasks, report, failed)
+        elif tasks:
+            run_local(run_task, tasks, n_workers, report, failed)
+    finally:
+        if client is not None:
+            client.close()
+    return results
+
+
+def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = None,
+              workers: int | None = None, scheduler: str | None = None, quick: bool = False,
+              report_only: bool = False, threads: int | None = None,
+              echo: Callable[[str], None] | None = print,
+              command: str | None = None) -> StudyResult:
+    """Run a study (docs/studies.md) and write ``report.json``, ``report.md`` and
+    ``ratios.png`` into ``out``.
+
+    Parameters
+    ----------
+    study_path : the study file
+    out : output directory (default `default_output_dir`); run files go to ``out/runs/``
+    workers : local worker processes (default: the CPUs); ignored with ``scheduler``
+    scheduler : address of a Dask scheduler (``pip install ringsim[dask]``)
+    quick : run the study's ``quick`` form
+    report_only : write the report from the summaries alone; run nothing
+    threads : ``integration.threads`` of every run (changes the speed, never a result)
+    echo : receives the progress lines (None: quiet)
+    command : the command line the report names as the one that regenerates it
+
+    Raises
+    ------
+    InputError
+        Invalid study file or option, a run file or summary that cannot be reused, a
+        missing summary with ``report_only``, Dask missing; nothing is written then.
+    """
+    from ringsim.analysis.equilibrium import QUANTITIES
+
+    say = echo if echo is not None else (lambda line: None)
+    out_dir = Path(out) if out is not None else default_output_dir(study_path, quick)
+    _check_options(workers, threads, out_dir)
+    study = load_study(study_path, quantities=tuple(QUANTITIES))
+    specs = study.specs(quick)
+    runs, ids = collect(specs, threads)
+    summaries_dir = study.folder / SUMMARIES
+    result = StudyResult(out_dir)
+    if not report_only:
+        tasks = [task for task in (plan_run(run, out_dir / "runs", summaries_dir)
+                                   for run in runs.values()) if task is not None]
+        result.results = _execute(tasks, workers, scheduler, say, lambda where: _plan_line(
+            study_path, len(runs), tasks, out_dir, where))
+        if result.n_failed or result.n_stopped:
+            return result
+    summaries = read_summaries(runs, summaries_dir)
+    command = command or f"ringsim study {study_path}{' --quick' if quick else ''}"
+    result.files = write_report(study, quick, specs, ids, summaries, out_dir, command)
+    for path in result.files:
+        say(f"wrote {path}")
+    return result
+
+
+def write_report(study, quick: bool, specs, ids, summaries: dict, out_dir: Path,
+                 command: str) -> list[Path]:
+    """``report.json``, ``report.md`` and (with ratios) ``ratios.png`` into ``out_dir``."""
+    from ringsim.plots.study import plot_ratios
+    from ringsim.study.markdown import report_markdown
+    from ringsim.study.report import build_report
+
+    report = build_report(study, quick, specs, ids, summaries)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    files = [write_json(out_dir / "report.json", report)]
+    figure = plot_ratios(report, out_dir)
+    prose = Path(study.report).read_text(encoding="utf-8") if study.report else ""
+    text = report_markdown(report, summaries, prose, command,
+                           figure.name if figure is not None else None)
+    md = out_dir / "report.md"
+    tmp = md.with_name(f".report.md.{os.getpid()}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, md)
+    files.append(md)
+    return files + ([figure] if figure is not None else [])
+
+
+def _shown(path: str) -> str:
+    """A path as the user would retype it: relative to the working directory when inside
+    it."""
+    rel = os.path.relpath(Path(path).absolute())
+    return rel if not rel.startswith("..") else str(path)
+
+
+def study_command(args) -> int:
+    """``ringsim study STUDY.yaml [--out DIR] [--workers N] [--scheduler ADDRESS] [--quick]
+    [--report-only] [--threads N]``.
+
+    Returns 0 when the report is written, 1 when a run failed, 130 when a run was
+    interrupted (InputError for bad input propagates: exit status 2).
+    """
+    def echo(line: str) -> None:
+        print(line, flush=True)
+
+    command = (f"ringsim study {_shown(args.study)}" + (" --quick" if args.quick else "")
+               + (f" --out {_shown(args.out)}" if args.out else ""))
+    result = run_study(args.study, out=args.out, workers=args.workers,
+                       scheduler=args.scheduler, quick=args.quick,
+                       report_only=args.report_only, threads=args.threads, echo=echo,
+                       command=command)
+    if result.n_failed or result.n_stopped:
+        bad = [f"{r.run_id} ({'; '.join(r.labels)}): {r.status}" for r in result.results
+               if r.status != "finished"]
+        print(f"ringsim study: {len(bad)} run(s) did not finish, no report written: "
+              f"{', '.join(bad)}", file=sys.stderr)
+        return 1 if result.n_failed else 130
+    return 0

@@ -1,0 +1,161 @@
+"""``report.md`` of a study: its prose, the generated tables, the cost and the command."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping, Sequence
+
+from ringsim.analysis.equilibrium import TABLE_ROWS
+
+
+def _num(x: float | None, digits: int = 4) -> str:
+    return "n/a" if x is None or not math.isfinite(x) else f"{x:.{digits}g}"
+
+
+def _pm(value: Mapping, scale: float = 1.0) -> str:
+    mean, err = value["mean"], value["stderr"]
+    if mean is None or not math.isfinite(mean):
+        return "n/a"
+    return f"{mean * scale:.4g} ± {_num(err * scale if err is not None else None, 2)}"
+
+
+def _label(quantity: str) -> str:
+    label, unit, _scale = TABLE_ROWS[quantity]
+    return label + (f" [{unit}]" if unit else "")
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    return (["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+            + ["| " + " | ".join(row) + " |" for row in rows])
+
+
+def _changes(overrides: Mapping) -> str:
+    """``key: value`` pairs, values as YAML writes them (``true``, ``5e-4``)."""
+    return ", ".join(f"`{k}: {v if isinstance(v, str) else json.dumps(v)}`"
+                     for k, v in overrides.items()) or "none"
+
+
+def setup_section(report: Mapping) -> list[str]:
+    """What was run: the base, the changes of every run, the cases and the variants."""
+    lines = ["## Set-up", "", f"Base scenario `{report['base']}`; every run: "
+             f"{_changes({**report['length'], **report['overrides']})}"
+             + (f"; the quick form then sets {_changes(report['quick_overrides'])}"
+                if report["form"] == "quick" else "") + f". Seeds {report['seeds']}.", ""]
+    lines += [f"- case `{case}`: {_changes(entry['overrides'])}"
+              for case, entry in report["cases"].items()]
+    lines += [f"- variant `{name}` (seeds {report['variant_seeds']}): "
+              f"{_changes(v['overrides'])}" for name, v in report["variants"].items()]
+    return lines + [""]
+
+
+def equilibria_section(report: Mapping) -> list[str]:
+    cases = report["cases"]
+    rows = []
+    for quantity in TABLE_ROWS:
+        scale = TABLE_ROWS[quantity][2]
+        first = next(iter(cases.values()))["equilibrium"][quantity]
+        rows.append([_label(quantity), first["weighting"].split(":")[0]]
+                    + [_pm(c["equilibrium"][quantity], scale) for c in cases.values()])
+    rows.append(["in equilibrium (every seed)", ""]
+                + [str(c["in_equilibrium"]).lower() for c in cases.values()])
+    return (["## Equilibria", "",
+             f"Mean over the seeds {report['seeds']}: {report['averaging']}. The weighting "
+             "says what each quantity counts equally (report.json gives it in full).", ""]
+            + _table(["quantity", "weighting", *cases], rows) + [""])
+
+
+def _ratio_text(entry: Mapping) -> str:
+    if entry["mean"] is None or not math.isfinite(entry["mean"]):
+        return "n/a"
+    syst = entry["syst"]
+    syst_text = (f" ± {_num(syst, 2)} (syst)" if syst is not None and math.isfinite(syst)
+                 else " (syst. not measured)")
+    return f"**{entry['mean']:.4g}** ± {_num(entry['stat'], 2)} (stat){syst_text}"
+
+
+def ratios_section(report: Mapping, figure: str | None) -> list[str]:
+    if not report["ratios"]:
+        return []
+    pairs = list(dict.fromkeys((e["numerator"], e["denominator"]) for e in report["ratios"]))
+    by = {(e["numerator"], e["denominator"], e["quantity"]): e for e in report["ratios"]}
+    rows = [[_label(q)] + [_ratio_text(by[(n, d, q)]) for n, d in pairs]
+            for q in report["quantities"]]
+    lines = ["## Ratios", "", f"Systematic part: {report['systematics']}.", ""]
+    lines += _table(["quantity", *(f"{n} / {d}" for n, d in pairs)], rows) + [""]
+    if figure:
+        lines += [f"![The ratios with their statistical and total errors]({figure})", ""]
+    shifts = [[f"{e['numerator']} / {e['denominator']}", _label(e["quantity"]), variant,
+               _num(part["ratio"]), _num(part["ratio_without"]), _num(part["shift"], 2),
+               _num(part["noise"], 2)]
+              for e in report["ratios"] for variant, part in e["syst_parts"].items()]
+    if shifts:
+        lines += ["### The variants' shifts", "",
+                  f"Seeds {report['variant_seeds']}, with and without each variant.", ""]
+        lines += _table(["ratio", "quantity", "variant", "with the variant",
+                         "without", "shift", "its stat. error"], shifts) + [""]
+    return lines
+
+
+def runs_section(report: Mapping) -> list[str]:
+    rows = []
+    groups = [(case, "", entry["runs"]) for case, entry in report["cases"].items()]
+    groups += [(case, name, runs) for name, v in report["variants"].items()
+               for case, runs in v["runs"].items()]
+    for case, variant, runs in groups:
+        rows += [[case, variant, str(r["seed"]), f"`{r['run']}`", str(r["n_particles"]),
+                  _num(r["orbits"]), str(r["in_equilibrium"]).lower(), r["stop_reason"]]
+                 for r in runs]
+    return (["## Runs", "", "Each run is named by the hash of its scenario; its summary is "
+             "`summaries/<run>.json` beside the study file.", ""]
+            + _table(["case", "variant", "seed", "run", "particles", "orbits",
+                      "in equilibrium", "stop reason"], rows) + [""])
+
+
+def _cpu_s(summary: Mapping) -> float | None:
+    value = summary["cost"].get("cpu_time_s")
+    return None if value is None else float(value)
+
+
+def cost_section(report: Mapping, summaries: Mapping[str, dict]) -> list[str]:
+    """CPU-hours of each case and variant, from the summaries' ``cost``."""
+    groups = [(case, entry["runs"]) for case, entry in report["cases"].items()]
+    groups += [(f"{case} [{name}]", runs) for name, v in report["variants"].items()
+               for case, runs in v["runs"].items()]
+    rows = [[name, str(len(runs)),
+             f"{sum(_cpu_s(summaries[r['run']]) or 0.0 for r in runs) / 3600:.3g}"]
+            for name, runs in groups]
+    distinct = sorted({r["run"] for _, runs in groups for r in runs})
+    unknown = [rid for rid in distinct if _cpu_s(summaries[rid]) is None]
+    total = sum(_cpu_s(summaries[rid]) or 0.0 for rid in distinct) / 3600
+    lines = ["## Cost", "", "CPU time of the sessions that ran each run, from the "
+             "summaries (a session killed before its run finished is not counted).", ""]
+    lines += _table(["case", "runs", "CPU-hours"], rows)
+    lines += ["", f"Total: {total:.3g} CPU-hours for {len(distinct)} distinct runs."]
+    if unknown:
+        wall = sum(summaries[rid]["cost"].get("run_wall_time_s") or 0.0 for rid in unknown)
+        lines[-1] += (f" {len(unknown)} run(s) were summarised from a finished run file "
+                      f"without their CPU time (integration wall time {wall / 3600:.3g} h).")
+    return lines + [""]
+
+
+def report_markdown(report: Mapping, summaries: Mapping[str, dict], prose: str,
+                    command: str, figure: str | None) -> str:
+    """The text of ``report.md``."""
+    form = ("the quick form (reduced, for a first look; not the study's result)"
+            if report["form"] == "quick" else "the full form")
+    lines = [f"# Study {report['study']}", ""]
+    if report["description"]:
+        lines += [report["description"], ""]
+    lines += [f"Generated by ringsim {report['ringsim_version']} from the runs' summaries, "
+              f"{form}: `{command}` regenerates it, running only the runs without a "
+              "summary; with `--report-only` it is rewritten from the summaries alone. "
+              "Every number is also in `report.json`.", ""]
+    if prose.strip():
+        lines += [prose.strip(), ""]
+    lines += setup_section(report) + equilibria_section(report)
+    lines += ratios_section(report, figure)
+    lines += runs_section(report) + cost_section(report, summaries)
+    if report["warnings"]:
+        lines += ["## Warnings", ""] + [f"- {w}" for w in report["warnings"]] + [""]
+    return "\n".join(lines)

@@ -1,0 +1,185 @@
+"""The numbers of a study's report (``report.json``), computed from its run summaries alone.
+
+The statistics are ringsim's own: each run's equilibrium is ``ringsim.equilibrium``'s
+(time average over the equilibrium window, autocorrelation-corrected standard error); a
+case is the mean over its seeds (``analysis.budget.replica_mean``: the error is the larger
+of the propagated one and the seed-to-seed standard error of the mean); a ratio is
+``analysis.compare.ratio`` of two cases (first-order propagated statistical error); the
+systematic part adds the variants' relative parts in quadrature
+(``analysis.budget.systematic``).  The report holds no time, path or CPU time, so that
+identical summaries give byte-identical ``report.json`` (``runs.json_text``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+
+from ringsim import __version__, quantities
+from ringsim.analysis import budget
+from ringsim.analysis.compare import ratio
+from ringsim.analysis.equilibrium import NOT_IN_EQUILIBRIUM, QUANTITIES
+
+#: What a particle weighting of ``ringsim.quantities`` counts equally.
+_WEIGHTINGS = {"number": "number: every particle counts once",
+               "mass": "mass: each particle by its mass"}
+#: What the equilibrium quantities without a declared particle weighting count equally.
+_OTHER_WEIGHTINGS = {
+    "velocity_dispersion_rOmega": "number: c over the mean radius times Omega",
+    "thickness_r": "number: H over the mean radius",
+    "filling_factor": "volume: the particles' volume in the midplane slab",
+    "collision_frequency": "number: collisions per particle",
+    "mean_epsilon": "collision: every collision counts once",
+    "collisional_viscosity": "mass: the momentum the collisions carry",
+}
+
+
+def weighting(quantity: str) -> str:
+    """What an equilibrium quantity counts equally: its declared particle weighting
+    (``ringsim.quantities``), else what it averages over."""
+    declared = quantities.QUANTITY[quantity].weighting
+    return _WEIGHTINGS[declared] if declared else _OTHER_WEIGHTINGS.get(quantity, "")
+
+
+#: How a case's equilibrium is averaged (the report says it once).
+AVERAGING = ("each run: the time average over its equilibrium window with a standard error "
+             "corrected for autocorrelation (ringsim analyze); each case: the mean over its "
+             "seeds, with the larger of the propagated error and the seed-to-seed standard "
+             "error of the mean")
+#: How the systematic part of a ratio is measured (the report says it once).
+SYSTEMATICS = ("each variant reruns the cases of the ratios with the variant seeds; its "
+               "part is the shift of the ratio from the same seeds' ratio without the "
+               "variant, relative to that ratio, or the shift's own statistical error if "
+               "larger (a smaller shift is not resolved); the parts add in quadrature; "
+               "null: no variant measured it")
+
+
+def _value(entry: Mapping) -> dict:
+    """A summary's ``{"mean", "stderr", "units"}`` with null read as NaN."""
+    def number(x) -> float:
+        return math.nan if x is None else float(x)
+
+    return {"mean": number(entry.get("mean")), "stderr": number(entry.get("stderr")),
+            "units": entry.get("units", "")}
+
+
+def seed_mean(summaries: Sequence[Mapping], quantity: str) -> dict:
+    """The mean of one quantity over the runs of a case (``budget.replica_mean``)."""
+    return budget.replica_mean([_value(s["equilibrium"][quantity]) for s in summaries])
+
+
+def _run_entry(seed: int, rid: str, summary: Mapping) -> dict:
+    return {"seed": seed, "run": rid, "orbits": summary["orbits"],
+            "n_particles": summary["n_particles"],
+            "in_equilibrium": summary["in_equilibrium"], "reason": summary["reason"],
+            "stop_reason": summary["stop_reason"],
+            "equilibrium_from_orbit": summary["equilibrium"]["equilibrium_from_orbit"]["mean"],
+            "ringsim_version": summary["ringsim_version"]}
+
+
+class Runs:
+    """The summaries of a study's runs, by case, variant and seed."""
+
+    def __init__(self, specs: Sequence, ids: Sequence[str], summaries: Mapping[str, dict]):
+        self.by_key: dict[tuple, list[tuple[int, str]]] = {}
+        for spec, rid in zip(specs, ids, strict=True):
+            self.by_key.setdefault((spec.case, spec.variant), []).append((spec.seed, rid))
+        self.summaries = summaries
+
+    def of(self, case: str, variant: str | None = None,
+           seeds: Sequence[int] | None = None) -> list[dict]:
+        """The summaries of a case (or of a variant of it), optionally of some seeds."""
+        return [self.summaries[rid] for seed, rid in self.by_key[(case, variant)]
+                if seeds is None or seed in seeds]
+
+    def entries(self, case: str, variant: str | None = None) -> list[dict]:
+        return [_run_entry(seed, rid, self.summaries[rid])
+                for seed, rid in self.by_key[(case, variant)]]
+
+
+def case_entry(overrides: Mapping, runs: Runs, case: str) -> dict:
+    """One case: its overrides, runs and seed-averaged equilibrium (every table quantity,
+    with its weighting)."""
+    members = runs.of(case)
+    equilibrium = {}
+    for quantity in QUANTITIES:
+        value = seed_mean(members, quantity)
+        value["weighting"] = weighting(quantity)
+        equilibrium[quantity] = value
+    return {"overrides": dict(overrides), "runs": runs.entries(case),
+            "in_equilibrium": all(s["in_equilibrium"] for s in members),
+            "equilibrium": equilibrium}
+
+
+def _case_ratio(runs: Runs, num: str, den: str, quantity: str, variant: str | None = None,
+                seeds: Sequence[int] | None = None) -> dict:
+    return ratio(seed_mean(runs.of(num, variant, seeds), quantity),
+                 seed_mean(runs.of(den, variant, seeds), quantity))
+
+
+def _variant_part(runs: Runs, num: str, den: str, quantity: str, variant: str,
+                  seeds: Sequence[int]) -> dict:
+    """The shift of a ratio with one variant, against the same seeds without it."""
+    without = _case_ratio(runs, num, den, quantity, None, seeds)
+    moved = _case_ratio(runs, num, den, quantity, variant, seeds)
+    shift = moved["mean"] - without["mean"]
+    noise = math.hypot(moved["stderr"], without["stderr"])
+    relative = (max(abs(shift), noise) / abs(without["mean"])
+                if math.isfinite(without["mean"]) and without["mean"] else math.nan)
+    return {"ratio": moved["mean"], "ratio_without": without["mean"], "shift": shift,
+            "noise": noise, "relative": relative}
+
+
+def ratio_entry(runs: Runs, pair: tuple[str, str], quantity: str,
+                variants: Sequence[str], variant_seeds: Sequence[int]) -> dict:
+    """One ratio of one quantity, with its statistical and systematic errors."""
+    num, den = pair
+    value = _case_ratio(runs, num, den, quantity)
+    parts = {v: _variant_part(runs, num, den, quantity, v, variant_seeds) for v in variants}
+    relative = {v: part["relative"] for v, part in parts.items()}
+    syst, _ = budget.systematic({"relative": {quantity: relative}}, quantity, value["mean"])
+    members = runs.of(num) + runs.of(den)
+    return {"numerator": num, "denominator": den, "quantity": quantity,
+            "mean": value["mean"], "stat": value["stderr"], "syst": syst,
+            "total": math.hypot(value["stderr"], syst), "units": value["units"],
+            "quantity_units": QUANTITIES[quantity][1], "syst_parts": parts,
+            "in_equilibrium": all(s["in_equilibrium"] for s in members)}
+
+
+def _warnings(study, mode, runs: Runs) -> list[str]:
+    out = []
+    names = [(case, None) for case, _ in study.cases]
+    names += [(case, v) for v, _ in mode.variants for case in study.ratio_cases()]
+    for case, variant in names:
+        for seed, rid in runs.by_key[(case, variant)]:
+            s = runs.summaries[rid]
+            if not s["in_equilibrium"]:
+                label = f"{case}{f' [{variant}]' if variant else ''} seed {seed} (run {rid})"
+                out.append(NOT_IN_EQUILIBRIUM.format(name=label, reason=s["reason"]))
+    return out
+
+
+def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
+                 summaries: Mapping[str, dict]) -> dict:
+    """The content of ``report.json`` (see docs/studies.md)."""
+    mode = study.mode(quick)
+    runs = Runs(specs, ids, summaries)
+    quantities = list(study.quantities or QUANTITIES)
+    variants = [name for name, _ in mode.variants]
+    return {
+        "study": study.name, "description": study.description,
+        "form": "quick" if quick else "full", "ringsim_version": __version__,
+        "base": study.base_file, "overrides": dict(study.overrides),
+        "seeds": list(mode.seeds),
+        "variant_seeds": list(mode.variant_seeds) if variants else [],
+        "length": dict(mode.length), "quick_overrides": dict(mode.overrides),
+        "averaging": AVERAGING, "systematics": SYSTEMATICS, "quantities": quantities,
+        "cases": {case: case_entry(overrides, runs, case) for case, overrides in study.cases},
+        "variants": {name: {"overrides": dict(changes),
+                            "runs": {case: runs.entries(case, name)
+                                     for case in study.ratio_cases()}}
+                     for name, changes in mode.variants},
+        "ratios": [ratio_entry(runs, pair, q, variants, mode.variant_seeds)
+                   for pair in study.ratios for q in quantities],
+        "warnings": _warnings(study, mode, runs),
+    }

@@ -1,0 +1,302 @@
+"""The runs of a study: their identity, run files and summaries, the plan, and the worker.
+
+A run is identified by the hash of its resolved scenario (`run_id`): the first 16 hex
+digits of the SHA-256 of the canonical YAML (keys sorted, every default filled in) of the
+scenario without `IDENTITY_EXCLUDES`.  So the same run is found again whatever study, case
+or variant asks for it.  Its run file is ``<out>/runs/<id>.h5`` and its summary
+``summaries/<id>.json`` beside the study file.  A run's own name, description and output
+path are set from the id (`labelled`), so that every study writes the same file for it.
+
+The summary (`make_summary`) is the small JSON that outlives the run file: the run's
+scenario, stop reason, length reached, equilibrium with errors and units, the ringsim
+version that made the run and, apart in ``cost``, its CPU and wall time.  A summary is
+written by the worker as soon as its run is finished; a run whose summary matches the
+scenario asked is not run again, even when its run file is gone.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import math
+import os
+import sys
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from ringsim.batch import LabelledStream, existing_action, run_to_file
+from ringsim.config.scenario import with_overrides
+from ringsim.errors import InputError
+
+#: Scenario keys left out of a run's identity: its labels and the thread count change no
+#: result, and a run asked for with more ``integration.orbits`` is the same run lengthened.
+IDENTITY_EXCLUDES = ("name", "description", "output.path", "integration.threads",
+                     "integration.orbits")
+#: The ``format`` of a summary file.
+SUMMARY_FORMAT = "ringsim study summary 1"
+#: Plain numbers of a summary and their units.
+SUMMARY_UNITS = {"orbits": "orbits", "n_particles": "count", "mean_radius": "m",
+                 "optical_depth": "dimensionless", "cpu_time_s": "s",
+                 "run_wall_time_s": "s"}
+
+
+def _without(d: dict, dotted: Iterable[str]) -> dict:
+    d = json.loads(json.dumps(d))
+    for key in dotted:
+        *path, last = key.split(".")
+        node = d
+        for part in path:
+            node = node.get(part, {})
+        node.pop(last, None)
+    return d
+
+
+def summary_scenario(scenario) -> dict:
+    """The scenario a summary records: without its labels and thread count."""
+    return _without(scenario.to_dict(), IDENTITY_EXCLUDES[:4])
+
+
+def canonical_yaml(d: Mapping) -> str:
+    """YAML text with sorted keys (the text a run's hash is taken of)."""
+    return yaml.safe_dump(dict(d), sort_keys=True, default_flow_style=False,
+                          allow_unicode=True)
+
+
+def run_id(scenario) -> str:
+    """The first 16 hex digits of the SHA-256 of the canonical YAML of the scenario
+    without `IDENTITY_EXCLUDES`."""
+    text = canonical_yaml(_without(scenario.to_dict(), IDENTITY_EXCLUDES))
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+
+
+def labelled(scenario, rid: str, threads: int | None = None):
+    """The scenario a run is made with: named ``run-<id>``, no description, output path
+    ``runs/<id>.h5`` and, if given, ``integration.threads``."""
+    changes: dict[str, Any] = {"name": f"run-{rid}", "description": "",
+                               "output.path": f"runs/{rid}.h5"}
+    if threads is not None:
+        changes["integration.threads"] = threads
+    return with_overrides(scenario, changes)
+
+
+@dataclass
+class StudyRun:
+    """One distinct run of a study and the specs (case, variant, seed) that ask for it."""
+
+    run_id: str
+    scenario: Any
+    labels: list[str] = field(default_factory=list)
+
+
+def collect(specs: Sequence[Any], threads: int | None = None
+            ) -> tuple[dict[str, StudyRun], list[str]]:
+    """The distinct runs of ``specs`` (``config.study.RunSpec``) by id, in spec order, and
+    the id of each spec."""
+    runs: dict[str, StudyRun] = {}
+    ids = []
+    for spec in specs:
+        rid = run_id(spec.scenario)
+        if rid not in runs:
+            runs[rid] = StudyRun(rid, labelled(spec.scenario, rid, threads))
+        runs[rid].labels.append(spec.label)
+        ids.append(rid)
+    return runs, ids
+
+
+# --- summaries --------------------------------------------------------------------------------
+
+def plain_json(value: Any) -> Any:
+    """``value`` with non-finite floats as None (JSON null) and tuples as lists."""
+    if isinstance(value, Mapping):
+        return {str(k): plain_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [plain_json(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def json_text(payload: Any) -> str:
+    """Sorted keys, one-space indent, floats as Python's repr, null for non-finite."""
+    return json.dumps(plain_json(payload), sort_keys=True, indent=1, allow_nan=False) + "\n"
+
+
+def write_json(path: str | Path, payload: Any) -> Path:
+    """Write `json_text` under a temporary name and rename it over ``path``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json_text(payload), encoding="utf-8")
+    os.replace(tmp, path)
+    return path
+
+
+def read_summary(path: str | Path) -> dict | None:
+    """A summary file, None if there is none; InputError if it is not a summary."""
+    path = Path(path)
+    if not path.exists():
+        return None
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(str(path), "<file>", f"not a readable summary ({exc}); delete it "
+                         "to run the run again") from None
+    if not isinstance(data, dict) or data.get("format") != SUMMARY_FORMAT:
+        raise InputError(str(path), "format", f"not a {SUMMARY_FORMAT!r} file; delete it "
+                         "to run the run again")
+    return data
+
+
+def summary_state(summary: Mapping | None, scenario) -> str:
+    """``missing``, ``same`` (the summary is of the run asked), ``shorter`` (of the same run
+    with fewer orbits: to be lengthened), ``longer`` or ``other`` (another scenario)."""
+    if summary is None:
+        return "missing"
+    have, want = summary.get("scenario", {}), summary_scenario(scenario)
+    if _without(have, ["integration.orbits"]) != _without(want, ["integration.orbits"]):
+        return "other"
+    had, asked = have["integration"]["orbits"], want["integration"]["orbits"]
+    return "same" if had == asked else "shorter" if had < asked else "longer"
+
+
+def make_summary(rid: str, run, eq: Mapping, quantities: Iterable[str],
+                 cost: Mapping) -> dict:
+    """The summary of the finished run ``rid`` (``ringsim.open_run``) from its
+    equilibrium (``ringsim.equilibrium``); ``cost``: ``cpu_time_s`` and
+    ``run_wall_time_s``."""
+    kept = [*quantities, "equilibrium_from_orbit"]
+    return {"format": SUMMARY_FORMAT, "run": rid,
+            "ringsim_version": str(run.attrs.get("ringsim_version", "")),
+            "scenario": summary_scenario(run.scenario),
+            "status": str(run.attrs.get("status")),
+            "stop_reason": str(run.attrs.get("stop_reason", "")),
+            "in_equilibrium": bool(eq["in_equilibrium"]), "reason": str(eq["reason"]),
+            "equilibrium": {key: dict(eq[key]) for key in kept},
+            "orbits": float(eq["orbits"]), "n_particles": int(eq["n_particles"]),
+            "mean_radius": float(eq["mean_radius"]),
+            "optical_depth": float(eq["optical_depth"]),
+            "units": dict(SUMMARY_UNITS), "cost": dict(cost)}
+
+
+# --- the plan -----------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class RunTask:
+    """One run to process (picklable: sent to worker processes or Dask workers).
+
+    Attributes
+    ----------
+    run_id : str
+    scenario : Scenario (`labelled`)
+    path, summary : str
+        Absolute paths of the run file and of the summary.
+    action : str
+        ``batch.ACTIONS``: ``reuse`` here means "summarise the finished run file".
+    labels : tuple of str
+        The cases and seeds that ask for the run (for messages).
+    cpu_before : float or None [s]
+        CPU time of the sessions that made the run before (from the summary of its shorter
+        form), added to this session's.
+    """
+
+    run_id: str
+    scenario: Any
+    path: str
+    summary: str
+    action: str
+    labels: tuple[str, ...]
+    cpu_before: float | None = None
+
+
+def _cpu_of(summary: Mapping | None) -> float | None:
+    value = (summary or {}).get("cost", {}).get("cpu_time_s")
+    return float(value) if isinstance(value, (int, float)) else None
+
+
+def plan_run(run: StudyRun, runs_dir: Path, summaries_dir: Path) -> RunTask | None:
+    """What to do for one run: None when its summary is of the run asked, else a task.
+
+    Raises InputError for a summary or run file of another scenario, of a run longer than
+    asked, or a run file that cannot be read or is being written (``batch``)."""
+    summary_path = summaries_dir / f"{run.run_id}.json"
+    path = runs_dir / f"{run.run_id}.h5"
+    summary = read_summary(summary_path)
+    state = summary_state(summary, run.scenario)
+    advice = "delete it (and its summary) or choose another --out"
+    if state == "same":
+        return None
+    if state in ("other", "longer"):
+        orbits = summary["scenario"]["integration"]["orbits"] if summary else None
+        why = ("a different scenario" if state == "other" else
+               f"a run of {orbits:g} orbits, more than the "
+               f"{run.scenario.integration.orbits:g} asked; a run is only ever lengthened")
+        raise InputError(str(summary_path), "scenario", f"the summary is of {why}; "
+                         "delete it to run the run again")
+    action = (existing_action(path, run.scenario, extend=True, asker="the study",
+                              advice=advice) if path.exists() else "run")
+    return RunTask(run.run_id, run.scenario, str(path.absolute()),
+                   str(summary_path.absolute()), action, tuple(run.labels),
+                   _cpu_of(summary) if state == "shorter" and action != "run" else None)
+
+
+@dataclass
+class TaskResult:
+    """What became of one run: ``finished``, ``stopped`` (interrupted) or ``failed``."""
+
+    run_id: str
+    status: str
+    action: str
+    labels: tuple[str, ...]
+    wall_time: float = 0.0
+    error: str = ""
+
+
+def failed(task: RunTask, exc: BaseException) -> TaskResult:
+    """The result of a task whose worker raised."""
+    message = " ".join(f"{type(exc).__name__}: {exc}".split())
+    return TaskResult(task.run_id, "failed", task.action, task.labels, error=message)
+
+
+def run_task(task: RunTask) -> TaskResult:
+    """Run (or resume, lengthen, or only summarise) one run and write its summary, with
+    every table quantity of its equilibrium (``analysis.equilibrium.QUANTITIES``).
+
+    The function sent to worker processes and Dask workers.  What the run writes to stderr
+    is prefixed with the run's id."""
+    with contextlib.redirect_stderr(LabelledStream(sys.stderr, f"run {task.run_id}")):
+        return _run_task(task)
+
+
+def _run_task(task: RunTask) -> TaskResult:
+    from ringsim.analysis.equilibrium import QUANTITIES, equilibrium
+    from ringsim.store.runfile import open_run
+
+    cpu0, wall0 = time.process_time(), time.perf_counter()
+    run_to_file(task.scenario, task.path, task.action)
+    run = open_run(task.path)
+    status = str(run.attrs.get("status"))
+    result = TaskResult(task.run_id, status if status in ("finished", "stopped") else "failed",
+                        task.action, task.labels)
+    if status == "finished":
+        eq = equilibrium(run)
+        cpu = (None if task.action == "reuse"
+               else time.process_time() - cpu0 + (task.cpu_before or 0.0))
+        wall = run.attrs.get("wall_time_s", 0.0)
+        cost = {"cpu_time_s": cpu,
+                "run_wall_time_s": float(wall) if isinstance(wall, (int, float)) else None}
+        write_json(task.summary, make_summary(task.run_id, run, eq, QUANTITIES, cost))
+    elif status == "stopped":
+        result.error = "stopped before the end; start the study again to continue it"
+    elif status == "failed":
+        result.error = (f"the run failed: {run.attrs.get('failure')}; delete {task.path} to "
+                        "run it again")
+    else:
+        result.error = f"the run file's status is {status!r} after the run"
+    result.wall_time = time.perf_counter() - wall0
+    return result
