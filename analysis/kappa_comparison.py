@@ -14,7 +14,8 @@ fraction of impacts outside the speeds the Dilley law was fitted to.
 
 ``--systematics`` runs the power-law pair again with N/4 particles, with a fixed step half
 the automatic one, and in a box of aspect 2, and writes the relative change of every ratio
-to ``analysis/data/kappa_budget.json`` (the file ``ringsim compare --systematics`` reads).
+to ``analysis/data/kappa_budget_<variant>.json`` (the file ``ringsim compare --systematics``
+reads).
 The collision-detection part comes from the line-vs-tree measurement of
 ``python -m validation line-mode`` (``analysis/data/line_mode_validation.json``).
 A run the finder does not call stationary is never averaged: it is listed and left out.

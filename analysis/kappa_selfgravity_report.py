@@ -52,7 +52,7 @@ from ringsim.store.runfile import open_run
 
 EXPLANATION_FILE = ROOT / "analysis" / "data" / "kappa_selfgravity_explanation.md"
 #: The report's fixed text, part by part (``kappa_comparison.prose``): title and method,
-#: the note on the errors, the first attempt.
+#: the note on the errors, how the budget is measured, the first attempt, what is not done.
 TEXT = ROOT / "analysis" / "data" / "kappa_selfgravity_text.md"
 #: Gravity quantities shown beside the table rows: key -> (label, unit shown).
 GRAVITY_ROWS = {"toomre_Q": ("Toomre Q (from sigma_x)", ""),
@@ -221,15 +221,7 @@ def headline(rows: list[tuple[str, dict]]) -> list[str]:
 def budget_lines(budgets: dict, solver: dict) -> list[str]:
     """Markdown: how each size distribution's budget was measured, and its parts for c
     and H (per cent of the ratio), the slab's solver part included."""
-    lines = ["Systematic parts are relative errors of the ratio kappa 0.1 / 0, added in "
-             "quadrature (`ringsim compare`). They are measured with the slab solver and "
-             "applied to the tree's ratio as well (a tree variant costs 20-40 times more); "
-             "the slab's ratio also carries `gravity_solver`, the largest slab / tree "
-             "difference (or its error, if larger) over the cases with both: of the ratio, "
-             "or of the kappa = 0 ring where only it was run with the tree. "
-             "The detection part is measured per step, not per run: kicked paths dissipate "
-             "1.1e-3 ± 0.4e-3 less than the converged step (seven seeds, docs/gravity.md), "
-             "far below every part of the budget.", ""]
+    lines = [*prose(TEXT)["budget"], ""]
     if not budgets and not solver:
         return lines + ["No budget file yet: the systematic parts are \"not measured\"."]
     lines += ["| size distribution | ratio | source | c [%] | H [%] |", "|---|---|---|---|---|"]
@@ -328,13 +320,7 @@ def not_done_lines(runs: Path, costs: dict, no_tree: list[str]) -> list[str]:
     missing = [size for size in SIZES if not budget_file(size).exists()]
     lines += [f"- The systematic budget of the {size} cases (no budget file)."
               for size in missing]
-    lines += ["- Boxes of at least 4 lambda_cr for wake statistics (here 2.1-4.2, and "
-              "0.75-1.34 for the cases in SLAB_PARTICLES). No ring of identical particles "
-              "here reaches the wake regime, but the power-law kappa = 0 ring at 1.3e8 m, "
-              "tau = 0.5 sits at mass-weighted Q = 2.1 with the full field: its ratio needs "
-              "full-field runs in a box of at least 2 lambda_cr.",
-              "- With the slab solver the cases not run would cost about what their "
-              "no-gravity runs cost (0.3-0.6 ms of CPU per particle-orbit)."]
+    lines += prose(TEXT)["not done"]
     return lines
 
 
