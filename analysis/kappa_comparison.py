@@ -14,7 +14,8 @@ fraction of impacts outside the speeds the Dilley law was fitted to.
 
 ``--systematics`` runs the power-law pair again with N/4 particles, with a fixed step half
 the automatic one, and in a box of aspect 2, and writes the relative change of every ratio
-to ``analysis/data/kappa_budget.json`` (the file ``ringsim compare --systematics`` reads).
+to ``analysis/data/kappa_budget_<variant>.json`` (the file ``ringsim compare --systematics``
+reads).
 The collision-detection part comes from the line-vs-tree measurement of
 ``python -m validation line-mode`` (``analysis/data/line_mode_validation.json``).
 A run the finder does not call stationary is never averaged: it is listed and left out.
@@ -33,6 +34,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -54,6 +56,11 @@ BUDGET = ROOT / "analysis" / "data" / "kappa_budget_{variant}.json"
 FRICTION_REPORT = ROOT / "analysis" / "kappa_friction.md"
 FRICTION_BUDGET = ROOT / "analysis" / "data" / "kappa_friction_budget_{variant}.json"
 LINE_VALIDATION = ROOT / "analysis" / "data" / "line_mode_validation.json"
+#: The reports' fixed text, part by part (``prose``): why kappa changes the equilibrium,
+#: without and with friction, and where the detection part of the budget comes from.
+TEXT = ROOT / "analysis" / "data" / "kappa_comparison_text.md"
+#: The marker line that starts a part of a file of fixed report text (``prose``).
+PART = re.compile(r"<!-- part: (.+) -->")
 #: Most orbits a run may take to become stationary.
 MAX_ORBITS = 400.0
 #: Method variants of the systematic budget: source -> overrides of the power-law pair.
@@ -64,64 +71,26 @@ SYSTEMATIC_VARIANTS = {
 }
 
 
-EXPLANATION = [
-    "Why: a ring settles where collisions remove, on average, the energy the shear feeds "
-    "into random motion, i.e. at the impact speeds where the collision-averaged epsilon "
-    "reaches the critical value of thermal balance (about 0.65 at tau = 0.25, Goldreich & "
-    "Tremaine 1978). Both rings therefore end with nearly the same distribution of applied "
-    "epsilon (see the epsilon histograms). What kappa changes is the speed at which a pair "
-    "reaches that epsilon: Dilley's xi = xi0 (R/2.5 cm)^-0.2 (M/60 g)^-kappa (v/1 cm/s)^p is "
-    "a function of v (M/60 g)^(-kappa/p), so at equal epsilon the impact speed grows by "
-    "(M/60 g)^(kappa/p) = (M/60 g)^0.154 with kappa = 0.1 -- a factor 4 to 5 for metre-sized "
-    "ice, whose reduced masses are hundreds to thousands of kilograms. The velocity "
-    "dispersion, and with it the thickness (H ~ c/Omega), scale by that factor; the filling "
-    "factor drops and the translational viscosity (~ c^2/Omega at low optical depth) rises by "
-    "its square. The collision frequency per particle barely changes, because in a thick "
-    "ring it is set by the optical depth (~ 3 tau Omega), not by c.",
-]
 
-
-FRICTION_EXPLANATION = [
-    "Choice of the friction: constant tangential restitution beta = 0 (the contact point "
-    "stops in every collision). It is scale free like the Coulomb model, has the closed-form "
-    "collisional balance E_rot/E_tr = 2/9 to check the spins against (docs/friction.md), and "
-    "it is what Coulomb friction with mu = 0.5 becomes when contacts stick: with eps_n ~ 0.9 "
-    "a contact slides only if its tangential speed exceeds about 3 times its normal speed "
-    "(mu (1 + eps_n) / ((1 + beta0) f_t) with f_t = 2/7); in the validation ring patch "
-    "(docs/validation.md) 12 % of the contacts slide with mu = 0.5 and E_rot/E_tr, c and the "
-    "tangential share of the dissipation differ from beta = 0 by 7 %, 17 % and 3 points.",
-    "",
-    "How much of the kappa effect survives, and why. Without friction the power-law rings "
-    "give c(0.1)/c(0) = 4.43 ± 0.39 (analysis/kappa_comparison.md), the (M/60 g)^(kappa/p) "
-    "scaling of the speed at which a pair reaches the one epsilon both rings need (0.735 in "
-    "both). With beta = 0 most of the impact energy leaves through the tangential impulse: "
-    "the resolver's counters give a tangential share of the dissipation of 0.60 (kappa = 0) "
-    "and 0.72 (kappa = 0.1), the rest through eps_n, and part of the impact energy is held "
-    "as rotation (E_rot/E_tr ~ 0.23-0.25, slightly above the closed form 2/9). The rings "
-    "need much less normal dissipation: the mean applied eps_n rises to 0.87 (kappa = 0) and "
-    "0.93 (kappa = 0.1), i.e. Dilley's law is evaluated much closer to eps_n = 1, and both "
-    "rings are far cooler: c is 3.4 (kappa = 0) and 8.8 (kappa = 0.1) times lower than "
-    "without friction (c/(<r> Omega) 15 and 25 instead of 50 and 224). The kappa effect "
-    "shrinks to the ratio above because the two rings no longer need the same eps_n: "
-    "were the ring scale free (dilute, c >> r Omega), the "
-    "tangential channel would take the same share in both and the speeds would again scale "
-    "as (M/60 g)^(kappa/p); but the kappa = 0 ring at c ~ 15 r Omega is close to the "
-    "finite-size regime, where the collisional (non-local) viscosity adds heating "
-    "(nu_col/nu = 0.23 against 0.13 for kappa = 0.1) and the ring must dissipate more per "
-    "collision, so it settles at a lower eps_n and a higher speed than the scaling predicts, "
-    "which compresses the ratio. This interpretation is ours: the run that would isolate it "
-    "(the same rings with much smaller particles, restoring c >> r Omega) was not made. "
-    "The ratio of normal to tangential dissipation is thus set by how close eps_n must come "
-    "to 1: the more the friction takes, the less the restitution law (and kappa) matters.",
-    "",
-    "The 'dilute kinetic estimate' row is the smooth-sphere estimate of the law and ignores "
-    "friction; it is listed for comparison with analysis/kappa_comparison.md only. The "
-    "detection part of the systematic budget is carried over from the runs without "
-    "friction (line vs tree, analysis/data/line_mode_validation.json): a tree reference of "
-    "these rings was not run (about 16 CPU-minutes per run). The twelve runs (six for the "
-    "ratio, six method variants) took 1530 s of wall time in one process when first made; "
-    "the 'Generated ... in' line above counts only the invocation that wrote this file.",
-]
+def prose(path: Path) -> dict[str, list[str]]:
+    """The parts of a Markdown file of fixed report text, as lines: a part runs from its
+    marker line (``PART``: ``<!-- part: NAME -->``) to the next marker or the end, less the
+    blank lines at either end.  Lines before the first marker (the file's note on itself)
+    belong to no part."""
+    parts: dict[str, list[str]] = {}
+    current: list[str] | None = None
+    for line in path.read_text().splitlines():
+        marker = PART.fullmatch(line)
+        if marker:
+            current = parts.setdefault(marker[1], [])
+        elif current is not None:
+            current.append(line)
+    for lines in parts.values():
+        while lines and not lines[-1]:
+            lines.pop()
+        while lines and not lines[0]:
+            lines.pop(0)
+    return parts
 
 
 def scaling_prediction(sc) -> tuple[float, float]:
@@ -536,19 +505,15 @@ def main() -> None:
         results[variant] = (paths, eqs, left_out)
     budgets = budgets_of(args, results, runs_dir, budget_pattern)
     sections, summary = variant_lines(args, results, budgets, report, figures_dir)
+    text = prose(TEXT)
     lines = [*header(args, time.perf_counter() - t0),
              "## What changes between kappa = 0 and kappa = 0.1", "", *summary, "",
-             *(FRICTION_EXPLANATION if args.friction else EXPLANATION), "",
+             *text["friction explanation" if args.friction else "explanation"], "",
              *[f"Systematic budget, {v}: " + (budgets[v]["description"] if v in budgets else
                                               "not measured (run with --systematics)") + "."
                for v in results], "",
-             "The collision-detection part of the budget comes from the line-vs-tree "
-             "comparisons of docs/validation.md, measured before contacts were resolved in time "
-             "order (the time-ordered detector changes c by less than its errors there); a new "
-             "tree reference of the hot rings costs about 16 CPU-minutes per run.  A variant "
-             "whose change is smaller than its own statistical error enters with that error "
-             "(not resolved).  Every variant runs until stationary with seed "
-             f"{' '.join(map(str, args.systematic_seeds))}.", "",
+             *[line.format(seeds=" ".join(map(str, args.systematic_seeds)))
+               for line in text["detection budget"]], "",
              *sections]
     report.write_text("\n".join(lines) + "\n")
     print(f"wrote {report}")

@@ -1,15 +1,16 @@
-"""Ring equilibria with kappa = 0 and kappa = 0.1 WITH self-gravity (issue 12, item 6).
+"""Ring equilibria with kappa = 0 and kappa = 0.1 WITH self-gravity: the campaign's driver.
 
-For every case (size distribution x distance from Saturn x optical depth) and seed, runs
-(or reuses finished runs of) ``scenarios/kappa0-gravity.yaml`` and
-``scenarios/kappa0.1-gravity.yaml`` with the case's overrides, with self-gravity (REBOUND's
-tree, line detection with kicked paths) and without it (the baseline: same particles, same
-Omega, same box, same initial state), every run for a fixed number of orbits (``ORBITS_FOR_CASE``)
-after which the equilibrium finder chooses the stationary window.  Writes
-``analysis/kappa_selfgravity.md``: the equilibria, the ratio
-kappa = 0.1 / kappa = 0 with and without gravity with the error budget, gravity / no
-gravity for each kappa, Toomre Q, wakes and viscosities, and the measured cost of every
-run; ``analysis/data/kappa_selfgravity.json`` keeps the costs.
+For every case (size distribution x distance from Saturn x optical depth,
+``kappa_selfgravity_cases``) and seed, runs (or reuses finished runs of)
+``scenarios/kappa0-gravity.yaml`` and ``scenarios/kappa0.1-gravity.yaml`` with the case's
+overrides, with self-gravity (REBOUND's tree, line detection with kicked paths) and without
+it (the baseline: same particles, same Omega, same box, same initial state), every run for
+a fixed number of orbits (``kappa_selfgravity_cases.ORBITS_FOR_CASE``) after which the
+equilibrium finder chooses the stationary window.  Writes ``analysis/kappa_selfgravity.md``
+(``kappa_selfgravity_report``): the equilibria, the ratio kappa = 0.1 / kappa = 0 with and
+without gravity with the error budget, gravity / no gravity for each kappa, Toomre Q, wakes
+and viscosities, and the measured cost of every run; ``analysis/data/kappa_selfgravity.json``
+keeps the costs.
 
     python analysis/kappa_selfgravity.py --cases mono-1e8-0.5 mono-1e8-0.25 --seeds 1 2 3
     python analysis/kappa_selfgravity.py --report-only
@@ -28,199 +29,43 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
+import shutil
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
-import numpy as np
 from kappa_comparison import run_one
+from kappa_selfgravity_cases import (
+    BOX_LAMBDA,
+    CASES,
+    REPORT,
+    ROOT,
+    SCENARIOS,
+    SIZES,
+    SYSTEMATIC_VARIANTS,
+    VARIANT_KINDS,
+    box_particles,
+    last_orbit,
+    orbits,
+    output,
+    p3m_orbits,
+    p3m_output,
+    patch,
+    slab_output,
+    tile_source,
+    tiled_output,
+    variant_output,
+)
+from kappa_selfgravity_p3m import write_p3m_check
+from kappa_selfgravity_ratios import write_budget
+from kappa_selfgravity_report import write_report
 
 from ringsim.config.scenario import load_scenario
-from ringsim.physics.gravity import orbital_frequency, surface_density_from_tau, toomre_wavelength
 from ringsim.store.lock import lock_path
 from ringsim.store.runfile import open_run
 
-ROOT = Path(__file__).resolve().parent.parent
-SCENARIOS = {0.0: ROOT / "scenarios" / "kappa0-gravity.yaml",
-             0.1: ROOT / "scenarios" / "kappa0.1-gravity.yaml"}
-REPORT = ROOT / "analysis" / "kappa_selfgravity.md"
+#: The recorded CPU of every run (``run_jobs``).
 DATA = ROOT / "analysis" / "data" / "kappa_selfgravity.json"
-LINE_MODE = ROOT / "analysis" / "data" / "gravity_line_mode.json"
-P3M_CHECK = ROOT / "analysis" / "data" / "kappa_selfgravity_p3m_check.json"
-GM_SATURN = 3.7931e16       # [m^3/s^2], as the scenarios
-DENSITY = 900.0             # [kg/m^3], as the scenarios
-#: Smallest box side in Toomre wavelengths (wakes need 2), and fewest particles.
-BOX_LAMBDA = 2.1
-MIN_PARTICLES = 600
-#: Cases run with the slab solver only, in smaller boxes: case -> particles.  Their boxes
-#: of 2.1 lambda_cr would hold 5886 and 19329 particles (tree: about 60 and 150 CPU-hours
-#: at the lengths below).  The slab has no horizontal modes, so its field does not depend
-#: on the box's size in lambda_cr; what a smaller box changes is measured by the budget's
-#: n_particles part.  Such a case's box is below the 2 lambda_cr wakes need: its tree runs
-#: for the ratio, if ever made, need this entry removed.  The tree kappa = 0 runs of
-#: mono-1.3e8-0.5 (seeds 1 and 2, 2026-11-23) are made in the slab's box on purpose: they
-#: check the solver where Q is lowest, like for like (same particles, box and length), and
-#: say what the modes that fit in 1.34 lambda_cr add to the mean field.
-SLAB_PARTICLES = {"mono-1.3e8-0.5": 2400, "powerlaw-1.3e8-0.5": 2400}
-#: Size distributions of item 6: overrides of ``particles.size_distribution``.
-SIZES = {"mono": {"kind": "monodisperse", "radius": 1.0},
-         "powerlaw": {"kind": "powerlaw", "q": 3.0, "r_min": 0.5, "r_max": 5.0}}
-#: Cases: name -> (size distribution, a [m], optical depth).
-CASES = {f"{size}-{a_name}-{tau:g}": (size, a, tau)
-         for size in SIZES for a_name, a in (("1e8", 1.0e8), ("1.3e8", 1.3e8))
-         for tau in (0.25, 0.5)}
-#: Orbits of every run (fixed: the equilibrium finder chooses the window afterwards).  The
-#: finder can call a run stationary inside a slow transient: the no-gravity power-law
-#: kappa = 0.1 ring started isotropic at its equilibrium c (43 mm/s) overshoots to 80 mm/s
-#: within 4 orbits, looks flat over orbits 2-5, and is back at 40 mm/s only after ~25
-#: orbits (measured 2026-11-22); runs stopped by ``until_equilibrium`` after 3-5 orbits
-#: were caught there.  So no run here stops early, and all start from the scenario's
-#: initial state (gravity and no-gravity twins alike).
-#: The kappa = 0.1 rings have autocorrelation times of orbits: after 30 orbits with gravity
-#: (80 without) most runs had fewer than the finder's 20 effective samples, so the runs
-#: were extended (--resume, bit-identical to running them whole) to 70 and 160 orbits.
-#: Then longer, case by case (``ORBITS_FOR_CASE``): after 70 / 160 orbits the finder found
-#: 10-20 effective samples in most runs of the monodisperse cases (autocorrelation times
-#: of a few orbits in boxes of 600-740 particles), so they were extended.  A "<gravity or
-#: nograv>, kappa <k>" entry sets one kappa value's runs apart: after 140 orbits 4 of the
-#: 6 kappa = 0.1 gravity runs of the monodisperse cases, and after 70 all 3 of the power
-#: law's, had 10-18 of the 20 effective samples (the hot ring relaxes over several
-#: orbits), while the kappa = 0 runs were stationary; the power law's no-gravity runs had
-#: 9-20 after 160 orbits.
-#: The cases run later take the lengths of the case of their size distribution at
-#: tau = 0.25, except that the no-gravity runs at tau = 0.5 are half as long: the
-#: autocorrelation times are set by the collision rate (proportional to tau), not by the
-#: box, and mono-1e8-0.5's no-gravity runs were stationary after 160 orbits.  Its one
-#: tree run (kappa = 0, seed 1, the check of the slab in the densest ring) had 17.8 of 20
-#: effective samples after 140 orbits, so it runs to 210.
-#: The power law's slab runs were 140 orbits for both kappa values: after 70, 2 of 3 kappa
-#: = 0 slab runs were stationary, and slab runs cost 1/20-1/40 of the tree's.
-#: Every run must be stationary, so on 2026-11-23 each group (case, solver, kappa) with a
-#: run the finder left out was made longer, all its seeds alike; the other groups kept
-#: their lengths.  Left out were: 6 slab runs with 13-18 of the 20 effective samples (one
-#: power-law run still drifting) at 140 orbits, and one at 18.4 at 280 (mono-1.3e8-0.25,
-#: kappa 0.1), so those groups run 210 and 350; mono-1.3e8-0.25's tree kappa = 0 seed 3
-#: (drifting, 9 samples at 140), so its group runs 280; a no-gravity run at tau = 0.5 with
-#: 18.9 samples at 160 (mono-1.3e8-0.5, kappa 0) and one with 15.9 at 240
-#: (powerlaw-1e8-0.5, kappa 0.1), so those run 200 and 320.  powerlaw-1.3e8-0.5, run
-#: last, takes the lengths of powerlaw-1e8-0.5.  That left 4 of 103 runs out, so their
-#: groups were raised again (the finder's effective samples of a run fluctuate by 10-20 %
-#: between lengths): mono-1.3e8-0.25's tree kappa = 0 (18.7 at 280) to 350, its slab
-#: kappa = 0 (19.9 at 210) to 280 and kappa = 0.1 (17.1 at 350) to 490, and
-#: powerlaw-1e8-0.25's slab kappa = 0.1 (15.7 at 210) to 350.  A length is only ever
-#: raised: ``run_one`` refuses a run longer than asked.  After that, 2 of 115 runs were
-#: left out, both power-law slab kappa = 0.1: powerlaw-1e8-0.25 seed 2 (13.1 at 350) and
-#: powerlaw-1.3e8-0.5 seed 2 (15.5 at 210); their groups run 490 and 280.  The tree
-#: check of mono-1.3e8-0.5 (kappa = 0, seeds 1 and 2) had 17.6 effective samples in
-#: seed 1 at 140 orbits, so that group runs 210, like mono-1e8-0.5's.  Its slab kappa = 0
-#: runs keep the 140 orbits they were made with ("slab, kappa 0"): without that entry the
-#: slab's length falls through to the "gravity, kappa 0" entry above.
-#: The P3M checks of the slab (``run_p3m``) take the "gravity" lengths unless a "p3m"
-#: entry is set; the P3M runs in a larger box (``--p3m-box``) take the "gravity" lengths
-#: always (eight or more times the particles: a smaller error per snapshot, the same
-#: autocorrelation times).  In powerlaw-1.3e8-0.5 the kappa = 0 P3M seed 3 had
-#: 15.9 of the 20 effective samples after 70 orbits (2026-11-25), so that group runs 105.
-#: In powerlaw-1.3e8-0.25 the kappa = 0 P3M seed 2 had 13.3 (c) and 11.0 (H) after 70
-#: orbits (seeds 1 and 3: 29 and 30; 2026-11-25), so that group runs 140; its kappa = 0.1
-#: P3M seed 1 had 17.0 and 17.1 after 140 (2026-11-26), so that group runs 210.  "p3m-box": the
-#: P3M runs in a box of ``--p3m-box`` lambda_cr; in powerlaw-1.3e8-0.5 the kappa = 0 seed 3
-#: in the 2.1 lambda_cr box had 16.5 of the 20 effective samples in H after 70 orbits
-#: (2026-11-26), so that group runs 105 (seeds 1 and 2, 49 and 24 samples at 70, were run
-#: to 70 on a machine since retired); at 105 seed 3 had 15.4 in c, still short, so that
-#: group runs 175 (2026-11-26: 87 CPU-s per orbit on this machine).
-MONO_LENGTHS = {"nograv": 320.0, "gravity": 140.0, "gravity, kappa 0.1": 280.0}
-POWERLAW_LENGTHS = {"nograv": 480.0, "gravity": 70.0, "gravity, kappa 0.1": 140.0,
-                    "slab": 140.0}
-POWERLAW_05_LENGTHS = {**POWERLAW_LENGTHS, "nograv": 240.0, "nograv, kappa 0.1": 320.0,
-                       "slab": 210.0}
-ORBITS_FOR_CASE = {"mono-1e8-0.25": {**MONO_LENGTHS, "slab, kappa 0": 210.0},
-                   "mono-1.3e8-0.25": {**MONO_LENGTHS, "gravity, kappa 0": 350.0,
-                                       "slab, kappa 0": 280.0, "slab, kappa 0.1": 490.0},
-                   "mono-1e8-0.5": {**MONO_LENGTHS, "nograv": 160.0,
-                                    "gravity, kappa 0": 210.0, "slab, kappa 0": 140.0},
-                   "mono-1.3e8-0.5": {**MONO_LENGTHS, "nograv": 160.0,
-                                      "nograv, kappa 0": 200.0, "gravity, kappa 0": 210.0,
-                                      "slab, kappa 0": 140.0},
-                   "powerlaw-1e8-0.25": {**POWERLAW_LENGTHS, "slab": 210.0,
-                                         "slab, kappa 0.1": 490.0},
-                   "powerlaw-1e8-0.5": POWERLAW_05_LENGTHS,
-                   "powerlaw-1.3e8-0.25": {**POWERLAW_LENGTHS, "slab, kappa 0": 210.0,
-                                           "p3m, kappa 0": 140.0, "p3m, kappa 0.1": 210.0},
-                   "powerlaw-1.3e8-0.5": {**POWERLAW_05_LENGTHS, "slab, kappa 0.1": 280.0,
-                                          "p3m, kappa 0": 105.0, "p3m-box, kappa 0": 175.0,
-                                          "p3m-tiled, kappa 0": 60.0}}
-
-#: Gravity quantities shown beside the table rows: key -> (label, unit shown).
-GRAVITY_ROWS = {"toomre_Q": ("Toomre Q (from sigma_x)", ""),
-                "wake_wavelength": ("wake wavelength", "m"),
-                "wake_amplitude": ("wake amplitude (peak contrast)", ""),
-                "gravitational_viscosity": ("gravitational viscosity", "m^2/s")}
-
-
-def orbits(case: str, gravity: bool, kappa: float, slab: bool = False,
-           first: tuple[str, ...] = ()) -> float:
-    """Orbits of the runs of ``case`` with or without self-gravity at ``kappa``; ``slab``:
-    of its slab runs, whose own entries ("slab", "slab, kappa <k>") come first; ``first``:
-    entries tried before those (``run_p3m``: "p3m", the P3M runs in the case's box)."""
-    lengths = ORBITS_FOR_CASE[case]
-    keys = [*first, "slab"] if slab else [*first]
-    keys.append("gravity" if gravity or slab else "nograv")
-    for key in keys:
-        for name in (f"{key}, kappa {kappa:g}", key):
-            if name in lengths:
-                return lengths[name]
-    raise KeyError(f"no length for {case}")
-
-
-def p3m_orbits(case: str, kappa: float, box: float | None = None, tiled: bool = False) -> float:
-    """Orbits of a P3M run of ``case`` at ``kappa`` (``run_p3m``): "p3m-tiled" when tiled,
-    "p3m-box" in a box of ``box`` lambda_cr, else "p3m" (each else the "gravity" lengths)."""
-    first = ("p3m-tiled",) if tiled else ("p3m-box",) if box else ("p3m",)
-    return orbits(case, True, kappa, first=first)
-
-
-def moments(size: str) -> tuple[float, float, float]:
-    """<r>, <r^2>, <r^3> [m, m^2, m^3] of a size distribution of ``SIZES``."""
-    d = SIZES[size]
-    if d["kind"] == "monodisperse":
-        r = d["radius"]
-        return r, r * r, r ** 3
-    r = np.geomspace(d["r_min"], d["r_max"], 200001)
-    w = r ** -d["q"]
-    norm = np.trapezoid(w, r)
-    return tuple(float(np.trapezoid(w * r ** k, r) / norm) for k in (1, 2, 3))
-
-
-def patch(case: str) -> dict:
-    """Numbers of a case's patch: Omega [1/s], Sigma [kg/m^2], lambda_cr [m], particles
-    (``SLAB_PARTICLES`` where set) and ``full_box_particles`` (those of a box of
-    ``BOX_LAMBDA`` lambda_cr, ``particles_for_box``), the mean and mean-square radius
-    [m, m^2] and the box's side [m]."""
-    size, a, tau = CASES[case]
-    r1, r2, r3 = moments(size)
-    Omega = orbital_frequency(GM_SATURN, a)
-    Sigma = surface_density_from_tau(tau, DENSITY, r2, r3)
-    lam = toomre_wavelength(Sigma, Omega)
-    full = particles_for_box(tau, r2, lam, BOX_LAMBDA)
-    n = SLAB_PARTICLES.get(case, full)
-    return {"Omega": Omega, "Sigma": Sigma, "lambda_cr": lam, "n_particles": n,
-            "full_box_particles": full, "mean_radius": r1, "mean_square_radius": r2,
-            "box": math.sqrt(n * math.pi * r2 / tau)}
-
-
-def particles_for_box(tau: float, r2: float, lambda_cr: float, box_lambda: float) -> int:
-    """Particles of a square box of ``box_lambda`` lambda_cr on a side, at least
-    ``MIN_PARTICLES``: optical depth ``tau``, mean-square radius ``r2`` [m^2], ``lambda_cr``
-    [m]."""
-    return max(MIN_PARTICLES, math.ceil(tau * (box_lambda * lambda_cr) ** 2 / (math.pi * r2)))
-
-
-def box_particles(case: str, box_lambda: float) -> int:
-    """Particles of a square box of ``box_lambda`` lambda_cr on a side for ``case``."""
-    p = patch(case)
-    return particles_for_box(CASES[case][2], p["mean_square_radius"], p["lambda_cr"],
-                             box_lambda)
 
 
 def plain_sheet(kappa: float) -> dict:
@@ -251,15 +96,6 @@ def overrides(case: str, kappa: float, seed: int, gravity: bool, slab: bool = Fa
     if solver is not None:
         out.update({"sheet.gravity_solver": solver, "name": f"{case}-kappa{kappa:g}-{solver}"})
     return out
-
-
-def output(runs: Path, case: str, kappa: float, seed: int, gravity: bool) -> Path:
-    return runs / f"{'gravity' if gravity else 'nograv'}_{case}_kappa{kappa:g}_seed{seed}.h5"
-
-
-def last_orbit(run) -> float:
-    """Orbits [orbits] a run has reached: its last time-series row."""
-    return float(np.asarray(run.timeseries["orbits"])[-1])
 
 
 def orbits_done(path: str) -> float:
@@ -334,13 +170,6 @@ def run_case(case: str, args, runs: Path, costs: dict) -> None:
     run_jobs(grav, args.workers, costs, args.threads)
 
 
-def slab_output(runs: Path, case: str, kappa: float, seed: int,
-                box: float | None = None) -> Path:
-    """The slab run's file; ``box``: the run in a box of that many lambda_cr."""
-    tag = f"slab-box{box:g}" if box else "slab"
-    return runs / f"{tag}_{case}_kappa{kappa:g}_seed{seed}.h5"
-
-
 def gravity_jobs(case: str, seeds, extra: dict, path_of, slab: bool = False,
                  kappas=tuple(SCENARIOS)) -> list:
     """Jobs of the gravity runs of ``case`` (``kappas``, ``seeds``; ``slab``: with the slab
@@ -348,13 +177,6 @@ def gravity_jobs(case: str, seeds, extra: dict, path_of, slab: bool = False,
     ``path_of(kappa, seed)``."""
     return [(str(SCENARIOS[k]), {**overrides(case, k, s, True, slab), **extra},
              str(path_of(k, s))) for k in kappas for s in seeds]
-
-
-def p3m_output(runs: Path, case: str, kappa: float, seed: int,
-               box: float | None = None) -> Path:
-    """The P3M run's file; ``box``: the run in a box of that many lambda_cr."""
-    tag = f"p3m-box{box:g}" if box else "p3m"
-    return runs / f"{tag}_{case}_kappa{kappa:g}_seed{seed}.h5"
 
 
 def box_overrides(case: str, box: float) -> dict:
@@ -384,19 +206,6 @@ def p3m_jobs(case: str, kappas, seeds, runs: Path, box: float | None = None) -> 
     return jobs
 
 
-def tile_source(runs: Path, case: str, kappa: float, seed: int, box_from: float) -> Path:
-    """The frozen copy of the P3M run in a box of ``box_from`` lambda_cr that a tiled run
-    starts from (``tiled_p3m_job``): a copy, so that extending that run later does not
-    change the state the tiled run's scenario names."""
-    return runs / f"tile-source_{p3m_output(runs, case, kappa, seed, box_from).name}"
-
-
-def tiled_output(runs: Path, case: str, kappa: float, seed: int, box: float) -> Path:
-    """The file of the P3M run in a box of ``box`` lambda_cr started tiled
-    (``tiled_p3m_job``)."""
-    return runs / f"p3m-box{box:g}-tiled_{case}_kappa{kappa:g}_seed{seed}.h5"
-
-
 def tiled_p3m_job(case: str, kappa: float, seed: int, runs: Path, box: float,
                   box_from: float) -> tuple:
     """The P3M run of ``case`` in a box of ``box`` lambda_cr that starts from the last
@@ -407,8 +216,6 @@ def tiled_p3m_job(case: str, kappa: float, seed: int, runs: Path, box: float,
     has set in.  Length: the case's "p3m-tiled" entry.  No slab twin (the slab's field does
     not depend on the box's size, docs/gravity.md 4c).  The smaller run is copied once
     (``tile_source``), when it is not running."""
-    import shutil
-
     tile = box / box_from
     if abs(tile - round(tile)) > 1e-9 or round(tile) < 2:
         raise SystemExit(f"--p3m-box {box:g} is not a multiple (2 or more) of --tile-from "
@@ -442,8 +249,6 @@ def run_p3m(cases: list[str], args, runs: Path, costs: dict) -> None:
     runs this does not touch.
     ``args.p3m_box``: both runs in a box of that many lambda_cr instead of the case's own
     (``SLAB_PARTICLES``), which can be too small for wakes (``p3m_jobs``)."""
-    from kappa_selfgravity_p3m import write_p3m_check
-
     box = getattr(args, "p3m_box", None)
     box_from = getattr(args, "tile_from", None)
     if box_from:
@@ -474,29 +279,11 @@ def run_slab(cases: list[str], args, runs: Path, costs: dict) -> None:
     run_jobs(jobs, args.workers, costs, args.threads)
 
 
-#: Method variants of the systematic budget (``--systematics CASE``): source -> overrides
-#: of the runs ("n_particles": twice the case's particles, a box sqrt(2) times as wide;
-#: "dt": the step halved).
-SYSTEMATIC_VARIANTS = {"dt": {"integration.dt": 5e-4}, "n_particles": {}}
-#: Kinds of run a variant repeats: "nograv" (no self-gravity), "slab" (the slab solver)
-#: and "gravity" (the tree: its dt variant of mono-1e8-0.25, seed 1, 70 orbits, was run
-#: before the budget moved to the slab, which costs 20-40 times less).
-VARIANT_KINDS = ("nograv", "slab")
-
-
-def variant_output(runs: Path, source: str, case: str, kappa: float, seed: int,
-                   kind: str = "gravity") -> Path:
-    tag = source if kind == "gravity" else f"{source}-{kind}"
-    return runs / f"syst-{tag}_{case}_kappa{kappa:g}_seed{seed}.h5"
-
-
 def run_systematics(case: str, args, runs: Path, costs: dict) -> None:
     """The no-gravity and slab runs of ``case`` again with each method variant (seeds
     ``args.seeds``), and the budget file of the case's size distribution: the relative
     change of each ratio per source, or its statistical error if larger (as
     analysis/kappa_comparison.py)."""
-    from kappa_selfgravity_report import write_budget
-
     jobs = []
     for source, extra in SYSTEMATIC_VARIANTS.items():
         if source not in args.variants:
@@ -513,11 +300,10 @@ def run_systematics(case: str, args, runs: Path, costs: dict) -> None:
     write_budget(case, args, runs)
 
 
-#: CPU per particle-orbit of a run with each solver over the slab's, from the records of
-#: analysis/data/kappa_selfgravity.json (powerlaw-1.3e8-0.5, kappa = 0, same particles and
-#: box): P3M 15 (13.9 / 0.9 CPU-s per orbit with 2400 particles, 130 / 9.1 with 19329),
-#: the tree 57 (51.4 / 0.9).  A no-gravity run is counted as a slab run (the slab adds
-#: one vertical field per step).
+#: CPU per particle-orbit of a run with each solver over the slab's, measured in the
+#: campaign's runs of the same particles and box (analysis/kappa_selfgravity.md, "Run lengths
+#: and boxes"); a no-gravity run counts as a slab run (the slab adds one vertical field per
+#: step).
 SOLVER_COST = {"slab": 1.0, "p3m": 15.0, "tree": 57.0}
 
 
@@ -591,8 +377,6 @@ def main() -> None:
     elif not args.report_only:
         for case in args.cases:
             run_case(case, args, runs, costs)
-    from kappa_selfgravity_report import write_report
-
     write_report(args, runs, costs)
 
 

@@ -14,7 +14,7 @@ import math
 import re
 from pathlib import Path
 
-from kappa_selfgravity import (
+from kappa_selfgravity_cases import (
     CASES,
     P3M_CHECK,
     SCENARIOS,
@@ -25,7 +25,7 @@ from kappa_selfgravity import (
     slab_output,
     tiled_output,
 )
-from kappa_selfgravity_report import HEADLINE, fmt_quotient, quotient
+from kappa_selfgravity_ratios import HEADLINE, fmt_quotient, quotient
 
 from ringsim.analysis import tiling
 from ringsim.analysis.budget import replica_mean
@@ -72,8 +72,8 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
     for case in cases:
         for kappa in args.kappas:
             for seed in args.seeds:
-                # a solver's entry whose run file is not here (made on a machine since
-                # retired) is kept as it was written
+                # a solver's entry whose run file is not here (made on another machine)
+                # is kept as written
                 row = {name: entry for name, entry in
                        out.get(check_key(case, kappa, seed, box), {}).items()
                        if name in ("p3m", "slab")}
@@ -94,8 +94,8 @@ def write_p3m_check(cases: list[str], args, runs: Path) -> None:
                                       if isinstance(eq.get(key), (int, float))})
                     # a run not yet at its length is never averaged, whatever the
                     # finder says of it so far: the lengths are fixed before the runs.
-                    # The driver's length, not the file's own: a run that finished at a
-                    # length since raised is not finished until it is extended.
+                    # The driver's length, not the file's own: a run finished at a shorter
+                    # length than the driver's is not finished until it is extended.
                     reached = last_orbit(run)
                     finished = (run.attrs.get("status") == "finished"
                                 and reached >= lengths[name] - 1e-9)
@@ -148,7 +148,7 @@ def _check_value(row: dict, solver: str | None, key: str, scale: float,
 
 def _stationary_text(entry: dict) -> str:
     """The stationary column of one run: the finder's verdict, or for a run not yet at its
-    length (``finished`` False; rows written before that key were all finished) how far it
+    length (``finished`` False; a row without that key is of a finished run) how far it
     is and what the finder says so far."""
     if entry.get("finished", True):
         return str(entry["in_equilibrium"])
@@ -158,9 +158,10 @@ def _stationary_text(entry: dict) -> str:
 
 def p3m_check_lines(check: dict) -> list[str]:
     """Markdown of ``P3M_CHECK`` (``write_p3m_check``): each P3M run beside its slab twin
-    (same particles, box and seed), and for every case with stationary P3M runs of both
-    kappa values the ratio kappa = 0.1 / kappa = 0 with the full field beside the slab's of
-    the same seeds (seeds combined as in the headline: ``replica_mean``)."""
+    (same particles, box and seed, ``_seed_rows``), and for every case with stationary P3M
+    runs of both kappa values the ratio kappa = 0.1 / kappa = 0 with the full field beside
+    the slab's of the same seeds (``_ratio_rows``), then the box convergence
+    (``box_lines``)."""
     entries = []
     for name, row in check.items():
         parsed = parse_key(name)
@@ -180,7 +181,23 @@ def p3m_check_lines(check: dict) -> list[str]:
         "| case | kappa | seed | box [lambda_cr] | orbits | c, P3M [mm/s] | c, slab [mm/s] | "
         "slab / P3M, c | H, P3M [m] | H, slab [m] | slab / P3M, H | Q (mass), P3M | "
         "Q (mass), slab | nu_g, P3M [1e-4 m^2/s] | stationary |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        *_seed_rows(entries)]
+    ratio_rows = _ratio_rows(entries)
+    if ratio_rows:
+        lines += [
+            "", "The ratio kappa = 0.1 / kappa = 0 with the full field (stationary P3M runs; "
+            "statistical errors only), beside the slab's from the twins of the same seeds:",
+            "", "| case | seeds, kappa 0 | seeds, kappa 0.1 | c: P3M | c: slab, same seeds | "
+            "H: P3M | H: slab, same seeds |", "|---|---|---|---|---|---|---|", *ratio_rows]
+    boxes = box_lines(check)
+    return lines + (["", *boxes] if boxes else [])
+
+
+def _seed_rows(entries: list[tuple]) -> list[str]:
+    """The rows of the per-seed table of ``p3m_check_lines``: ``entries`` (label, kappa,
+    seed, ``P3M_CHECK`` row)."""
+    lines = []
     for case, kappa, seed, row in entries:
         orbit_text = " / ".join(f"{row[s]['orbits']:.0f}" for s in ("p3m", "slab") if s in row)
         stationary = " / ".join(_stationary_text(row[s]) for s in ("p3m", "slab")
@@ -199,7 +216,14 @@ def p3m_check_lines(check: dict) -> list[str]:
             f"| {_check_value(row, 'slab', 'toomre_Q_mass', 1.0, 3)} "
             f"| {_check_value(row, 'p3m', 'gravitational_viscosity', 1e4, 2)} "
             f"| {stationary} |")
-    ratio_rows = []
+    return lines
+
+
+def _ratio_rows(entries: list[tuple]) -> list[str]:
+    """The rows of the full field's ratio kappa = 0.1 / kappa = 0 (``p3m_check_lines``): per
+    case with stationary P3M runs of both kappa values, c and H with P3M (those runs, seeds
+    combined by ``replica_mean``) and with the slab (their stationary slab twins)."""
+    rows = []
     for case in dict.fromkeys(e[0] for e in entries):
         groups = {}
         for kappa in SCENARIOS:
@@ -219,16 +243,9 @@ def p3m_check_lines(check: dict) -> list[str]:
                               replica_mean([r[solver][key] for r in zero]))
                      if zero and one else None)
                 cells.append(fmt_quotient(q))
-        ratio_rows.append(f"| {case} | {' '.join(map(str, seeds0))} | "
-                          f"{' '.join(map(str, seeds1))} | " + " | ".join(cells) + " |")
-    if ratio_rows:
-        lines += [
-            "", "The ratio kappa = 0.1 / kappa = 0 with the full field (stationary P3M runs; "
-            "statistical errors only), beside the slab's from the twins of the same seeds:",
-            "", "| case | seeds, kappa 0 | seeds, kappa 0.1 | c: P3M | c: slab, same seeds | "
-            "H: P3M | H: slab, same seeds |", "|---|---|---|---|---|---|---|", *ratio_rows]
-    boxes = box_lines(check)
-    return lines + (["", *boxes] if boxes else [])
+        rows.append(f"| {case} | {' '.join(map(str, seeds0))} | "
+                    f"{' '.join(map(str, seeds1))} | " + " | ".join(cells) + " |")
+    return rows
 
 
 #: Columns of ``box_lines``: equilibrium key, header, scale, significant digits.

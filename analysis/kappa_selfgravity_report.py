@@ -1,10 +1,10 @@
 """The report of ``analysis/kappa_selfgravity.py``: ``analysis/kappa_selfgravity.md``.
 
-Reads the runs of every case that exist, combines the seeds (``ringsim.analysis.compare``:
-replicas, statistical error the larger of the propagated one and the seed scatter), forms
-the ratio kappa = 0.1 / kappa = 0 with and without self-gravity with the systematic budget
-of ``analysis/data/kappa_selfgravity_budget_<size>.json`` (what is in it is said in the
-report), and writes the tables, the measured costs and what is not done.
+Reads the runs of every case that exist, forms the ratio kappa = 0.1 / kappa = 0 with and
+without self-gravity with its error budget (``kappa_selfgravity_ratios``), and writes the
+tables, the P3M check of the slab (``kappa_selfgravity_p3m``), the measured costs and what
+is not done.  The report's fixed text is in ``analysis/data/kappa_selfgravity_text.md``,
+what its runs show (written by hand) in ``analysis/data/kappa_selfgravity_explanation.md``.
 """
 
 from __future__ import annotations
@@ -15,11 +15,10 @@ import re
 from pathlib import Path
 
 import numpy as np
-from kappa_comparison import fmt, fmt_ratio, relative_changes
-from kappa_selfgravity import (
+from kappa_comparison import fmt, fmt_ratio, prose
+from kappa_selfgravity_cases import (
     BOX_LAMBDA,
     CASES,
-    GRAVITY_ROWS,
     MIN_PARTICLES,
     P3M_CHECK,
     REPORT,
@@ -32,106 +31,34 @@ from kappa_selfgravity import (
     patch,
     slab_output,
 )
+from kappa_selfgravity_p3m import P3M_SECTION, p3m_check_lines, slab_check_flags
+from kappa_selfgravity_ratios import (
+    HEADLINE,
+    budget_file,
+    case_budgets,
+    case_comps,
+    combined,
+    fmt_quotient,
+    has_runs,
+    load_budgets,
+    load_group,
+    quotient,
+    solver_parts,
+)
 
-from ringsim.analysis.budget import replica_mean
-from ringsim.analysis.compare import comparison
-from ringsim.analysis.compare import ratio as compare_ratio
-from ringsim.analysis.equilibrium import TABLE_ROWS, equilibrium
-from ringsim.analysis.timeseries import autocorrelated_mean
+from ringsim.analysis.equilibrium import TABLE_ROWS
 from ringsim.errors import InputError
-from ringsim.physics.gravity import toomre_q
 from ringsim.store.runfile import open_run
 
 EXPLANATION_FILE = ROOT / "analysis" / "data" / "kappa_selfgravity_explanation.md"
-#: The quantities of the headline table.
-HEADLINE = ("velocity_dispersion", "thickness")
-
-
-#: What went wrong in the first attempt, and why the protocol is what it is.
-FIRST_ATTEMPT = [
-    "## The first attempt, and why every run is now long and starts cold", "",
-    "The first attempt started each gravity run at the velocity dispersion its no-gravity "
-    "twin had settled at (isotropic, with the matching scale height) and stopped it when "
-    "the equilibrium finder first called c and H stationary (`until_equilibrium`). For the "
-    "power law at a = 1e8 m, tau = 0.25, kappa = 0.1 that gave c = 75 mm/s with gravity "
-    "against 43 without, a ratio kappa 0.1 / 0 of 7.9 instead of 4.3. Gravity had nothing "
-    "to do with it: the same start WITHOUT gravity overshoots to 80 mm/s within 4 orbits, "
-    "stays within 2 % over orbits 2-5 - where the finder stopped the gravity run - and "
-    "returns to 40 mm/s only after about 25 orbits (one run, seed 1, 80 orbits). A "
-    "transient slower than the run so far looks stationary to any finder that sees only "
-    "the run so far. Now both twins start from the scenario's initial state (the same "
-    "particles, the scenario's initial dispersion), run a fixed number of orbits, and the "
-    "finder chooses the window afterwards; docs/scenario.md warns about "
-    "`until_equilibrium`. The first attempt's mono-1e8-0.25 ratios (4.69 ± 0.16 in c with "
-    "gravity, 4.63 ± 0.22 without) agree with the final ones within their errors.",
-]
-
-
-def load_group(runs: Path, case: str, kappa: float, gravity: bool, seeds,
-               slab: bool = False) -> dict:
-    """Equilibria of one (case, kappa, gravity): ``kept`` (stationary), ``left_out`` (a line
-    per run the finder did not call stationary), ``missing`` (seeds without a run).
-    ``slab``: the gravity runs with the slab solver (``run_slab``) instead."""
-    kept, left_out, missing = [], [], []
-    for seed in seeds:
-        path = (slab_output(runs, case, kappa, seed) if slab
-                else output(runs, case, kappa, seed, gravity))
-        if not path.exists():
-            missing.append(seed)
-            continue
-        try:
-            run = open_run(path)
-        except (OSError, KeyError, InputError):   # being written, or damaged
-            missing.append(seed)
-            continue
-        wanted = orbits(case, gravity, kappa, slab)
-        if run.attrs.get("status") != "finished" or run.scenario.integration.orbits != wanted:
-            missing.append(seed)     # still running, or not yet extended to its length
-            continue
-        eq = equilibrium(run)
-        if not gravity:
-            eq["toomre_Q"] = nograv_toomre_q(run, eq)
-        (kept if eq["in_equilibrium"] else left_out).append(eq)
-    return {"kept": kept, "left_out": [f"{e['name']} seed {e['scenario']['seed']}: "
-                                       f"{e['reason']}" for e in left_out],
-            "missing": missing}
-
-
-def nograv_toomre_q(run, eq: dict) -> dict:
-    """Toomre Q a run without self-gravity would have: Q = sigma_x Omega / (3.36 G Sigma)
-    over its equilibrium window, Sigma [kg/m^2] from its first snapshot's masses."""
-    snap = run.snapshot(0)
-    sigma = float(np.sum(snap["mass"])) / (float(run.attrs["Lx"]) * float(run.attrs["Ly"]))
-    ts = run.timeseries
-    start = int(np.searchsorted(np.asarray(ts["orbits"]), eq["equilibrium_from_orbit"]["mean"]))
-    q = toomre_q(np.sqrt(np.asarray(ts["sigma_xx"][start:])), sigma, float(run.attrs["Omega"]))
-    mean, stderr, _ = autocorrelated_mean(q)
-    return {"mean": float(mean), "stderr": float(stderr), "units": "dimensionless"}
-
-
-def ratio(groups: list[dict], budget: dict | None) -> dict | None:
-    """comparison() of [kappa 0, kappa 0.1] groups; None unless both have stationary runs."""
-    if not all(g["kept"] for g in groups):
-        return None
-    return comparison(groups[0]["kept"] + groups[1]["kept"], budget)
-
-
-def combined(group: dict, key: str) -> dict | None:
-    """Seed mean of one quantity of a group (gravity rows are not in comparison())."""
-    values = [e[key] for e in group["kept"] if key in e and math.isfinite(e[key]["mean"])]
-    return replica_mean(values) if values else None
-
-
-def quotient(a: dict | None, b: dict | None) -> dict | None:
-    """a / b with first-order error (``ringsim.analysis.compare.ratio``); None without
-    both."""
-    return None if a is None or b is None else compare_ratio(a, b)
-
-
-def fmt_quotient(q: dict | None) -> str:
-    if q is None or not math.isfinite(q["mean"]):
-        return ""
-    return f"{q['mean']:.3g} ± {q['stderr']:.2g}"
+#: The report's fixed text, part by part (``kappa_comparison.prose``): title and method,
+#: the note on the errors, how the budget is measured, the first attempt, what is not done.
+TEXT = ROOT / "analysis" / "data" / "kappa_selfgravity_text.md"
+#: Gravity quantities shown beside the table rows: key -> (label, unit shown).
+GRAVITY_ROWS = {"toomre_Q": ("Toomre Q (from sigma_x)", ""),
+                "wake_wavelength": ("wake wavelength", "m"),
+                "wake_amplitude": ("wake amplitude (peak contrast)", ""),
+                "gravitational_viscosity": ("gravitational viscosity", "m^2/s")}
 
 
 def case_table(groups: dict, comps: dict) -> list[str]:
@@ -181,20 +108,6 @@ def case_section(case: str, groups: dict, slab: dict, comps: dict) -> list[str]:
     lines += [*case_table(groups, comps), "", *slab_lines(case, tree, slab)]
     lines += [f"- not stationary, left out: {line}" for line in left]
     return lines + [f"- not run: {line}" for line in missing] + [""]
-
-
-def case_comps(groups: dict, slab: dict, budgets: dict) -> dict:
-    """The comparisons kappa 0.1 / 0 of a case: no gravity (False), tree (True) and slab,
-    each with its budget of ``budgets`` (None or missing: not measured)."""
-    comps = {g: ratio([groups[(0.0, g)], groups[(0.1, g)]], budgets.get(g))
-             for g in (False, True)}
-    comps["slab"] = ratio([slab[0.0], slab[0.1]], budgets.get("slab"))
-    return comps
-
-
-def has_runs(group: dict) -> bool:
-    """Whether a group has a finished run, stationary or not."""
-    return bool(group["kept"] or group["left_out"])
 
 
 def slab_lines(case: str, groups: dict, slab: dict) -> list[str]:
@@ -308,15 +221,7 @@ def headline(rows: list[tuple[str, dict]]) -> list[str]:
 def budget_lines(budgets: dict, solver: dict) -> list[str]:
     """Markdown: how each size distribution's budget was measured, and its parts for c
     and H (per cent of the ratio), the slab's solver part included."""
-    lines = ["Systematic parts are relative errors of the ratio kappa 0.1 / 0, added in "
-             "quadrature (`ringsim compare`). They are measured with the slab solver and "
-             "applied to the tree's ratio as well (a tree variant costs 20-40 times more); "
-             "the slab's ratio also carries `gravity_solver`, the largest slab / tree "
-             "difference (or its error, if larger) over the cases with both: of the ratio, "
-             "or of the kappa = 0 ring where only it was run with the tree. "
-             "The detection part is measured per step, not per run: kicked paths dissipate "
-             "1.1e-3 ± 0.4e-3 less than the converged step (seven seeds, docs/gravity.md), "
-             "far below every part of the budget.", ""]
+    lines = [*prose(TEXT)["budget"], ""]
     if not budgets and not solver:
         return lines + ["No budget file yet: the systematic parts are \"not measured\"."]
     lines += ["| size distribution | ratio | source | c [%] | H [%] |", "|---|---|---|---|---|"]
@@ -339,7 +244,8 @@ def budget_lines(budgets: dict, solver: dict) -> list[str]:
 
 
 def recorded_orbits(cost: dict) -> float | None:
-    """Orbits the recorded CPU time covers (older records: from their stop reason)."""
+    """Orbits the recorded CPU time covers (a record without "orbits": from its stop
+    reason)."""
     if "orbits" in cost:
         return float(cost["orbits"])
     found = re.search(r"orbits = ([0-9.eE+-]+)", cost.get("stop_reason", ""))
@@ -414,123 +320,41 @@ def not_done_lines(runs: Path, costs: dict, no_tree: list[str]) -> list[str]:
     missing = [size for size in SIZES if not budget_file(size).exists()]
     lines += [f"- The systematic budget of the {size} cases (no budget file)."
               for size in missing]
-    lines += ["- Boxes of at least 4 lambda_cr for wake statistics (here 2.1-4.2, and "
-              "0.75-1.34 for the cases in SLAB_PARTICLES). No ring of identical particles "
-              "here reaches the wake regime, but the power-law kappa = 0 ring at 1.3e8 m, "
-              "tau = 0.5 sits at mass-weighted Q = 2.1 with the full field: its ratio needs "
-              "full-field runs in a box of at least 2 lambda_cr.",
-              "- With the slab solver the cases not run would cost about what their "
-              "no-gravity runs cost (0.3-0.6 ms of CPU per particle-orbit)."]
+    lines += prose(TEXT)["not done"]
     return lines
 
 
-def budget_file(size: str) -> Path:
-    """The systematic budget of the cases of size distribution ``size`` (``SIZES``)."""
-    return ROOT / "analysis" / "data" / f"kappa_selfgravity_budget_{size}.json"
-
-
-def write_budget(case: str, args, runs: Path) -> None:
-    """The budget of ``case``'s size distribution from the variants of ``case``: for each
-    kind of run (no gravity, slab), source and table quantity the relative change of the
-    ratio kappa 0.1 / 0, or its statistical error if larger."""
-    from kappa_selfgravity import SYSTEMATIC_VARIANTS, VARIANT_KINDS, variant_output
-
-    def group(paths):
-        eqs = [equilibrium(open_run(p)) for p in paths if p.exists()]
-        return {"kept": [e for e in eqs if e["in_equilibrium"]]}
-
-    out, unmeasured = {}, []
-    for kind in VARIANT_KINDS:
-        base = ratio([load_group(runs, case, k, kind != "nograv", args.base_seeds,
-                                 slab=kind == "slab") for k in SCENARIOS], None)
-        relative: dict[str, dict[str, float]] = {key: {} for key in TABLE_ROWS}
-        for source in SYSTEMATIC_VARIANTS:
-            other = ratio([group([variant_output(runs, source, case, k, s, kind)
-                                  for s in args.seeds]) for k in SCENARIOS], None)
-            if base is None or other is None:
-                unmeasured.append(f"{kind} {source}: no stationary "
-                                  + ("base runs" if base is None else "variant runs")
-                                  + " of both kappa values")
-                continue
-            for key, value in relative_changes(base["ratios"][0], other["ratios"][0]).items():
-                relative[key][source] = value
-        out[kind] = {"relative": {k: v for k, v in relative.items() if v}}
-    path = budget_file(CASES[case][0])
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps({
-        "description": f"the no-gravity and slab runs of case {case} (seeds "
-                       f"{list(args.base_seeds)}) again, seeds {list(args.seeds)}, with the "
-                       "step halved (dt) and with twice the particles, a box sqrt(2) times as "
-                       "wide (n_particles); each entry the relative change of the ratio "
-                       "kappa 0.1 / 0, or its statistical error if larger",
-        "measured_by": f"analysis/kappa_selfgravity.py --systematics {case}",
-        "not_measured": unmeasured, **out},
-        indent=1) + "\n")
-
-
-def load_budgets() -> dict:
-    """size distribution -> its budget file's contents, for the files that exist."""
-    return {size: json.loads(budget_file(size).read_text()) for size in SIZES
-            if budget_file(size).exists()}
-
-
-def solver_parts(loaded: dict) -> dict:
-    """size distribution -> quantity -> the largest relative difference between slab and
-    tree over the cases of that size distribution (or its statistical error if larger):
-    of the ratio kappa 0.1 / 0 where both have it, else of the kappa = 0 ring where both
-    have that (the ratio's denominator, and the ring gravity changes most).  The slab's
-    systematic as a stand-in for the tree.  ``loaded``: case -> (groups, slab)."""
-    parts: dict[str, dict[str, float]] = {}
-    for case, (groups, slab) in loaded.items():
-        comps = case_comps(groups, slab, {})
-        if comps[True] is not None and comps["slab"] is not None:
-            changes = relative_changes(comps[True]["ratios"][0], comps["slab"]["ratios"][0])
-        elif groups[(0.0, True)]["kept"] and slab[0.0]["kept"]:
-            changes = relative_changes(kappa0_values(groups[(0.0, True)]),
-                                       kappa0_values(slab[0.0]))
-        else:
-            continue
-        size = parts.setdefault(CASES[case][0], {})
-        for key, value in changes.items():
-            size[key] = max(size.get(key, 0.0), value)
-    return parts
-
-
-def kappa0_values(group: dict) -> dict:
-    """The table quantities of a group in the form ``relative_changes`` reads: key ->
-    {"mean", "statistical"} (NaN where the group has none)."""
-    out = {}
-    for key in TABLE_ROWS:
-        c = combined(group, key)
-        out[key] = ({"mean": c["mean"], "statistical": c["stderr"]} if c
-                    else {"mean": math.nan, "statistical": math.nan})
-    return out
-
-
-def case_budgets(case: str, budgets: dict, solver: dict) -> dict:
-    """The budgets of a case's three ratios: no gravity, tree and slab (the slab's with the
-    solver part added); None where not measured."""
-    size = CASES[case][0]
-    b = budgets.get(size)
-    nograv = b["nograv"] if b else None
-    gravity = b["slab"] if b else None
-    relative = {key: dict(parts) for key, parts in
-                (gravity["relative"] if gravity else {}).items()}
-    for key, value in solver.get(size, {}).items():
-        relative.setdefault(key, {})["gravity_solver"] = value
-    return {False: nograv, True: gravity, "slab": {"relative": relative} if relative else None}
-
-
-def write_report(args, runs: Path, costs: dict) -> None:
+def load_cases(runs: Path, seeds) -> tuple[dict, list[str]]:
+    """The groups of every case with a finished run in ``runs`` (seeds ``seeds``): case ->
+    (groups, slab) with groups (kappa, gravity) -> ``load_group`` and slab kappa ->
+    ``load_group`` of its slab runs; and the cases without one."""
     loaded, not_run = {}, []
     for case in CASES:
-        groups = {(k, g): load_group(runs, case, k, g, args.seeds)
+        groups = {(k, g): load_group(runs, case, k, g, seeds)
                   for k in SCENARIOS for g in (False, True)}
-        slab = {k: load_group(runs, case, k, True, args.seeds, slab=True) for k in SCENARIOS}
+        slab = {k: load_group(runs, case, k, True, seeds, slab=True) for k in SCENARIOS}
         if not any(has_runs(g) for g in [*groups.values(), *slab.values()]):
             not_run.append(case)
             continue
         loaded[case] = (groups, slab)
+    return loaded, not_run
+
+
+def not_run_lines(not_run: list[str]) -> list[str]:
+    """Markdown list of the cases without runs, with their particles."""
+    lines = []
+    for case in not_run:
+        p = patch(case)
+        full = (f"; {p['full_box_particles']} in a box of {BOX_LAMBDA:g} lambda_cr)"
+                if p["full_box_particles"] != p["n_particles"] else ")")
+        lines.append(f"- case {case}: not run ({p['n_particles']} particles" + full)
+    return lines or ["- every case was run"]
+
+
+def write_report(args, runs: Path, costs: dict) -> None:
+    """Write the report to ``args.report`` from the runs in ``runs`` (seeds ``args.seeds``)
+    and the recorded CPU ``costs`` (file name -> record)."""
+    loaded, not_run = load_cases(runs, args.seeds)
     budgets = load_budgets()
     solver = solver_parts(loaded)
     rows, sections = [], []
@@ -542,48 +366,23 @@ def write_report(args, runs: Path, costs: dict) -> None:
     explanation = (EXPLANATION_FILE.read_text().splitlines() if EXPLANATION_FILE.exists()
                    else ["(not written yet)"])
     done = [case for case, _ in rows]
-    from kappa_selfgravity_p3m import P3M_SECTION, p3m_check_lines, slab_check_flags
-
     check = json.loads(P3M_CHECK.read_text()) if P3M_CHECK.exists() else {}
     check_lines, flags = p3m_check_lines(check), slab_check_flags(check, solver)
+    text = prose(TEXT)
+    head = [line.format(seeds=" ".join(str(s) for s in args.seeds), box_lambda=BOX_LAMBDA,
+                        min_particles=MIN_PARTICLES) for line in text["head"]]
     lines = [
-        "# Ring equilibria with kappa = 0 and kappa = 0.1 with self-gravity (issue 12, item 6)",
-        "", "Produced by `python analysis/kappa_selfgravity.py --cases ... --seeds "
-        + " ".join(str(s) for s in args.seeds) + "` (finished runs are reused; "
-        "`--report-only` rewrites this file; `--slab CASE ...` runs the slab runs and "
-        "their no-gravity twins). Each case: both kappa values, with and without "
-        "self-gravity, every seed from the scenario's initial state (the same particles "
-        "with and without gravity), for a fixed number of orbits (\"Run lengths\" below)"
-        "; the equilibrium finder then chooses each run's "
-        "window (MSER: the transient is cut) and a run it does not call stationary is left "
-        "out. No run stops early: `until_equilibrium` was caught inside slow transients "
-        "(see the note on the first attempt below). Self-gravity: REBOUND's tree "
-        "(opening angle 0.3, the field beyond the ghost boxes added; 0.5 % rms force error, "
-        "docs/gravity.md), softening 0.1 x the smallest radius, or, where a table says so, "
-        "the slab solver (the vertical field of the horizontally averaged layer, "
-        "docs/gravity.md 4c), which the tree was checked against. Collisions: line detection "
-        "with kicked paths at 1e-3 orbit (docs/gravity.md, \"Line detection with "
-        "self-gravity\"). Dilley law xi0 = 0.16, p = 0.65; solid ice, 900 kg/m^3. Boxes: at "
-        f"least {BOX_LAMBDA:g} lambda_cr on a side and {MIN_PARTICLES} particles.", "",
+        *head, "",
         "## Set-up of the cases", "", *setup_table(done, runs), "",
         "### Run lengths [orbits]", "", *length_table(done, runs, args.seeds), "",
         "## The answer: kappa = 0.1 / kappa = 0, without and with self-gravity", "",
-        *headline(rows), "",
-        "Errors: statistical (seeds and autocorrelation, `ringsim compare`) and systematic "
-        "(\"Error budget\" below); a ratio is formed only from runs the finder calls "
-        "stationary. Cases run with the slab only (\"gravity, tree\" empty) give the ratio "
-        "with the mean vertical field of self-gravity; the slab matched the tree where both "
-        "were run (\"Slab against tree\"), and the difference is in their budget.", "",
+        *headline(rows), "", *text["errors"], "",
         *([*flags, ""] if flags else []),
         *([P3M_SECTION, "", *check_lines, ""] if check_lines else []),
         "## What changes and why", "", *explanation, "",
-        "## Error budget", "", *budget_lines(budgets, solver), "", *FIRST_ATTEMPT, "",
+        "## Error budget", "", *budget_lines(budgets, solver), "", *text["first attempt"], "",
         "## Every case", "", *sections,
-        "## Not done", "",
-        *([f"- case {case}: not run ({patch(case)['n_particles']} particles"
-            + (f"; {patch(case)['full_box_particles']} in a box of {BOX_LAMBDA:g} lambda_cr)"
-               if patch(case)["full_box_particles"] != patch(case)["n_particles"] else ")")
-           for case in not_run] or ["- every case was run"]),
+        "## Not done", "", *not_run_lines(not_run),
         *not_done_lines(runs, costs, not_run + tree_less), "",
         "## Cost (measured, CPU of each run's worker process)", "",
         *cost_lines(runs, costs), ""]

@@ -102,7 +102,7 @@ def step_cost(n, gravity, solver=None, detection=None, threads=1, wall=False):
         solver_p3m.set_threads(threads)
     sim.steps(2)
     p3m.raise_pending(sim)
-    steps = max(10, int(1e6 / n))     # 10 steps at 1e5: 2 were too noisy on a shared host
+    steps = max(10, int(1e6 / n))     # at least 10 steps: fewer are too noisy on a shared host
     clock = time.perf_counter if wall else time.process_time
     c0 = clock()
     sim.steps(steps)
@@ -184,9 +184,9 @@ last['step_p3m_tree'] * per:.2f} us: line detection with kicked paths removes {
 mesh (FFTs and the vertical coupling of nz layers, numpy/scipy, one Python callback per
 step) and the pair sum in C (docs/gravity.md, section 4b).  The solver makes the process keep
 freed memory for reuse (`ringsim.engine.native.keep_freed_memory`, glibc's `mallopt`):
-before, each step's mesh-sized temporaries were fresh pages that the kernel zeroed
-(`clear_page` 7 % of the step in `perf`), and the step at N = 100000 on two threads took
-1.74-1.89 us against 1.59-1.66 us after (interleaved processes, idle machine, 2026-11-23).
+without it each step's mesh-sized temporaries are fresh pages that the kernel zeroes
+(`clear_page` 7 % of the step in `perf`), and the step at N = 100000 on two threads takes
+1.74-1.89 us against 1.59-1.66 us with it (interleaved processes, idle machine).
 """
 
 

@@ -1,4 +1,4 @@
-"""Benchmark: hot rings in line mode against tree mode (issue 7).
+"""Benchmark: hot rings in line mode against tree mode.
 
 Two measurements, written to the section "Hot rings: line vs tree" of docs/performance.md
 with ``--write-doc``:
@@ -94,81 +94,105 @@ def tree_probe(sc, snapshot: dict, t: float, steps: int) -> tuple[float, float]:
 
 
 def time_to_equilibrium(args) -> dict:
+    """Measurement 1 (module docstring): the line run to its equilibrium, tree mode's CPU
+    to the same orbit along its path (``tree_model``), the model's check against a real
+    tree run, and the ratio of their CPU times to equilibrium."""
     sc = load_scenario(ROOT / "scenarios" / "kappa0.1.yaml")
-    line_sc = with_overrides(sc, {"integration.collision_detection": "line",
-                                  "integration.dt": "auto",
-                                  "integration.orbits": args.line_orbits,
-                                  "output.snapshot_every": 1.0})
-    tree_sc = with_overrides(sc, {"integration.collision_detection": "tree",
-                                  "integration.dt": "auto",
-                                  "integration.orbits": args.tree_orbits,
-                                  "output.snapshot_every": args.tree_orbits})
     out: dict = {"scenario": "scenarios/kappa0.1.yaml", "n_particles": sc.sheet.n_particles}
     with tempfile.TemporaryDirectory() as tmp:
         keep = Path(args.keep) if args.keep else Path(tmp)
         keep.mkdir(parents=True, exist_ok=True)
-        path = keep / "line.h5"
-        timing = keep / "line_timing.json"
-        if not (path.exists() and timing.exists()):
-            wall0, cpu0 = time.perf_counter(), time.process_time()
-            ringsim.run(line_sc, output=path, force=True, progress=False)
-            timing.write_text(json.dumps({"wall": time.perf_counter() - wall0,
-                                          "cpu": time.process_time() - cpu0}))
-        line_wall, line_cpu = (json.loads(timing.read_text())[k] for k in ("wall", "cpu"))
-        run = open_run(path)
-        eq = equilibrium(run)
-        t_eq = eq["equilibrium_from_orbit"]["mean"]
-        orbits = run.timeseries["orbits"]
-        out["line"] = {"orbits": float(orbits[-1]), "wall": line_wall, "cpu": line_cpu,
-                       "equilibrium_from_orbit": t_eq, "in_equilibrium": eq["in_equilibrium"],
-                       "reason": eq["reason"],
-                       "c_rOmega": eq["velocity_dispersion_rOmega"],
-                       "H_r": eq["thickness_r"],
-                       "dt_orbits": sorted({float(x) for x in np.unique(
-                           run.timeseries["dt"] / sc.orbital_period)})}
-        # line mode's cost per orbit is uniform (dt fixed at its orbit bound nearly always)
-        out["line"]["wall_to_equilibrium"] = line_wall * t_eq / float(orbits[-1])
-
-        # tree mode along the same path
-        n_snap = run.n_snapshots
-        dts, costs = [], {}
-        for i in range(n_snap):
-            snap = run.snapshot(i)
-            t = float(snap["t"])
-            probe = (i % args.probe_every == 0) or i == n_snap - 1
-            dt, cost = tree_probe(sc, snap, t, args.probe_steps if probe else 0)
-            dts.append((t / sc.orbital_period, dt))
-            if probe:
-                costs[t / sc.orbital_period] = cost
-        dts = np.array(dts)
-        probe_t = np.array(sorted(costs))
-        probe_cost = np.array([costs[k] for k in probe_t])
-        orbit = sc.orbital_period
-        # steps in [t_k, t_k+1]: the interval over dt, 1/dt averaged over its two ends
-        t_nodes = dts[:, 0]
-        steps = np.diff(t_nodes) * orbit * 0.5 * (1.0 / dts[:-1, 1] + 1.0 / dts[1:, 1])
-        cost_at = np.interp(0.5 * (t_nodes[:-1] + t_nodes[1:]), probe_t, probe_cost)
-        tree_cpu_cumulative = np.concatenate([[0.0], np.cumsum(steps * cost_at)])
-        out["tree_model"] = {
-            "orbit": t_nodes.tolist(), "dt_orbits": (dts[:, 1] / orbit).tolist(),
-            "cpu_per_step": {f"{k:g}": float(v) for k, v in costs.items()},
-            "cpu_to_equilibrium": float(np.interp(t_eq, t_nodes, tree_cpu_cumulative)),
-            "steps_to_equilibrium": float(np.interp(
-                t_eq, t_nodes, np.concatenate([[0.0], np.cumsum(steps)]))),
-        }
-        # the model against a real tree run over the first orbits
-        tree_path = Path(tmp) / "tree.h5"
-        wall0, cpu0 = time.perf_counter(), time.process_time()
-        ringsim.run(tree_sc, output=tree_path, force=True, progress=False)
-        tree_wall = time.perf_counter() - wall0
-        tree_cpu = time.process_time() - cpu0
-        out["tree_run"] = {"orbits": args.tree_orbits, "wall": tree_wall, "cpu": tree_cpu,
-                           "model_cpu": float(np.interp(args.tree_orbits, t_nodes,
-                                                        tree_cpu_cumulative))}
-        line_cpu_per_orbit = line_cpu / float(orbits[-1])
+        run, out["line"] = line_run(sc, args, keep)
+        t_eq = out["line"]["equilibrium_from_orbit"]
+        out["tree_model"], t_nodes, tree_cpu_cumulative = tree_model(sc, run, args, t_eq)
+        out["tree_run"] = tree_run(sc, args, Path(tmp) / "tree.h5", t_nodes,
+                                   tree_cpu_cumulative)
+        line_cpu_per_orbit = out["line"]["cpu"] / out["line"]["orbits"]
         out["ratio_cpu_line_over_tree"] = (line_cpu_per_orbit * t_eq
                                            / out["tree_model"]["cpu_to_equilibrium"])
     return out
+
+
+def line_run(sc, args, keep: Path) -> tuple:
+    """The line-mode run of ``sc`` (``dt: auto``, ``args.line_orbits``, a snapshot every
+    orbit) in ``keep`` (reused with its timing when both are there): the opened run, and
+    its wall and CPU time [s], equilibrium and steps."""
+    line_sc = with_overrides(sc, {"integration.collision_detection": "line",
+                                  "integration.dt": "auto",
+                                  "integration.orbits": args.line_orbits,
+                                  "output.snapshot_every": 1.0})
+    path = keep / "line.h5"
+    timing = keep / "line_timing.json"
+    if not (path.exists() and timing.exists()):
+        wall0, cpu0 = time.perf_counter(), time.process_time()
+        ringsim.run(line_sc, output=path, force=True, progress=False)
+        timing.write_text(json.dumps({"wall": time.perf_counter() - wall0,
+                                      "cpu": time.process_time() - cpu0}))
+    line_wall, line_cpu = (json.loads(timing.read_text())[k] for k in ("wall", "cpu"))
+    run = open_run(path)
+    eq = equilibrium(run)
+    t_eq = eq["equilibrium_from_orbit"]["mean"]
+    orbits = run.timeseries["orbits"]
+    line = {"orbits": float(orbits[-1]), "wall": line_wall, "cpu": line_cpu,
+            "equilibrium_from_orbit": t_eq, "in_equilibrium": eq["in_equilibrium"],
+            "reason": eq["reason"],
+            "c_rOmega": eq["velocity_dispersion_rOmega"],
+            "H_r": eq["thickness_r"],
+            "dt_orbits": sorted({float(x) for x in np.unique(
+                run.timeseries["dt"] / sc.orbital_period)})}
+    # line mode's cost per orbit is uniform (dt fixed at its orbit bound nearly always)
+    line["wall_to_equilibrium"] = line_wall * t_eq / float(orbits[-1])
+    return run, line
+
+
+def tree_model(sc, run, args, t_eq: float) -> tuple:
+    """Tree mode's CPU along the line run's heating path: its ``dt: auto`` at every
+    snapshot and its CPU per step at every ``args.probe_every``-th (``tree_probe``).
+    Returns the model (steps and CPU to orbit ``t_eq``), the snapshots' orbits and the
+    cumulative tree CPU [s] at them."""
+    n_snap = run.n_snapshots
+    dts, costs = [], {}
+    for i in range(n_snap):
+        snap = run.snapshot(i)
+        t = float(snap["t"])
+        probe = (i % args.probe_every == 0) or i == n_snap - 1
+        dt, cost = tree_probe(sc, snap, t, args.probe_steps if probe else 0)
+        dts.append((t / sc.orbital_period, dt))
+        if probe:
+            costs[t / sc.orbital_period] = cost
+    dts = np.array(dts)
+    probe_t = np.array(sorted(costs))
+    probe_cost = np.array([costs[k] for k in probe_t])
+    orbit = sc.orbital_period
+    # steps in [t_k, t_k+1]: the interval over dt, 1/dt averaged over its two ends
+    t_nodes = dts[:, 0]
+    steps = np.diff(t_nodes) * orbit * 0.5 * (1.0 / dts[:-1, 1] + 1.0 / dts[1:, 1])
+    cost_at = np.interp(0.5 * (t_nodes[:-1] + t_nodes[1:]), probe_t, probe_cost)
+    tree_cpu_cumulative = np.concatenate([[0.0], np.cumsum(steps * cost_at)])
+    model = {
+        "orbit": t_nodes.tolist(), "dt_orbits": (dts[:, 1] / orbit).tolist(),
+        "cpu_per_step": {f"{k:g}": float(v) for k, v in costs.items()},
+        "cpu_to_equilibrium": float(np.interp(t_eq, t_nodes, tree_cpu_cumulative)),
+        "steps_to_equilibrium": float(np.interp(
+            t_eq, t_nodes, np.concatenate([[0.0], np.cumsum(steps)]))),
+    }
+    return model, t_nodes, tree_cpu_cumulative
+
+
+def tree_run(sc, args, path: Path, t_nodes, tree_cpu_cumulative) -> dict:
+    """The model's check: a real tree run of ``sc`` (``dt: auto``) over the first
+    ``args.tree_orbits`` orbits from the cold start, its wall and CPU time [s] beside the
+    model's CPU to the same orbit."""
+    tree_sc = with_overrides(sc, {"integration.collision_detection": "tree",
+                                  "integration.dt": "auto",
+                                  "integration.orbits": args.tree_orbits,
+                                  "output.snapshot_every": args.tree_orbits})
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    ringsim.run(tree_sc, output=path, force=True, progress=False)
+    tree_wall = time.perf_counter() - wall0
+    tree_cpu = time.process_time() - cpu0
+    return {"orbits": args.tree_orbits, "wall": tree_wall, "cpu": tree_cpu,
+            "model_cpu": float(np.interp(args.tree_orbits, t_nodes, tree_cpu_cumulative))}
 
 
 # --- 2. scaling ------------------------------------------------------------------------------

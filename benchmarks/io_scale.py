@@ -1,6 +1,6 @@
-"""Benchmark (issue 16): set-up, snapshot I/O and memory of sheets of up to 10^6 particles.
+"""Benchmark: set-up, snapshot I/O and memory of sheets of up to 10^6 particles.
 
-Line mode, no gravity, power law 0.5-5 m (q = 3) as in the issue.  Four measurements:
+Line mode, no gravity, power law 0.5-5 m (q = 3).  Five measurements:
 
 * ``setup``: ``build_sheet`` (radii, overlap-free placement, REBOUND simulation, resolver)
   at N = 1e4, 1e5, 1e6 and tau = 0.25, 1.5: wall and CPU time, median of ``--repeat``.

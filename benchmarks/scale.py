@@ -1,4 +1,4 @@
-"""Benchmark: one sheet from 1e3 to 1e6 particles (issue 16): cost, memory, set-up, snapshots.
+"""Benchmark: one sheet from 1e3 to 1e6 particles: cost, memory, set-up, snapshots.
 
 For each N (one fresh process per N, so that its peak memory is its own):
 
@@ -16,7 +16,7 @@ For each N (one fresh process per N, so that its peak memory is its own):
   imported and allocated what any run needs), over N.
 
 Medians of the repeats; with ``--passes K`` the sizes are measured K times in turn and
-pooled, and the flatness and the 1e5 cost are also given per pass.  Targets (issue 16):
+pooled, and the flatness and the 1e5 cost are also given per pass.  Targets:
 <= 300 ns per particle-step at 1e5 on one thread, flat within 1.5x from 1e3 to 1e6;
 2 threads <= 0.6x of one; <= 1 kB per particle; set-up of 1e6 <= 10 s.
 
@@ -56,14 +56,15 @@ HEADING = "## Scale"
 MARKER = "<!-- end of the part benchmarks/scale.py writes; the text below is kept -->"
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
 QUICK_SIZES = (1_000, 10_000, 100_000)
-#: Targets of issue 16.
+#: Targets of the run loop at scale [ns per particle-step; ratios; bytes per particle].
 TARGET_NS = 300.0
 TARGET_FLATNESS = 1.5
 TARGET_THREAD_RATIO = 0.6
 TARGET_BYTES = 1000.0
 #: Particles of the warm-up run before the memory baseline is taken.
 WARM_UP_PARTICLES = 200
-#: Measured before issue 16's part B (whole run loop, one thread; the issue's figures).
+#: Baseline drawn in the figure [ns per particle-step]: the whole run loop on one thread
+#: before it was made to scale (docs/performance.md, "Scale").
 BEFORE_NS = {1_000: 540.0, 10_000: 600.0, 100_000: 1000.0}
 
 

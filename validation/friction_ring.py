@@ -1,4 +1,5 @@
-"""Issue 13, item 4(c): a ring patch of rough particles against the ring literature.
+"""A ring patch of rough particles against the ring literature (docs/validation.md, "Rough
+particles in a ring patch").
 
 Identical 1 m ice spheres in a non-gravitating shearing sheet at optical depth 0.1 with
 Dilley's (1993) speed-dependent eps_n at kappa = 0 (xi0 = 0.16, p = 0.65: a hot, dilute

@@ -1,4 +1,4 @@
-"""Validation ladder: ringsim against published ring physics (issue 6).
+"""Validation ladder: ringsim against published ring physics.
 
 Runs six reference cases through the same machinery users run (``ringsim.run`` on
 scenarios, the native resolver, ``ringsim.compare.equilibrium``) and writes the section

@@ -1,4 +1,4 @@
-"""Line-mode collision detection against the small-dt tree reference (issue 7).
+"""Line-mode collision detection against the small-dt tree reference.
 
 Produces the section "Line-mode collision detection vs small-dt tree reference" of
 ``docs/validation.md`` and its figures in ``docs/figures/line_mode/``::
@@ -24,11 +24,10 @@ For every case:
 
 Every run also records the resolver's ``multi_encounters`` (collisions in which a partner
 was deflected earlier in the same step), the fraction predicted on straight paths for the
-step in use (``validation.encounters.multi_encounter_rate``; before contacts were
-resolved in time order ``dt: auto`` used it), and the CPU time per particle-step of the
-integration alone.  Sizes are small (300-400 particles) to fit the validation into
-about half an hour of one core: the tree reference of the hot Dilley rings needs 10^4 -
-10^5 steps per orbit.
+step in use (``validation.encounters.multi_encounter_rate``), and the CPU time per
+particle-step of the integration alone.  Sizes are small (300-400 particles) to fit the
+validation into about half an hour of one core: the tree reference of the hot Dilley rings
+needs 10^4 - 10^5 steps per orbit.
 """
 
 from __future__ import annotations
