@@ -24,6 +24,7 @@ from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.box import SheetGeometry, box_geometry, configure_box
 from ringsim.engine.initial_file import read_initial_state, refuse_copies_alike
 from ringsim.engine.placement import OverlapGrid, wrap_horizontal
+from ringsim.engine.resolver import ResolverHandle, install_resolver
 from ringsim.engine.timestep import choose_dt
 from ringsim.gravity.registry import (
     install_gravity,
@@ -219,7 +220,7 @@ class BuiltSheet:
     radii: np.ndarray
     masses: np.ndarray
     size_bin_edges: np.ndarray | None
-    resolver: object
+    resolver: ResolverHandle
 
 
 def particle_arrays(sim: rebound.Simulation) -> dict[str, np.ndarray]:
@@ -243,8 +244,6 @@ def build_sheet(scenario) -> BuiltSheet:
     ``sheet.initial_state`` the particles come from the file instead
     (`ringsim.engine.initial_file`).
     """
-    from ringsim.engine.resolver import install_resolver
-
     sim, geometry, radii, masses, spins = new_simulation(scenario)
     refuse_copies_alike(scenario)
     handle = install_resolver(sim, scenario.restitution_dict(), scenario.friction_dict(),
@@ -335,8 +334,12 @@ def expected_dispersion(scenario, radii: np.ndarray, masses: np.ndarray) -> floa
     estimate = kinetic_dispersion_estimate(scenario.restitution_dict(), radii, masses,
                                            scenario.sheet.optical_depth,
                                            scenario.orbital_frequency)
-    return float(estimate["velocity_dispersion"]) if estimate["status"] == "equilibrium" \
-        else 0.0
+    if estimate["status"] != "equilibrium":
+        return 0.0
+    c = estimate["velocity_dispersion"]     # [m/s]: a number whenever there is an equilibrium
+    if not isinstance(c, (int, float)):
+        raise TypeError(f"kinetic_dispersion_estimate: velocity_dispersion {c!r} is no number")
+    return float(c)
 
 
 def initial_z_half_height(sheet_cfg, r_mean: float, dispersion: float, Omega: float,
