@@ -42,7 +42,8 @@ def export_csv(run, index: int, out: str | Path) -> Path:
              f"# t = {snap['t']!r} s (give it as sheet.initial_state.t); box Lx = "
              f"{a['Lx']!r} m, Ly = {a['Ly']!r} m; Omega = {a['Omega']!r} 1/s; vy includes "
              "the shear flow -1.5 Omega x"]
-    fields, columns = CSV_FIELDS, CSV_COLUMNS
+    fields: tuple[str, ...] = CSV_FIELDS
+    columns: tuple[str, ...] = CSV_COLUMNS
     if all(f in snap for f in SPIN_FIELDS):      # a run with friction: its spins too
         fields, columns = fields + SPIN_FIELDS, columns + CSV_SPIN_COLUMNS
     lines.append(",".join(columns))

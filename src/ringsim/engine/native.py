@@ -127,20 +127,20 @@ def _declare_setup(lib: ctypes.CDLL) -> None:
     double_p = ctypes.POINTER(ctypes.c_double)
     int64_p = ctypes.POINTER(ctypes.c_int64)
     lib.rs_add_particles.restype = ctypes.c_int64
-    lib.rs_add_particles.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64] \
-        + [double_p] * 8
+    lib.rs_add_particles.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64,
+                                     *[double_p] * 8]
     lib.rs_grid_create.restype = ctypes.c_void_p
     lib.rs_grid_create.argtypes = [ctypes.c_int64, ctypes.c_int32,
-                                   ctypes.POINTER(ctypes.c_int32), double_p] \
-        + [ctypes.c_double] * 5 + [double_p] * 4
+                                   ctypes.POINTER(ctypes.c_int32), double_p,
+                                   *[ctypes.c_double] * 5, *[double_p] * 4]
     lib.rs_grid_free.restype = None
     lib.rs_grid_free.argtypes = [ctypes.c_void_p]
     lib.rs_grid_move.restype = None
-    lib.rs_grid_move.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p] + [double_p] * 3
+    lib.rs_grid_move.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p, *[double_p] * 3]
     lib.rs_grid_overlapping.restype = ctypes.c_int64
     lib.rs_grid_overlapping.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p, int64_p]
     lib.rs_count_overlaps.restype = ctypes.c_int64
-    lib.rs_count_overlaps.argtypes = [ctypes.c_int64] + [double_p] * 4 + [ctypes.c_double] * 4
+    lib.rs_count_overlaps.argtypes = [ctypes.c_int64, *[double_p] * 4, *[ctypes.c_double] * 4]
 
 
 #: OpenMP threads that wait for the next parallel region sleep instead of spinning, unless

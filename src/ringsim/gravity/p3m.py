@@ -220,7 +220,10 @@ class P3MSolver:
         if self.error is not None:
             return
         try:
-            self.apply(ctypes.cast(sim_pointer, ctypes.c_void_p).value)
+            address = ctypes.cast(sim_pointer, ctypes.c_void_p).value
+            if address is None:
+                raise ValueError("REBOUND called the P3M solver with a NULL simulation")
+            self.apply(address)
         except Exception as exc:  # noqa: BLE001 - ctypes would swallow it; re-raised later
             self.error = exc
 
