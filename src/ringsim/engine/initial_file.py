@@ -46,6 +46,7 @@ from ringsim.errors import InputError
 from ringsim.physics.constants import SHEAR
 from ringsim.physics.selfgravity import shear_offset
 from ringsim.store.bulk import SPIN_FIELDS
+from ringsim.store.runfile import open_run
 
 #: CSV columns of a particle file, in the order `ringsim export --csv` writes them, and the
 #: particle field of each.
@@ -150,8 +151,6 @@ def _number(scenario, path: Path, attrs: dict, name: str) -> float:
 
 
 def _read_run(scenario, path: Path) -> FileState:
-    from ringsim.store.runfile import open_run
-
     try:
         run = open_run(path)
     except (OSError, KeyError) as exc:
@@ -189,7 +188,6 @@ def refuse_copies_alike(scenario) -> None:
     export of such a snapshot is the snapshot itself, so `new_simulation` does not ask (a
     CSV exported from it carries no record of its origin and is not checked)."""
     from ringsim.analysis.tiling import independent_from_orbit
-    from ringsim.store.runfile import open_run
 
     state = scenario.sheet.initial_state
     if state is None or state.kind != "run":
