@@ -396,5 +396,3 @@ def with_overrides(sc: Scenario, overrides: Mapping[str, Any]) -> Scenario:
     for dotted, value in overrides.items():
         _set_dotted(given, dotted, value, sc.source)
     return _build(given, sc.source, None)
-
-

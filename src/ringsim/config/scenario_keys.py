@@ -95,7 +95,6 @@ DEFAULTS: dict[str, Any] = {
 }
 
 
-
 def read_name(top: Section) -> str:
     allowed = "a non-empty string without '/', '\\' or surrounding spaces"
     name = top.string("name", what=allowed)

@@ -27,8 +27,8 @@ PARAMETER_ORDER = {law.name: tuple(p.name for p in sorted(law.parameters, key=la
 
 #: Integer codes of the friction models (RS_FRICTION_*); 0 is no friction (smooth spheres).
 FRICTION_CODES = {"none": 0, **{law.name: law.code for law in FRICTION}}
-#: Statistics fields appended for friction: a checkpoint written before them restores them
-#: as zero.
+#: Statistics fields of friction (after the others in the C struct): a checkpoint that
+#: lacks them restores them as zero.
 FRICTION_STATISTICS = ("tangential_dissipation", "n_sliding", "normal_dissipation")
 
 #: Bin edges of the normal-impact-speed histogram [m/s].
@@ -146,9 +146,9 @@ def _declare_setup(lib: ctypes.CDLL) -> None:
 #: OpenMP threads that wait for the next parallel region sleep instead of spinning, unless
 #: the user chose otherwise: the detector's regions are short (one per step) and separated
 #: by serial work (REBOUND's drift and kick, the time-ordered resolution), and spinning
-#: threads took the core from that work on a shared machine (measured 3-5 times slower
-#: with 2 threads on 2 busy cores; docs/performance.md "Scale").  Read by the OpenMP
-#: runtime when the library is loaded, so it is set before.
+#: threads take the core from that work on a shared machine (docs/performance.md,
+#: "OpenMP wait policy").  Read by the OpenMP runtime when the library is loaded, so it is
+#: set before.
 OPENMP_WAIT_POLICY = "passive"
 
 
@@ -245,7 +245,7 @@ def _load_library() -> ctypes.CDLL:
     for what, in_c, in_python in checks:
         if in_c != in_python:
             raise ImportError(f"ringsim._resolver is out of date: {what} is {in_c} in C but "
-                              f"{in_python} in ringsim/resolver.py; rebuild the extension")
+                              f"{in_python} in ringsim.engine.native; rebuild the extension")
     return lib
 
 
@@ -324,8 +324,6 @@ def _function_address(pointer: Any) -> int | None:
     return ctypes.cast(pointer, ctypes.c_void_p).value
 
 
-
-
 # --- P3M self-gravity (ringsim/csrc/rs_p3m.c) ---------------------------------------------------
 
 #: Nodes of the tabulated long-range pair force (RS_P3M_TABLE in rs_p3m.c).
@@ -387,8 +385,8 @@ def keep_freed_memory() -> bool:
     to 32 MiB come from the heap instead of a fresh mmap each, and the heap's top is not
     given back to the system.  P3M allocates a dozen mesh-sized numpy/scipy.fft temporaries
     per step; with glibc's defaults each large one is new memory whose pages the kernel
-    zeroes on first touch (clear_page: 7 % of the gravitating step at N = 1e5,
-    docs/performance.md).  Addresses do not enter any result.  Returns False where the C
+    zeroes on first touch, a share of the gravitating step worth saving (docs/performance.md,
+    "Self-gravity").  Addresses do not enter any result.  Returns False where the C
     library has no ``mallopt`` (not glibc): nothing changes there."""
     if not _KEPT:
         try:

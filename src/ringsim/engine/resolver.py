@@ -1,4 +1,5 @@
-"""ringsim's native collision resolver for REBOUND, and its pure-Python twin.
+"""ringsim's native collision resolver for REBOUND (its pure-Python twin, for tests, is
+``ringsim.testing.PythonReferenceResolver``).
 
 The resolver (``ringsim/csrc/rs_resolver.c``) replaces REBOUND's hard-sphere resolver.
 It applies the normal impulse of a coefficient of restitution eps(v, R_bar, M_bar) of
@@ -118,7 +119,7 @@ class ResolverHandle:
     friction : mapping or None
         As in the scenario's ``friction`` section, ``{"model": "constant", "beta": 0.0}``
         or ``{"model": "coulomb", "mu": 0.5}`` (``physics.friction.FRICTION``); None:
-        smooth spheres, no spins (the resolver's path of today, bit for bit).
+        smooth spheres, no spins (the resolver's path without friction, bit for bit).
     inertia_factor : float
         k in I = k m R^2, in (0, 2/3] (``physics.friction.INERTIA_FACTOR``).
     log_capacity : int
@@ -466,7 +467,6 @@ def install_resolver(sim: rebound.Simulation, restitution: Mapping[str, Any],
     return handle.reinstall(sim)
 
 
-
 def constant_epsilon_callback_address() -> int:
     """Address of a C ``coefficient_of_restitution`` returning the constant eps of the
     ringsim resolver installed in the same simulation (1 for other laws).
@@ -476,5 +476,3 @@ def constant_epsilon_callback_address() -> int:
         sim._coefficient_of_restitution = CORFF(constant_epsilon_callback_address())
     """
     return cast(int, _CONSTANT_COR_ADDRESS)   # a loaded function's address is never NULL
-
-

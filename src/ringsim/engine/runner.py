@@ -1,4 +1,5 @@
-"""The run loop: integrate a sheet, write its HDF5 file, keep the guards, resume.
+"""The run loop: integrate a sheet, write its HDF5 file, keep the guards, resume it from
+its checkpoint (``engine.checkpoint``).
 
 Order of work at every time-series output (every ``output.timeseries_every`` orbits):
 
@@ -11,8 +12,9 @@ Order of work at every time-series output (every ``output.timeseries_every`` orb
    half z period; ``dt: auto`` re-chooses the step as the ring heats (a fixed step that
    breaks dt << r/v is reported); deep overlaps are counted;
 3. at every ``snapshot_every`` a snapshot, at every ``checkpoint_every`` a checkpoint
-   (with the resolver's open-interval statistics); rows, guard events, snapshot and
-   checkpoint of an output are one atomic commit (``store.runfile.RunFileWriter``).
+   (``engine.checkpoint``, with the resolver's open-interval statistics); rows, guard
+   events, snapshot and checkpoint of an output are one atomic commit
+   (``store.runfile.RunFileWriter``).
 
 SIGINT/SIGTERM stop the run after the current step with a final checkpoint (status
 ``stopped``; the command line exits 130).  ``run`` holds the file's lock
@@ -279,7 +281,6 @@ class Runner:
                                   "step; end-of-step collision detection may miss collisions "
                                   "(use dt: auto or collision_detection: line)")
 
-
     @one_blas_thread
     def _output(self, first: bool = False) -> None:
         arrays = sheet.particle_arrays(self.sim)
@@ -489,4 +490,3 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
         print(f"ringsim: stopped at orbit {runner.sim.t / runner.orbit:.3f}; checkpoint "
               f"written to {path}; continue with --resume")
     return path
-
