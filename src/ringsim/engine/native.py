@@ -43,12 +43,6 @@ LOG_DTYPE = np.dtype([("t", "f8"), ("v_n", "f8"), ("R_bar", "f8"), ("M_bar", "f8
 #: (x, y, z [m], vx, vy, vz [m/s]), root cell ri.
 COLLISION_DTYPE = np.dtype([("p1", "u8"), ("p2", "u8"), ("gb", "f8", (6,)), ("ri", "u8")])
 
-# Normal speeds below this many round-off units of the summed |velocity components| are
-# treated as not approaching (as in the C; keeps eps = 0 pairs from resolving twice).
-_ROUNDOFF_SPEED = 64.0 * np.finfo(float).eps
-# REBOUND's collision search modes that report swept-path contacts (line, linetree).
-_SWEPT_PATH_MODES = (rebound.simulation.COLLISIONS["line"],
-                     rebound.simulation.COLLISIONS["linetree"])
 _N_VN_BINS = VN_BIN_EDGES.size - 1
 _N_EPS_BINS = ONE_MINUS_EPSILON_BIN_EDGES.size - 1
 
