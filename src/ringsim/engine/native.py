@@ -116,6 +116,42 @@ def check_simulation_struct_size(compiled_size: int, loaded_size: int) -> None:
             f"(`python setup.py build_ext --inplace`) against the installed REBOUND.")
 
 
+def _declare_resolver(lib: ctypes.CDLL) -> None:
+    """Prototypes of rs_resolver.c: the resolver's life, friction and spins, statistics, the
+    layout checks, and the calls for tests and benchmarks."""
+    size_t = ctypes.c_size_t
+    for name in ("rs_simulation_struct_size", "rs_resolver_struct_size", "rs_log_entry_size"):
+        getattr(lib, name).restype = size_t
+        getattr(lib, name).argtypes = []
+    lib.rs_histogram_bins.restype = ctypes.c_int
+    lib.rs_histogram_bins.argtypes = [ctypes.c_int]
+    lib.rs_resolver_create.restype = ctypes.c_void_p
+    lib.rs_resolver_create.argtypes = [ctypes.c_int32, ctypes.c_double, ctypes.c_double,
+                                       ctypes.c_double, ctypes.c_int64, ctypes.c_int64]
+    lib.rs_resolver_free.restype = None
+    lib.rs_resolver_free.argtypes = [ctypes.c_void_p]
+    lib.rs_resolver_set_friction.restype = ctypes.c_int
+    lib.rs_resolver_set_friction.argtypes = [ctypes.c_void_p, ctypes.c_int32, ctypes.c_double,
+                                             ctypes.c_double, ctypes.c_double, ctypes.c_double]
+    lib.rs_spin_reserve.restype = ctypes.c_int
+    lib.rs_spin_reserve.argtypes = [ctypes.c_void_p, ctypes.c_int64]
+    lib.rs_spin_frame_angle.restype = ctypes.c_double
+    lib.rs_spin_frame_angle.argtypes = [ctypes.c_void_p, ctypes.c_double]
+    for name in ("rs_spins_read", "rs_spins_write"):
+        getattr(lib, name).restype = None if name == "rs_spins_read" else ctypes.c_int
+        getattr(lib, name).argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_int64,
+                                       ctypes.c_void_p]
+    lib.rs_resolver_reset_stats.restype = None
+    lib.rs_resolver_reset_stats.argtypes = [ctypes.c_void_p]
+    double_p = ctypes.POINTER(ctypes.c_double)
+    lib.rs_resolve_batch.restype = ctypes.c_int64
+    lib.rs_resolve_batch.argtypes = [ctypes.c_void_p, ctypes.POINTER(CollisionS),
+                                     ctypes.c_int64]
+    lib.rs_epsilon_array.restype = None
+    lib.rs_epsilon_array.argtypes = [ctypes.c_void_p, ctypes.c_int64, double_p, double_p,
+                                     double_p, double_p]
+
+
 def _declare_setup(lib: ctypes.CDLL) -> None:
     """Prototypes of rs_setup.c: adding particles, the overlap grid, the overlap count."""
     double_p = ctypes.POINTER(ctypes.c_double)
@@ -187,42 +223,12 @@ def _load_library() -> ctypes.CDLL:
     if missing:
         raise ImportError(f"ringsim._resolver is incomplete (no {', '.join(missing)}); rebuild "
                           "it from all of setup.py's sources (`pip install -e .`)")
-    size_t = ctypes.c_size_t
-    for name in ("rs_simulation_struct_size", "rs_resolver_struct_size", "rs_log_entry_size"):
-        getattr(lib, name).restype = size_t
-        getattr(lib, name).argtypes = []
-    lib.rs_histogram_bins.restype = ctypes.c_int
-    lib.rs_histogram_bins.argtypes = [ctypes.c_int]
-    lib.rs_resolver_create.restype = ctypes.c_void_p
-    lib.rs_resolver_create.argtypes = [ctypes.c_int32, ctypes.c_double, ctypes.c_double,
-                                       ctypes.c_double, ctypes.c_int64, ctypes.c_int64]
-    lib.rs_resolver_free.restype = None
-    lib.rs_resolver_free.argtypes = [ctypes.c_void_p]
-    lib.rs_resolver_set_friction.restype = ctypes.c_int
-    lib.rs_resolver_set_friction.argtypes = [ctypes.c_void_p, ctypes.c_int32, ctypes.c_double,
-                                             ctypes.c_double, ctypes.c_double, ctypes.c_double]
-    lib.rs_spin_reserve.restype = ctypes.c_int
-    lib.rs_spin_reserve.argtypes = [ctypes.c_void_p, ctypes.c_int64]
-    lib.rs_spin_frame_angle.restype = ctypes.c_double
-    lib.rs_spin_frame_angle.argtypes = [ctypes.c_void_p, ctypes.c_double]
-    for name in ("rs_spins_read", "rs_spins_write"):
-        getattr(lib, name).restype = None if name == "rs_spins_read" else ctypes.c_int
-        getattr(lib, name).argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_int64,
-                                       ctypes.c_void_p]
-    lib.rs_resolver_reset_stats.restype = None
-    lib.rs_resolver_reset_stats.argtypes = [ctypes.c_void_p]
-    double_p = ctypes.POINTER(ctypes.c_double)
-    lib.rs_resolve_batch.restype = ctypes.c_int64
-    lib.rs_resolve_batch.argtypes = [ctypes.c_void_p, ctypes.POINTER(CollisionS),
-                                     ctypes.c_int64]
-    lib.rs_epsilon_array.restype = None
-    lib.rs_epsilon_array.argtypes = [ctypes.c_void_p, ctypes.c_int64, double_p, double_p,
-                                     double_p, double_p]
+    _declare_resolver(lib)
     _declare_setup(lib)
     _declare_detector(lib)
 
     librebound = rebound.clibrebound
-    librebound.reb_simulation_struct_size.restype = size_t
+    librebound.reb_simulation_struct_size.restype = ctypes.c_size_t
     check_simulation_struct_size(lib.rs_simulation_struct_size(),
                                  librebound.reb_simulation_struct_size())
     checks = [
