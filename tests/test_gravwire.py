@@ -10,7 +10,8 @@ import rebound
 
 import ringsim
 from ringsim import testing
-from ringsim.config.scenario import DEFAULTS, with_overrides
+from ringsim.config.scenario import with_overrides
+from ringsim.config.scenario_keys import DEFAULTS
 from ringsim.engine import box, invariants, sheet
 from ringsim.gravity import registry, tree
 from ringsim.physics import ghost_field

@@ -22,6 +22,7 @@ import sys
 import traceback
 from pathlib import Path
 
+from ringsim import __version__
 from ringsim.errors import InputError
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -288,15 +289,7 @@ def _cmd_fit(args) -> int:
     return fit_command(args)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="ringsim", description="Collisional N-body simulations of a "
-                     "planetary-ring patch with size- and mass-dependent restitution.")
-    parser.add_argument("--debug", action="store_true", help="show tracebacks")
-    from ringsim import __version__
-
-    parser.add_argument("--version", action="version", version=f"ringsim {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-
+def _epsilon_arguments(sub) -> None:
     p = sub.add_parser("epsilon", help="epsilon(v) curves of the restitution laws "
                        "(Dilley 1993 Figs. 1 and 5)")
     p.add_argument("--plot", metavar="PNG", help="write the figure to this PNG file")
@@ -311,6 +304,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default 900, or the scenario's)")
     p.set_defaults(func=_cmd_epsilon)
 
+
+def _export_arguments(sub) -> None:
     p = sub.add_parser("export", help="a snapshot of a run as a particle CSV or a REBOUND "
                        "simulation file")
     p.add_argument("run", metavar="RUN.h5")
@@ -322,6 +317,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "continues the snapshot (see docs/export.md)")
     p.set_defaults(func=_cmd_export)
 
+
+def _run_arguments(sub) -> None:
     p = sub.add_parser("run", help="run a scenario and write its HDF5 run file")
     p.add_argument("scenario", metavar="SCENARIO.yaml")
     p.add_argument("-o", "--output", metavar="RUN.h5", help="run file (default: the "
@@ -332,12 +329,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-progress", action="store_true", help="no progress bar (batch jobs)")
     p.set_defaults(func=_cmd_run)
 
+
+def _analyze_arguments(sub) -> None:
     p = sub.add_parser("analyze", help="equilibrium table of one run")
     p.add_argument("run", metavar="RUN.h5")
     p.add_argument("--json", metavar="OUT.json", help="write the equilibrium as JSON")
     p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
     p.set_defaults(func=_cmd_analyze)
 
+
+def _compare_arguments(sub) -> None:
     p = sub.add_parser("compare", help="side-by-side equilibria with ratios")
     p.add_argument("runs", metavar="RUN.h5", nargs="+")
     p.add_argument("--json", metavar="OUT.json", help="write the comparison as JSON")
@@ -345,28 +346,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--systematics", metavar="BUDGET.json", help="measured systematic "
                    "uncertainties of the ratios (ringsim.analysis.budget)")
     p.set_defaults(func=_cmd_compare)
-
-    p = sub.add_parser("sweep", help="run a grid of scenarios (local processes or Dask)")
-    p.add_argument("sweep", metavar="SWEEP.yaml")
-    _add_pool_options(p)
-    p.add_argument("--out", metavar="DIR", help="output directory (default: "
-                   "runs/<sweep file name>)")
-    p.add_argument("--plots", metavar="DIR", help="write PNG figures of the summary (c and "
-                   "H against the swept parameter) into DIR")
-    p.set_defaults(func=_cmd_sweep)
-
-    _add_study_parser(sub)
-
-    p = sub.add_parser("fit", help="fit restitution laws to measured epsilon(v, R, M)")
-    p.add_argument("data", metavar="DATA.csv")
-    p.add_argument("--model", default="dilley", help="dilley, bridges, constant, andrews, "
-                   "tabor or all (default: dilley)")
-    p.add_argument("--json", metavar="OUT.json", help="write the fit as JSON")
-    p.add_argument("--plot", metavar="PNG", help="plot data and fitted curves")
-    p.add_argument("--write-restitution", metavar="OUT.yaml",
-                   help="write the best fit as a scenario 'restitution' section")
-    p.set_defaults(func=_cmd_fit)
-    return parser
 
 
 def _add_pool_options(p) -> None:
@@ -377,7 +356,7 @@ def _add_pool_options(p) -> None:
                    "(e.g. tcp://127.0.0.1:8786); needs the 'dask' extra")
 
 
-def _add_study_parser(sub) -> None:
+def _study_arguments(sub) -> None:
     p = sub.add_parser("study", help="run a study file (cases x seeds, ratios, variants) and "
                        "write its report (docs/studies.md)")
     p.add_argument("study", metavar="STUDY.yaml")
@@ -391,6 +370,46 @@ def _add_study_parser(sub) -> None:
     p.add_argument("--threads", type=int, default=None, metavar="N", help="integration."
                    "threads of every run (changes the speed, never a result)")
     p.set_defaults(func=_cmd_study)
+
+
+def _sweep_arguments(sub) -> None:
+    p = sub.add_parser("sweep", help="run a grid of scenarios (local processes or Dask)")
+    p.add_argument("sweep", metavar="SWEEP.yaml")
+    _add_pool_options(p)
+    p.add_argument("--out", metavar="DIR", help="output directory (default: "
+                   "runs/<sweep file name>)")
+    p.add_argument("--plots", metavar="DIR", help="write PNG figures of the summary (c and "
+                   "H against the swept parameter) into DIR")
+    p.set_defaults(func=_cmd_sweep)
+
+
+def _fit_arguments(sub) -> None:
+    p = sub.add_parser("fit", help="fit restitution laws to measured epsilon(v, R, M)")
+    p.add_argument("data", metavar="DATA.csv")
+    p.add_argument("--model", default="dilley", help="dilley, bridges, constant, andrews, "
+                   "tabor or all (default: dilley)")
+    p.add_argument("--json", metavar="OUT.json", help="write the fit as JSON")
+    p.add_argument("--plot", metavar="PNG", help="plot data and fitted curves")
+    p.add_argument("--write-restitution", metavar="OUT.yaml",
+                   help="write the best fit as a scenario 'restitution' section")
+    p.set_defaults(func=_cmd_fit)
+
+
+#: The subcommands, in the order ``ringsim --help`` lists them: each adds its parser.
+_SUBCOMMANDS = (_epsilon_arguments, _export_arguments, _run_arguments, _analyze_arguments,
+                _compare_arguments, _sweep_arguments, _study_arguments, _fit_arguments)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The parser of the ``ringsim`` command and its subcommands (docs/interface.md)."""
+    parser = _Parser(prog="ringsim", description="Collisional N-body simulations of a "
+                     "planetary-ring patch with size- and mass-dependent restitution.")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks")
+    parser.add_argument("--version", action="version", version=f"ringsim {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for add_arguments in _SUBCOMMANDS:
+        add_arguments(sub)
+    return parser
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,8 +1,9 @@
 """The self-gravity keys of the ``sheet`` section: which solver, and its parameters.
 
-``sheet.gravity_solver`` (default DEFAULTS["sheet.gravity_solver"]) and the solvers' own
-keys (``sheet.softening``, the tree's ``sheet.opening_angle``, P3M's ``sheet.p3m_split``):
-read and validated here, for ``config.scenario``, from the solvers' declarations
+``sheet.gravity_solver`` (default ``config.scenario_keys.DEFAULTS["sheet.gravity_solver"]``)
+and the solvers' own keys (``sheet.softening``, the tree's ``sheet.opening_angle``, P3M's
+``sheet.p3m_split``): read and validated here, for the sheet reader of
+``config.scenario_keys``, from the solvers' declarations
 (``physics.gravity_solvers``: names, parameters with unit, default, range and ``auto``,
 the keys each solver refuses, the box each needs).  Nothing here names a solver.
 """
@@ -29,8 +30,8 @@ def _users(key: str) -> list[str]:
 
 def _default_solver(sec: Section, d: dict[str, Any]) -> str:
     """The solver of a section without ``gravity_solver``: the one a key given implies
-    (a scenario written for the tree before P3M became the default keeps the tree), else
-    the default."""
+    (its declaration's ``implied_by``: ``opening_angle`` means the tree), else the
+    default."""
     if not sec.has("gravity_solver"):
         for declaration in GRAVITY_SOLVERS.values():
             if any(sec.has(key) for key in declaration.implied_by):

@@ -64,7 +64,6 @@ class InitialStateFile:
         return d
 
 
-
 def sheet_dict_with_file(sheet, d: dict[str, Any]) -> dict[str, Any]:
     """Sheet.to_dict with an initial-state file: without the keys the file replaces."""
     for name in _REPLACED_BY_FILE[sheet.initial_state.kind]:
@@ -73,7 +72,6 @@ def sheet_dict_with_file(sheet, d: dict[str, Any]) -> dict[str, Any]:
     d["z_box"] = sheet.z_box
     d["initial_state"] = sheet.initial_state.to_dict()
     return d
-
 
 
 def read_initial_state(sheet: Section) -> InitialStateFile | None:

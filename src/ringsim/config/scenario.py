@@ -4,8 +4,11 @@ A scenario names everything a run needs: where the patch orbits (``planet``), wh
 particles are (``particles``: bulk density and size distribution), how large the patch is
 (``sheet``), how collisions lose energy (``restitution``), how long and how finely to
 integrate (``integration``) and what to write (``output``).  Every key, its unit, default
-and allowed range is listed in ``docs/scenario.md``; the tables ``_SECTION_KEYS`` and the
-``_read_*`` functions below are the single place where they are enforced.
+and allowed range is listed in ``docs/scenario.md``; ``config.scenario_keys`` (the tables
+``SECTION_KEYS`` and ``DEFAULTS`` and the section readers) and `_read_integration` below
+are the single place where they are enforced.  This module assembles the sections into a
+`Scenario`, checks what spans several sections (the box against the particles, a tiled
+start against ``until_equilibrium``) and applies overrides (`with_overrides`).
 
 All values are SI inside (m, kg, s) except where the key says otherwise: durations and
 intervals are in orbits (2 pi / Omega), ``sheet.initial_dispersion`` is in units of the mean
@@ -38,22 +41,23 @@ from typing import Any
 
 import yaml
 
-from ringsim.config.gravity_keys import (
-    SOLVER_KEYS,
-    check_gravity_box,
-    p3m_setting,
-    read_gravity_keys,
+from ringsim.config.gravity_keys import check_gravity_box, p3m_setting
+from ringsim.config.initial_state import check_tiled_stop
+from ringsim.config.scenario_keys import (
+    COLLISION_DETECTIONS,
+    DEFAULTS,
+    MAX_DT_ORBITS,
+    MAX_SEED,
+    SECTION_KEYS,
+    read_friction,
+    read_name,
+    read_output,
+    read_particles,
+    read_planet,
+    read_restitution,
+    read_sheet,
 )
-from ringsim.config.initial_state import check_tiled_stop, read_initial_state
-from ringsim.config.schema import (
-    REQUIRED,
-    ScenarioError,
-    Section,
-    parse_yaml,
-    plain,
-    read_text,
-    show,
-)
+from ringsim.config.schema import ScenarioError, Section, parse_yaml, plain, read_text, show
 from ringsim.config.sections import (
     Friction,
     Integration,
@@ -64,10 +68,7 @@ from ringsim.config.sections import (
     SheetConfig,
     read_threads,
 )
-from ringsim.physics.friction import FRICTION, INERTIA_FACTOR
-from ringsim.physics.gravity_solvers import AUTO_SOFTENING_FRACTION, SOLVER_PARAMETERS
-from ringsim.physics.laws import DIMENSIONLESS
-from ringsim.physics.restitution import RESTITUTION
+from ringsim.physics.gravity_solvers import AUTO_SOFTENING_FRACTION
 from ringsim.physics.sizes import (
     Mixture,
     MixtureComponent,
@@ -96,61 +97,6 @@ __all__ = [
     "scenario_from_text",
     "with_overrides",
 ]
-
-#: Largest seed accepted: REBOUND's collision-shuffle seed ``rand_seed`` is an unsigned int.
-MAX_SEED = 2**32 - 1
-#: Largest dynamical optical depth accepted (denser patches are beyond a monolayer's reach).
-MAX_OPTICAL_DEPTH = 3.0
-#: Largest step accepted [orbits]: collisions need dt << 1/Omega.
-MAX_DT_ORBITS = 0.1
-#: Tolerance on the sum of a mixture's number fractions.
-FRACTION_SUM_TOLERANCE = 1e-9
-
-# Keys of each section, in the order they are written by Scenario.to_dict().
-_SECTION_KEYS: dict[str, tuple[str, ...]] = {
-    "": ("name", "seed", "description", "planet", "particles", "sheet", "restitution",
-         "friction", "integration", "output"),
-    "planet": ("Omega", "GM", "a"),
-    "particles": ("density", "size_distribution", "inertia_factor"),
-    "sheet": ("optical_depth", "n_particles", "aspect", "gravity", "gravity_solver",
-              *SOLVER_KEYS, "initial_dispersion", "z_box", "initial_state"),
-    "integration": ("orbits", "dt", "dt_safety", "collision_detection", "until_equilibrium",
-                    "threads"),
-    "output": ("path", "timeseries_every", "snapshot_every", "checkpoint_every",
-               "log_collisions"),
-}
-_SIZE_KINDS: dict[str, tuple[str, ...]] = {
-    "monodisperse": ("radius",),
-    "powerlaw": ("q", "r_min", "r_max"),
-    "mixture": ("components",),
-}
-_COLLISION_DETECTIONS = ("tree", "line")
-
-#: Defaults of the optional keys (restitution defaults: ringsim.physics.restitution.RESTITUTION).
-DEFAULTS: dict[str, Any] = {
-    "description": "",
-    "particles.density": 900.0,
-    "sheet.optical_depth": 0.25,
-    "sheet.n_particles": 1000,
-    "sheet.aspect": 1.0,
-    "sheet.gravity": False,
-    # chosen by benchmarks/gravity.py: equal force accuracy (< 1 % rms) at a fraction of
-    # the tree's cost (docs/performance.md, "Self-gravity")
-    "sheet.gravity_solver": "p3m",
-    # the solvers' keys (softening, opening_angle, p3m_split): physics.gravity_solvers
-    **{f"sheet.{p.name}": p.default for p in SOLVER_PARAMETERS.values()},
-    "sheet.initial_dispersion": 2.0,
-    "sheet.z_box": "auto",
-    "integration.orbits": 10.0,
-    "integration.dt": "auto",
-    "integration.dt_safety": 0.1,
-    "integration.collision_detection": "tree",
-    "integration.until_equilibrium": False,
-    "integration.threads": "auto",
-    "output.timeseries_every": 0.1,
-    "output.snapshot_every": 5.0,
-    "output.log_collisions": 0,
-}
 
 
 @dataclass(frozen=True)
@@ -272,137 +218,15 @@ class Scenario:
 
 # --- validation -------------------------------------------------------------------------------
 
-def _read_name(top: Section) -> str:
-    allowed = "a non-empty string without '/', '\\' or surrounding spaces"
-    name = top.string("name", what=allowed)
-    if name != name.strip() or any(c in name for c in "/\\\n\r\t\0"):
-        raise top.error("name", f"{show(name)} cannot be used in a file name", allowed)
-    return name
-
-
-def _read_planet(top: Section) -> Planet:
-    allowed = "a mapping: Omega [1/s], or GM [m^3/s^2] and a [m]"
-    if not top.has("planet"):
-        raise top.error("planet", "missing required key 'planet'", allowed)
-    sec = top.section("planet", required=True, keys=_SECTION_KEYS["planet"])
-    sec.check_keys(_SECTION_KEYS["planet"])
-    if sec.has("Omega"):
-        for other in ("GM", "a"):
-            if sec.has(other):
-                raise sec.error(other, "give either Omega or GM and a, not both",
-                                "Omega [1/s], or GM [m^3/s^2] and a [m]")
-        return Planet(Omega=sec.number("Omega", unit="1/s", gt=0.0), GM=None, a=None)
-    if not (sec.has("GM") or sec.has("a")):
-        raise sec.error("Omega", "missing required key 'Omega'",
-                        "Omega [1/s], or GM [m^3/s^2] and a [m]")
-    gm = sec.number("GM", unit="m^3/s^2", gt=0.0)
-    a = sec.number("a", unit="m", gt=0.0)
-    return Planet(Omega=None, GM=gm, a=a)
-
-
-def _read_size_distribution(particles: Section) -> SizeDistribution:
-    sec = particles.section("size_distribution", required=True,
-                            allowed="a mapping: kind monodisperse {radius}, powerlaw "
-                            "{q, r_min, r_max} or mixture {components}")
-    kind = sec.string("kind", choices=tuple(_SIZE_KINDS))
-    sec.check_keys(("kind",) + _SIZE_KINDS[kind], context=f"kind {kind}")
-    if kind == "monodisperse":
-        return Monodisperse(radius=sec.number("radius", unit="m", gt=0.0))
-    if kind == "powerlaw":
-        q = sec.number("q")
-        r_min = sec.number("r_min", unit="m", gt=0.0)
-        r_max = sec.number("r_max", unit="m", gt=0.0)
-        if r_min > r_max:
-            raise sec.error("r_min", f"r_min = {r_min:g} m is larger than r_max = {r_max:g} m",
-                            "0 < r_min <= r_max")
-        return PowerLaw(q=q, r_min=r_min, r_max=r_max)
-    allowed = "a non-empty list of {radius [m], number_fraction} mappings"
-    components = sec.get("components", REQUIRED, allowed)
-    if not isinstance(components, (list, tuple)) or not components:
-        raise sec.error("components", f"got {show(components)}", allowed)
-    parsed = []
-    for i, item in enumerate(components):
-        if not isinstance(item, Mapping):
-            raise sec.error(f"components.{i}", f"got {show(item)}, not a mapping", allowed)
-        comp = Section(sec.file, sec.key(f"components.{i}"), item)
-        comp.check_keys(("radius", "number_fraction"))
-        parsed.append(MixtureComponent(radius=comp.number("radius", unit="m", gt=0.0),
-                                       number_fraction=comp.number("number_fraction", gt=0.0,
-                                                                   le=1.0)))
-    total = math.fsum(c.number_fraction for c in parsed)
-    if abs(total - 1.0) > FRACTION_SUM_TOLERANCE:
-        raise sec.error("components", f"number fractions sum to {total:.12g}",
-                        f"they must sum to 1 within {FRACTION_SUM_TOLERANCE:g}")
-    return Mixture(components=tuple(parsed))
-
-
-def _read_particles(top: Section) -> Particles:
-    sec = top.section("particles", required=True, keys=_SECTION_KEYS["particles"])
-    sec.check_keys(_SECTION_KEYS["particles"])
-    density = sec.number("density", DEFAULTS["particles.density"], unit="kg/m^3", gt=0.0)
-    if sec.has("inertia_factor") and not top.has("friction"):
-        raise sec.error("inertia_factor", "only used with a friction section",
-                        "add a friction section, or remove the key")
-    inertia_factor = sec.number("inertia_factor", INERTIA_FACTOR.default,
-                                **INERTIA_FACTOR.limits())
-    return Particles(density=density, size_distribution=_read_size_distribution(sec),
-                     inertia_factor=inertia_factor)
-
-
-def _read_sheet(top: Section) -> SheetConfig:
-    sec = top.section("sheet", keys=_SECTION_KEYS["sheet"])
-    sec.check_keys(_SECTION_KEYS["sheet"])
-    d = DEFAULTS
-    grav = read_gravity_keys(sec, d)
-    initial_state = read_initial_state(sec)
-    return SheetConfig(
-        optical_depth=sec.number("optical_depth", d["sheet.optical_depth"], gt=0.0,
-                                 le=MAX_OPTICAL_DEPTH),
-        n_particles=sec.integer("n_particles", d["sheet.n_particles"], ge=2),
-        aspect=sec.number("aspect", d["sheet.aspect"], gt=0.0),
-        initial_dispersion=sec.number("initial_dispersion", d["sheet.initial_dispersion"],
-                                      unit="mean radius x Omega", ge=0.0),
-        z_box=sec.number_or_auto("z_box", d["sheet.z_box"], unit="mean radii", gt=0.0),
-        initial_state=initial_state,
-        **grav,
-    )
-
-
-def _read_restitution(top: Section) -> Restitution:
-    """The law and its parameters, validated against the declaration `RESTITUTION`."""
-    sec = top.section("restitution")
-    model = sec.string("model", RESTITUTION.default, choices=RESTITUTION.names)
-    law = RESTITUTION[model]
-    sec.check_keys(("model",) + law.names, context=f"the {model} model")
-    params = []
-    for par in law.parameters:
-        unit = "" if par.unit == DIMENSIONLESS else par.unit
-        value = sec.number(par.name, REQUIRED if par.required else par.default, unit=unit,
-                           **par.limits())
-        params.append((par.name, value))
-    return Restitution(model=model, parameters=tuple(params))
-
-
-def _read_friction(top: Section) -> Friction | None:
-    """The optional friction section, validated against the declaration `FRICTION`."""
-    if not top.has("friction"):
-        return None
-    sec = top.section("friction")
-    model = sec.string("model", choices=FRICTION.names)
-    law = FRICTION[model]
-    sec.check_keys(("model",) + law.names, context=f"the {model} model")
-    params = tuple((par.name, sec.number(par.name, REQUIRED if par.required else par.default,
-                                         **par.limits())) for par in law.parameters)
-    return Friction(model=model, parameters=params)
-
-
 def _read_integration(top: Section, planet: Planet) -> Integration:
-    sec = top.section("integration", keys=_SECTION_KEYS["integration"])
-    sec.check_keys(_SECTION_KEYS["integration"])
+    """The ``integration`` section; its reader lives here, beside the step check of line
+    detection that asks the C library (`_check_line_dt`)."""
+    sec = top.section("integration", keys=SECTION_KEYS["integration"])
+    sec.check_keys(SECTION_KEYS["integration"])
     d = DEFAULTS
     orbits = sec.number("orbits", d["integration.orbits"], unit="orbits", gt=0.0)
     detection = sec.string("collision_detection", d["integration.collision_detection"],
-                           choices=_COLLISION_DETECTIONS)
+                           choices=COLLISION_DETECTIONS)
     dt = sec.number_or_auto("dt", d["integration.dt"], unit="orbits", gt=0.0,
                             le=MAX_DT_ORBITS)
     # a number unless it is a string (the only one allowed is "auto")
@@ -440,23 +264,6 @@ def _check_line_dt(sec: Section, dt: float, Omega: float) -> None:
                         f"auto, or a step in (0, {largest:.6g}) orbits with line detection")
 
 
-def _read_output(top: Section, name: str) -> Output:
-    sec = top.section("output", keys=_SECTION_KEYS["output"])
-    sec.check_keys(_SECTION_KEYS["output"])
-    d = DEFAULTS
-    snapshot_every = sec.number("snapshot_every", d["output.snapshot_every"], unit="orbits",
-                                gt=0.0)
-    return Output(
-        path=sec.string("path", f"runs/{name}.h5", what="a non-empty file path"),
-        timeseries_every=sec.number("timeseries_every", d["output.timeseries_every"],
-                                    unit="orbits", gt=0.0),
-        snapshot_every=snapshot_every,
-        checkpoint_every=sec.number("checkpoint_every", snapshot_every, unit="orbits",
-                                    gt=0.0),
-        log_collisions=sec.integer("log_collisions", d["output.log_collisions"], ge=0),
-    )
-
-
 def _check_geometry(top: Section, particles: Particles, sheet: SheetConfig,
                     probe: Scenario) -> None:
     """The box must be wider and (if given) taller than the largest particle."""
@@ -487,19 +294,19 @@ def _build(data: Any, source: str, source_text: str | None) -> Scenario:
                             "a YAML mapping with at least the keys name, seed, planet, "
                             "particles")
     top = Section(source, "", data)
-    top.check_keys(_SECTION_KEYS[""])
-    name = _read_name(top)
+    top.check_keys(SECTION_KEYS[""])
+    name = read_name(top)
     seed = top.integer("seed", ge=0, le=MAX_SEED)
     description = top.string("description", DEFAULTS["description"], what="a string",
                              allow_empty=True)
-    planet = _read_planet(top)
-    particles = _read_particles(top)
-    sheet = _read_sheet(top)
-    restitution = _read_restitution(top)
-    friction = _read_friction(top)
+    planet = read_planet(top)
+    particles = read_particles(top)
+    sheet = read_sheet(top)
+    restitution = read_restitution(top)
+    friction = read_friction(top)
     integration = _read_integration(top, planet)
     check_tiled_stop(top, sheet.initial_state, integration.until_equilibrium)
-    output = _read_output(top, name)
+    output = read_output(top, name)
     scenario = Scenario(name=name, seed=seed, description=description, planet=planet,
                         particles=particles, sheet=sheet, restitution=restitution,
                         integration=integration, output=output, friction=friction,
@@ -589,5 +396,3 @@ def with_overrides(sc: Scenario, overrides: Mapping[str, Any]) -> Scenario:
     for dotted, value in overrides.items():
         _set_dotted(given, dotted, value, sc.source)
     return _build(given, sc.source, None)
-
-

@@ -240,7 +240,6 @@ def _range_text(kind: str, unit: str, gt, ge, lt, le) -> str:
     return f"{text} [{unit}]" if unit else text
 
 
-
 def plain(value: Any) -> Any:
     """A deep copy with every mapping a dict and every list/tuple a list."""
     if isinstance(value, Mapping):
@@ -248,7 +247,6 @@ def plain(value: Any) -> Any:
     if isinstance(value, (list, tuple)):
         return [plain(v) for v in value]
     return copy.deepcopy(value)
-
 
 
 def read_text(path: str | PathLike) -> str:

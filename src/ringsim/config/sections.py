@@ -1,8 +1,9 @@
 """The sections of a scenario as frozen dataclasses: planet, particles, sheet, restitution,
 friction, integration, output.
 
-They hold validated values only (SI, durations in orbits); `ringsim.config.scenario` reads
-and checks the YAML into them and assembles the `Scenario`.
+They hold validated values only (SI, durations in orbits); `ringsim.config.scenario_keys`
+(and, for ``integration``, `ringsim.config.scenario`) reads and checks the YAML into them,
+and `ringsim.config.scenario` assembles the `Scenario`.
 """
 
 from __future__ import annotations
@@ -61,7 +62,6 @@ class Planet:
             return {"Omega": self.Omega}
         GM, a = self._gm_and_a()
         return {"GM": GM, "a": a}
-
 
 
 @dataclass(frozen=True)

@@ -1,13 +1,13 @@
 /**
  * @file    rs_gravity.c
- * @brief   The field of the shearing sheet beyond REBOUND's ghost boxes (ringsim, issue 12).
+ * @brief   The field of the shearing sheet beyond REBOUND's ghost boxes (ringsim).
  *
  * | effect     | ghost-box truncation field of a self-gravitating shearing sheet          |
  * |------------|--------------------------------------------------------------------------|
- * | installed  | as REBOUND's additional_forces, by ringsim.engine.gravity.install_ghost_field |
+ * | installed  | as REBOUND's additional_forces, by ringsim.gravity.tree.install_ghost_field |
  * | parameters | none of its own: Omega, G, the box (root_size, N_root_x/y), the ghost-box  |
  * |            | rings N_ghost_x/y, the boundary and t are read from the simulation        |
- * | Python twin| ringsim.engine.gravity.ghost_truncation_field (same formulae, numpy)      |
+ * | Python twin| ringsim.physics.ghost_field.ghost_truncation_field (same formulae, numpy) |
  *
  * Physics.  REBOUND's tree gravity in a shear-periodic box sums the box and its
  * (2 N_ghost_x + 1)(2 N_ghost_y + 1) ghost copies and nothing beyond them, with no
@@ -144,7 +144,7 @@ void rs_ghost_field(struct reb_simulation* const r){
  * averaged layer only.
  *
  * | effect     | vertical field of the plane-parallel layer (the k = 0 mode of self-gravity) |
- * | installed  | as REBOUND's additional_forces, by ringsim.engine.gravity.install_gravity  |
+ * | installed  | as REBOUND's additional_forces, by ringsim.gravity.slab.install            |
  * | parameters | none of its own: G and the box (root_size, N_root_x/y) from the simulation |
  * | Python twin| ringsim.physics.selfgravity.slab_field (same formula, numpy)              |
  *

@@ -1,7 +1,7 @@
 /**
  * @file    rs_p3m.c
  * @brief   Shear-periodic P3M self-gravity: mesh assignment/interpolation and the
- *          short-range pair sum (ringsim, issue 12).
+ *          short-range pair sum (ringsim).
  *
  * | effect     | self-gravity of a shear-periodic sheet, particle-particle particle-mesh  |
  * |------------|--------------------------------------------------------------------------|
@@ -10,7 +10,7 @@
  * |            | (numpy FFT), rs_p3m_interpolate, rs_p3m_short; REBOUND's gravity "none"  |
  * | parameters | struct rs_p3m: split scale r_s [m], cutoff r_c [m], Plummer softening b   |
  * |            | [m], mesh nx x ny, layer spacing dz [m]; G, Omega, box and t from the sim |
- * | Python twin| ringsim.physics.selfgravity.short_range_factor, P3MMesh (numpy)          |
+ * | Python twin| ringsim.physics.selfgravity.long_range_fraction, P3MMesh (numpy)         |
  *
  * Physics.  Force split of Hockney & Eastwood / GADGET-2 (Springel 2005, eq. 21-22): the
  * Newtonian pair force is cut into a long-range part, the force between Gaussian clouds
@@ -46,7 +46,7 @@
 
 #define RS_P3M_TABLE 4096
 
-/* P3M parameters and per-call mesh geometry; mirrored by ringsim.engine.native._P3M. */
+/* P3M parameters and per-call mesh geometry; mirrored by ringsim.engine.native.P3MStruct. */
 struct rs_p3m {
     double split;          /* r_s [m] */
     double cutoff;         /* r_c [m] */
@@ -116,7 +116,7 @@ static int rs_p3m_threads(const struct rs_p3m* p, size_t n){
 
 /* Height span zmax - zmin [m] of the particles (0 for fewer than two), and their number in
  * *count: what the layers must span, from which ringsim.gravity.p3m chooses the split scale
- * of `sheet.p3m_split: auto` (ringsim.physics.selfgravity.p3m_auto_split) before
+ * of `sheet.p3m_split: auto` (ringsim.physics.p3m_scales.p3m_auto_split) before
  * rs_p3m_prepare. */
 double rs_p3m_height_span(const struct reb_simulation* const r, int* count){
     const size_t n = r->N - r->N_var;

@@ -1,7 +1,7 @@
 /**
  * @file    rs_resolver.c
  * @brief   Hard-sphere collision resolver for REBOUND with size-, mass- and
- *          speed-dependent coefficients of restitution (ringsim, issue 3).
+ *          speed-dependent coefficients of restitution (ringsim).
  *
  * Effect          inelastic normal impulse between two colliding spheres
  * Implementation  ringsim developers
@@ -68,7 +68,7 @@
  * log_every     int64_t   all              log every n-th collision          -
  * REBOUND's own field used: minimum_collision_velocity [1/s], see below.
  *
- * Statistics (struct rs_stats, read by ringsim/resolver.py without callbacks)
+ * Statistics (struct rs_stats, read by ringsim/engine/statistics.py without callbacks)
  * -------------------------------------------------------------------------
  * count, n_floored (impulse raised by minimum_collision_velocity), sum of eps and of
  * v [m/s]; histogram of v [m/s] in RS_VN_NBINS log bins from 1e-7 to 1e2 m/s
@@ -136,7 +136,8 @@
  *   components in the rotating frame's axes turn at -Omega (w_z is unchanged): exactly
  *   followed by keeping x, y in the axes the frame had at t = 0 and turning them by
  *   the frame angle Omega t at each collision (t = the contact time) and at each read
- *   (rs_spin_to_rotating).  Omega is REBOUND's OMEGA (0 by default: an inertial box).  No adhesion, no rolling resistance.
+ *   (rs_spin_to_rotating).  Omega is REBOUND's OMEGA (0 by default: an inertial box).
+ *   No adhesion, no rolling resistance.
  * - eps depends on the normal speed only through the laws above; the Dilley law is a
  *   fit to 2.5-20 cm ice spheres at 0.01-5 cm/s and its size/mass scaling is a model.
  * - Returns 0 (keep both particles) always.  If sim->extras does not point to a
@@ -177,7 +178,7 @@ enum RS_MODEL {
 #define RS_BINS_PER_DECADE 10.0
 
 /* A collision deflects a particle (for multi_encounters) when the partner carries at least
- * this share of the pair's mass (also MULTI_ENCOUNTER_MASS_SHARE in ringsim/resolver.py). */
+ * this share of the pair's mass (also MULTI_ENCOUNTER_MASS_SHARE in ringsim/engine/timestep.py). */
 #define RS_DEFLECTING_MASS_SHARE 0.1
 
 /* Round-off floor of the approach test, in units of the summed |velocity components|. */
@@ -203,7 +204,7 @@ int rs_histogram_bins(int which){
 }
 
 /* ---------------------------------------------------------------------------------- */
-/* Restitution laws (the Python twin in ringsim/testing.py calls these through            */
+/* Restitution laws (the Python twin in ringsim/testing/twins.py calls these through     */
 /* rs_epsilon_array; ringsim/physics/restitution.py holds the numpy versions).           */
 
 static double rs_dilley_epsilon(double v, double R_bar, double M_bar,

@@ -4,7 +4,7 @@
  *          shearing-sheet swept-sphere detector (rs_sheet_detect.c).
  *
  * Both files are compiled into one extension, ringsim._resolver.  The structs below are
- * mirrored field by field by ctypes in ringsim/resolver.py, which checks their sizes at
+ * mirrored field by field by ctypes in ringsim/engine/native.py, which checks their sizes at
  * import: change both together.
  */
 #ifndef RS_RESOLVER_H
@@ -14,7 +14,7 @@
 #include <stdint.h>
 #include "rebound.h"
 
-/* Histogram layout (documented in ringsim/resolver.py as well). */
+/* Histogram layout (documented in ringsim/engine/native.py as well). */
 #define RS_VN_NBINS 90          /* log10 v from -7 to 2, 10 bins per decade */
 #define RS_EPS_NBINS 40         /* log10(1 - eps) from -4 to 0, 10 bins per decade */
 

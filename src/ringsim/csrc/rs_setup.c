@@ -18,7 +18,7 @@
  *
  * The grids (`rs_grid`) find overlapping pairs for the initial placement
  * (ringsim.engine.placement) and count the deeply overlapping pairs of every time-series
- * output (`rs_count_overlaps`, ringsim.engine.sheet.count_overlaps: shear-periodic, the
+ * output (`rs_count_overlaps`, ringsim.engine.box.count_overlaps: shear-periodic, the
  * same count as its numpy twin ringsim.testing.count_overlaps_numpy).
  */
 #include <math.h>
@@ -504,8 +504,9 @@ int64_t rs_count_overlaps(int64_t n, const double* x, const double* y, const dou
     double* gx = malloc((size_t)n * sizeof(double));
     double* gy = malloc((size_t)n * sizeof(double));
     if (!class_of || !gx || !gy) { free(class_of); free(gx); free(gy); return -1; }
-    /* classes: radii within a factor 4 (the last class takes any beyond 4^31); the
-     * placement's factor 2 made the count 1.6x slower at N = 1e5, power law 0.5-5 m */
+    /* classes: radii within a factor 4 (the last class takes any beyond 4^31), wider than
+     * the placement's factor 2, which makes the count slower (docs/performance.md,
+     * "Per-output work") */
     int32_t label_top = 0;
     for (int64_t i = 0; i < n; i++) {
         double octaves = r_min > 0.0 ? floor(0.5 * log2(rad[i] / r_min)) : 0.0;

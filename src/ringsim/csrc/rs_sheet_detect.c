@@ -1,7 +1,7 @@
 /**
  * @file    rs_sheet_detect.c
  * @brief   Swept-sphere collision detection for REBOUND shearing sheets, with the contacts of
- *          a step resolved in time order by rs_resolver.c (ringsim, issues 7 and 11).
+ *          a step resolved in time order by rs_resolver.c (ringsim).
  *
  * Effect          finds every pair whose straight relative path over the last time step
  *                 came within the sum of the radii, in a shear-periodic box, and resolves
@@ -15,8 +15,8 @@
  * REBOUND's linetree widens every search by dt times the largest ABSOLUTE speed of any
  * particle.  In a shearing sheet that speed is the shear flow at the box edge, 1.5 Omega
  * Lx / 2, so the search volume grows with the box and the cost per particle-step with N
- * (measured: 1.4 us at N = 1e3, 9.3 us at N = 1e5; docs/performance.md).  Here particles are
- * binned in the shear frame and every search is widened only by the speeds relative to the
+ * (docs/performance.md, "Hot rings: line vs tree").  Here particles are binned in the shear
+ * frame and every search is widened only by the speeds relative to the
  * local shear flow, so the cost per particle-step stays flat in N.  REBOUND resolves the
  * pairs it finds in shuffled order, each on the straight path its particles had at the start
  * of the resolution; here the contacts of a step are resolved in the order they happen and
@@ -107,17 +107,19 @@
  *        |dr_0| <= rho_i + rho_j + 1.5 Omega dt |dx_0| + D_i + D_j
  *    (dr_0, dx_0, rho at the start of the resolution, as in step 1); the re-check tests
  *    this with the current D of both particles, in as many cells around the particle as
- *    (rho_i + D_i + max rho + max D) / (1 - 1.5 Omega dt) needs (at most RS_MAX_SPAN s).  D of a pair grows only when one of its particles collides, and that
- *    particle is then re-checked with the new D: no contact on the piecewise-straight
- *    paths is missed (but see the limits).
+ *    (rho_i + D_i + max rho + max D) / (1 - 1.5 Omega dt) needs (at most RS_MAX_SPAN s).
+ *    D of a pair grows only when one of its particles collides, and that particle is then
+ *    re-checked with the new D: no contact on the piecewise-straight paths is missed (but
+ *    see the limits).
  * 8. Collisions of one pair.  After a collision (eps >= 0) the pair's normal velocity is
  *    >= 0 and, on straight paths, its distance can only grow: it can meet again in the same
  *    step only after a third body has deflected one of the two.  A pair is therefore not
  *    re-checked while the last collision of both its particles is the one between them
- *    (equal serials) and came after the step's kick (Method 1a); once a third body deflected one of them it may collide again (e.g.
- *    re-approaching after the push).  This replaces rs_resolver.c's per-step pair memory,
- *    which allowed one resolution per pair and step, and keeps eps = 0 (grazing) pairs from
- *    resolving again and again.  Chains of contacts in one step, which for small eps can in
+ *    (equal serials) and came after the step's kick (Method 1a); once a third body deflected
+ *    one of them it may collide again (e.g. re-approaching after the push).  This rule
+ *    takes the place of rs_resolver.c's per-step pair memory (one resolution per pair and
+ *    step, REBOUND's searches) and keeps eps = 0 (grazing) pairs from resolving again and
+ *    again.  Chains of contacts in one step, which for small eps can in
  *    principle be infinite (inelastic collapse), are cut: a particle with RS_MAX_CONTACTS
  *    resolved contacts in a step gets no more in that step.
  * No shuffle and no random numbers: sim.rand_seed is not used and does not advance.
@@ -145,8 +147,7 @@
  * - A re-check looks at most RS_MAX_SPAN s away (counted when it would need more, i.e.
  *   when collisions within one step have moved particles off their first paths by several
  *   times the largest reach); contacts beyond are found in the next step, as overlaps or
- *   crossings.  Measured in line-mode rings at 1e-3 orbit: never reached; one re-check in
- *   10 to 20 needs two cells.
+ *   crossings (how often: docs/performance.md, "Hot rings: line vs tree").
  * - A particle has at most RS_MAX_CONTACTS contacts resolved per step; further contacts of
  *   that step are left to the next step (counted).
  * - Pairs touching at the start of the step are resolved then if they approach (with
@@ -169,7 +170,7 @@
 #include <omp.h>
 #endif
 
-/* Error codes of rs_sheet_find_pairs (also in ringsim/resolver.py). */
+/* Error codes of rs_sheet_find_pairs (also in ringsim/engine/native.py, DETECTOR_ERRORS). */
 #define RS_DETECT_OK 0
 #define RS_DETECT_NO_MEMORY 1
 #define RS_DETECT_BAD_BOUNDARY 2

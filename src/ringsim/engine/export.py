@@ -19,8 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ringsim.config.scenario import scenario_from_dict
 from ringsim.engine.initial_file import CSV_COLUMNS, CSV_FIELDS, CSV_SPIN_COLUMNS
+from ringsim.engine.sheet import new_simulation
 from ringsim.errors import InputError
+from ringsim.gravity.registry import scenario_gravity_arguments
 from ringsim.store.bulk import SPIN_FIELDS
 
 
@@ -42,7 +45,8 @@ def export_csv(run, index: int, out: str | Path) -> Path:
              f"# t = {snap['t']!r} s (give it as sheet.initial_state.t); box Lx = "
              f"{a['Lx']!r} m, Ly = {a['Ly']!r} m; Omega = {a['Omega']!r} 1/s; vy includes "
              "the shear flow -1.5 Omega x"]
-    fields, columns = CSV_FIELDS, CSV_COLUMNS
+    fields: tuple[str, ...] = CSV_FIELDS
+    columns: tuple[str, ...] = CSV_COLUMNS
     if all(f in snap for f in SPIN_FIELDS):      # a run with friction: its spins too
         fields, columns = fields + SPIN_FIELDS, columns + CSV_SPIN_COLUMNS
     lines.append(",".join(columns))
@@ -56,9 +60,6 @@ def export_csv(run, index: int, out: str | Path) -> Path:
 
 def continuation_scenario(run, index: int):
     """The run's scenario started from its snapshot ``index`` (``sheet.initial_state``)."""
-    from ringsim.config.initial_state import sheet_dict_with_file  # noqa: F401 (documented)
-    from ringsim.config.scenario import scenario_from_dict
-
     index = _snapshot_index(run, index)
     d = run.scenario.to_dict()
     for key in ("optical_depth", "n_particles", "aspect", "initial_dispersion"):
@@ -74,9 +75,6 @@ def export_rebound(run, index: int, out: str | Path) -> tuple[Path, dict]:
     `gravity.registry.install_gravity`), spins (whether the snapshot has spins that a rough
     continuation needs), with the file's rand_seed, t [s] and orbits of the shear phase;
     `continuation_code` writes them as Python."""
-    from ringsim.engine.sheet import new_simulation
-    from ringsim.gravity.registry import scenario_gravity_arguments
-
     index = _snapshot_index(run, index)
     scenario = continuation_scenario(run, index)
     sim, *_, spins = new_simulation(scenario)

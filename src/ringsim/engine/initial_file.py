@@ -46,6 +46,7 @@ from ringsim.errors import InputError
 from ringsim.physics.constants import SHEAR
 from ringsim.physics.selfgravity import shear_offset
 from ringsim.store.bulk import SPIN_FIELDS
+from ringsim.store.runfile import open_run
 
 #: CSV columns of a particle file, in the order `ringsim export --csv` writes them, and the
 #: particle field of each.
@@ -123,8 +124,8 @@ def tile_sheet(arrays: dict, Lx: float, Ly: float, Omega: float, t: float, n_x: 
     n_x, n_y : int
         Copies radially and azimuthally.
     """
-    i, j = np.meshgrid(np.arange(n_x), np.arange(n_y), indexing="ij")
-    i, j = i.ravel(), j.ravel()
+    i_grid, j_grid = np.meshgrid(np.arange(n_x), np.arange(n_y), indexing="ij")
+    i, j = i_grid.ravel(), j_grid.ravel()
     dx = (i - 0.5 * (n_x - 1)) * Lx
     dy = (j - 0.5 * (n_y - 1)) * Ly - np.array([shear_offset(Omega, d, Ly, t) for d in dx])
     half_y = 0.5 * n_y * Ly
@@ -141,9 +142,15 @@ def _error(scenario, problem: str, key: str = _KEY) -> InputError:
     return InputError(scenario.source, key, problem)
 
 
-def _read_run(scenario, path: Path) -> FileState:
-    from ringsim.store.runfile import open_run
+def _number(scenario, path: Path, attrs: dict, name: str) -> float:
+    """The run file's root attribute ``name`` as a float; InputError if it is no number."""
+    value = attrs.get(name)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise _error(scenario, f"{path}: the attribute {name} is {value!r}, not a number")
+    return float(value)
 
+
+def _read_run(scenario, path: Path) -> FileState:
     try:
         run = open_run(path)
     except (OSError, KeyError) as exc:
@@ -153,14 +160,14 @@ def _read_run(scenario, path: Path) -> FileState:
         raise _error(scenario, f"{path} has {run.n_snapshots} snapshots, no index {index} "
                      f"(-{run.n_snapshots} ... {run.n_snapshots - 1})",
                      "sheet.initial_state.snapshot")
-    Omega = float(run.attrs["Omega"])
+    Omega = _number(scenario, path, run.attrs, "Omega")
     if not math.isclose(Omega, scenario.orbital_frequency, rel_tol=1e-12):
         raise _error(scenario, f"{path} was run at Omega = {Omega:.10g} 1/s, the scenario's "
                      f"planet gives {scenario.orbital_frequency:.10g} 1/s (the velocities "
                      "include the shear flow of the run's Omega)")
     snap = run.snapshot(index)
-    root, nx, ny = float(run.attrs["root_size"]), int(run.attrs["N_root_x"]), \
-        int(run.attrs["N_root_y"])
+    root = _number(scenario, path, run.attrs, "root_size")
+    nx, ny = (int(_number(scenario, path, run.attrs, n)) for n in ("N_root_x", "N_root_y"))
     t = float(snap["t"]) % shear_period(root * nx, root * ny, Omega)
     arrays = {f: np.asarray(snap[f], dtype=float) for f in CSV_FIELDS
               + (SPIN_FIELDS if all(w in snap for w in SPIN_FIELDS) else ())}
@@ -181,7 +188,6 @@ def refuse_copies_alike(scenario) -> None:
     export of such a snapshot is the snapshot itself, so `new_simulation` does not ask (a
     CSV exported from it carries no record of its origin and is not checked)."""
     from ringsim.analysis.tiling import independent_from_orbit
-    from ringsim.store.runfile import open_run
 
     state = scenario.sheet.initial_state
     if state is None or state.kind != "run":
@@ -192,8 +198,11 @@ def refuse_copies_alike(scenario) -> None:
     independent = independent_from_orbit(run, last=index)
     if independent is None or math.isfinite(independent):
         return
+    origin = run.scenario.sheet.initial_state   # a tiled start (independent_from_orbit)
+    if origin is None:
+        return
     orbit = float(run.snapshot(index)["t"]) / run.scenario.orbital_period
-    tile = run.scenario.sheet.initial_state.tile
+    tile = origin.tile
     raise _error(scenario, f"snapshot {state.snapshot} of {path} (orbit {orbit:.4g}) is from "
                  f"a start tiled {tile[0]} x {tile[1]} whose copies are not independent yet "
                  "there (docs/scenario.md, tile): start from a later snapshot, or tile the "

@@ -34,9 +34,9 @@ A run whose state breaks one of them stops (``runner.Runner``) instead of writin
    weighted means drift by at most a few eps V per step and per collision, summed
    worst-case (coherently) over the interval: tolerance = MOMENTUM_ROUNDOFF_FACTOR *
    eps * V * (n_steps + n_collisions + log2 N), the last term for the summation of the
-   means.  Random round-off grows like the square root instead: measured residuals of
-   ordinary runs stay below 1e-3 of this tolerance (docs/run_file.md), while a change of
-   one particle's velocity by dv shows up as m dv / M.
+   means.  Random round-off grows like the square root instead, so the residuals of
+   ordinary runs stay far below this tolerance (docs/run_file.md, "Runtime invariants"),
+   while a change of one particle's velocity by dv shows up as m dv / M.
 
    Self-gravity (Barnes-Hut tree forces) is not pairwise antisymmetric, so the momentum
    invariant is not checked in gravitating runs; 1 and 2 still are.

@@ -27,8 +27,8 @@ PARAMETER_ORDER = {law.name: tuple(p.name for p in sorted(law.parameters, key=la
 
 #: Integer codes of the friction models (RS_FRICTION_*); 0 is no friction (smooth spheres).
 FRICTION_CODES = {"none": 0, **{law.name: law.code for law in FRICTION}}
-#: Statistics fields appended for friction: a checkpoint written before them restores them
-#: as zero.
+#: Statistics fields of friction (after the others in the C struct): a checkpoint that
+#: lacks them restores them as zero.
 FRICTION_STATISTICS = ("tangential_dissipation", "n_sliding", "normal_dissipation")
 
 #: Bin edges of the normal-impact-speed histogram [m/s].
@@ -43,12 +43,6 @@ LOG_DTYPE = np.dtype([("t", "f8"), ("v_n", "f8"), ("R_bar", "f8"), ("M_bar", "f8
 #: (x, y, z [m], vx, vy, vz [m/s]), root cell ri.
 COLLISION_DTYPE = np.dtype([("p1", "u8"), ("p2", "u8"), ("gb", "f8", (6,)), ("ri", "u8")])
 
-# Normal speeds below this many round-off units of the summed |velocity components| are
-# treated as not approaching (as in the C; keeps eps = 0 pairs from resolving twice).
-_ROUNDOFF_SPEED = 64.0 * np.finfo(float).eps
-# REBOUND's collision search modes that report swept-path contacts (line, linetree).
-_SWEPT_PATH_MODES = (rebound.simulation.COLLISIONS["line"],
-                     rebound.simulation.COLLISIONS["linetree"])
 _N_VN_BINS = VN_BIN_EDGES.size - 1
 _N_EPS_BINS = ONE_MINUS_EPSILON_BIN_EDGES.size - 1
 
@@ -122,33 +116,69 @@ def check_simulation_struct_size(compiled_size: int, loaded_size: int) -> None:
             f"(`python setup.py build_ext --inplace`) against the installed REBOUND.")
 
 
+def _declare_resolver(lib: ctypes.CDLL) -> None:
+    """Prototypes of rs_resolver.c: the resolver's life, friction and spins, statistics, the
+    layout checks, and the calls for tests and benchmarks."""
+    size_t = ctypes.c_size_t
+    for name in ("rs_simulation_struct_size", "rs_resolver_struct_size", "rs_log_entry_size"):
+        getattr(lib, name).restype = size_t
+        getattr(lib, name).argtypes = []
+    lib.rs_histogram_bins.restype = ctypes.c_int
+    lib.rs_histogram_bins.argtypes = [ctypes.c_int]
+    lib.rs_resolver_create.restype = ctypes.c_void_p
+    lib.rs_resolver_create.argtypes = [ctypes.c_int32, ctypes.c_double, ctypes.c_double,
+                                       ctypes.c_double, ctypes.c_int64, ctypes.c_int64]
+    lib.rs_resolver_free.restype = None
+    lib.rs_resolver_free.argtypes = [ctypes.c_void_p]
+    lib.rs_resolver_set_friction.restype = ctypes.c_int
+    lib.rs_resolver_set_friction.argtypes = [ctypes.c_void_p, ctypes.c_int32, ctypes.c_double,
+                                             ctypes.c_double, ctypes.c_double, ctypes.c_double]
+    lib.rs_spin_reserve.restype = ctypes.c_int
+    lib.rs_spin_reserve.argtypes = [ctypes.c_void_p, ctypes.c_int64]
+    lib.rs_spin_frame_angle.restype = ctypes.c_double
+    lib.rs_spin_frame_angle.argtypes = [ctypes.c_void_p, ctypes.c_double]
+    for name in ("rs_spins_read", "rs_spins_write"):
+        getattr(lib, name).restype = None if name == "rs_spins_read" else ctypes.c_int
+        getattr(lib, name).argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_int64,
+                                       ctypes.c_void_p]
+    lib.rs_resolver_reset_stats.restype = None
+    lib.rs_resolver_reset_stats.argtypes = [ctypes.c_void_p]
+    double_p = ctypes.POINTER(ctypes.c_double)
+    lib.rs_resolve_batch.restype = ctypes.c_int64
+    lib.rs_resolve_batch.argtypes = [ctypes.c_void_p, ctypes.POINTER(CollisionS),
+                                     ctypes.c_int64]
+    lib.rs_epsilon_array.restype = None
+    lib.rs_epsilon_array.argtypes = [ctypes.c_void_p, ctypes.c_int64, double_p, double_p,
+                                     double_p, double_p]
+
+
 def _declare_setup(lib: ctypes.CDLL) -> None:
     """Prototypes of rs_setup.c: adding particles, the overlap grid, the overlap count."""
     double_p = ctypes.POINTER(ctypes.c_double)
     int64_p = ctypes.POINTER(ctypes.c_int64)
     lib.rs_add_particles.restype = ctypes.c_int64
-    lib.rs_add_particles.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64] \
-        + [double_p] * 8
+    lib.rs_add_particles.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64,
+                                     *[double_p] * 8]
     lib.rs_grid_create.restype = ctypes.c_void_p
     lib.rs_grid_create.argtypes = [ctypes.c_int64, ctypes.c_int32,
-                                   ctypes.POINTER(ctypes.c_int32), double_p] \
-        + [ctypes.c_double] * 5 + [double_p] * 4
+                                   ctypes.POINTER(ctypes.c_int32), double_p,
+                                   *[ctypes.c_double] * 5, *[double_p] * 4]
     lib.rs_grid_free.restype = None
     lib.rs_grid_free.argtypes = [ctypes.c_void_p]
     lib.rs_grid_move.restype = None
-    lib.rs_grid_move.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p] + [double_p] * 3
+    lib.rs_grid_move.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p, *[double_p] * 3]
     lib.rs_grid_overlapping.restype = ctypes.c_int64
     lib.rs_grid_overlapping.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p, int64_p]
     lib.rs_count_overlaps.restype = ctypes.c_int64
-    lib.rs_count_overlaps.argtypes = [ctypes.c_int64] + [double_p] * 4 + [ctypes.c_double] * 4
+    lib.rs_count_overlaps.argtypes = [ctypes.c_int64, *[double_p] * 4, *[ctypes.c_double] * 4]
 
 
 #: OpenMP threads that wait for the next parallel region sleep instead of spinning, unless
 #: the user chose otherwise: the detector's regions are short (one per step) and separated
 #: by serial work (REBOUND's drift and kick, the time-ordered resolution), and spinning
-#: threads took the core from that work on a shared machine (measured 3-5 times slower
-#: with 2 threads on 2 busy cores; docs/performance.md "Scale").  Read by the OpenMP
-#: runtime when the library is loaded, so it is set before.
+#: threads take the core from that work on a shared machine (docs/performance.md,
+#: "OpenMP wait policy").  Read by the OpenMP runtime when the library is loaded, so it is
+#: set before.
 OPENMP_WAIT_POLICY = "passive"
 
 
@@ -193,42 +223,12 @@ def _load_library() -> ctypes.CDLL:
     if missing:
         raise ImportError(f"ringsim._resolver is incomplete (no {', '.join(missing)}); rebuild "
                           "it from all of setup.py's sources (`pip install -e .`)")
-    size_t = ctypes.c_size_t
-    for name in ("rs_simulation_struct_size", "rs_resolver_struct_size", "rs_log_entry_size"):
-        getattr(lib, name).restype = size_t
-        getattr(lib, name).argtypes = []
-    lib.rs_histogram_bins.restype = ctypes.c_int
-    lib.rs_histogram_bins.argtypes = [ctypes.c_int]
-    lib.rs_resolver_create.restype = ctypes.c_void_p
-    lib.rs_resolver_create.argtypes = [ctypes.c_int32, ctypes.c_double, ctypes.c_double,
-                                       ctypes.c_double, ctypes.c_int64, ctypes.c_int64]
-    lib.rs_resolver_free.restype = None
-    lib.rs_resolver_free.argtypes = [ctypes.c_void_p]
-    lib.rs_resolver_set_friction.restype = ctypes.c_int
-    lib.rs_resolver_set_friction.argtypes = [ctypes.c_void_p, ctypes.c_int32, ctypes.c_double,
-                                             ctypes.c_double, ctypes.c_double, ctypes.c_double]
-    lib.rs_spin_reserve.restype = ctypes.c_int
-    lib.rs_spin_reserve.argtypes = [ctypes.c_void_p, ctypes.c_int64]
-    lib.rs_spin_frame_angle.restype = ctypes.c_double
-    lib.rs_spin_frame_angle.argtypes = [ctypes.c_void_p, ctypes.c_double]
-    for name in ("rs_spins_read", "rs_spins_write"):
-        getattr(lib, name).restype = None if name == "rs_spins_read" else ctypes.c_int
-        getattr(lib, name).argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_int64,
-                                       ctypes.c_void_p]
-    lib.rs_resolver_reset_stats.restype = None
-    lib.rs_resolver_reset_stats.argtypes = [ctypes.c_void_p]
-    double_p = ctypes.POINTER(ctypes.c_double)
-    lib.rs_resolve_batch.restype = ctypes.c_int64
-    lib.rs_resolve_batch.argtypes = [ctypes.c_void_p, ctypes.POINTER(CollisionS),
-                                     ctypes.c_int64]
-    lib.rs_epsilon_array.restype = None
-    lib.rs_epsilon_array.argtypes = [ctypes.c_void_p, ctypes.c_int64, double_p, double_p,
-                                     double_p, double_p]
+    _declare_resolver(lib)
     _declare_setup(lib)
     _declare_detector(lib)
 
     librebound = rebound.clibrebound
-    librebound.reb_simulation_struct_size.restype = size_t
+    librebound.reb_simulation_struct_size.restype = ctypes.c_size_t
     check_simulation_struct_size(lib.rs_simulation_struct_size(),
                                  librebound.reb_simulation_struct_size())
     checks = [
@@ -245,7 +245,7 @@ def _load_library() -> ctypes.CDLL:
     for what, in_c, in_python in checks:
         if in_c != in_python:
             raise ImportError(f"ringsim._resolver is out of date: {what} is {in_c} in C but "
-                              f"{in_python} in ringsim/resolver.py; rebuild the extension")
+                              f"{in_python} in ringsim.engine.native; rebuild the extension")
     return lib
 
 
@@ -324,8 +324,6 @@ def _function_address(pointer: Any) -> int | None:
     return ctypes.cast(pointer, ctypes.c_void_p).value
 
 
-
-
 # --- P3M self-gravity (ringsim/csrc/rs_p3m.c) ---------------------------------------------------
 
 #: Nodes of the tabulated long-range pair force (RS_P3M_TABLE in rs_p3m.c).
@@ -387,8 +385,8 @@ def keep_freed_memory() -> bool:
     to 32 MiB come from the heap instead of a fresh mmap each, and the heap's top is not
     given back to the system.  P3M allocates a dozen mesh-sized numpy/scipy.fft temporaries
     per step; with glibc's defaults each large one is new memory whose pages the kernel
-    zeroes on first touch (clear_page: 7 % of the gravitating step at N = 1e5,
-    docs/performance.md).  Addresses do not enter any result.  Returns False where the C
+    zeroes on first touch, a share of the gravitating step worth saving (docs/performance.md,
+    "Self-gravity").  Addresses do not enter any result.  Returns False where the C
     library has no ``mallopt`` (not glibc): nothing changes there."""
     if not _KEPT:
         try:

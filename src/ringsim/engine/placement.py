@@ -9,14 +9,10 @@ factor 2), each particle looking at the cells of a class within its radius plus 
 largest radius; after the first round only around the particles just drawn again, since a
 pair of particles that were not drawn again did not overlap before and still does not (the
 test depends on the two particles' positions alone).  `overlapping_later` is the same test
-in numpy (the Python twin, for tests).
-
-Before issue 16 the search was a kd-tree of all particles within twice the largest radius,
-rebuilt in every round (62 s at N = 1e5, tau = 1.5, against 1.5 s now), and heights were
-measured from the lowest particle; that frame moved from round to round, so the test of a
-pair within rounding (1e-16 relative) of contact could change between rounds.  Heights are
-now used as they are, which changed nothing for the bundled scenarios (compared dataset by
-dataset, ``==``).
+in numpy (the Python twin, for tests).  Heights enter the test as they are (not from a
+frame that moves between rounds), so a pair within rounding of contact is judged alike in
+every round.  The search's cost at scale: docs/performance.md, "Set-up and snapshot I/O at
+scale".
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""ringsim's native collision resolver for REBOUND, and its pure-Python twin.
+"""ringsim's native collision resolver for REBOUND (its pure-Python twin, for tests, is
+``ringsim.testing.PythonReferenceResolver``).
 
 The resolver (``ringsim/csrc/rs_resolver.c``) replaces REBOUND's hard-sphere resolver.
 It applies the normal impulse of a coefficient of restitution eps(v, R_bar, M_bar) of
@@ -31,19 +32,10 @@ REBOUNDx, which uses the same pointer.
 REBOUND does not save function pointers in its binary files: after loading a checkpoint
 call ``handle.reinstall(new_sim)``, which keeps the parameters and the statistics.
 
-Statistics (``ResolverHandle.stats``):
-
-* ``count``, ``n_floored`` (collisions whose impulse ``minimum_collision_velocity``
-  raised), ``mean_epsilon`` and ``mean_vn`` [m/s] (NaN before the first collision);
-* ``histograms``: normal impact speed [m/s] (``v_n``, 90 log bins from 1e-7 to 1e2 m/s)
-  and dissipation 1 - eps (``one_minus_epsilon``, 40 log bins from 1e-4 to 1; eps = 1
-  in the underflow, eps = 0 in the last bin), with under/overflow counts;
-* ``log``: every ``log_every``-th collision (``t`` [s], ``v_n`` [m/s], ``R_bar`` [m],
-  ``M_bar`` [kg], the law's ``epsilon``), the most recent ``log_capacity``, oldest first.
-* ``multi_encounters``: resolved collisions in which one partner had already been
-  deflected earlier in the step (by a partner of at least 10% of that pair's mass,
-  ``MULTI_ENCOUNTER_MASS_SHARE``); over ``count``, how often swept-path detection's
-  straight paths are stretched (``dt: auto`` keeps it near or below 1%).
+Statistics (``ResolverHandle.stats``): the collisions resolved, their mean coefficient of
+restitution and impact speed, histograms of impact speed and dissipation, a sampled log of
+collisions, multiple encounters within a step and collisions outside the law's measured
+ranges; ``engine.statistics`` lists them with their units.
 """
 
 from __future__ import annotations
@@ -58,6 +50,7 @@ import numpy as np
 import rebound
 from rebound.simulation import COLRFF, CollisionS
 
+from ringsim.engine import detector as _detector
 from ringsim.engine import spins as _spins
 from ringsim.engine import statistics as _statistics
 from ringsim.engine.native import (
@@ -68,12 +61,8 @@ from ringsim.engine.native import (
     _SHEET_STEP_ADDRESS,
     COLLISION_DETECTIONS,
     COLLISION_DTYPE,
-    DETECTOR_ERRORS,
-    FRICTION_STATISTICS,
     LOG_DTYPE,
     MODEL_CODES,
-    ONE_MINUS_EPSILON_BIN_EDGES,
-    VN_BIN_EDGES,
     _free_resolver,
     _function_address,
     _Resolver,
@@ -130,7 +119,7 @@ class ResolverHandle:
     friction : mapping or None
         As in the scenario's ``friction`` section, ``{"model": "constant", "beta": 0.0}``
         or ``{"model": "coulomb", "mu": 0.5}`` (``physics.friction.FRICTION``); None:
-        smooth spheres, no spins (the resolver's path of today, bit for bit).
+        smooth spheres, no spins (the resolver's path without friction, bit for bit).
     inertia_factor : float
         k in I = k m R^2, in (0, 2/3] (``physics.friction.INERTIA_FACTOR``).
     log_capacity : int
@@ -157,20 +146,15 @@ class ResolverHandle:
                              f"got {collision_detection!r}")
         model, params = _validated(restitution)
         friction_model, friction_params, k = _spins.checked_friction(friction, inertia_factor)
-        if isinstance(log_capacity, bool) or not isinstance(log_capacity, (int, np.integer)) \
-                or log_capacity < 0:
-            raise ValueError(f"log_capacity: must be an integer >= 0, got {log_capacity!r}")
-        if isinstance(log_every, bool) or not isinstance(log_every, (int, np.integer)) \
-                or log_every < 1:
-            raise ValueError(f"log_every: must be an integer >= 1, got {log_every!r}")
+        log_capacity, log_every = _statistics.checked_log(log_capacity, log_every)
         code, values = _packed(model, params)
-        address = _LIB.rs_resolver_create(code, *values, int(log_capacity), int(log_every))
+        address = _LIB.rs_resolver_create(code, *values, log_capacity, log_every)
         if not address:
             raise MemoryError(f"could not allocate the resolver (log_capacity={log_capacity})")
         self.model = model
         self.parameters = dict(params)
-        self.log_capacity = int(log_capacity)
-        self.log_every = int(log_every)
+        self.log_capacity = log_capacity
+        self.log_every = log_every
         self.collision_detection = collision_detection
         self._address: int | None = address
         self._struct: _Resolver | None = _Resolver.from_address(address)
@@ -311,115 +295,28 @@ class ResolverHandle:
         ``log_written`` (entries ever logged) and ``log_every``.
         """
         s = self._open().stats
-        count = int(s.count)
-        mean_eps = s.sum_epsilon / count if count else math.nan
-        mean_vn = s.sum_vn / count if count else math.nan
-        histograms = {
-            "v_n": {
-                "edges": VN_BIN_EDGES.copy(),
-                "counts": np.ctypeslib.as_array(s.vn_hist).copy(),
-                "underflow": int(s.vn_underflow),
-                "overflow": int(s.vn_overflow),
-                "units": "m/s",
-            },
-            "one_minus_epsilon": {
-                "edges": ONE_MINUS_EPSILON_BIN_EDGES.copy(),
-                "counts": np.ctypeslib.as_array(s.eps_hist).copy(),
-                "underflow": int(s.eps_underflow),
-                "overflow": 0,
-                "units": "1",
-            },
-        }
-        return {
-            "count": count,
-            "n_floored": int(s.n_floored),
-            "mean_epsilon": mean_eps,
-            "mean_vn": mean_vn,
-            "sum_epsilon": float(s.sum_epsilon),
-            "sum_vn": float(s.sum_vn),
-            "histograms": histograms,
-            "log": self._read_log(int(s.log_written)),
-            "log_written": int(s.log_written),
-            "log_every": self.log_every,
-            **{name: getattr(s, name) for name in ("multi_encounters", "outside_speeds",
-                                                   "outside_sizes", *FRICTION_STATISTICS)},
-        }
+        log = _statistics.oldest_first(self._raw_log(), int(s.log_written))
+        return _statistics.summary(s, log, self.log_every)
+
+    # -- the sheet detector (collision_detection="line") --------------------------------
 
     def order_stats(self) -> dict[str, int]:
-        """Counters of the sheet detector's time-ordered resolution since creation.
-
-        Returns
-        -------
-        dict with ``resolved`` (contacts resolved), ``rescheduled`` (of which timed on a
-        path changed earlier in the same step), ``rechecks`` (one per particle and
-        collision), ``wide_rechecks`` (of which wider than the largest pair distance s),
-        ``span_limited`` (of which cut at the largest search span) and ``saturated``
-        (particles that reached the most contacts per step).  All zero before the first
-        search or without the sheet detector.
-        """
-        out = (ctypes.c_int64 * 6)()
-        _LIB.rs_sheet_order_counters(self.address, out)
-        names = ("resolved", "rescheduled", "rechecks", "wide_rechecks", "span_limited",
-                 "saturated")
-        return dict(zip(names, (int(v) for v in out), strict=True))
+        """Counters of the sheet detector's time-ordered resolution since creation
+        (``resolved``, ``rescheduled``, ...: `ringsim.engine.detector.order_counters`)."""
+        return _detector.order_counters(self.address)
 
     def detector_stats(self) -> dict[str, Any]:
-        """Counters of the sheet detector since the handle was created.
-
-        Returns
-        -------
-        dict with ``steps`` (searches run), ``candidates`` (pairs whose straight paths
-        were tested), ``reports`` (pairs passed to the resolver), ``cells`` and
-        ``cell_size`` [m] of the last search's grid, ``error`` (text; "none" if the last
-        search succeeded) and ``half_shell`` (whether the last search looked at each pair
-        of the primary box from one side only, rs_sheet_detect.c Method 3).  All zero
-        before the first search or without ``collision_detection="line"``.
-        """
-        counters = (ctypes.c_int64 * 6)()
-        cell_size = ctypes.c_double()
-        _LIB.rs_sheet_detector_counters(self.address, counters, ctypes.byref(cell_size))
-        return {"steps": int(counters[0]), "candidates": int(counters[1]),
-                "reports": int(counters[2]), "cells": int(counters[3]),
-                "cell_size": float(cell_size.value), "half_shell": bool(counters[5]),
-                "error": DETECTOR_ERRORS.get(int(counters[4]), f"code {int(counters[4])}")}
+        """Counters of the sheet detector's search since creation (``steps``,
+        ``candidates``, ...: `ringsim.engine.detector.search_counters`)."""
+        return _detector.search_counters(self.address)
 
     def detect_pairs(self) -> tuple[np.ndarray, np.ndarray]:
-        """Run the sheet detector's search on the simulation's current state (no resolution).
-
-        For tests: the pairs whose straight paths over the last step (``dt_last_done``,
-        current velocities) came within the sum of their radii.
-
-        Returns
-        -------
-        pairs : int array (n, 2)
-            Particle indices (p1 < p2).
-        offsets : array (n, 6) [m, m, m, m/s, m/s, m/s]
-            Ghost-box offset of p1 (x, y, z, vx, vy, vz), as in ``struct reb_collision``.
-        """
+        """Run the sheet detector's search on the simulation's current state, without
+        resolving: (pairs, ghost-box offsets), for tests
+        (`ringsim.engine.detector.detect_pairs`)."""
         if self._sim is None:
             raise ValueError("the resolver is not installed in a simulation")
-        sim_address = ctypes.addressof(self._sim)
-        capacity = 0
-        while True:
-            pairs = np.zeros((max(capacity, 1), 2), dtype=np.int64)
-            offsets = np.zeros((max(capacity, 1), 6))
-            found = _LIB.rs_sheet_detect_pairs(
-                sim_address, capacity, pairs.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)),
-                offsets.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
-            if found < 0:
-                raise ValueError("sheet detector: " + DETECTOR_ERRORS.get(-found - 1, "error"))
-            if found <= capacity:
-                return pairs[:found].copy(), offsets[:found].copy()
-            capacity = int(found)
-
-    def _read_log(self, written: int) -> np.ndarray:
-        capacity = self.log_capacity
-        if capacity == 0 or written == 0:
-            return np.zeros(0, dtype=LOG_DTYPE)
-        entries = self._raw_log()
-        if written <= capacity:
-            return entries[:written].copy()
-        return np.roll(entries, -(written % capacity)).copy()   # oldest first
+        return _detector.detect_pairs(self._sim)
 
     def reset_stats(self) -> None:
         """Zero all counters, histograms and the log."""
@@ -458,12 +355,7 @@ class ResolverHandle:
 
     def _raw_log(self) -> np.ndarray:
         """The C ring buffer of the log as a writable numpy view (empty without a log)."""
-        if self.log_capacity == 0:
-            return np.zeros(0, dtype=LOG_DTYPE)
-        raw = (ctypes.c_char * (self.log_capacity * LOG_DTYPE.itemsize)).from_address(
-            self._open().log)
-        # numpy's stubs do not list ctypes arrays among frombuffer's buffers
-        return np.frombuffer(raw, dtype=LOG_DTYPE)  # type: ignore[call-overload]
+        return _statistics.log_buffer(self._open().log, self.log_capacity)
 
     def resolve_batch(self, collisions: np.ndarray) -> int:
         """Resolve a list of collisions in the attached simulation with one C call.
@@ -575,7 +467,6 @@ def install_resolver(sim: rebound.Simulation, restitution: Mapping[str, Any],
     return handle.reinstall(sim)
 
 
-
 def constant_epsilon_callback_address() -> int:
     """Address of a C ``coefficient_of_restitution`` returning the constant eps of the
     ringsim resolver installed in the same simulation (1 for other laws).
@@ -585,5 +476,3 @@ def constant_epsilon_callback_address() -> int:
         sim._coefficient_of_restitution = CORFF(constant_epsilon_callback_address())
     """
     return cast(int, _CONSTANT_COR_ADDRESS)   # a loaded function's address is never NULL
-
-

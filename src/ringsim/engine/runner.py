@@ -1,4 +1,5 @@
-"""The run loop: integrate a sheet, write its HDF5 file, keep the guards, resume.
+"""The run loop: integrate a sheet, write its HDF5 file, keep the guards, resume it from
+its checkpoint (``engine.checkpoint``).
 
 Order of work at every time-series output (every ``output.timeseries_every`` orbits):
 
@@ -11,8 +12,9 @@ Order of work at every time-series output (every ``output.timeseries_every`` orb
    half z period; ``dt: auto`` re-chooses the step as the ring heats (a fixed step that
    breaks dt << r/v is reported); deep overlaps are counted;
 3. at every ``snapshot_every`` a snapshot, at every ``checkpoint_every`` a checkpoint
-   (with the resolver's open-interval statistics); rows, guard events, snapshot and
-   checkpoint of an output are one atomic commit (``store.runfile.RunFileWriter``).
+   (``engine.checkpoint``, with the resolver's open-interval statistics); rows, guard
+   events, snapshot and checkpoint of an output are one atomic commit
+   (``store.runfile.RunFileWriter``).
 
 SIGINT/SIGTERM stop the run after the current step with a final checkpoint (status
 ``stopped``; the command line exits 130).  ``run`` holds the file's lock
@@ -30,7 +32,6 @@ import math
 import os
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 from typing import cast
 
@@ -38,35 +39,18 @@ import numpy as np
 
 from ringsim.analysis import snapshot
 from ringsim.engine import box, gravity, invariants, sheet, timestep
-from ringsim.engine.binary import simulation_binary, simulation_from_binary
 from ringsim.engine.blas import one_blas_thread
+from ringsim.engine.checkpoint import LoopState, checkpoint_of, resume
 from ringsim.engine.progress import progress_bar
-from ringsim.engine.resolver import ResolverHandle, install_resolver
+from ringsim.engine.statistics import histogram_edges, with_outer_bins
 from ringsim.engine.stop import StopRequest as _StopRequest
 from ringsim.errors import InputError
-from ringsim.gravity.registry import install_scenario_gravity, raise_pending, set_gravity_threads
+from ringsim.gravity.registry import raise_pending, set_gravity_threads
 from ringsim.physics import friction
 from ringsim.physics.gravity import toomre_q
 from ringsim.store import runfile
 from ringsim.store.background import CommitThread
 from ringsim.store.lock import RunFileLock
-
-
-@dataclass
-class LoopState:
-    """Counters of the run loop (saved with every checkpoint)."""
-
-    rows: int = 0          # time-series rows written
-    snapshots: int = 0     # snapshots written
-    guard_events: int = 0  # guard events written
-    dt_warned: int = 0     # 1 once a fixed-dt violation has been reported
-    overlap_warned: int = 0  # 1 once deep overlaps have been reported
-
-    def as_attributes(self) -> dict:
-        return {"rows": self.rows, "snapshots": self.snapshots,
-                "guard_events": self.guard_events, "dt_warned": self.dt_warned,
-                "overlap_warned": self.overlap_warned}
-
 
 #: Time-series rows are written at most this often [s of wall time] (and at every checkpoint
 #: and at the end), so the HDF5 cost stays small against the integration.
@@ -77,23 +61,6 @@ COMMIT_COST_SHARE = 0.02
 #: With ``integration.until_equilibrium`` the run asks the equilibrium finder whether c and
 #: H are stationary at every this many time-series outputs.
 EQUILIBRIUM_CHECK_EVERY = 10
-
-
-def _histogram_edges() -> dict[str, np.ndarray]:
-    """Edges of the stored histograms: the resolver's bins plus an underflow bin from 0
-    (and for speeds an overflow bin to infinity)."""
-    from ringsim.engine.native import ONE_MINUS_EPSILON_BIN_EDGES, VN_BIN_EDGES
-
-    return {"one_minus_epsilon_histogram": np.concatenate([[0.0], ONE_MINUS_EPSILON_BIN_EDGES]),
-            "impact_speed_histogram": np.concatenate([[0.0], VN_BIN_EDGES, [np.inf]])}
-
-
-def _with_outer_bins(histogram: dict) -> np.ndarray:
-    """Counts with the underflow first (and the overflow last when the edges end below inf)."""
-    counts = [np.array([histogram["underflow"]]), np.asarray(histogram["counts"])]
-    if histogram["units"] == "m/s":
-        counts.append(np.array([histogram["overflow"]]))
-    return np.concatenate(counts).astype(np.int64)
 
 
 def _interval_index(t: float, every: float) -> int:
@@ -143,7 +110,7 @@ class Runner:
         if built is None:
             built = sheet.build_sheet(self.scenario)
         self.sim, self.geometry = built.sim, built.geometry
-        self.handle = cast(ResolverHandle, built.resolver)  # BuiltSheet.resolver: object
+        self.handle = built.resolver
         self._set_threads()
         self.edges = built.size_bin_edges
         self.n_particles = self.sim.N
@@ -158,7 +125,7 @@ class Runner:
             print(f"ringsim: {self.gravity['message']}", file=sys.stderr)
         self.writer.create(scenario_yaml=self.scenario.yaml_text, seed=self.scenario.seed,
                            attributes=attributes, size_bin_edges=self.edges,
-                           histogram_edges=_histogram_edges())
+                           histogram_edges=histogram_edges())
         self._output(first=True)
 
     def _set_threads(self) -> None:
@@ -171,87 +138,25 @@ class Runner:
             set_detector_threads(self.handle.address, threads)
         set_gravity_threads(self.sim, threads)
 
-    def _check_resumable(self, run) -> tuple[float, float]:
-        """Old and new ``integration.orbits``; InputError unless only they (or the thread
-        count, which changes no result) differ."""
-        old, new = run.scenario.to_dict(), self.scenario.to_dict()
-        old_orbits = old["integration"].pop("orbits")
-        new_orbits = new["integration"].pop("orbits")
-        old["integration"].pop("threads", None)
-        new["integration"].pop("threads", None)
-        if old != new:
-            raise InputError(str(self.path), "--resume",
-                             "the scenario differs from the one the run file was made with "
-                             "(only integration.orbits may grow)")
-        if new_orbits < old_orbits:
-            raise InputError(str(self.path), "integration.orbits",
-                             f"{new_orbits:g} is shorter than the run file's {old_orbits:g}")
-        return old_orbits, new_orbits
-
     @one_blas_thread
     def start_resume(self) -> None:
-        run = runfile.open_run(self.path)
-        checkpoint = runfile.read_checkpoint(self.path)
-        if checkpoint is None:
-            raise InputError(str(self.path), "--resume", "the file has no checkpoint to resume")
-        old_orbits, new_orbits = self._check_resumable(run)
-        st = checkpoint.state
-        try:
-            self.state = LoopState(int(st["rows"]), int(st["snapshots"]),
-                                   int(st["guard_events"]), int(st["dt_warned"]),
-                                   int(st["overlap_warned"]))
-            self.geometry = box.SheetGeometry(float(st["root_size"]), int(st["N_root_x"]),
-                                              int(st["N_root_y"]), int(st["N_root_z"]),
-                                              self.Omega)
-            rand_seed = int(st["rand_seed"])
-        except (TypeError, ValueError) as exc:
-            raise runfile.RunFileError(self.path, f"holds an unusable counter ({exc})",
-                                       "/checkpoint") from None
-        if self.state.rows > run.timeseries["t"].size or self.state.snapshots > run.n_snapshots:
-            raise runfile.RunFileError(self.path, "is newer than the time series or the "
-                                       "snapshots it refers to", "/checkpoint")
+        """Set the run up from its file's last checkpoint (``engine.checkpoint.resume``);
+        with a larger ``integration.orbits`` than the file's, the run is extended."""
+        resumed = resume(self.path, self.scenario)
+        self.sim, self.handle, self.geometry = resumed.sim, resumed.handle, resumed.geometry
+        self.state, self.n_particles = resumed.state, resumed.n_particles
+        self.momentum, self.wall_before = resumed.momentum, resumed.wall_before
+        self._set_threads()
         for key, values in self.history.items():
-            values.extend(float(x) for x in run.timeseries[key][:self.state.rows])
-        sim = simulation_from_binary(checkpoint.binary, self.path)
-        self.n_particles = int(st.get("n_particles", sim.N))
-        if sim.N != self.n_particles:
-            raise runfile.RunFileError(self.path, f"holds {sim.N} particles but records "
-                                       f"{self.n_particles}", "/checkpoint")
-        sim.rand_seed = rand_seed
-        self.sim = sim
-        if self.scenario.sheet.gravity:   # REBOUND does not save function pointers
-            install_scenario_gravity(sim, self.scenario)
-            arrays = sheet.particle_arrays(sim)
+            values.extend(float(x) for x in resumed.run.timeseries[key][:self.state.rows])
+        edges = resumed.run.timeseries.get("size_bin_edges")
+        self.edges = None if edges is None else np.asarray(edges)
+        if self.scenario.sheet.gravity:
+            arrays = sheet.particle_arrays(self.sim)
             self.gravity = gravity.scenario_gravity(self.scenario, arrays["radius"],
                                                     arrays["mass"], self.geometry)
-        edges = run.timeseries.get("size_bin_edges")
-        self.edges = None if edges is None else np.asarray(edges)
-        self.handle = install_resolver(
-            sim, self.scenario.restitution_dict(), self.scenario.friction_dict(),
-            self.scenario.particles.inertia_factor,
-            log_capacity=self.scenario.output.log_collisions,
-            collision_detection=self.scenario.integration.collision_detection)
-        self._set_threads()
-        if checkpoint.statistics is not None:
-            try:
-                self.handle.set_stats(checkpoint.statistics)
-            except ValueError as exc:
-                raise runfile.RunFileError(self.path, f"cannot be restored ({exc})",
-                                           f"/{runfile.CHECKPOINT_STATISTICS}") from None
-        if self.handle.friction is not None:
-            try:
-                self.handle.set_spin_state(checkpoint.spins)
-            except ValueError as exc:
-                raise runfile.RunFileError(self.path, f"cannot restore the spins ({exc})",
-                                           f"/{runfile.CHECKPOINT_SPINS}") from None
-        self.momentum = (invariants.SheetMomentum.from_attributes(st)
-                         or invariants.sheet_momentum(sheet.particle_arrays(sim), self.Omega,
-                                                      sim.t))
-        wall = run.attrs.get("wall_time_s", 0.0)
-        if not isinstance(wall, (int, float)):
-            raise runfile.RunFileError(self.path, f"{wall!r} is not a number", "wall_time_s")
-        self.wall_before = float(wall)
         attributes = {"status": "running"}
+        old_orbits, new_orbits = resumed.orbits
         if new_orbits > old_orbits:
             # a longer run of the same scenario: continue it, and let the file say so
             attributes["scenario_yaml"] = self.scenario.yaml_text
@@ -284,9 +189,9 @@ class Runner:
             "multi_encounters": int(stats["multi_encounters"]),
             "law_outside_speeds": int(stats["outside_speeds"]),
             "law_outside_sizes": int(stats["outside_sizes"]),
-            "one_minus_epsilon_histogram": _with_outer_bins(stats["histograms"]
-                                                            ["one_minus_epsilon"]),
-            "impact_speed_histogram": _with_outer_bins(stats["histograms"]["v_n"]),
+            "one_minus_epsilon_histogram": with_outer_bins(stats["histograms"]
+                                                           ["one_minus_epsilon"]),
+            "impact_speed_histogram": with_outer_bins(stats["histograms"]["v_n"]),
             "normal_dissipation": float(stats["normal_dissipation"]),
         }
         if self.handle.friction is not None:     # spins: physics.friction.SPIN_ROW_UNITS
@@ -376,7 +281,6 @@ class Runner:
                                   "step; end-of-step collision detection may miss collisions "
                                   "(use dt: auto or collision_detection: line)")
 
-
     @one_blas_thread
     def _output(self, first: bool = False) -> None:
         arrays = sheet.particle_arrays(self.sim)
@@ -433,18 +337,11 @@ class Runner:
     def checkpoint(self, snapshot=None, attributes: dict | None = None) -> None:
         """Commit the pending rows, events, ``snapshot`` and a checkpoint of the current
         state (REBOUND binary, loop counters, resolver statistics, momentum reference)."""
-        state = self.state.as_attributes()
-        state.update(self.geometry.attributes())
-        state["rand_seed"] = int(self.sim.rand_seed)
-        state["t"] = float(self.sim.t)
-        state["n_particles"] = int(self.n_particles)
-        state.update(self.momentum.as_attributes())
         attributes = dict(attributes or {})
         attributes["wall_time_s"] = self.wall_before + time.perf_counter() - self.wall_start
         self._commit(snapshot=snapshot, attributes=attributes,
-                     checkpoint=runfile.Checkpoint(
-                         simulation_binary(self.sim), state, self.handle.stats_state(),
-                         None if self.handle.friction is None else self.handle.spin_state()))
+                     checkpoint=checkpoint_of(self.sim, self.state, self.geometry,
+                                              self.n_particles, self.momentum, self.handle))
 
     def fail(self, violation: Exception) -> None:
         """Stop a run that broke an invariant: keep the last (good) checkpoint, write the
@@ -593,4 +490,3 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
         print(f"ringsim: stopped at orbit {runner.sim.t / runner.orbit:.3f}; checkpoint "
               f"written to {path}; continue with --resume")
     return path
-

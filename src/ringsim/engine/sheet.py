@@ -23,7 +23,9 @@ import rebound
 from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.box import SheetGeometry, box_geometry, configure_box
 from ringsim.engine.initial_file import read_initial_state, refuse_copies_alike
+from ringsim.engine.native import _LIB
 from ringsim.engine.placement import OverlapGrid, wrap_horizontal
+from ringsim.engine.resolver import ResolverHandle, install_resolver
 from ringsim.engine.timestep import choose_dt
 from ringsim.gravity.registry import (
     install_gravity,
@@ -41,8 +43,9 @@ VERTICAL_GUARD_FRACTION = 0.4
 
 #: Largest volume filling factor at the mid-plane of the initial layer.
 INITIAL_FILLING_FACTOR = 0.1
-#: Rounds of random draws the initial placement may take (192 at tau = 1.5, N = 1e6, radii
-#: 0.5-5 m: the last rounds redraw a few large particles).  More is an error.
+#: Rounds of random draws the initial placement may take, far more than a dense sheet of
+#: 1e6 particles needs (docs/performance.md, "Set-up and snapshot I/O at scale").  More is
+#: an error.
 PLACEMENT_ROUNDS = 2000
 
 
@@ -61,6 +64,7 @@ def minimum_scale_height(radii: np.ndarray, area: float) -> float:
     """
     volume = float(np.sum(4.0 / 3.0 * np.pi * radii**3))
     return volume / (area * math.sqrt(2.0 * math.pi) * INITIAL_FILLING_FACTOR)
+
 
 def initial_state(radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
                   rng: np.random.Generator) -> dict[str, np.ndarray]:
@@ -189,8 +193,6 @@ def add_particles(sim: rebound.Simulation, state: dict[str, np.ndarray], radii: 
     radii : array [m]
     masses : array [kg]
     """
-    from ringsim.engine.native import _LIB
-
     if (sim.gravity == "tree" or sim.collision in ("tree", "linetree")) \
             and not sim.root_size > 0.0:
         raise ValueError("configure the box before adding particles (tree code)")
@@ -219,7 +221,7 @@ class BuiltSheet:
     radii: np.ndarray
     masses: np.ndarray
     size_bin_edges: np.ndarray | None
-    resolver: object
+    resolver: ResolverHandle
 
 
 def particle_arrays(sim: rebound.Simulation) -> dict[str, np.ndarray]:
@@ -243,8 +245,6 @@ def build_sheet(scenario) -> BuiltSheet:
     ``sheet.initial_state`` the particles come from the file instead
     (`ringsim.engine.initial_file`).
     """
-    from ringsim.engine.resolver import install_resolver
-
     sim, geometry, radii, masses, spins = new_simulation(scenario)
     refuse_copies_alike(scenario)
     handle = install_resolver(sim, scenario.restitution_dict(), scenario.friction_dict(),
@@ -311,11 +311,9 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
 
 
 #: Room the automatic box leaves above the expected equilibrium thickness, in units of that
-#: thickness c_eq / Omega: the dilute kinetic estimate can be ~1.4 times low (kappa0: 38
-#: against 51 <r> Omega measured), the smallest particles of a broad size distribution
-#: move ~2 times faster than the mean, and the largest of the ~1e5-1e6 vertical
-#: amplitudes the guard inspects over a long run is ~5 times their Rayleigh scale
-#: (measured: 320 m against H = 41 m in a 2000-particle kappa0 run); 1.4 x 2 x 5 ~ 14.
+#: thickness c_eq / Omega: the product of how low the dilute kinetic estimate can be, how
+#: much faster the smallest particles move than the mean, and how far the largest of a long
+#: run's vertical amplitudes exceeds their Rayleigh scale (docs/scenario.md, ``z_box``).
 EQUILIBRIUM_AMPLITUDES = 16.0
 
 
@@ -330,13 +328,17 @@ def expected_dispersion(scenario, radii: np.ndarray, masses: np.ndarray) -> floa
     radii : array [m]
     masses : array [kg]
     """
-    from ringsim.physics.kinetic import kinetic_dispersion_estimate
+    from ringsim.physics.kinetic import kinetic_dispersion_estimate  # loads scipy.optimize
 
     estimate = kinetic_dispersion_estimate(scenario.restitution_dict(), radii, masses,
                                            scenario.sheet.optical_depth,
                                            scenario.orbital_frequency)
-    return float(estimate["velocity_dispersion"]) if estimate["status"] == "equilibrium" \
-        else 0.0
+    if estimate["status"] != "equilibrium":
+        return 0.0
+    c = estimate["velocity_dispersion"]     # [m/s]: a number whenever there is an equilibrium
+    if not isinstance(c, (int, float)):
+        raise TypeError(f"kinetic_dispersion_estimate: velocity_dispersion {c!r} is no number")
+    return float(c)
 
 
 def initial_z_half_height(sheet_cfg, r_mean: float, dispersion: float, Omega: float,

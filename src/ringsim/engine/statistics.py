@@ -1,23 +1,133 @@
-"""Saving and restoring the C resolver's statistics (``struct rs_stats``) field by field.
+"""The C resolver's collision statistics (``struct rs_stats``): read as numbers, saved and
+restored field by field, and laid out as the run file's histograms.
 
-``ResolverHandle.stats_state``/``set_stats`` use these so a checkpoint restores the
-statistics of the open output interval bit for bit.  The friction fields appended to the
-struct (``native.FRICTION_STATISTICS``) are restored as zero from checkpoints written
-before they existed.
+The resolver accumulates, since its creation or the last reset:
+
+* ``count``, ``n_floored`` (collisions whose impulse ``minimum_collision_velocity``
+  raised), ``mean_epsilon`` and ``mean_vn`` [m/s] (NaN before the first collision);
+* ``histograms``: normal impact speed [m/s] (``v_n``, 90 log bins from 1e-7 to 1e2 m/s)
+  and dissipation 1 - eps (``one_minus_epsilon``, 40 log bins from 1e-4 to 1; eps = 1
+  in the underflow, eps = 0 in the last bin), with under/overflow counts;
+* ``log``: every ``log_every``-th collision (``t`` [s], ``v_n`` [m/s], ``R_bar`` [m],
+  ``M_bar`` [kg], the law's ``epsilon``), the most recent ``log_capacity``, oldest first;
+* ``multi_encounters``: resolved collisions in which one partner had already been
+  deflected earlier in the step (by a partner of at least 10% of that pair's mass,
+  ``MULTI_ENCOUNTER_MASS_SHARE``); over ``count``, how often swept-path detection's
+  straight paths are stretched (``dt: auto`` keeps it near or below 1%);
+* ``outside_speeds``, ``outside_sizes``: collisions outside the speeds and reduced radii
+  the law's parameters were measured over; with friction the dissipation in the
+  tangential and normal directions [J] and the sliding collisions
+  (``native.FRICTION_STATISTICS``).
+
+``ResolverHandle.stats`` reads them with `summary`; ``stats_state``/``set_stats`` save and
+restore them with `saved`, `checked` and `restore`, so that a checkpoint restores the
+statistics of the open output interval bit for bit.  The friction fields are restored as
+zero from a checkpoint that does not hold them.
 """
 
 from __future__ import annotations
 
 import ctypes
+import math
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from ringsim.engine.native import FRICTION_STATISTICS
+from ringsim.engine.native import (
+    FRICTION_STATISTICS,
+    LOG_DTYPE,
+    ONE_MINUS_EPSILON_BIN_EDGES,
+    VN_BIN_EDGES,
+)
 
 #: numpy type of each scalar ctypes type of the statistics struct.
 _NUMPY_TYPES = {ctypes.c_int64: np.int64, ctypes.c_double: np.float64}
+
+
+def summary(stats: ctypes.Structure, log: np.ndarray, log_every: int) -> dict[str, Any]:
+    """The statistics of the struct ``stats`` as numbers, with the sampled ``log`` (oldest
+    first) and its stride ``log_every`` (the dict of ``ResolverHandle.stats``)."""
+    count = int(stats.count)
+    histograms = {
+        "v_n": {
+            "edges": VN_BIN_EDGES.copy(),
+            "counts": np.ctypeslib.as_array(stats.vn_hist).copy(),
+            "underflow": int(stats.vn_underflow),
+            "overflow": int(stats.vn_overflow),
+            "units": "m/s",
+        },
+        "one_minus_epsilon": {
+            "edges": ONE_MINUS_EPSILON_BIN_EDGES.copy(),
+            "counts": np.ctypeslib.as_array(stats.eps_hist).copy(),
+            "underflow": int(stats.eps_underflow),
+            "overflow": 0,
+            "units": "1",
+        },
+    }
+    return {
+        "count": count,
+        "n_floored": int(stats.n_floored),
+        "mean_epsilon": stats.sum_epsilon / count if count else math.nan,
+        "mean_vn": stats.sum_vn / count if count else math.nan,
+        "sum_epsilon": float(stats.sum_epsilon),
+        "sum_vn": float(stats.sum_vn),
+        "histograms": histograms,
+        "log": log,
+        "log_written": int(stats.log_written),
+        "log_every": log_every,
+        **{name: getattr(stats, name) for name in ("multi_encounters", "outside_speeds",
+                                                   "outside_sizes", *FRICTION_STATISTICS)},
+    }
+
+
+def checked_log(log_capacity: Any, log_every: Any) -> tuple[int, int]:
+    """``log_capacity`` (entries kept, >= 0) and ``log_every`` (stride, >= 1) as ints;
+    ValueError naming the argument otherwise."""
+    if isinstance(log_capacity, bool) or not isinstance(log_capacity, (int, np.integer)) \
+            or log_capacity < 0:
+        raise ValueError(f"log_capacity: must be an integer >= 0, got {log_capacity!r}")
+    if isinstance(log_every, bool) or not isinstance(log_every, (int, np.integer)) \
+            or log_every < 1:
+        raise ValueError(f"log_every: must be an integer >= 1, got {log_every!r}")
+    return int(log_capacity), int(log_every)
+
+
+def log_buffer(address: int, capacity: int) -> np.ndarray:
+    """The C ring buffer of ``capacity`` log entries at ``address`` as a writable numpy
+    view of :data:`LOG_DTYPE` (empty without a log)."""
+    if capacity == 0:
+        return np.zeros(0, dtype=LOG_DTYPE)
+    raw = (ctypes.c_char * (capacity * LOG_DTYPE.itemsize)).from_address(address)
+    # numpy's stubs do not list ctypes arrays among frombuffer's buffers
+    return np.frombuffer(raw, dtype=LOG_DTYPE)  # type: ignore[call-overload]
+
+
+def oldest_first(entries: np.ndarray, written: int) -> np.ndarray:
+    """The logged collisions of the ring buffer ``entries``, of which ``written`` were ever
+    logged, oldest first (a copy)."""
+    capacity = entries.size
+    if capacity == 0 or written == 0:
+        return np.zeros(0, dtype=LOG_DTYPE)
+    if written <= capacity:
+        return entries[:written].copy()
+    return np.roll(entries, -(written % capacity)).copy()
+
+
+def histogram_edges() -> dict[str, np.ndarray]:
+    """Edges of the run file's histograms: the resolver's bins plus an underflow bin from
+    0 (and for speeds an overflow bin to infinity)."""
+    return {"one_minus_epsilon_histogram": np.concatenate([[0.0], ONE_MINUS_EPSILON_BIN_EDGES]),
+            "impact_speed_histogram": np.concatenate([[0.0], VN_BIN_EDGES, [np.inf]])}
+
+
+def with_outer_bins(histogram: dict) -> np.ndarray:
+    """Counts of one of `summary`'s histograms as the run file stores them: the underflow
+    first (and the overflow last when the edges end below infinity)."""
+    counts = [np.array([histogram["underflow"]]), np.asarray(histogram["counts"])]
+    if histogram["units"] == "m/s":
+        counts.append(np.array([histogram["overflow"]]))
+    return np.concatenate(counts).astype(np.int64)
 
 
 def _fields(stats: ctypes.Structure) -> list[tuple[str, Any]]:

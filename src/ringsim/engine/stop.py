@@ -16,11 +16,11 @@ class StopRequest:
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.requested = False
         self._previous: dict = {}
 
-    def __enter__(self):
+    def __enter__(self) -> StopRequest:
         for sig in self.SIGNALS:
             try:
                 self._previous[sig] = signal.signal(sig, self._handler)
@@ -28,10 +28,9 @@ class StopRequest:
                 break
         return self
 
-    def _handler(self, signum, frame):
+    def _handler(self, signum: int, frame: object) -> None:
         self.requested = True
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> None:
         for sig, previous in self._previous.items():
             signal.signal(sig, previous)
-        return False

@@ -38,8 +38,8 @@ def auto_dt(arrays: dict[str, np.ndarray], Omega: float, safety: float,
     meets several partners in one step has each contact found and resolved on the path it
     really follows, so neither c/r nor multiple encounters bound its step.  What does is the
     straight-path approximation of the epicycles, an error of order Omega dt: the step is
-    1e-3 orbit.  Measured (docs/validation.md): c and H of a dense cold ring do not change
-    between 1e-3 and 3e-5 orbit.
+    1e-3 orbit, short enough that c and H of a dense cold ring do not depend on it
+    (docs/scenario.md, ``integration.dt``).
 
     Tree detection finds collisions only as overlaps at step ends: dt << r/v.
     The largest relative displacement per step, relative_speed_bound * dt, is kept below
@@ -100,5 +100,3 @@ def dt_violation(arrays: dict[str, np.ndarray], Omega: float, dt: float,
     Values above 1 mean end-of-step detection may miss collisions at this dt.
     """
     return relative_speed_bound(arrays, Omega) * dt / (safety * float(arrays["radius"].min()))
-
-

@@ -84,7 +84,10 @@ def c_field_pointer(name: str):
     if not hasattr(_LIB, name):
         raise ImportError("ringsim._resolver was built without rs_gravity.c; rebuild the "
                           "extension (`python setup.py build_ext --inplace`)")
-    return _POST_TIMESTEP(ctypes.cast(getattr(_LIB, name), ctypes.c_void_p).value)
+    address = ctypes.cast(getattr(_LIB, name), ctypes.c_void_p).value
+    if address is None:    # a function of a loaded library always has an address
+        raise ImportError(f"ringsim._resolver: {name} has no address")
+    return _POST_TIMESTEP(address)
 
 
 def has_c_field(sim: rebound.Simulation, name: str) -> bool:

@@ -142,8 +142,10 @@ class P3MSolver:
         rung keeps its own parameters and mesh, made when first used.
     """
 
-    def __init__(self, Lx, Ly, softening, split, cutoff=None, cell=None, dz=None, G=G_SI,
-                 workers=1, auto=False):
+    def __init__(self, Lx: float, Ly: float, softening: float, split: float,
+                 cutoff: float | None = None, cell: float | None = None,
+                 dz: float | None = None, G: float = G_SI, workers: int = 1,
+                 auto: bool = False) -> None:
         if not HAS_P3M:
             raise ImportError("ringsim._resolver was built without rs_p3m.c; rebuild the "
                               "extension (`python setup.py build_ext --inplace`)")
@@ -157,7 +159,7 @@ class P3MSolver:
         self._rungs: dict[float, tuple[P3MStruct, P3MMesh]] = {}
         self.error: BaseException | None = None
         #: CPU seconds [s] per stage of :meth:`apply` (summed over calls) while it is a
-        #: dict, e.g. ``{}`` set by benchmarks/p3m_production.py; None: not timed
+        #: dict (a benchmark sets ``{}``); None: not timed
         self.profile: dict[str, float] | None = None
         self._use(self.first_split)
         self._callback = _POST_TIMESTEP(self._additional_forces)
@@ -220,7 +222,10 @@ class P3MSolver:
         if self.error is not None:
             return
         try:
-            self.apply(ctypes.cast(sim_pointer, ctypes.c_void_p).value)
+            address = ctypes.cast(sim_pointer, ctypes.c_void_p).value
+            if address is None:
+                raise ValueError("REBOUND called the P3M solver with a NULL simulation")
+            self.apply(address)
         except Exception as exc:  # noqa: BLE001 - ctypes would swallow it; re-raised later
             self.error = exc
 

@@ -1,4 +1,4 @@
-"""Commits made by a writer thread while the run goes on (issue 16).
+"""Commits made by a writer thread while the run goes on.
 
 A commit of a large sheet (compressing and flushing a snapshot of 10^6 particles takes
 seconds) would otherwise stop the integration; REBOUND integrates without Python's GIL, so
@@ -24,7 +24,7 @@ class CommitThread:
         Wall time of the last completed commit.
     """
 
-    def __init__(self):
+    def __init__(self) -> None:
         self._thread: threading.Thread | None = None
         self._error: BaseException | None = None
         self.last_cost = 0.0

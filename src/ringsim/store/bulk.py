@@ -1,4 +1,4 @@
-"""The large items of a run file: snapshots and the checkpoint (issue 16, format 1.2).
+"""The large items of a run file: snapshots and the checkpoint (run-file format 1.2).
 
 Snapshot datasets are chunked (`CHUNK_ELEMENTS`) and compressed with HDF5's own deflate
 (gzip level `GZIP_LEVEL`) after the byte shuffle: every HDF5 reader can read them, and at

@@ -61,7 +61,7 @@ from ringsim.store.lock import writer_of
 #: A reader opens every file of the same MAJOR version (files without the attribute are
 #: "1.0") and refuses a newer major version.
 FORMAT_VERSION = "1.2"
-#: Version assumed for files written before ``format_version`` existed.
+#: Version assumed for a file without the attribute ``format_version``.
 UNVERSIONED = "1.0"
 #: Checkpoint attributes the run loop needs to resume.
 CHECKPOINT_KEYS = ("rows", "snapshots", "guard_events", "dt_warned", "overlap_warned",
@@ -460,7 +460,7 @@ class Run:
     attrs : dict
         Root attributes.
     format_version : str
-        Run-file format (``"1.0"`` for files written before the attribute existed).
+        Run-file format (``"1.0"`` for a file without the attribute).
     scenario : Scenario
         The scenario embedded in the file.
     timeseries : dict of numpy arrays (SI; see ``units``)

@@ -66,7 +66,6 @@ _PARAMETER_UNITS: dict[str, str] = {
 }
 
 
-
 def _parameter_units(key: str) -> str:
     return _PARAMETER_UNITS.get(re.sub(r"\.\d+\.", ".N.", key),
                                 "as in the scenario file (docs/scenario.md)")
