@@ -20,12 +20,17 @@ extensions = [
 ]
 autosummary_generate = True
 autosummary_imported_members = False
-autodoc_default_options = {"members": True, "show-inheritance": True}
+# Each object is documented where it is defined: a name a module re-exports in its
+# ``__all__`` is not documented a second time there.
+autodoc_default_options = {"members": True, "show-inheritance": True, "ignore-module-all": True}
 autodoc_typehints = "description"
 autodoc_member_order = "bysource"
 napoleon_numpy_docstring = True
 napoleon_google_docstring = False
 napoleon_use_rtype = False
+# A class's "Attributes" section as fields of the class, not as a second description of
+# attributes autodoc already documents (dataclass fields).
+napoleon_use_ivar = True
 # Docstrings name units in brackets after the type ("radius : float [m]"): the numpy
 # parameter syntax reads that as a type expression, which is what the reader wants to see.
 napoleon_preprocess_types = False

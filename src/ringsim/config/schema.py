@@ -35,19 +35,19 @@ REQUIRED = object()
 class ScenarioError(InputError):
     """A scenario or sweep file is unreadable or invalid.
 
+    ``str(error)`` is the single line ``"<file>: <key>: <problem> (<allowed>)"``.
+
     Attributes
     ----------
     file : str
         The file (or the ``source`` name given to `scenario_from_text`).
     key : str
-        Dotted key of the offending value (``"particles.size_distribution.r_min"``), or
-        ``"<file>"`` (cannot read the file) or ``"<yaml>"`` (syntax error, not a mapping).
+        Dotted key of the offending value (e.g. ``particles.size_distribution.r_min``),
+        or ``<file>`` (cannot read the file) or ``<yaml>`` (syntax error, not a mapping).
     problem : str
         What is wrong.
     allowed : str
         The allowed range or type.
-
-    ``str(error)`` is the single line ``"<file>: <key>: <problem> (<allowed>)"``.
     """
 
     def __init__(self, file: str, key: str, problem: str, allowed: str):
