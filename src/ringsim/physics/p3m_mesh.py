@@ -33,7 +33,9 @@ def long_range_fraction(r, split):
     eq. 21-22): the long-range potential is the Newtonian one multiplied by exp(-k^2 r_s^2)
     in Fourier space, i.e. the potential of Gaussian clouds, and in real space
     L(r) = erf(u) - (2 u / sqrt(pi)) exp(-u^2), u = r / (2 r_s).  The short-range rest
-    1 - L(r) is summed over pairs in C (``rs_p3m_short``).
+    1 - L(r) = erfc(u) + (2 u / sqrt(pi)) exp(-u^2) is summed over pairs in C
+    (``rs_p3m_short``) within the cutoff r_c; beyond it the rest is left out: at the
+    default r_c = 5 r_s (u = 2.5) it is 1 - L(5 r_s) = 5.85e-3 of the pair force.
 
     Parameters
     ----------
