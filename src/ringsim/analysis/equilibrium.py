@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ringsim import quantities
-from ringsim.analysis import snapshot, spins, tiling, timeseries
+from ringsim.analysis import collisions, spins, tiling, timeseries
 from ringsim.physics import kinetic
 from ringsim.physics.restitution import RESTITUTION
 
@@ -48,7 +48,7 @@ def _scaled(value: dict, scale: float, units: str) -> dict:
 def _interval_rates(ts: dict, n_particles: int, Omega: float, Lx: float, Ly: float,
                     surface_density: float) -> tuple[np.ndarray, np.ndarray]:
     """Collision frequency [1/orbit] and collisional viscosity [m^2/s] of every output
-    interval, from the tested functions of ``analysis.snapshot`` (NaN for row 0, before
+    interval, from the tested functions of ``analysis.collisions`` (NaN for row 0, before
     any collision, and for empty intervals)."""
     t, plog = ts["t"], ts["collisions_plog"]
     frequency = np.full(t.size, np.nan)
@@ -56,10 +56,11 @@ def _interval_rates(ts: dict, n_particles: int, Omega: float, Lx: float, Ly: flo
     for i in range(1, t.size):
         elapsed = float(t[i] - t[i - 1])
         if elapsed > 0:
-            frequency[i] = snapshot.collision_frequency(float(ts["collisions"][i]), n_particles,
-                                                        elapsed, Omega)
-            nu_col[i] = snapshot.collisional_viscosity(float(plog[i] - plog[i - 1]), elapsed,
-                                                       Lx, Ly, surface_density, Omega)
+            frequency[i] = collisions.collision_frequency(float(ts["collisions"][i]),
+                                                          n_particles, elapsed, Omega)
+            nu_col[i] = collisions.collisional_viscosity(float(plog[i] - plog[i - 1]),
+                                                         elapsed, Lx, Ly, surface_density,
+                                                         Omega)
     return frequency, nu_col
 
 

@@ -1,4 +1,19 @@
-"""Time-series statistics: MSER-5 transient, autocorrelation-corrected means, stationarity."""
+"""Time-series statistics: MSER-5 transient, autocorrelation-corrected means, stationarity.
+
+The equilibrium of a series (:func:`stationary_mean`) truncates the start-up transient with
+MSER-5 (White 1997; White, Cobb & Spratt 2000), estimates the standard error of the mean
+with the integrated autocorrelation time and Sokal's automatic window (Madras & Sokal 1988;
+Sokal 1997), and refuses to call a series equilibrated if the kept window still drifts or
+holds fewer than ``min_effective_samples`` independent samples.  Plain numpy arrays in any
+unit; nothing here knows what the series means.
+
+References
+----------
+Madras, N. & Sokal, A. D. 1988, J. Stat. Phys. 50, 109.
+Sokal, A. D. 1997, in Functional Integration, NATO ASI Series B 361, 131 (Plenum).
+White, K. P. 1997, Simulation 69, 323 (MSER truncation heuristic).
+White, K. P., Cobb, M. J. & Spratt, S. C. 2000, Proc. Winter Simulation Conf., 755 (MSER-5).
+"""
 
 from __future__ import annotations
 
@@ -279,7 +294,3 @@ def stationary_mean(series_t: ArrayLike, series_values: ArrayLike, *,
                              start_time=float(t[start]), n_effective=float(n_eff),
                              in_equilibrium=ok, reason=reason, autocorrelation_time=tau,
                              slope=slope, slope_stderr=slope_err, relative_drift=drift)
-
-
-# --- dilute-ring kinetic theory (Goldreich & Tremaine 1978) -----------------------------------
-

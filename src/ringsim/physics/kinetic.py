@@ -1,4 +1,16 @@
-"""Dilute-ring kinetic theory (Goldreich & Tremaine 1978) and the kinetic dispersion estimate."""
+"""Dilute-ring kinetic theory (Goldreich & Tremaine 1978) and the kinetic dispersion estimate.
+
+The critical coefficient of restitution eps_cr(tau) comes from GT78's model, a triaxial
+Gaussian velocity distribution of identical smooth spheres (:func:`gt78_steady_state`), which
+reproduces their eps_cr -> 0.627 for tau -> 0.  The dilute-ring estimate of the velocity
+dispersion (:func:`kinetic_dispersion_estimate`) balances viscous heating against
+collisional dissipation: the ring is in thermal balance where the impact-averaged eps of the
+scenario's law equals eps_cr(tau).
+
+References
+----------
+Goldreich, P. & Tremaine, S. 1978, Icarus 34, 227 ("The velocity dispersion in Saturn's rings").
+"""
 
 from __future__ import annotations
 
