@@ -252,8 +252,13 @@ class Law:
         return tuple(slots)
 
     def evaluate(self, values: Mapping[str, float], v: Any, R_bar: Any, M_bar: Any) -> Any:
-        """The numpy function with these parameter values."""
+        """The numpy function with these parameter values at speeds v [m/s] and, for a law
+        with ``uses_pair``, the pair's R_bar [m] and M_bar [kg] (ValueError if None; the
+        other laws ignore them)."""
         if self.uses_pair:
+            if R_bar is None or M_bar is None:
+                raise ValueError(f"the {self.name} law needs the reduced radius and mass of "
+                                 "the pair")
             return self.function(v, R_bar, M_bar, **values)
         return self.function(v, **values)
 
