@@ -340,9 +340,11 @@ def kinetic_estimate(restitution: dict, radius: np.ndarray, mass: np.ndarray,
     Omega : float [1/s]
     """
     est = kinetic.kinetic_dispersion_estimate(restitution, radius, mass, optical_depth, Omega)
-    out = {key: (float(est[key]) if isinstance(est[key], (float, np.floating)) else est[key])
-           for key in ("status", "reason", "representative", "velocity_dispersion",
-                       "velocity_dispersion_rOmega", "epsilon_critical", "effective_epsilon")}
+    out: dict[str, object] = {}
+    for key in ("status", "reason", "representative", "velocity_dispersion",
+                "velocity_dispersion_rOmega", "epsilon_critical", "effective_epsilon"):
+        value = est[key]        # numpy floats become Python floats for the JSON
+        out[key] = float(value) if isinstance(value, float | np.floating) else value
     out["units"] = quantities.units(("velocity_dispersion", "velocity_dispersion_rOmega"))
     return out
 
