@@ -16,6 +16,7 @@ import numpy as np
 
 from ringsim import quantities
 from ringsim.analysis import collisions, spins, tiling, timeseries
+from ringsim.analysis.gravitating import gravity_equilibrium, gravity_table_lines
 from ringsim.physics import kinetic
 from ringsim.physics.restitution import RESTITUTION
 
@@ -190,8 +191,6 @@ def equilibrium(run) -> dict:
     if out["spin"]:
         out["rotational_energy_fraction"] = out["spin"]["rotational_energy_fraction"]
     if sc.sheet.gravity:
-        from ringsim.analysis.gravitating import gravity_equilibrium
-
         out.update(gravity_equilibrium(run, start, out))
     if independent is not None:
         out["tiled_copies_independent_from_orbit"] = _value(
@@ -393,8 +392,6 @@ def equilibrium_table(eq: dict) -> str:
     for key in TABLE_ROWS:
         q = quantities.QUANTITY[key]
         lines.append(f"  {q.table_label:<42} {_fmt(eq[key], q.scale)}")
-    from ringsim.analysis.gravitating import gravity_table_lines
-
     lines += gravity_table_lines(eq)
     k = eq["kinetic_estimate"]
     if k["status"] == "equilibrium":

@@ -48,8 +48,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from ringsim.analysis.fit_data import RestitutionData, read_data
+from ringsim.config.scenario import scenario_from_dict
+from ringsim.config.schema import ScenarioError
 from ringsim.errors import InputError
 from ringsim.physics import restitution as rs
 from ringsim.physics.laws import Parameter
@@ -407,8 +410,6 @@ def _values(result: dict) -> dict[str, float]:
 
 def restitution_yaml(result: dict) -> str:
     """A scenario's ``restitution:`` section (YAML text) with a fit's parameters (SI)."""
-    import yaml
-
     section = {"model": result["model"], **_values(result)}
     header = (f"# Restitution law fitted by `ringsim fit` to {result['data']}: model "
               f"{result['model']}, AIC {result['aic']:.6g}, reduced chi2 "
@@ -419,11 +420,6 @@ def restitution_yaml(result: dict) -> str:
 
 def _check_restitution_yaml(text: str, path: str) -> None:
     """The section must be accepted by a scenario (its validation is the scenario's)."""
-    import yaml
-
-    from ringsim.config.scenario import scenario_from_dict
-    from ringsim.config.schema import ScenarioError
-
     probe = {"name": "fit-check", "seed": 0, "planet": {"Omega": 2.0e-4},
              "particles": {"size_distribution": {"kind": "monodisperse", "radius": 1.0}},
              "restitution": yaml.safe_load(text)["restitution"]}

@@ -342,8 +342,8 @@ def _from_rotating(w: list[float], cos: float, sin: float) -> list[float]:
     return [cos * w[0] - sin * w[1], cos * w[1] + sin * w[0], w[2]]
 
 
-#: Particles searched at once by `count_overlaps_numpy`: bounds its transient memory (150
-#: bytes per particle at N = 3e5 against 940 when all were searched at once).
+#: Particles searched at once by `count_overlaps_numpy`: bounds its transient memory (about 150
+#: bytes per particle at N = 3e5, 940 if all were searched at once).
 OVERLAP_CHUNK = 1 << 13
 
 
