@@ -1,17 +1,16 @@
 """Collisions and momentum transport of a ring patch: collision frequency, translational
 and collisional viscosity, the coefficients of restitution applied.
 
-================  ========================================================  =======
-quantity          definition                                                unit
-================  ========================================================  =======
-collision         impacts per particle per orbit, 2 N_coll / N / orbits     1/orbit
-frequency
-nu_trans          (2 / (3 Omega)) W_xy, W the mass-weighted dispersion      m^2/s
-                  tensor of ``analysis.snapshot``: the stress carried by
-                  the particles' random motions between collisions
-nu_col            2 plog / (3 Omega Sigma Lx Ly dt): the stress carried     m^2/s
-                  across the pair's separation in the collisions
-================  ========================================================  =======
+===================  ======================================================  =======
+quantity             definition                                              unit
+===================  ======================================================  =======
+collision frequency  impacts per particle per orbit, 2 N_coll / N / orbits   1/orbit
+nu_trans             (2 / (3 Omega)) W_xy, W the mass-weighted dispersion    m^2/s
+                     tensor of ``analysis.snapshot``: the stress carried by
+                     the particles' random motions between collisions
+nu_col               2 plog / (3 Omega Sigma Lx Ly dt): the stress carried   m^2/s
+                     across the pair's separation in the collisions
+===================  ======================================================  =======
 
 The gravitational viscosity, the stress of the wakes' field, is ``analysis.wakes``.  SI in,
 SI out; nothing here touches REBOUND or HDF5.

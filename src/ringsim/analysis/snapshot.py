@@ -7,23 +7,23 @@ REBOUND's shearing-sheet frame -- x radial, y azimuthal, z vertical, Keplerian s
 touches REBOUND or HDF5.  :func:`snapshot_summary` gathers every diagnostic of one output
 (one time-series row of a run).
 
-==========================  =====================================================  ===========
-quantity                    definition                                             unit
-==========================  =====================================================  ===========
-peculiar velocity w         (vx, vy + 1.5 Omega x, vz), velocity relative to the   m/s
-                            Keplerian shear flow
-dispersion tensor W_ij      <(w_i - <w_i>)(w_j - <w_j>)>, number- or mass-weighted m^2/s^2
-sigma_xx, _yy, _zz, _xy     components W_xx, W_yy, W_zz, W_xy of that tensor:      m^2/s^2
-                            all four are second moments (variances and the
-                            covariance), NOT rms speeds
-velocity_dispersion c       sqrt(trace W / 3), the 1-D rms speed                   m/s
-velocity_dispersion_x/y/z   sqrt(W_xx), sqrt(W_yy), sqrt(W_zz), rms speeds         m/s
-thickness                   sqrt(<(z - <z>)^2>), rms height about the mean plane   m
-optical_depth tau           dynamical optical depth sum(pi r^2) / (Lx Ly)          1
-filling_factor              volume fraction of particles inside the slab           1
-                            |z - <z>| < h, exact sphere-slab intersections
-nu_trans                    (2 / (3 Omega)) W_xy (mass-weighted)                   m^2/s
-==========================  =====================================================  ===========
+=========================  ======================================================  =======
+quantity                   definition                                              unit
+=========================  ======================================================  =======
+peculiar velocity w        (vx, vy + 1.5 Omega x, vz), velocity relative to the    m/s
+                           Keplerian shear flow
+dispersion tensor W_ij     <(w_i - <w_i>)(w_j - <w_j>)>, number- or mass-weighted  m^2/s^2
+sigma_xx, _yy, _zz, _xy    components W_xx, W_yy, W_zz, W_xy of that tensor:       m^2/s^2
+                           all four are second moments (variances and the
+                           covariance), NOT rms speeds
+velocity_dispersion c      sqrt(trace W / 3), the 1-D rms speed                    m/s
+velocity_dispersion_x/y/z  sqrt(W_xx), sqrt(W_yy), sqrt(W_zz), rms speeds          m/s
+thickness                  sqrt(<(z - <z>)^2>), rms height about the mean plane    m
+optical_depth tau          dynamical optical depth sum(pi r^2) / (Lx Ly)           1
+filling_factor             volume fraction of particles inside the slab            1
+                           |z - <z>| < h, exact sphere-slab intersections
+nu_trans                   (2 / (3 Omega)) W_xy (mass-weighted)                    m^2/s
+=========================  ======================================================  =======
 
 The collision frequency, the viscosities (nu_trans of a snapshot as a function, nu_col)
 and the statistics of the applied coefficients of restitution are

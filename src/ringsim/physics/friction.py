@@ -36,7 +36,7 @@ Conventions (declared here once)
 Collision rule
 --------------
 The impulse ``J`` acts on particle 1 at the contact point (``-J`` on 2).  In units of the
-reduced mass M_bar = m1 m2/(m1 + m2), ``j = J / M_bar`` is a velocity:
+reduced mass M_bar = m1 m2/(m1 + m2), ``j = J / M_bar`` is a velocity::
 
     normal       j_n = (1 + eps_n) v_n n                  g_n' = -eps_n g_n
     tangential   j_t = -(1 + beta) f_t g_t                g_t' = -beta g_t

@@ -157,7 +157,12 @@ def radial_images(x: np.ndarray, y: np.ndarray, z: np.ndarray, Lx: float, shift:
         Azimuthal offset of the radial neighbour boxes (1.5 Omega Lx t).
     reach : float [m]
 
-    Returns ``index`` (the original particle of each point) and the points' ``x, y, z`` [m].
+    Returns
+    -------
+    index : array of int
+        The original particle of each point.
+    x, y, z : arrays [m]
+        The points' positions.
     """
     near_high = np.flatnonzero(x > 0.5 * Lx - reach)
     near_low = np.flatnonzero(x < -0.5 * Lx + reach)
