@@ -13,7 +13,7 @@ import pytest
 from scipy import special
 from scipy.signal import lfilter
 
-from ringsim.analysis import snapshot, timeseries
+from ringsim.analysis import collisions, snapshot, timeseries
 from ringsim.physics import kinetic
 
 OMEGA = 2.0e-4  # [1/s]
@@ -101,7 +101,7 @@ def test_translational_viscosity_from_known_tensor():
     rng = np.random.default_rng(5)
     n = 100_000
     s = sheared_snapshot(rng, n, W_TRUE)
-    nu = snapshot.translational_viscosity(s["x"], s["vx"], s["vy"], OMEGA, mass=s["mass"])
+    nu = collisions.translational_viscosity(s["x"], s["vx"], s["vy"], OMEGA, mass=s["mass"])
     se = math.sqrt((W_TRUE[0, 0] * W_TRUE[1, 1] + W_TRUE[0, 1] ** 2) / n) * 2 / (3 * OMEGA)
     assert abs(nu - 2 * W_TRUE[0, 1] / (3 * OMEGA)) < 5 * se
 
@@ -110,10 +110,10 @@ def test_collisional_viscosity_matches_rebound_formula():
     """REBOUND's shearing_sheet_diagnostics: nu_col = 2/3/Omega/M_total/t * plog."""
     sigma, t, plog = 400.0, 1.0e5, 3.2e7  # [kg/m^2], [s], [kg m^2/s]
     M_total = sigma * LX * LY
-    nu = snapshot.collisional_viscosity(plog, t, LX, LY, sigma, OMEGA)
+    nu = collisions.collisional_viscosity(plog, t, LX, LY, sigma, OMEGA)
     assert nu == pytest.approx(2.0 / 3.0 / OMEGA / M_total / t * plog, rel=1e-14)
     with pytest.raises(ValueError):
-        snapshot.collisional_viscosity(plog, 0.0, LX, LY, sigma, OMEGA)
+        collisions.collisional_viscosity(plog, 0.0, LX, LY, sigma, OMEGA)
 
 
 # --- vertical structure, optical depth, filling factor ----------------------------------------
@@ -241,21 +241,22 @@ def test_bad_input_raises():
 def test_collision_frequency_per_particle_per_orbit():
     """500 collisions of 100 particles in 2 orbits: 2 * 500 / 100 / 2 = 5 impacts per orbit."""
     orbit = 2 * np.pi / OMEGA
-    assert snapshot.collision_frequency(500, 100, 2 * orbit, OMEGA) == pytest.approx(5.0, rel=1e-14)
+    assert collisions.collision_frequency(500, 100, 2 * orbit, OMEGA) == pytest.approx(
+        5.0, rel=1e-14)
 
 
 def test_epsilon_statistics():
     eps = np.array([0.1, 0.5, 0.5, 0.9])
     v = np.array([1.0, 2.0, 2.0, 0.0])
-    st = snapshot.epsilon_statistics(eps, bins=10, normal_speed=v)
+    st = collisions.epsilon_statistics(eps, bins=10, normal_speed=v)
     assert st["count"] == 4 and st["mean_epsilon"] == pytest.approx(0.5)
     assert st["histogram"].sum() == 4 and st["histogram"][5] == 2 and st["histogram"][9] == 1
     # energy-weighted: sqrt((0.01 * 1 + 0.25 * 4 * 2) / 9)
     assert st["effective_epsilon"] == pytest.approx(math.sqrt((0.01 + 2.0) / 9.0), rel=1e-14)
-    empty = snapshot.epsilon_statistics([])
+    empty = collisions.epsilon_statistics([])
     assert empty["count"] == 0 and math.isnan(empty["mean_epsilon"])
     with pytest.raises(ValueError):
-        snapshot.epsilon_statistics([1.2])
+        collisions.epsilon_statistics([1.2])
 
 
 # --- equilibrium finder -----------------------------------------------------------------------

@@ -34,6 +34,7 @@ from rebound.vectors import Vec6d
 from ringsim.engine.resolver import install_resolver
 from ringsim.physics import friction as fr
 from ringsim.physics import restitution as rs
+from ringsim.physics import spin_temperature
 from validation.cooling import cool_rough_gas
 
 DENSITY = 900.0                     # [kg/m^3]
@@ -329,7 +330,7 @@ def test_collisional_spin_ratio_is_the_published_ring_formula():
     """Morishima & Salo (2004): E_rot/E_kin = 2 (1 - e_t) / (14 - 5 (1 - e_t)), e_t = -beta."""
     for beta in (-1.0, -0.5, 0.0, 0.5, 1.0):
         e_t = -beta
-        assert fr.collisional_spin_ratio(beta) == pytest.approx(
+        assert spin_temperature.collisional_spin_ratio(beta) == pytest.approx(
             2.0 * (1.0 - e_t) / (14.0 - 5.0 * (1.0 - e_t)), rel=1e-14)
 
 
@@ -353,7 +354,7 @@ def test_cooling_coefficients_are_the_average_of_the_collision_rule(eps_n, beta)
     """
     rng = np.random.default_rng(7)
     k = fr.SOLID_SPHERE_INERTIA
-    A, B, C = fr.hcs_coefficients(eps_n, beta, k)
+    A, B, C = spin_temperature.hcs_coefficients(eps_n, beta, k)
     n = 400_000
     v1, v2 = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
     normal = rng.normal(size=(n, 3))
@@ -383,12 +384,12 @@ def test_cooling_coefficients_are_the_average_of_the_collision_rule(eps_n, beta)
 
 
 def test_hcs_ratio_limits():
-    assert fr.hcs_temperature_ratio(1.0, 1.0) == pytest.approx(1.0, rel=1e-14)
-    A, B, C = fr.hcs_coefficients(0.9, 0.0)
-    R = fr.hcs_temperature_ratio(0.9, 0.0)
+    assert spin_temperature.hcs_temperature_ratio(1.0, 1.0) == pytest.approx(1.0, rel=1e-14)
+    A, B, C = spin_temperature.hcs_coefficients(0.9, 0.0)
+    R = spin_temperature.hcs_temperature_ratio(0.9, 0.0)
     assert B - C * R == pytest.approx(R * (B * R - A), rel=1e-12)
     with pytest.raises(ValueError, match="beta"):
-        fr.hcs_temperature_ratio(0.9, -1.0)
+        spin_temperature.hcs_temperature_ratio(0.9, -1.0)
 
 
 #: How far the measured T_rot/T_tr may sit from the closed form beyond its statistical
@@ -420,7 +421,7 @@ def test_homogeneous_cooling_ratio_reaches_closed_form():
     autocorrelation time (1-2% each here: the ratio decorrelates over 2-5 collisions per
     particle).  About 12 s.
     """
-    target = fr.hcs_temperature_ratio(0.9, 0.5)
+    target = spin_temperature.hcs_temperature_ratio(0.9, 0.5)
     for start, seed in ((0.0, 1), (3.0, 2)):
         run = cool_rough_gas(300, 0.01, 0.9, {"model": "constant", "beta": 0.5}, start,
                              40.0, seed=seed)
@@ -445,8 +446,8 @@ def test_homogeneous_cooling_ratio_long(eps_n, beta):
     what is left of the start is below 1%) and runs over 80 collisions per particle.
     Tolerance as in the default test (standard errors 0.3-1%); none beyond the
     statistical one for the exact eps_n = 1, beta = 1."""
-    target = fr.hcs_temperature_ratio(eps_n, beta)
-    settle = max(20.0, 5.0 * fr.hcs_relaxation_collisions(eps_n, beta))
+    target = spin_temperature.hcs_temperature_ratio(eps_n, beta)
+    settle = max(20.0, 5.0 * spin_temperature.hcs_relaxation_collisions(eps_n, beta))
     run = cool_rough_gas(1000, 0.01, eps_n, {"model": "constant", "beta": beta}, 0.0,
                          settle + 80.0, seed=11)
     allowance = 0.0 if (eps_n, beta) == (1.0, 1.0) else CLOSURE_ALLOWANCE

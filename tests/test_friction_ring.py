@@ -3,7 +3,7 @@
 ``validation.friction_ring``: identical 1 m ice spheres, tau = 0.1, Dilley eps_n at
 kappa = 0, constant beta = 0, line detection, run until stationary (slow: about a CPU-minute).
 E_rot/E_tr over the stationary window is asserted against
-``physics.friction.collisional_spin_ratio(0) = 2/9`` (Morishima & Salo 2004's optically
+``physics.spin_temperature.collisional_spin_ratio(0) = 2/9`` (Morishima & Salo 2004's optically
 thin prediction) within TOLERANCE, and the energy budget against 1.
 """
 
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pytest
 
-from ringsim.physics import friction as fr
+from ringsim.physics import spin_temperature
 from validation import friction_ring
 
 #: |E_rot/E_tr / closed form - 1| allowed: the offset measured in docs/validation.md
@@ -25,7 +25,7 @@ OFFSET = 0.10
 def test_ring_patch_rotational_energy_fraction_against_the_closed_form(tmp_path):
     row = friction_ring.ring_case("beta0", friction_ring.CASES["beta0"], tmp_path)
     assert row["in_equilibrium"], row["reason"]
-    closed = fr.collisional_spin_ratio(0.0)
+    closed = spin_temperature.collisional_spin_ratio(0.0)
     assert closed == pytest.approx(2.0 / 9.0, rel=1e-15)
     ratio = row["ratio"]
     assert abs(ratio["mean"] - closed) <= OFFSET * closed + 3.0 * ratio["stderr"], ratio

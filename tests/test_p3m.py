@@ -1,4 +1,4 @@
-"""The P3M self-gravity solver (gravity/p3m.py, csrc/rs_p3m.c, physics/selfgravity.P3MMesh):
+"""The P3M self-gravity solver (gravity/p3m.py, csrc/rs_p3m.c, physics/p3m_mesh.P3MMesh):
 the pair term against its formula, forces against the converged direct image sum, and the
 momentum and energy budgets of a gravitating sheet without collisions, for each solver."""
 
@@ -14,6 +14,7 @@ from ringsim import testing
 from ringsim.engine import box, invariants, sheet
 from ringsim.engine.native import _LIB, keep_freed_memory
 from ringsim.gravity import p3m
+from ringsim.physics import p3m_mesh
 from ringsim.physics import p3m_scales as scales
 from ringsim.physics import selfgravity as sg
 from ringsim.physics.constants import G_SI
@@ -51,7 +52,7 @@ def test_pair_term_is_plummer_minus_the_mesh_part():
         address = ctypes.addressof(two)
         _LIB.rs_p3m_prepare(address, ctypes.byref(solver.params))
         _LIB.rs_p3m_short(address, ctypes.byref(solver.params))
-        long_part = sg.long_range_fraction(r, rs) / r**3
+        long_part = p3m_mesh.long_range_fraction(r, rs) / r**3
         pair = (r * r + b * b) ** -1.5 - long_part
         expected = -G_SI * 2.0e4 * pair * np.array([-0.6, -0.8]) * r
         got = np.array([two.particles[0].ax, two.particles[0].ay])
@@ -105,7 +106,7 @@ def test_pairs_just_inside_the_cutoff_are_summed_in_one_column():
     near = (r > 0.0) & (r < rc)
     assert near.sum() == 2 * 5 and np.any(near & (r > 14.8)) and np.any((r > rc) & (r < 15.3))
     with np.errstate(divide="ignore", invalid="ignore"):
-        long_part = np.where(near, sg.long_range_fraction(np.where(near, r, 1.0), rs)
+        long_part = np.where(near, p3m_mesh.long_range_fraction(np.where(near, r, 1.0), rs)
                              / np.where(near, r, 1.0) ** 3, 0.0)
         pair = np.where(near, (r * r + b * b) ** -1.5 - long_part, 0.0)
     expected = -G_SI * np.sum(masses[None, :] * pair * d, axis=1)
@@ -113,7 +114,7 @@ def test_pairs_just_inside_the_cutoff_are_summed_in_one_column():
     got = np.array([p.az for p in col.particles])
     assert np.all(np.abs(got - expected) <= tolerance), (got - expected) / tolerance
     edge = G_SI * 6.0e4 * ((14.9**2 + b * b) ** -1.5
-                           - sg.long_range_fraction(14.9, rs) / 14.9**3) * 14.9
+                           - p3m_mesh.long_range_fraction(14.9, rs) / 14.9**3) * 14.9
     assert edge > 1e3 * tolerance[1]      # the 14.9 m pair is far above the tolerance
 
 
@@ -391,7 +392,7 @@ def test_padded_layers_leave_the_field_of_the_occupied_layers_unchanged(sheet400
     """The mesh of nz occupied layers padded with empty layers on top gives the same field
     on the occupied layers to round-off: the padding changes the FFT length, not the
     physics."""
-    mesh = sg.P3MMesh(sheet400["Lx"], sheet400["Ly"], 24, 24, 2.25, 3.0)
+    mesh = p3m_mesh.P3MMesh(sheet400["Lx"], sheet400["Ly"], 24, 24, 2.25, 3.0)
     rng = np.random.default_rng(3)
     mass = rng.uniform(0.0, 1.0e6, (11, 24, 24))
     padded = np.zeros((scales.layer_bucket(11) + 3, 24, 24))
@@ -406,32 +407,32 @@ def test_vertical_fft_length_is_fast_and_changes_the_field_by_round_off_only(she
     length, and its field equals that of the length 2 nz (used before; 292 = 4 x 73 for
     the 146 layers of the production runs) to round-off."""
     for nz in (1, 13, 146, 356, 445):
-        n = sg.P3MMesh.z_length(nz)
+        n = p3m_mesh.P3MMesh.z_length(nz)
         assert 2 * nz - 1 <= n <= 1.1 * (2 * nz - 1) + 1
         for prime in (2, 3, 5):
             while n % prime == 0:
                 n //= prime
         assert n == 1
 
-    class TwiceLayers(sg.P3MMesh):
+    class TwiceLayers(p3m_mesh.P3MMesh):
         @staticmethod
         def z_length(nz):
             return 2 * nz
 
     rng = np.random.default_rng(5)
     args = (sheet400["Lx"], sheet400["Ly"], 24, 24, 2.25, 3.0)
-    assert sg.P3MMesh.z_length(146) == 300 and sg.P3MMesh.z_length(13) == 25
+    assert p3m_mesh.P3MMesh.z_length(146) == 300 and p3m_mesh.P3MMesh.z_length(13) == 25
     for nz in (13, 146):     # 25 = 2 nz - 1 leaves no zero slot; 300 leaves 9
         mass = rng.uniform(0.0, 1.0e6, (nz, 24, 24))
         for g, h in zip(TwiceLayers(*args).fields(mass, 0.21),
-                        sg.P3MMesh(*args).fields(mass, 0.21), strict=True):
+                        p3m_mesh.P3MMesh(*args).fields(mass, 0.21), strict=True):
             assert np.max(np.abs(h - g)) <= 1e-12 * np.max(np.abs(g))
 
 
 def test_kernel_tables_are_bounded():
     """A mesh keeps at most P3M_TABLES kernel tables, the least recently used dropped
     (before: one per layer count for ever, 6.3 GB in 300 steps of a hot ring)."""
-    mesh = sg.P3MMesh(40.0, 40.0, 8, 8, 2.25, 3.0)
+    mesh = p3m_mesh.P3MMesh(40.0, 40.0, 8, 8, 2.25, 3.0)
     for nz in (8, 10, 13, 8, 16, 20, 25, 8):
         mesh._kernel_tables(nz)
         assert len(mesh._tables) <= scales.P3M_TABLES

@@ -287,7 +287,8 @@ def test_epsilon_and_fit_share_the_speed_unit(tmp_path, monkeypatch):
                if ax.get_visible())
     captured = []
     monkeypatch.setattr(common, "save_figure", lambda fig, path, **kw: captured.append(fig))
-    from ringsim.analysis.fit import fit_models, plot_fits, read_data
+    from ringsim.analysis.fit import fit_models, read_data
+    from ringsim.plots.fits import plot_fits
 
     csv = tmp_path / "d.csv"
     v = np.geomspace(5e-4, 3e-2, 8)

@@ -13,7 +13,7 @@ spin by the same factor only changes the clock.  The run therefore rescales (v, 
 each step to restore the starting energy, keeping the time step a fixed fraction of the
 collision time, and measures time in collisions per particle.  T_rot / T_tr is unchanged
 by the rescaling and relaxes to the value of
-:func:`ringsim.physics.friction.hcs_temperature_ratio`.
+:func:`ringsim.physics.spin_temperature.hcs_temperature_ratio`.
 
 ``python -m validation cooling [--quick]`` runs the parameter sets of
 tests/test_friction.py (same seeds, so the same numbers), prints the table of
@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from ringsim.physics import friction as fr
+from ringsim.physics import spin_temperature
 from ringsim.plots.common import pyplot, save_figure
 from validation.common import ROOT
 
@@ -277,7 +278,7 @@ HCS_CASES = [
 ] + [
     (1000, eps_n, beta, 0.0, settle + 80.0, 11, settle)
     for eps_n, beta in [(0.9, 0.0), (0.9, 0.5), (0.9, -0.5), (0.7, 0.5), (1.0, 1.0)]
-    for settle in [max(20.0, 5.0 * fr.hcs_relaxation_collisions(eps_n, beta))]
+    for settle in [max(20.0, 5.0 * spin_temperature.hcs_relaxation_collisions(eps_n, beta))]
 ]
 VOLUME_FRACTION = 0.01
 
@@ -299,7 +300,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> None:
         run = cool_rough_gas(n, VOLUME_FRACTION, eps_n, {"model": "constant", "beta": beta},
                              start, length, seed=seed)
         mean, stderr = run.converged_ratio(after)
-        target = fr.hcs_temperature_ratio(eps_n, beta)
+        target = spin_temperature.hcs_temperature_ratio(eps_n, beta)
         collisions = run.collisions_per_particle[-1] * n / 2.0
         print(f"| {n} | {eps_n} | {beta} | {start} | {length:.0f} | {after:.0f} | {target:.4f} "
               f"| {mean:.4f} ± {stderr:.4f} | {100.0 * (mean / target - 1.0):+.1f}% "

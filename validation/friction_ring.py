@@ -11,7 +11,7 @@ relative to the shear flow), the mean z-spin and the rms spin in units of Omega 
 frame), the share of sliding contacts and the energy budget (shear heating against the
 normal + tangential dissipation the resolver counts).
 
-Reference: E_rot/E_tr = ``physics.friction.collisional_spin_ratio(beta)`` = k (1 + beta) /
+Reference: E_rot/E_tr = ``physics.spin_temperature.collisional_spin_ratio(beta)`` = k (1 + beta) /
 (2 (1 + k) - (1 + beta)) (0.222 at beta = 0, 0.462 at beta = 0.5 for k = 2/5), the
 optically-thin prediction Morishima & Salo (2004, DPS 36, #19.01) found their local
 simulations to agree with.  No published mean z-spin or rms spin of identical ring
@@ -27,7 +27,7 @@ import json
 import time
 from pathlib import Path
 
-from ringsim.physics import friction as fr
+from ringsim.physics import spin_temperature
 from validation.common import MONODISPERSE_1M, run_cached, sheet_scenario
 
 DILLEY_KAPPA0 = {"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": 0.0}
@@ -72,7 +72,7 @@ def ring_case(name: str, friction: dict, workdir: Path, seed: int = 1) -> dict:
             "c_rOmega": eq["velocity_dispersion_rOmega"], "mean_epsilon": eq["mean_epsilon"],
             "collision_frequency": eq["collision_frequency"],
             "ratio": spin["rotational_energy_fraction"],
-            "closed_form": fr.collisional_spin_ratio(beta),
+            "closed_form": spin_temperature.collisional_spin_ratio(beta),
             "closed_form_beta": beta,
             "mean_spin_z": spin["mean_spin_z"], "rms_spin": spin["rms_spin"],
             "sliding_fraction": spin["sliding_fraction"]["mean"],

@@ -15,7 +15,7 @@ Columns used (REBOUND's comparison.plt gives their meaning):
   Pi_xy is the table's xy stress, compared there with minus the simulations' W_xy;
 * ``nu_coll``: the collisional (non-local) viscosity [r^2 Omega], compared there with
   2 plog / (3 Omega M t) from REBOUND's collision log, the definition ringsim uses
-  (``analysis.snapshot.collisional_viscosity``).
+  (``analysis.collisions.collisional_viscosity``).
 
 Only a handful of the table's rows are quoted (enough to interpolate over tau = 0.1-1.6).
 """

@@ -1,11 +1,11 @@
 """Gravitational aggregates in a snapshot: groups of touching particles and whether they fit
 inside their own Hill sphere.
 
-A measure of the regime transitions of a self-gravitating ring (issue 12, item 5): at small
-r_h the tide pulls touching particles apart, at large r_h they stay together as aggregates.
-Particles are linked when their centres are closer than ``CONTACT_LINK`` times the sum of
-their radii (friends of friends, shear-periodic: the images across the radial boundary are
-shifted by the shear offset, as ``engine.box.count_overlaps`` does).  A group *fits its
+A measure of the regime transitions of a self-gravitating ring: at small r_h the tide
+pulls touching particles apart, at large r_h they stay together as aggregates.  Particles
+are linked when their centres are closer than ``CONTACT_LINK`` times the sum of their radii
+(friends of friends, shear-periodic: the images across the radial boundary are shifted by
+the shear offset, as ``engine.box.count_overlaps`` does).  A group *fits its
 Hill sphere* when every member lies inside the Hill radius of the group's mass about its
 centre of mass, R_H = a (M / 3 M_p)^(1/3), counting the member's radius:
 max_i (|r_i - r_cm| + R_i) < R_H.  For a touching pair of identical spheres this is r_h > 1,

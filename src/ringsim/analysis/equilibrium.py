@@ -15,7 +15,8 @@ import math
 import numpy as np
 
 from ringsim import quantities
-from ringsim.analysis import snapshot, spins, tiling, timeseries
+from ringsim.analysis import collisions, spins, tiling, timeseries
+from ringsim.analysis.gravitating import gravity_equilibrium, gravity_table_lines
 from ringsim.physics import kinetic
 from ringsim.physics.restitution import RESTITUTION
 
@@ -48,7 +49,7 @@ def _scaled(value: dict, scale: float, units: str) -> dict:
 def _interval_rates(ts: dict, n_particles: int, Omega: float, Lx: float, Ly: float,
                     surface_density: float) -> tuple[np.ndarray, np.ndarray]:
     """Collision frequency [1/orbit] and collisional viscosity [m^2/s] of every output
-    interval, from the tested functions of ``analysis.snapshot`` (NaN for row 0, before
+    interval, from the tested functions of ``analysis.collisions`` (NaN for row 0, before
     any collision, and for empty intervals)."""
     t, plog = ts["t"], ts["collisions_plog"]
     frequency = np.full(t.size, np.nan)
@@ -56,10 +57,11 @@ def _interval_rates(ts: dict, n_particles: int, Omega: float, Lx: float, Ly: flo
     for i in range(1, t.size):
         elapsed = float(t[i] - t[i - 1])
         if elapsed > 0:
-            frequency[i] = snapshot.collision_frequency(float(ts["collisions"][i]), n_particles,
-                                                        elapsed, Omega)
-            nu_col[i] = snapshot.collisional_viscosity(float(plog[i] - plog[i - 1]), elapsed,
-                                                       Lx, Ly, surface_density, Omega)
+            frequency[i] = collisions.collision_frequency(float(ts["collisions"][i]),
+                                                          n_particles, elapsed, Omega)
+            nu_col[i] = collisions.collisional_viscosity(float(plog[i] - plog[i - 1]),
+                                                         elapsed, Lx, Ly, surface_density,
+                                                         Omega)
     return frequency, nu_col
 
 
@@ -189,8 +191,6 @@ def equilibrium(run) -> dict:
     if out["spin"]:
         out["rotational_energy_fraction"] = out["spin"]["rotational_energy_fraction"]
     if sc.sheet.gravity:
-        from ringsim.analysis.gravitating import gravity_equilibrium
-
         out.update(gravity_equilibrium(run, start, out))
     if independent is not None:
         out["tiled_copies_independent_from_orbit"] = _value(
@@ -339,9 +339,11 @@ def kinetic_estimate(restitution: dict, radius: np.ndarray, mass: np.ndarray,
     Omega : float [1/s]
     """
     est = kinetic.kinetic_dispersion_estimate(restitution, radius, mass, optical_depth, Omega)
-    out = {key: (float(est[key]) if isinstance(est[key], (float, np.floating)) else est[key])
-           for key in ("status", "reason", "representative", "velocity_dispersion",
-                       "velocity_dispersion_rOmega", "epsilon_critical", "effective_epsilon")}
+    out: dict[str, object] = {}
+    for key in ("status", "reason", "representative", "velocity_dispersion",
+                "velocity_dispersion_rOmega", "epsilon_critical", "effective_epsilon"):
+        value = est[key]        # numpy floats become Python floats for the JSON
+        out[key] = float(value) if isinstance(value, float | np.floating) else value
     out["units"] = quantities.units(("velocity_dispersion", "velocity_dispersion_rOmega"))
     return out
 
@@ -390,8 +392,6 @@ def equilibrium_table(eq: dict) -> str:
     for key in TABLE_ROWS:
         q = quantities.QUANTITY[key]
         lines.append(f"  {q.table_label:<42} {_fmt(eq[key], q.scale)}")
-    from ringsim.analysis.gravitating import gravity_table_lines
-
     lines += gravity_table_lines(eq)
     k = eq["kinetic_estimate"]
     if k["status"] == "equilibrium":

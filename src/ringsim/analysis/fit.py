@@ -48,12 +48,16 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from ringsim.analysis.fit_data import RestitutionData, read_data
+from ringsim.config.scenario import scenario_from_dict
+from ringsim.config.schema import ScenarioError
 from ringsim.errors import InputError
 from ringsim.physics import restitution as rs
 from ringsim.physics.laws import Parameter
 from ringsim.physics.restitution import RESTITUTION
+from ringsim.plots.fits import plot_fits
 
 __all__ = [
     "FIT_MODELS",
@@ -62,7 +66,6 @@ __all__ = [
     "fit_model",
     "fit_models",
     "fit_table",
-    "plot_fits",
     "read_data",
     "restitution_yaml",
 ]
@@ -135,10 +138,8 @@ def _typical(model: str) -> dict[str, float]:
 
 
 def _evaluate(model: str, values: Mapping[str, float], data: RestitutionData) -> np.ndarray:
-    """epsilon of the model at the data's speeds (and sizes, masses), through the one
-    dispatch ``restitution.epsilon_for_pair``."""
-    return np.asarray(rs.epsilon_for_pair({"model": model, **values}, data.v, data.R_bar,
-                                          data.M_bar), dtype=float)
+    """epsilon of the model with these parameter values at the data's points."""
+    return data.law_epsilon({"model": model, **values})
 
 
 def _weights(data: RestitutionData) -> np.ndarray:
@@ -409,8 +410,6 @@ def _values(result: dict) -> dict[str, float]:
 
 def restitution_yaml(result: dict) -> str:
     """A scenario's ``restitution:`` section (YAML text) with a fit's parameters (SI)."""
-    import yaml
-
     section = {"model": result["model"], **_values(result)}
     header = (f"# Restitution law fitted by `ringsim fit` to {result['data']}: model "
               f"{result['model']}, AIC {result['aic']:.6g}, reduced chi2 "
@@ -421,11 +420,6 @@ def restitution_yaml(result: dict) -> str:
 
 def _check_restitution_yaml(text: str, path: str) -> None:
     """The section must be accepted by a scenario (its validation is the scenario's)."""
-    import yaml
-
-    from ringsim.config.scenario import scenario_from_dict
-    from ringsim.config.schema import ScenarioError
-
     probe = {"name": "fit-check", "seed": 0, "planet": {"Omega": 2.0e-4},
              "particles": {"size_distribution": {"kind": "monodisperse", "radius": 1.0}},
              "restitution": yaml.safe_load(text)["restitution"]}
@@ -434,81 +428,6 @@ def _check_restitution_yaml(text: str, path: str) -> None:
     except ScenarioError as exc:
         raise RuntimeError(f"the fitted restitution section is not a valid scenario "
                            f"section: {exc}") from None
-
-
-def _groups(data: RestitutionData) -> list[tuple[float | None, float | None, np.ndarray]]:
-    """(R_bar [m], M_bar [kg], mask) of each distinct size-mass pair of the data."""
-    if data.R_bar is None or data.M_bar is None:   # not data.has_sizes
-        return [(None, None, np.ones(len(data), dtype=bool))]
-    pairs = np.column_stack([data.R_bar, data.M_bar])
-    unique = np.unique(pairs, axis=0)
-    return [(float(r), float(m), (data.R_bar == r) & (data.M_bar == m)) for r, m in unique]
-
-
-#: Most panels of a fit figure; data with more size-mass groups share one panel.
-MAX_PANELS = 16
-
-
-def plot_fits(data: RestitutionData, results: Sequence[dict], path: str | Path) -> Path:
-    """Data (with error bars if sigma is known) against impact speed and each fitted curve,
-    one panel per (R_bar, M_bar) group of the data; writes a PNG.
-
-    Parameters
-    ----------
-    data : RestitutionData
-    results : fits (`fit_model` dicts), drawn in order
-    path : PNG file
-    """
-    from ringsim.plots.common import (
-        SPEED_SCALE,
-        SPEED_UNIT,
-        pyplot,
-        save_figure,
-        set_readable_axis,
-    )
-
-    plt = pyplot()
-    groups = _groups(data)
-    shared = len(groups) > MAX_PANELS
-    panels = groups
-    if shared:   # many size-mass groups (so the data have sizes): one panel at the medians
-        R_bar, M_bar = _sizes(data)
-        panels = [(float(np.median(R_bar)), float(np.median(M_bar)),
-                   np.ones(len(data), dtype=bool))]
-    ncols = min(len(panels), 4)
-    nrows = math.ceil(len(panels) / ncols)
-    fig, axes = plt.subplots(nrows, ncols, figsize=(4.2 * ncols + 0.8, 3.6 * nrows + 0.6),
-                             squeeze=False, sharey=True)
-    v_curve = np.geomspace(data.v.min() / 1.5, data.v.max() * 1.5, 300)
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for ax, (r_bar, m_bar, mask) in zip(axes.flat, panels, strict=False):
-        err = data.sigma[mask] if data.sigma is not None else None
-        ax.errorbar(data.v[mask] / SPEED_SCALE, data.epsilon[mask], yerr=err, fmt="o", ms=3,
-                    color="k", ecolor="0.6", elinewidth=0.8, label="data", zorder=3)
-        for i, result in enumerate(results):
-            curve_data = RestitutionData(
-                v=v_curve, epsilon=np.zeros_like(v_curve),
-                R_bar=None if r_bar is None else np.full_like(v_curve, r_bar),
-                M_bar=None if m_bar is None else np.full_like(v_curve, m_bar))
-            if result["model"] == "dilley" and r_bar is None:
-                continue
-            ax.plot(v_curve / SPEED_SCALE, _evaluate(result["model"], _values(result),
-                                                     curve_data),
-                    color=colours[(i + 1) % len(colours)],
-                    label=f"{result['model']} (AIC {result['aic']:.4g})")
-        set_readable_axis(ax, "x", v_curve / SPEED_SCALE, log=True, pad=0.0)
-        ax.set_ylim(-0.02, 1.05)
-        ax.set_xlabel(f"normal impact speed v [{SPEED_UNIT}]")
-        ax.set_ylabel("coefficient of restitution ε [dimensionless]")
-        if r_bar is not None:
-            title = f"R̄ = {r_bar:.4g} m, M̄ = {m_bar:.4g} kg"
-            ax.set_title(("curves at the median: " if shared else "") + title, fontsize=9)
-        ax.grid(True, which="both", alpha=0.3)
-    for ax in list(axes.flat)[len(panels):]:
-        ax.set_visible(False)
-    axes.flat[0].legend(fontsize=7, loc="lower left")
-    fig.suptitle(f"Restitution fits to {Path(data.source).name}")
-    return save_figure(fig, path)
 
 
 # --- command line -------------------------------------------------------------------------------

@@ -11,7 +11,7 @@ from __future__ import annotations
 import csv
 import difflib
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -61,6 +61,13 @@ class RestitutionData:
     @property
     def has_sizes(self) -> bool:
         return self.R_bar is not None and self.M_bar is not None
+
+    def law_epsilon(self, restitution: Mapping[str, object]) -> np.ndarray:
+        """epsilon [dimensionless] of a restitution law (a scenario's ``restitution``
+        section) at the data's speeds (and reduced radii and masses), through the one
+        dispatch ``restitution.epsilon_for_pair``."""
+        return np.asarray(rs.epsilon_for_pair(restitution, self.v, self.R_bar, self.M_bar),
+                          dtype=float)
 
 
 def _parse_cell(path: str, column: str, line: int, text: str, allow_inf: bool) -> float:

@@ -1,4 +1,4 @@
-"""The equilibrium numbers of a self-gravitating run (``ringsim analyze``, issue 12).
+"""The equilibrium numbers of a self-gravitating run (``ringsim analyze``).
 
 What a ring dynamicist reads for a self-gravitating sheet, beside the equilibrium of
 ``analysis.equilibrium``:
@@ -13,9 +13,9 @@ What a ring dynamicist reads for a self-gravitating sheet, beside the equilibriu
 * ``toomre_Q_mass``: Q from the mass-weighted sigma_x of each snapshot inside the window
   (:func:`mass_weighted_toomre_q`), mean and standard error over those snapshots.  For a
   size distribution it is the one that says whether the ring is gravitationally unstable:
-  the mass, and so Sigma, sits in the large particles, which are the coolest (0.5-5 m,
-  q = 3, a = 1.3e8 m, tau = 0.5, the slab runs of analysis/kappa_selfgravity.md: number-
-  weighted Q = 4.3, mass-weighted 1.9); for identical particles both are the same;
+  the mass, and so Sigma, sits in the large particles, which are the coolest, so it can lie
+  well below the number-weighted Q (docs/gravity.md, 4c); for identical particles both are
+  the same;
 * ``wake_wavelength`` [m], ``wake_pitch_angle`` [deg], ``wake_amplitude``: the dominant
   density wave of each snapshot inside the equilibrium window (``analysis.wakes.
   wake_statistics``), mean and standard error over those snapshots (treated as independent:
@@ -34,12 +34,8 @@ A snapshot's wake is reported whether or not it is significant against Poisson n
 mode is the longest non-axisymmetric wave the box holds (one wavelength along y,
 ``azimuthal_mode`` 1).  For such a mode the box ties wavelength and pitch, lambda = Ly
 sin(theta): a wake lambda_cr apart at 20-25 deg is 2.4-2.9 lambda_cr long in y, more than
-a box of 2.1 lambda_cr holds.  It is common and not by itself a defect: the bundled
-``a-ring-wakes`` (4 lambda_cr) has it in 3 of its 4 snapshots, with lambda = 0.99 lambda_cr;
-the 2.1 lambda_cr box of analysis/kappa_selfgravity.md (power law, kappa = 0, P3M, seed 1)
-in 44 of 62 (lambda = 0.69 lambda_cr at 22 deg; 16 have two wavelengths along y, 0.57
-lambda_cr at 28 deg).  Only a larger box says whether the box changed c and H
-(docs/validation.md, "A box short for its wakes").
+a box of 2.1 lambda_cr holds.  It is common and not by itself a defect; only a larger box
+says whether the box changed c and H (docs/gravity.md, 5, "Box-long wakes").
 """
 
 from __future__ import annotations
@@ -59,16 +55,9 @@ from ringsim.quantities import GRAVITY, QUANTITY, table_rows, unit
 #: (label, JSON unit, unit shown, scale).
 GRAVITY_QUANTITIES = table_rows(GRAVITY)
 #: Below this mass-weighted Toomre Q ``analyze`` warns that a slab run of identical
-#: particles misses what matters; ``SLAB_MIN_Q_MASS_SIZES`` for a size distribution.  The
-#: slab's kappa = 0 rings against P3M (analysis/kappa_selfgravity.md, docs/gravity.md 4c),
-#: mass-weighted Q of the slab run -> slab / P3M - 1 in c and H, three seeds each unless
-#: said: 1 m particles at 5.4 -> +1 % (two seeds), at 8.5 -> +1.4 % and +2 % (the tree, one
-#: seed); power law 0.5-5 m at 1.9 -> -9 % and -11 % (the tree agrees), at 3.2 -> -3.6 % and
-#: -4.2 %, at 5.4-5.7 -> -3.7 % and -4.1 %, and its kappa = 0.1 rings at 8.1-8.5 -> +0.4 %.
-#: The report's budget allows the slab 1.4-1.6 % for identical particles and 3.5-3.6 % for
-#: the power law; the shortfall exceeds that for the power law at every Q measured up to
-#: 5.7, and the lowest Q where it is within is 8.1.  Identical particles were within at 5.4,
-#: the lowest measured; below it nothing was measured, so the warning starts at 5.
+#: particles misses what matters; ``SLAB_MIN_Q_MASS_SIZES`` for a size distribution.  Each
+#: is the lowest Q (rounded down) at which the slab's c and H were measured within its
+#: error budget against P3M and the tree (docs/gravity.md, 4c, "Where the slab may be used").
 SLAB_MIN_Q_MASS = 5.0
 SLAB_MIN_Q_MASS_SIZES = 8.0
 #: The energy-balance keys of `GRAVITY_QUANTITIES` (NaN where they cannot be measured).
@@ -301,8 +290,8 @@ def gravity_equilibrium(run, start: int, viscosities: dict | None = None) -> dic
     indices = window_snapshot_indices(run, from_orbit) or [run.n_snapshots - 1]
     snaps = [run.snapshot(i) for i in indices]
     per = [snapshot_wakes(snap, Lx, Ly, Omega) for snap in snaps]
-    out = {"r_h": _value(const["r_h"], 0.0, unit("r_h")),
-           "lambda_cr": _value(const["lambda_cr"], 0.0, unit("lambda_cr"))}
+    out: dict[str, object] = {"r_h": _value(const["r_h"], 0.0, unit("r_h")),
+                              "lambda_cr": _value(const["lambda_cr"], 0.0, unit("lambda_cr"))}
     if "toomre_Q" in ts:
         mean, stderr, _ = timeseries.autocorrelated_mean(np.asarray(ts["toomre_Q"][start:]))
         out["toomre_Q"] = _value(mean, stderr, unit("toomre_Q"))

@@ -1,52 +1,39 @@
-"""Diagnostics of a shearing-sheet ring patch and equilibrium statistics of its time series.
+"""Diagnostics of one snapshot of a shearing-sheet ring patch: velocity dispersion, vertical
+structure, optical depth, filling factor, and their values per size bin.
 
 Data flow one way: snapshot arrays (x, y, z, vx, vy, vz [m, m/s], radius [m], mass [kg]) in
 REBOUND's shearing-sheet frame -- x radial, y azimuthal, z vertical, Keplerian shear flow
 ``vy = -1.5 Omega x`` -- go in; plain numbers and numpy arrays (SI) come out.  Nothing here
-touches REBOUND or HDF5.
+touches REBOUND or HDF5.  :func:`snapshot_summary` gathers every diagnostic of one output
+(one time-series row of a run).
 
-==========================  =====================================================  ===========
-quantity                    definition                                             unit
-==========================  =====================================================  ===========
-peculiar velocity w         (vx, vy + 1.5 Omega x, vz), velocity relative to the   m/s
-                            Keplerian shear flow
-dispersion tensor W_ij      <(w_i - <w_i>)(w_j - <w_j>)>, number- or mass-weighted m^2/s^2
-sigma_xx, _yy, _zz, _xy     components W_xx, W_yy, W_zz, W_xy of that tensor:      m^2/s^2
-                            all four are second moments (variances and the
-                            covariance), NOT rms speeds
-velocity_dispersion c       sqrt(trace W / 3), the 1-D rms speed                   m/s
-velocity_dispersion_x/y/z   sqrt(W_xx), sqrt(W_yy), sqrt(W_zz), rms speeds         m/s
-thickness                   sqrt(<(z - <z>)^2>), rms height about the mean plane   m
-optical_depth tau           dynamical optical depth sum(pi r^2) / (Lx Ly)          1
-filling_factor              volume fraction of particles inside the slab           1
-                            |z - <z>| < h, exact sphere-slab intersections
-collision frequency         impacts per particle per orbit, 2 N_coll / N / orbits  1/orbit
-nu_trans                    (2 / (3 Omega)) W_xy (mass-weighted)                   m^2/s
-nu_col                      2 plog / (3 Omega Sigma Lx Ly dt)                      m^2/s
-==========================  =====================================================  ===========
+=========================  ======================================================  =======
+quantity                   definition                                              unit
+=========================  ======================================================  =======
+peculiar velocity w        (vx, vy + 1.5 Omega x, vz), velocity relative to the    m/s
+                           Keplerian shear flow
+dispersion tensor W_ij     <(w_i - <w_i>)(w_j - <w_j>)>, number- or mass-weighted  m^2/s^2
+sigma_xx, _yy, _zz, _xy    components W_xx, W_yy, W_zz, W_xy of that tensor:       m^2/s^2
+                           all four are second moments (variances and the
+                           covariance), NOT rms speeds
+velocity_dispersion c      sqrt(trace W / 3), the 1-D rms speed                    m/s
+velocity_dispersion_x/y/z  sqrt(W_xx), sqrt(W_yy), sqrt(W_zz), rms speeds          m/s
+thickness                  sqrt(<(z - <z>)^2>), rms height about the mean plane    m
+optical_depth tau          dynamical optical depth sum(pi r^2) / (Lx Ly)           1
+filling_factor             volume fraction of particles inside the slab            1
+                           |z - <z>| < h, exact sphere-slab intersections
+nu_trans                   (2 / (3 Omega)) W_xy (mass-weighted)                    m^2/s
+=========================  ======================================================  =======
 
-The equilibrium finder (``equilibrium``) truncates the start-up transient with MSER-5
-(White 1997; White, Cobb & Spratt 2000), estimates the standard error of the mean with the
-integrated autocorrelation time and Sokal's automatic window (Madras & Sokal 1988; Sokal
-1997), and refuses to call a series equilibrated if the kept window still drifts or holds
-fewer than ``min_effective_samples`` independent samples.
-
-The dilute-ring kinetic estimate (``kinetic_dispersion_estimate``) balances viscous heating
-against collisional dissipation as in Goldreich & Tremaine (1978); the critical coefficient
-of restitution eps_cr(tau) is computed here from their model (triaxial Gaussian velocity
-distribution of identical smooth spheres), which reproduces their eps_cr -> 0.627 for
-tau -> 0.
+The collision frequency, the viscosities (nu_trans of a snapshot as a function, nu_col)
+and the statistics of the applied coefficients of restitution are
+:mod:`ringsim.analysis.collisions`; the statistics of a time series (the equilibrium
+window, autocorrelated errors) :mod:`ringsim.analysis.timeseries`.
 
 References
 ----------
-Goldreich, P. & Tremaine, S. 1978, Icarus 34, 227 ("The velocity dispersion in Saturn's rings").
-Madras, N. & Sokal, A. D. 1988, J. Stat. Phys. 50, 109.
-Sokal, A. D. 1997, in Functional Integration, NATO ASI Series B 361, 131 (Plenum).
-White, K. P. 1997, Simulation 69, 323 (MSER truncation heuristic).
-White, K. P., Cobb, M. J. & Spratt, S. C. 2000, Proc. Winter Simulation Conf., 755 (MSER-5).
-Wisdom, J. & Tremaine, S. 1988, AJ 95, 925 (translational and collisional viscosity).
-REBOUND 5.x: examples/shearing_sheet_diagnostics/problem.c (nu_trans, nu_col) and
-src/collision.c, reb_collision_resolve_hardsphere (definition of collisions_plog).
+Wisdom, J. & Tremaine, S. 1988, AJ 95, 925 (translational viscosity).
+REBOUND 5.x: examples/shearing_sheet_diagnostics/problem.c (nu_trans, the filling factor).
 """
 
 from __future__ import annotations
@@ -57,17 +44,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ringsim.checks import finite_array, nonnegative_array, positive, same_length
-from ringsim.physics.constants import SHEAR, TWO_PI
+from ringsim.physics.constants import SHEAR
 
 FloatArray = NDArray[np.float64]
 
 
 __all__ = [
-    "collision_frequency",
-    "collisional_viscosity",
     "dispersion_components",
     "dispersion_tensor",
-    "epsilon_statistics",
     "filling_factor",
     "log_size_bins",
     "optical_depth",
@@ -76,7 +60,6 @@ __all__ = [
     "sphere_slab_volume",
     "surface_density",
     "thickness",
-    "translational_viscosity",
     "velocity_dispersion",
 ]
 
@@ -340,10 +323,13 @@ def log_size_bins(r_min: float, r_max: float, n_bins: int) -> FloatArray:
 
 
 def _bin_edges(radius: FloatArray, size_bins: ArrayLike | int | None) -> FloatArray:
+    """Bin edges [m] from `snapshot_summary`'s ``size_bins``: None one bin, a number (any
+    0-d value) that many log-spaced bins over the radii present, else the edges given."""
     if size_bins is None:
         size_bins = 1
     if np.ndim(size_bins) == 0:
-        return log_size_bins(float(radius.min()), float(radius.max()), int(size_bins))
+        n_bins = int(np.asarray(size_bins))    # a scalar or a 0-d array
+        return log_size_bins(float(radius.min()), float(radius.max()), n_bins)
     edges = finite_array("size_bins", size_bins)
     single_radius = edges.size == 2 and edges[0] == edges[1]
     if edges.size < 2 or (np.any(np.diff(edges) <= 0.0) and not single_radius):
@@ -427,29 +413,13 @@ def snapshot_summary(x: ArrayLike, y: ArrayLike, z: ArrayLike, vx: ArrayLike, vy
         height, see ``_binned_statistics``; NaN for an empty bin).
     """
     Omega = positive("Omega", Omega)
-    arrays = {name: finite_array(name, a) for name, a in (("x", x), ("y", y), ("z", z), ("vx", vx),
-                                                    ("vy", vy), ("vz", vz))}
-    r = nonnegative_array("radius", radius)
-    m = nonnegative_array("mass", mass)
-    n = same_length(**arrays, radius=r, mass=m)
-    area = positive("Lx", Lx) * positive("Ly", Ly)
-    if not np.sum(m) > 0.0:
-        raise ValueError("mass must not be all zero")
-
+    arrays, r, m, n, area = _snapshot_arrays(x, y, z, vx, vy, vz, radius, mass, Lx, Ly)
     w = np.stack([arrays["vx"], arrays["vy"] + SHEAR * Omega * arrays["x"], arrays["vz"]])
-    components = dispersion_components(_tensor(w, None))
-    W_mass = _tensor(w, m)
     zz = arrays["z"]
-
-    edges = _bin_edges(r, size_bins)
-    binned = _binned_statistics(_bin_index(r, edges), edges.size - 1, w, zz,
-                                w_ref=w @ m / np.sum(m), z_ref=float(np.dot(m, zz) / np.sum(m)))
-
     h = float(np.mean(r)) if filling_half_width is None else float(filling_half_width)
     summary: dict[str, object] = {"n_particles": n}
-    summary.update(components)
+    summary.update(_velocity_entries(w, m, Omega))
     summary.update({
-        "velocity_dispersion_mass_weighted": float(math.sqrt(max(np.trace(W_mass), 0.0) / 3.0)),
         "thickness": thickness(zz),
         "thickness_mass_weighted": thickness(zz, m),
         "filling_factor": filling_factor(zz, r, Lx, Ly, half_width=h),
@@ -458,143 +428,46 @@ def snapshot_summary(x: ArrayLike, y: ArrayLike, z: ArrayLike, vx: ArrayLike, vy
         "surface_density": float(np.sum(m) / area),
         "mean_radius": float(np.mean(r)),
         "mean_mass": float(np.mean(m)),
-        "translational_viscosity": float(2.0 * W_mass[0, 1] / (3.0 * Omega)),
-        "size_bin_edges": edges,
-        "size_bin_n": binned["n"],
-        "size_bin_velocity_dispersion": binned["velocity_dispersion"],
-        "size_bin_thickness": binned["thickness"],
     })
+    summary.update(_size_bin_entries(r, m, w, zz, size_bins))
     return summary
 
 
-# --- collision rates and viscosity ------------------------------------------------------------
-
-def collision_frequency(n_collisions: float, n_particles: int, elapsed_time: float,
-                        Omega: float) -> float:
-    """Impacts per particle per orbit [1/orbit].
-
-    Each collision involves two particles, so the frequency is
-    2 n_collisions / n_particles / (elapsed_time Omega / 2 pi).
-
-    Parameters
-    ----------
-    n_collisions : float
-        Number of (pair) collisions counted during ``elapsed_time``.
-    n_particles : int
-        Number of particles in the box.
-    elapsed_time : float [s]
-    Omega : float [1/s]
-    """
-    if not (math.isfinite(float(n_collisions)) and n_collisions >= 0):
-        raise ValueError(f"n_collisions must be finite and >= 0, got {n_collisions!r}")
-    if int(n_particles) < 1:
-        raise ValueError("n_particles must be >= 1")
-    orbits = positive("elapsed_time", elapsed_time) * positive("Omega", Omega) / TWO_PI
-    return float(2.0 * n_collisions / int(n_particles) / orbits)
+def _velocity_entries(w: FloatArray, m: FloatArray, Omega: float) -> dict[str, float]:
+    """The velocity entries of `snapshot_summary` from the peculiar velocities w (3, N)
+    [m/s] and masses m [kg]: the number-weighted tensor's components
+    (`dispersion_components`), the mass-weighted 1-D dispersion [m/s] and the
+    translational viscosity (2 / (3 Omega)) W_xy of the mass-weighted tensor [m^2/s]."""
+    W_mass = _tensor(w, m)
+    return {**dispersion_components(_tensor(w, None)),
+            "velocity_dispersion_mass_weighted": float(math.sqrt(max(np.trace(W_mass), 0.0)
+                                                                 / 3.0)),
+            "translational_viscosity": float(2.0 * W_mass[0, 1] / (3.0 * Omega))}
 
 
-def translational_viscosity(x: ArrayLike, vx: ArrayLike, vy: ArrayLike, Omega: float,
-                            mass: ArrayLike | None = None) -> float:
-    """Translational (local) kinematic viscosity nu_trans = (2 / (3 Omega)) W_xy [m^2/s].
-
-    W_xy = <(w_x - <w_x>)(w_y - <w_y>)>, mass-weighted when ``mass`` is given, with
-    w_y = vy + 1.5 Omega x (Wisdom & Tremaine 1988; REBOUND's
-    examples/shearing_sheet_diagnostics/problem.c uses the same formula number-weighted
-    and without subtracting the mean).
-
-    Parameters
-    ----------
-    x : array [m]
-    vx, vy : array [m/s]
-    Omega : float [1/s]
-    mass : array [kg], optional
-    """
-    x = finite_array("x", x)
-    W = dispersion_tensor(x, vx, vy, np.zeros_like(x), Omega, weights=mass)
-    return float(2.0 * W[0, 1] / (3.0 * positive("Omega", Omega)))
+def _snapshot_arrays(x: ArrayLike, y: ArrayLike, z: ArrayLike, vx: ArrayLike, vy: ArrayLike,
+                     vz: ArrayLike, radius: ArrayLike, mass: ArrayLike, Lx: float, Ly: float
+                     ) -> tuple[dict[str, FloatArray], FloatArray, FloatArray, int, float]:
+    """The checked arrays of a snapshot: {x, y, z, vx, vy, vz} (finite), radius and mass
+    (>= 0, not all masses zero), their common length, and the box's area Lx Ly [m^2]."""
+    arrays = {name: finite_array(name, a) for name, a in (("x", x), ("y", y), ("z", z),
+                                                          ("vx", vx), ("vy", vy), ("vz", vz))}
+    r = nonnegative_array("radius", radius)
+    m = nonnegative_array("mass", mass)
+    n = same_length(**arrays, radius=r, mass=m)
+    area = positive("Lx", Lx) * positive("Ly", Ly)
+    if not np.sum(m) > 0.0:
+        raise ValueError("mass must not be all zero")
+    return arrays, r, m, n, area
 
 
-def collisional_viscosity(plog: float, elapsed_time: float, Lx: float, Ly: float,
-                          surface_density: float, Omega: float) -> float:
-    """Collisional (non-local) kinematic viscosity from REBOUND's ``collisions_plog`` [m^2/s].
-
-    REBOUND accumulates, for every resolved collision (src/collision.c,
-    reb_collision_resolve_hardsphere), plog += |x_outer - x_inner| * m_outer * dvy_outer:
-    the radial separation of the pair times the azimuthal momentum given to the outer
-    particle -- the collisional flux of y-momentum across a radius.  Dividing by the
-    elapsed time and the area gives the collisional pressure tensor component, and
-
-        nu_col = 2 plog / (3 Omega Sigma Lx Ly elapsed_time),
-
-    which is REBOUND's examples/shearing_sheet_diagnostics/problem.c formula
-    2/3/Omega/M_total/t * plog with M_total = Sigma Lx Ly (Wisdom & Tremaine 1988).
-    ``plog`` must have been reset (set to 0) ``elapsed_time`` ago.
-
-    Parameters
-    ----------
-    plog : float [kg m^2/s]
-        Accumulated collisions_plog.
-    elapsed_time : float [s]
-        Time over which plog was accumulated.
-    Lx, Ly : float [m]
-        Box sizes.
-    surface_density : float [kg/m^2]
-    Omega : float [1/s]
-    """
-    mass = positive("surface_density", surface_density) * positive("Lx", Lx) * positive(
-        "Ly", Ly)
-    if not math.isfinite(float(plog)):
-        raise ValueError("plog must be finite")
-    return float(2.0 * plog / (3.0 * positive("Omega", Omega) * mass
-                               * positive("elapsed_time", elapsed_time)))
-
-
-# Gravitational viscosity: ringsim.analysis.wakes (from the surface density's field).
-
-
-# --- applied coefficients of restitution ------------------------------------------------------
-
-def epsilon_statistics(epsilon: ArrayLike, bins: int | ArrayLike = 20,
-                       normal_speed: ArrayLike | None = None) -> dict[str, object]:
-    """Mean and histogram of applied coefficients of restitution (e.g. a collision log).
-
-    Parameters
-    ----------
-    epsilon : array [dimensionless], in [0, 1]
-        The coefficients applied, one per collision.
-    bins : int or array
-        Number of equal bins on [0, 1], or explicit edges.
-    normal_speed : array [m/s], optional
-        Normal impact speed of each collision; adds the energy-weighted effective
-        coefficient sqrt(sum(eps^2 v^2) / sum(v^2)), the one that sets the dissipation rate.
-
-    Returns
-    -------
-    dict
-        ``count``, ``mean_epsilon``, ``std_epsilon``, ``mean_epsilon_squared``,
-        ``histogram`` (counts per bin), ``bin_edges``; ``effective_epsilon`` when
-        ``normal_speed`` is given.  Means are NaN when there is no collision.
-    """
-    eps = np.asarray(epsilon, dtype=float).reshape(-1)
-    if not np.all(np.isfinite(eps)) or np.any((eps < 0.0) | (eps > 1.0)):
-        raise ValueError("epsilon must be finite and lie in [0, 1]")
-    edges = np.linspace(0.0, 1.0, int(bins) + 1) if np.ndim(bins) == 0 else np.asarray(
-        bins, dtype=float)
-    counts, edges = np.histogram(eps, bins=edges)
-    out: dict[str, object] = {
-        "count": int(eps.size),
-        "mean_epsilon": float(eps.mean()) if eps.size else math.nan,
-        "std_epsilon": float(eps.std()) if eps.size else math.nan,
-        "mean_epsilon_squared": float(np.mean(eps * eps)) if eps.size else math.nan,
-        "histogram": counts,
-        "bin_edges": edges,
-    }
-    if normal_speed is not None:
-        v = np.abs(finite_array("normal_speed", normal_speed))
-        if v.size != eps.size:
-            raise ValueError("normal_speed and epsilon must have equal lengths")
-        v2 = v * v
-        total = np.sum(v2)
-        out["effective_epsilon"] = (float(math.sqrt(np.dot(eps * eps, v2) / total))
-                                    if total > 0.0 else math.nan)
-    return out
+def _size_bin_entries(r: FloatArray, m: FloatArray, w: FloatArray, z: FloatArray,
+                      size_bins: ArrayLike | int | None) -> dict[str, object]:
+    """The per-bin entries of `snapshot_summary` (``size_bin_*``): deviations from the
+    sheet's mass-weighted mean velocity w (3, N) [m/s] and height z [m]."""
+    edges = _bin_edges(r, size_bins)
+    binned = _binned_statistics(_bin_index(r, edges), edges.size - 1, w, z,
+                                w_ref=w @ m / np.sum(m), z_ref=float(np.dot(m, z) / np.sum(m)))
+    return {"size_bin_edges": edges, "size_bin_n": binned["n"],
+            "size_bin_velocity_dispersion": binned["velocity_dispersion"],
+            "size_bin_thickness": binned["thickness"]}

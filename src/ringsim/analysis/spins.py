@@ -24,6 +24,7 @@ import numpy as np
 
 from ringsim.analysis import timeseries
 from ringsim.physics import friction as fr
+from ringsim.physics.spin_temperature import collisional_spin_ratio
 from ringsim.quantities import QUANTITY, unit
 
 #: The frame and sign convention, written with the numbers.
@@ -85,7 +86,7 @@ def spin_equilibrium(run, start: int, edges: np.ndarray | None) -> dict | None:
     mass-weighted dispersion), ``mean_spin_z`` and ``rms_spin`` [Omega] (time series
     averages with autocorrelation-corrected errors), ``sliding_fraction`` (Coulomb),
     ``collisional_spin_ratio`` (the closed form for constant beta,
-    ``physics.friction.collisional_spin_ratio``; None for Coulomb), ``convention`` and
+    ``physics.spin_temperature.collisional_spin_ratio``; None for Coulomb), ``convention`` and
     ``per_size_bin`` (:func:`spin_size_bins`).
     """
     ts = run.timeseries
@@ -103,7 +104,7 @@ def spin_equilibrium(run, start: int, edges: np.ndarray | None) -> dict | None:
     out["sliding_fraction"] = _value(float(np.sum(ts["sliding_collisions"][start:]))
                                      / collisions if collisions else math.nan, 0.0,
                                      unit("sliding_fraction"))
-    out["collisional_spin_ratio"] = (fr.collisional_spin_ratio(friction["beta"], k)
+    out["collisional_spin_ratio"] = (collisional_spin_ratio(friction["beta"], k)
                                      if friction["model"] == "constant" else None)
     out["per_size_bin"] = spin_size_bins(run, float(ts["t"][min(start, ts["t"].size - 1)]),
                                          edges, k)

@@ -3,14 +3,9 @@
 A run started from a sheet repeated n_x x n_y times holds identical copies at its start;
 round-off, the P3M mesh (whose cells the copies' y shifts do not respect) and chaos part
 them.  Its statistics are those of the larger box only once the copies are independent,
-both particle by particle and as a field: the particles' velocities part within about an
-orbit in a gravitating ring, while the wakes, coherent over many particles, stay alike
-about an orbit longer.  Measured in the 4.2 lambda_cr box tiled 2 x 2 from the 2.1
-lambda_cr one (analysis/kappa_selfgravity.md; its row of
-analysis/data/kappa_selfgravity_p3m_check.json keeps the first snapshots' values): the
-largest correlation of a copy with copy 0 was 0.06 in velocity and 0.38 in surface
-density after one orbit, 0.009 and 0.013 after two, 0.017 and 0.21 after three (the
-scatter of independent wake fields on this grid).
+both particle by particle and as a field: in a gravitating ring the particles' velocities
+part within about an orbit, while the wakes, coherent over many particles, stay alike
+about an orbit longer (docs/gravity.md, "Tiled starts", with the measured correlations).
 
 ``copy_correlation`` measures both, against copy 0, for each other copy:
 
@@ -33,12 +28,11 @@ import numpy as np
 from ringsim.physics.constants import SHEAR
 
 #: Largest particle-velocity correlation of an independent copy: a copy correlated at 0.1
-#: shares 1 % of its velocity variance with copy 0 (a convention, not a measurement; the
-#: velocities of the measured run fell from 0.06 to 0.009 within the orbit after it).
+#: shares 1 % of its velocity variance with copy 0 (a convention, not a measurement).
 VELOCITY_INDEPENDENT = 0.1
 #: Largest surface-density correlation of an independent copy's region: above the scatter
-#: of independent wake fields on the ``FIELD_CELLS`` grid (0.013 and 0.21 two and three
-#: orbits after the start of the measured run, above), below the 0.38 one orbit after it.
+#: of independent wake fields on the ``FIELD_CELLS`` grid, below the correlation of copies
+#: one orbit after a tiled start (docs/gravity.md, "Tiled starts").
 FIELD_INDEPENDENT = 0.3
 #: Cells per side of the small box for the surface-density correlation.
 FIELD_CELLS = 16

@@ -1,4 +1,19 @@
-"""Time-series statistics: MSER-5 transient, autocorrelation-corrected means, stationarity."""
+"""Time-series statistics: MSER-5 transient, autocorrelation-corrected means, stationarity.
+
+The equilibrium of a series (:func:`stationary_mean`) truncates the start-up transient with
+MSER-5 (White 1997; White, Cobb & Spratt 2000), estimates the standard error of the mean
+with the integrated autocorrelation time and Sokal's automatic window (Madras & Sokal 1988;
+Sokal 1997), and refuses to call a series equilibrated if the kept window still drifts or
+holds fewer than ``min_effective_samples`` independent samples.  Plain numpy arrays in any
+unit; nothing here knows what the series means.
+
+References
+----------
+Madras, N. & Sokal, A. D. 1988, J. Stat. Phys. 50, 109.
+Sokal, A. D. 1997, in Functional Integration, NATO ASI Series B 361, 131 (Plenum).
+White, K. P. 1997, Simulation 69, 323 (MSER truncation heuristic).
+White, K. P., Cobb, M. J. & Spratt, S. C. 2000, Proc. Winter Simulation Conf., 755 (MSER-5).
+"""
 
 from __future__ import annotations
 
@@ -240,6 +255,30 @@ def stationary_mean(series_t: ArrayLike, series_values: ArrayLike, *,
     time_unit : str
         Name of the unit of ``series_t`` (e.g. "orbit"), used in the drift message.
     """
+    t, v = _finite_samples(series_t, series_values, min_fraction)
+    if v.size < 3:
+        return _too_short(t, v)
+    start, at_limit = _transient_end(v, batch_size, min_fraction)
+    tw, vw = t[start:], v[start:]
+    mean, stderr, n_eff = autocorrelated_mean(vw, window_factor)
+    slope, slope_err, drift = _drift(tw, vw, mean, window_factor)
+    problems = (_drift_problems(slope, slope_err, drift, trend_sigma, max_relative_drift,
+                                time_unit)
+                + _window_problems(at_limit, n_eff, min_fraction, min_effective_samples))
+    reason = "; ".join(problems) if problems else (
+        f"stationary after sample {start}: {n_eff:.0f} effective samples, "
+        f"drift {100 * drift:.1f}% over the window")
+    return EquilibriumResult(mean=mean, stderr=stderr, start_index=int(start),
+                             start_time=float(t[start]), n_effective=float(n_eff),
+                             in_equilibrium=not problems, reason=reason,
+                             autocorrelation_time=vw.size / n_eff, slope=slope,
+                             slope_stderr=slope_err, relative_drift=drift)
+
+
+def _finite_samples(series_t: ArrayLike, series_values: ArrayLike, min_fraction: float
+                    ) -> tuple[FloatArray, FloatArray]:
+    """The samples of `stationary_mean` whose time and value are both finite, after its
+    argument checks (equal lengths, 0 < min_fraction <= 1)."""
     t = np.asarray(series_t, dtype=float).reshape(-1)
     v = np.asarray(series_values, dtype=float).reshape(-1)
     if t.size != v.size:
@@ -247,39 +286,37 @@ def stationary_mean(series_t: ArrayLike, series_values: ArrayLike, *,
     if not 0.0 < min_fraction <= 1.0:
         raise ValueError("min_fraction must lie in (0, 1]")
     keep = np.isfinite(t) & np.isfinite(v)
-    t, v = t[keep], v[keep]
-    if v.size < 3:
-        return EquilibriumResult(
-            mean=float(np.mean(v)) if v.size else math.nan, stderr=math.nan, start_index=0,
-            start_time=float(t[0]) if t.size else math.nan, n_effective=float(v.size),
-            in_equilibrium=False, reason=f"too short: {v.size} finite samples")
+    return t[keep], v[keep]
 
-    start = mser_truncation(v, batch_size=batch_size, max_fraction=1.0 - min_fraction)
-    k = v.size // int(batch_size)
-    at_limit = start > 0 and start // int(batch_size) >= min(
-        int(math.floor((1.0 - min_fraction) * k)), k - 2)
-    tw, vw = t[start:], v[start:]
-    n = vw.size
-    mean, stderr, n_eff = autocorrelated_mean(vw, window_factor)
-    tau = n / n_eff
-    slope, slope_err, drift = _drift(tw, vw, mean, window_factor)
-    problems = _drift_problems(slope, slope_err, drift, trend_sigma, max_relative_drift,
-                               time_unit)
+
+def _too_short(t: FloatArray, v: FloatArray) -> EquilibriumResult:
+    """The verdict of `stationary_mean` on fewer than 3 finite samples: not in equilibrium,
+    the mean of what there is, no standard error."""
+    return EquilibriumResult(
+        mean=float(np.mean(v)) if v.size else math.nan, stderr=math.nan, start_index=0,
+        start_time=float(t[0]) if t.size else math.nan, n_effective=float(v.size),
+        in_equilibrium=False, reason=f"too short: {v.size} finite samples")
+
+
+def _window_problems(at_limit: bool, n_eff: float, min_fraction: float,
+                     min_effective_samples: float) -> list[str]:
+    """The window verdicts of `stationary_mean`: the transient may not be over (MSER at
+    its limit), or too few effective samples after it."""
+    problems = []
     if at_limit:
         problems.append("transient may not be over: MSER truncation at its limit "
                         f"({100 * (1 - min_fraction):.0f}% of the series)")
     if n_eff < min_effective_samples:
         problems.append(f"too short: {n_eff:.1f} effective samples after the transient "
                         f"(need {min_effective_samples:g})")
-    ok = not problems
-    reason = "; ".join(problems) if problems else (
-        f"stationary after sample {start}: {n_eff:.0f} effective samples, "
-        f"drift {100 * drift:.1f}% over the window")
-    return EquilibriumResult(mean=mean, stderr=stderr, start_index=int(start),
-                             start_time=float(t[start]), n_effective=float(n_eff),
-                             in_equilibrium=ok, reason=reason, autocorrelation_time=tau,
-                             slope=slope, slope_stderr=slope_err, relative_drift=drift)
+    return problems
 
 
-# --- dilute-ring kinetic theory (Goldreich & Tremaine 1978) -----------------------------------
-
+def _transient_end(v: FloatArray, batch_size: int, min_fraction: float) -> tuple[int, bool]:
+    """The first sample after the transient (`mser_truncation`, discarding at most
+    1 - min_fraction of the series) and whether MSER put it at that limit."""
+    start = mser_truncation(v, batch_size=batch_size, max_fraction=1.0 - min_fraction)
+    k = v.size // int(batch_size)
+    at_limit = start > 0 and start // int(batch_size) >= min(
+        int(math.floor((1.0 - min_fraction) * k)), k - 2)
+    return start, at_limit

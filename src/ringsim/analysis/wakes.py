@@ -110,15 +110,6 @@ def wake_statistics(x, y, mass, Lx, Ly, shift, n=128, false_alarm=1e-3):
     # modes above half the peak on the peak's side (k and -k carry the same power)
     near = (p >= 0.5 * peak) & ((kx * k0[0] + ky * k0[1]) > 0)
     weights = p[near]
-    lam = 2.0 * np.pi / k[near]
-    lam0 = float(np.sum(weights * lam) / np.sum(weights))
-    spread = float(np.sqrt(np.sum(weights * (lam - lam0) ** 2) / np.sum(weights)))
-    dk = 2.0 * np.pi / max(Lx, Ly)
-    resolution = 0.5 * lam0**2 * dk / (2.0 * np.pi)
-    pitch = np.degrees(np.arctan(ky[near] / np.where(kx[near] == 0, 1e-300, kx[near])))
-    pitch0 = float(np.sum(weights * pitch) / np.sum(weights))
-    pitch_spread = float(np.sqrt(np.sum(weights * (pitch - pitch0) ** 2) / np.sum(weights)))
-    angular_resolution = float(np.degrees(0.5 * dk / np.hypot(*k0)))
     n_modes = int(np.count_nonzero(band)) // 2
     significance = float(peak / shot)
     p_value = float(-np.expm1(n_modes * np.log1p(-np.exp(-significance))))
@@ -126,11 +117,8 @@ def wake_statistics(x, y, mass, Lx, Ly, shift, n=128, false_alarm=1e-3):
     contrast = sigma / sigma.mean() - 1.0
     mass = np.asarray(mass, dtype=float)
     cell_mass = mass.sum() / n**2
-    return {
-        "wavelength": lam0,
-        "wavelength_err": max(spread, resolution),
-        "pitch_angle_deg": pitch0,
-        "pitch_angle_err_deg": max(pitch_spread, angular_resolution),
+    out = _dominant_wave(kx[near], ky[near], k[near], weights, k0, 2.0 * np.pi / max(Lx, Ly))
+    out.update({
         "amplitude": float(np.sqrt(np.mean(contrast**2))),
         # CIC spreads each particle over 4 cells: the variance of a cell's mass is reduced by
         # sum of squared weights, 4/9 on average
@@ -140,7 +128,26 @@ def wake_statistics(x, y, mass, Lx, Ly, shift, n=128, false_alarm=1e-3):
         "p_value": p_value,
         "significant": bool(p_value < false_alarm),
         "azimuthal_mode": int(round(abs(float(k0[1])) * Ly / (2.0 * np.pi))),
-    }
+    })
+    return out
+
+
+def _dominant_wave(kx, ky, k, weights, k0, dk) -> dict:
+    """Wavelength and pitch of the dominant wave from the modes near its peak: the modes'
+    wave vectors (kx, ky, |k|) [1/m] and powers (``weights``), the peak's wave vector k0
+    [1/m] and the spacing dk [1/m] of neighbouring modes.  Each value is the power-weighted
+    mean over the modes, its error the weighted spread, at least half the resolution dk."""
+    lam = 2.0 * np.pi / k
+    lam0 = float(np.sum(weights * lam) / np.sum(weights))
+    spread = float(np.sqrt(np.sum(weights * (lam - lam0) ** 2) / np.sum(weights)))
+    resolution = 0.5 * lam0**2 * dk / (2.0 * np.pi)
+    pitch = np.degrees(np.arctan(ky / np.where(kx == 0, 1e-300, kx)))
+    pitch0 = float(np.sum(weights * pitch) / np.sum(weights))
+    pitch_spread = float(np.sqrt(np.sum(weights * (pitch - pitch0) ** 2) / np.sum(weights)))
+    angular_resolution = float(np.degrees(0.5 * dk / np.hypot(*k0)))
+    return {"wavelength": lam0, "wavelength_err": max(spread, resolution),
+            "pitch_angle_deg": pitch0, "pitch_angle_err_deg": max(pitch_spread,
+                                                                  angular_resolution)}
 
 
 def vertical_stress_factor(z, mass, k, n_pairs=20000, seed=0):

@@ -22,7 +22,7 @@
  *
  * so that mesh + pair sum is the Plummer force (REBOUND's softening b) within r_c and the
  * Newtonian force beyond it, up to the mesh's error and the neglected short-range rest
- * beyond r_c (1 - L(r_c) = 3.6e-3 at r_c = 5 r_s).  d = r_i - r_j is the nearest
+ * beyond r_c (1 - L(r_c) = 5.85e-3 at r_c = 5 r_s).  d = r_i - r_j is the nearest
  * shear-periodic image: j's images sit at (x_j + n Lx, y_j - n s + m Ly), s = 1.5 Omega Lx t
  * (REBOUND's ghost-box convention, ringsim.physics.selfgravity.shear_offset).  L(r)/r^3 is
  * tabulated in r^2 (RS_P3M_TABLE nodes, linear interpolation: relative error < 1e-6 of the

@@ -2,7 +2,7 @@
 
 The solver (docs/gravity.md, section "P3M"): Gaussian force split of scale r_s; the long-
 range part on a mesh of horizontal cells and layers in sheared coordinates, solved with
-scipy.fft (:class:`ringsim.physics.selfgravity.P3MMesh`); mass assignment, interpolation and
+scipy.fft (:class:`ringsim.physics.p3m_mesh.P3MMesh`); mass assignment, interpolation and
 the short-range pair sum within r_c in C (``ringsim/csrc/rs_p3m.c``).  REBOUND's own gravity
 is off (``sim.gravity = "none"``); one Python ``additional_forces`` callback per force
 evaluation (SEI: once per step, at the half-step positions, time ``sim.t`` of mid-step) does
@@ -35,6 +35,7 @@ from ringsim.engine.native import (
 from ringsim.gravity.base import GravitySolver
 from ringsim.physics.constants import G_SI
 from ringsim.physics.gravity_solvers import P3M
+from ringsim.physics.p3m_mesh import P3MMesh
 from ringsim.physics.p3m_scales import (
     P3M_CELL_SPLITS,
     P3M_CUTOFF_SPLITS,
@@ -42,7 +43,6 @@ from ringsim.physics.p3m_scales import (
     layer_bucket,
     p3m_auto_split,
 )
-from ringsim.physics.selfgravity import P3MMesh
 
 #: Installed solvers by the address of their callback (REBOUND keeps the callback object in
 #: ``sim._afp``, and the callback keeps its solver alive).

@@ -3,7 +3,9 @@
 Pure numpy, SI units, vectorised over many collisions.  The normal coefficient of
 restitution ``eps_n`` comes from any law of :mod:`ringsim.physics.restitution` (Dilley's
 pair-dependent eps unchanged); this module adds what happens along the contact plane and
-to the spins.
+to the spins, and the spin diagnostics of a run.  The temperatures of a gas of such
+spheres (homogeneous cooling, the collisional balance of rotation in a ring) are
+:mod:`ringsim.physics.spin_temperature`.
 
 Conventions (declared here once)
 --------------------------------
@@ -34,7 +36,7 @@ Conventions (declared here once)
 Collision rule
 --------------
 The impulse ``J`` acts on particle 1 at the contact point (``-J`` on 2).  In units of the
-reduced mass M_bar = m1 m2/(m1 + m2), ``j = J / M_bar`` is a velocity:
+reduced mass M_bar = m1 m2/(m1 + m2), ``j = J / M_bar`` is a velocity::
 
     normal       j_n = (1 + eps_n) v_n n                  g_n' = -eps_n g_n
     tangential   j_t = -(1 + beta) f_t g_t                g_t' = -beta g_t
@@ -74,7 +76,6 @@ References
 Walton, O. R. 1993, in Particulate Two-Phase Flow, ed. M. C. Roco (Butterworth), 884-911.
 Huthmann, M. & Zippelius, A. 1997, Phys. Rev. E 56, R6275.
 Luding, S., Huthmann, M., McNamara, S. & Zippelius, A. 1998, Phys. Rev. E 58, 3416.
-McNamara, S. & Luding, S. 1998, Phys. Rev. E 58, 2247.
 """
 
 from __future__ import annotations
@@ -199,9 +200,10 @@ def collision_impulse(dr: ArrayLike, dv: ArrayLike, w1: ArrayLike, w2: ArrayLike
                       separation_change: ArrayLike | None = None) -> Impulse:
     """The impulse of colliding rough spheres, as velocity and spin changes.
 
-    Arithmetic in the order of ``rs_resolver.c::rs_apply_impulse`` for the normal part,
-    so that with ``friction=None`` or beta = -1 the velocity changes are bit-for-bit the
-    smooth resolver's and the spin changes are exactly zero.  The caller selects the
+    Arithmetic in the order of ``rs_resolver.c``: ``rs_apply_impulse`` for the normal
+    part, ``rs_tangential_impulse`` for the tangential part and the spins.  With
+    ``friction=None`` or beta = -1 the velocity changes are bit-for-bit the smooth
+    resolver's and the spin changes are exactly zero.  The caller selects the
     approaching pairs (v_n > 0); the rule is applied as given.
 
     Parameters
@@ -229,46 +231,84 @@ def collision_impulse(dr: ArrayLike, dv: ArrayLike, w1: ArrayLike, w2: ArrayLike
         impulse actually applied.
     """
     model, params = friction_parameters(friction)
+    dr, dv, w1, w2, (R1, R2, m1, m2, eps_n, k1, k2) = _batch(dr, dv, w1, w2, R1, R2, m1, m2,
+                                                             eps_n, k1, k2)
+    normal = _normal_impulse(dr, dv, m1, m2, eps_n, separation_change)
+    tangential = _tangential_impulse(model, params, normal, dv, w1, w2, R1, R2, k1, k2)
+    (nx, ny, nz), sep, (jtx, jty, jtz) = normal.n, normal.separation_change, tangential.j_t
+    j = [sep * nx + jtx, sep * ny + jty, sep * nz + jtz]
+    dv1 = np.stack([normal.share1 * jc for jc in j], axis=1)
+    dv2 = np.stack([-(normal.share2 * jc) for jc in j], axis=1)
+    return Impulse(dv1, dv2, tangential.dw1, tangential.dw2, normal.impact_speed,
+                   tangential.g_t, tangential.tangential_factor, tangential.beta,
+                   tangential.sliding)
+
+
+def _batch(dr: ArrayLike, dv: ArrayLike, w1: ArrayLike, w2: ArrayLike, *per_pair: ArrayLike
+           ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, list[FloatArray]]:
+    """The arguments of :func:`collision_impulse` as one batch of n collisions: dr, dv, w1
+    and w2 as (n, 3) rows, every other argument as an (n,) array."""
     dr = _rows("dr", dr)
     n = dr.shape[0]
-    dv = _rows("dv", dv, n)
-    w1 = _rows("w1", w1, n)
-    w2 = _rows("w2", w2, n)
-    R1, R2, m1, m2, eps_n, k1, k2 = (np.broadcast_to(np.asarray(a, dtype=float), (n,))
-                                     for a in (R1, R2, m1, m2, eps_n, k1, k2))
+    return (dr, _rows("dv", dv, n), _rows("w1", w1, n), _rows("w2", w2, n),
+            [np.broadcast_to(np.asarray(a, dtype=float), (n,)) for a in per_pair])
+
+
+class _Normal(NamedTuple):
+    """The normal part of a batch of collisions (one entry per collision)."""
+    distance: FloatArray           #: |dr| [m]
+    n: tuple[FloatArray, FloatArray, FloatArray]   #: unit normal dr / |dr|, by component
+    impact_speed: FloatArray       #: v_n = -dv . n [m/s]
+    separation_change: FloatArray  #: (1 + eps_n) v_n, or the caller's raised value [m/s]
+    share1: FloatArray             #: m2 / (m1 + m2) [-]
+    share2: FloatArray             #: m1 / (m1 + m2) [-]
+
+
+def _normal_impulse(dr: FloatArray, dv: FloatArray, m1: FloatArray, m2: FloatArray,
+                    eps_n: FloatArray, separation_change: ArrayLike | None) -> _Normal:
+    """The normal part of the rule: ``rs_apply_impulse``'s operations, in its order."""
     (dx, dy, dz), (dvx, dvy, dvz) = dr.T, dv.T
     distance = np.sqrt(dx * dx + dy * dy + dz * dz)
-
-    # Normal part: rs_apply_impulse's operations, in its order.
     v_n = (dvx * dx + dvy * dy + dvz * dz) / distance
     impact_speed = -v_n
     sep = (1.0 + eps_n) * impact_speed if separation_change is None else \
-        np.broadcast_to(np.asarray(separation_change, dtype=float), (n,))
-    nx, ny, nz = dx / distance, dy / distance, dz / distance
+        np.broadcast_to(np.asarray(separation_change, dtype=float), impact_speed.shape)
     total_mass = m1 + m2
-    share2 = m1 / total_mass
-    share1 = m2 / total_mass
+    return _Normal(distance, (dx / distance, dy / distance, dz / distance), impact_speed,
+                   sep, m2 / total_mass, m1 / total_mass)
 
-    # Tangential part.
-    lever = distance / (R1 + R2)
+
+class _Tangential(NamedTuple):
+    """The tangential part of a batch of collisions (one entry or row per collision)."""
+    j_t: tuple[FloatArray, FloatArray, FloatArray]  #: tangential impulse / M_bar [m/s]
+    dw1: FloatArray                 #: (n, 3) spin change of particle 1 [rad/s]
+    dw2: FloatArray                 #: (n, 3) spin change of particle 2 [rad/s]
+    g_t: FloatArray                 #: (n, 3) tangential contact velocity before [m/s]
+    tangential_factor: FloatArray   #: f_t = M_t / M_bar [-]
+    beta: FloatArray                #: tangential restitution applied [-]
+    sliding: NDArray[np.bool_]      #: Coulomb bound active
+
+
+def _tangential_impulse(model: str, params: Mapping[str, float], normal: _Normal,
+                        dv: FloatArray, w1: FloatArray, w2: FloatArray, R1: FloatArray,
+                        R2: FloatArray, k1: FloatArray, k2: FloatArray) -> _Tangential:
+    """The tangential part of the rule and the spin changes: ``rs_tangential_impulse``'s
+    operations, in its order.  Only the tangential impulse has a torque (n x j_n = 0
+    exactly in the mathematics, not in floating point, so it is left out)."""
+    nx, ny, nz = normal.n
+    share1, share2 = normal.share1, normal.share2
+    lever = normal.distance / (R1 + R2)
     gtx, gty, gtz = _tangential_contact_velocity(dv, w1, w2, R1 * lever, R2 * lever,
                                                  nx, ny, nz)
     tangential_factor = 1.0 / (1.0 + lever * lever * (share1 / k1 + share2 / k2))
-    coefficient, beta, sliding = _tangential_coefficient(model, params, tangential_factor,
-                                                         sep, gtx, gty, gtz)
+    coefficient, beta, sliding = _tangential_coefficient(
+        model, params, tangential_factor, normal.separation_change, gtx, gty, gtz)
     jtx, jty, jtz = -(coefficient * gtx), -(coefficient * gty), -(coefficient * gtz)
-
-    j = [sep * nx + jtx, sep * ny + jty, sep * nz + jtz]
-    dv1 = np.stack([share1 * jc for jc in j], axis=1)
-    dv2 = np.stack([-(share2 * jc) for jc in j], axis=1)
-
-    # Spins: only the tangential impulse has a torque (n x j_n = 0 exactly in the
-    # mathematics, not in floating point, so it is left out).
     cx, cy, cz = ny * jtz - nz * jty, nz * jtx - nx * jtz, nx * jty - ny * jtx
     dw1 = _spin_change(lever * share1 / (k1 * R1), cx, cy, cz)
     dw2 = _spin_change(lever * share2 / (k2 * R2), cx, cy, cz)
-    return Impulse(dv1, dv2, dw1, dw2, impact_speed, np.stack([gtx, gty, gtz], axis=1),
-                   tangential_factor, beta, sliding)
+    return _Tangential((jtx, jty, jtz), dw1, dw2, np.stack([gtx, gty, gtz], axis=1),
+                       tangential_factor, beta, sliding)
 
 
 def _tangential_contact_velocity(dv: FloatArray, w1: FloatArray, w2: FloatArray,
@@ -411,104 +451,6 @@ def inertial_spin(w: ArrayLike, Omega: float) -> FloatArray:
     out = np.array(w, dtype=float, copy=True)
     out[..., 2] += Omega
     return out
-
-
-# --- homogeneous cooling state (Huthmann & Zippelius 1997; Luding et al. 1998) -------------
-
-def hcs_coefficients(eps_n: float, beta: float, k: float = SOLID_SPHERE_INERTIA
-                     ) -> tuple[float, float, float]:
-    """Coefficients A, B, C of the two-temperature cooling equations of rough spheres.
-
-    For identical rough spheres (constant eps_n and beta, I = k m R^2) in a homogeneous
-    gas whose velocities and spins are independent Maxwellians of temperatures T_tr and
-    T_rot (T_tr = m<v^2>/3, T_rot = I<w^2>/3), Huthmann & Zippelius (1997) and Luding et
-    al. (1998) find in three dimensions
-
-        dT_tr/dt  = G [ -A T_tr^(3/2) + B T_tr^(1/2) T_rot ]
-        dT_rot/dt = G [  B T_tr^(3/2) - C T_tr^(1/2) T_rot ]
-
-    (in two dimensions, with one rotational degree of freedom, the second line carries a
-    factor 2) with eta = k (1 + beta) / (2 (1 + k)), the velocity change of a particle per
-    unit tangential contact velocity, and
-
-        A = (1 - eps_n^2)/4 + eta (1 - eta),   B = eta^2 / k,   C = (eta / k)(1 - eta / k).
-
-    G, proportional to the Enskog collision frequency n (2R)^2 g(2R) / sqrt(m), sets the
-    time scale only.  The derivation: average the energy changes of the rule in this
-    module's docstring over pairs weighted by their normal approach speed, with
-    independent Maxwellian velocities and spins; the normal impulse gives the
-    (1 - eps_n^2)/4 of A, the tangential impulse eta (1 - eta) of A, the transfer B
-    between the temperatures and C.  ``tests/test_friction.py`` checks the ratios of
-    these rates against a Monte Carlo average of :func:`collision_impulse` over
-    Maxwellian pairs.  The cooling gas is not exactly Maxwellian: simulations find T_rot
-    /T_tr a few percent below :func:`hcs_temperature_ratio` (docs/friction.md).
-    """
-    eta = k * (1.0 + beta) / (2.0 * (1.0 + k))
-    A = (1.0 - eps_n * eps_n) / 4.0 + eta * (1.0 - eta)
-    B = eta * eta / k
-    C = eta / k * (1.0 - eta / k)
-    return A, B, C
-
-
-def hcs_temperature_ratio(eps_n: float, beta: float, k: float = SOLID_SPHERE_INERTIA) -> float:
-    """Asymptotic T_rot / T_tr of freely cooling rough spheres in three dimensions.
-
-    Both temperatures decay by Haff's law, t^-2, with a fixed ratio R = T_rot / T_tr
-    (Huthmann & Zippelius 1997; Luding et al. 1998; McNamara & Luding 1998).  From the
-    equations of :func:`hcs_coefficients`, d ln T_rot/dt = d ln T_tr/dt gives
-    B - C R = R (B R - A), i.e. B R^2 + (C - A) R - B = 0, whose positive root is
-
-        R = [A - C + sqrt((A - C)^2 + 4 B^2)] / (2 B).
-
-    eps_n = 1, beta = 1 (elastic, perfectly rough) gives R = 1, equipartition.  As
-    beta -> -1 rotation decouples (B, C -> 0) and R depends on the start: beta = -1 is
-    refused.
-
-    Parameters
-    ----------
-    eps_n : float [-], in [0, 1]
-    beta : float [-], in (-1, 1]
-    k : float [-]
-        Moment-of-inertia factor, > 0.
-    """
-    if not -1.0 < beta <= 1.0:
-        raise ValueError(f"beta must lie in (-1, 1], got {beta}")
-    A, B, C = hcs_coefficients(eps_n, beta, k)
-    b = A - C
-    return (b + math.sqrt(b * b + 4.0 * B * B)) / (2.0 * B)
-
-
-def hcs_relaxation_collisions(eps_n: float, beta: float, k: float = SOLID_SPHERE_INERTIA
-                              ) -> float:
-    """Collisions per particle in which T_rot/T_tr closes 1/e of its gap to the HCS value.
-
-    Linearising dR/dt = G T_tr^(1/2) [B - (C - A) R - B R^2] (from
-    :func:`hcs_coefficients`) about R* = :func:`hcs_temperature_ratio` gives the rate
-    G T_tr^(1/2) (C - A + 2 B R*).  Per collision: for Maxwellian smooth spheres each
-    collision dissipates (1 - eps_n^2) T_tr on average, so dT_tr/dt = -(1 - eps_n^2)
-    omega_c T_tr / 3 with omega_c the collision frequency per particle, which is
-    -G A T_tr^(3/2) with A = (1 - eps_n^2)/4: G T_tr^(1/2) = (4/3) omega_c.  Slow for
-    nearly smooth spheres (about 18 collisions at eps_n = 0.9, beta = -0.5; 3 at beta = 0.5).
-    """
-    A, B, C = hcs_coefficients(eps_n, beta, k)
-    rate = 4.0 / 3.0 * (C - A + 2.0 * B * hcs_temperature_ratio(eps_n, beta, k))
-    return 1.0 / rate
-
-
-def collisional_spin_ratio(beta: float, k: float = SOLID_SPHERE_INERTIA) -> float:
-    """E_rot / E_tr when collisions neither feed nor drain rotation on average.
-
-    Where translation is heated by something else (a ring's shear) and rotation only
-    exchanges energy in collisions, its balance 2G (B T_tr - C T_rot) = 0 gives
-    R = B/C = k (1 + beta) / (2 (1 + k) - (1 + beta)); for k = 2/5 this is
-    2 (1 + beta) / (14 - 5 (1 + beta)), the optically-thin prediction Morishima & Salo
-    confirmed in local ring simulations (2004, DPS 36, #19.01; their e_t = -beta).
-    Assumes isotropic Maxwellians with no mean spin: the shear's systematic vorticity is
-    left out.
-    """
-    if not -1.0 <= beta <= 1.0:
-        raise ValueError(f"beta must lie in [-1, 1], got {beta}")
-    return k * (1.0 + beta) / (2.0 * (1.0 + k) - (1.0 + beta))
 
 
 def spin_statistics(w: ArrayLike, Omega: float, weights: ArrayLike | None = None

@@ -10,9 +10,9 @@ The numbers a ring dynamicist reads first for a self-gravitating sheet:
   Omega^2 and Toomre's Q = sigma_x Omega / (3.36 G Sigma) (the stellar-disk form, with the
   epicyclic frequency kappa = Omega of a Keplerian disk);
 * a particle's surface escape speed sqrt(2 G m / r);
-* how many lambda_cr the box spans, with the advice "at least 2, better 4" (issue 12's rule;
-  no published box-size recommendation could be read, docs/gravity.md section 7: a wake
-  lambda_cr apart at the published 15-30 deg pitch is 2-4 lambda_cr long azimuthally).
+* how many lambda_cr the box spans, with the advice "at least 2, better 4": a wake lambda_cr
+  apart at the published 15-30 deg pitch is 2-4 lambda_cr long azimuthally (no published
+  box-size recommendation could be read, docs/gravity.md section 7).
 
 The planet's mass is M_p = GM / G: ``GM`` is the number users give (it is known far better
 than G or M_p separately).

@@ -106,8 +106,8 @@ def _p3m_box(values: Mapping[str, Any], mean_radius: float, n_particles: int, Lx
 TREE = SolverDeclaration(
     "tree", "REBOUND's tree, one ring of ghost boxes and the field of the sheet beyond them",
     (SOFTENING, OPENING_ANGLE),
-    # scenarios that set the opening angle and no solver were written for the tree, before
-    # P3M became the default: they run as they did
+    # a scenario that sets the opening angle and no solver means the tree (the default is
+    # P3M, which has no opening angle; docs/gravity.md, 8)
     implied_by=("opening_angle",))
 P3M = SolverDeclaration(
     "p3m", "ringsim's shear-periodic P3M: a layered mesh with scipy.fft plus a pair sum in C",

@@ -1,4 +1,16 @@
-"""Dilute-ring kinetic theory (Goldreich & Tremaine 1978) and the kinetic dispersion estimate."""
+"""Dilute-ring kinetic theory (Goldreich & Tremaine 1978) and the kinetic dispersion estimate.
+
+The critical coefficient of restitution eps_cr(tau) comes from GT78's model, a triaxial
+Gaussian velocity distribution of identical smooth spheres (:func:`gt78_steady_state`), which
+reproduces their eps_cr -> 0.627 for tau -> 0.  The dilute-ring estimate of the velocity
+dispersion (:func:`kinetic_dispersion_estimate`) balances viscous heating against
+collisional dissipation: the ring is in thermal balance where the impact-averaged eps of the
+scenario's law equals eps_cr(tau).
+
+References
+----------
+Goldreich, P. & Tremaine, S. 1978, Icarus 34, 227 ("The velocity dispersion in Saturn's rings").
+"""
 
 from __future__ import annotations
 
@@ -13,6 +25,7 @@ from scipy import optimize
 
 from ringsim.checks import FloatArray, nonnegative_array, positive
 from ringsim.physics.constants import TWO_PI
+from ringsim.physics.restitution import epsilon_for_pair
 
 # Nodes of the trapezoid rule in y = ln(s lambda_mean) for the Gaussian speed moments below;
 # the integrands are analytic in a strip |Im y| < pi and decay like exp(-|y|/2), so the rule
@@ -23,11 +36,9 @@ _LOG_S_STEP = 0.25
 #: Largest residual [dimensionless moments of order 0.1-1] at which the moment equations
 #: count as solved.  MINPACK's own verdict is not used: with the tight step tolerance below
 #: it can report "xtol too small, no further improvement" (status 3) at the root itself,
-#: depending on the last bits of numpy's exp / log1p, which differ between instruction sets.
-#: Measured 2026-11-26 at the dilute limit and along the continuation to tau = 2: residuals
-#: of at most 2e-16 / 1.9e-15 with numpy's AVX-512 kernels (status 1) and 4.4e-16 / 2.4e-15
-#: without them (status 3 at the dilute limit, so ``ringsim run`` failed at set-up with
-#: them off, as numpy runs on a CPU without AVX-512), so 1e-12 is 400 times the round-off seen.
+#: depending on the last bits of numpy's exp / log1p, which differ between instruction sets
+#: (with and without AVX-512).  The residuals at the roots, from the dilute limit to
+#: tau = 2, are a few 1e-15 on either instruction set: 1e-12 is hundreds of times that.
 ROOT_RESIDUAL = 1e-12
 
 
@@ -220,9 +231,6 @@ def effective_epsilon(restitution: Mapping[str, object], velocity_dispersion: fl
         Reduced mass of the colliding pair.
     weighting : {"energy", "collision"}
     """
-    # Imported here so the snapshot statistics above stay usable without the restitution laws.
-    from ringsim.physics.restitution import epsilon_for_pair
-
     c = positive("velocity_dispersion", velocity_dispersion)
     if weighting == "energy":
         kernel = _S_NODES**3
@@ -353,36 +361,55 @@ def kinetic_dispersion_estimate(restitution: Mapping[str, object], radius: Array
     """
     r, m, density = representative_particle(radius, mass)
     Omega = positive("Omega", Omega)
+    scan = _scan_range(c_min, c_max, n_scan)
+    steady = gt78_steady_state(optical_depth)
+    R_bar, M_bar = r / 2.0, m / 2.0
+    result: dict[str, object] = {
+        "epsilon_critical": steady["epsilon_critical"], "radius": r, "mass": m,
+        "R_bar": R_bar, "M_bar": M_bar, "optical_depth": float(optical_depth),
+        "weighting": weighting, "gt78": steady,
+        "representative": (f"one particle of the mean radius {r:.4g} m and its own mass "
+                           f"{m:.4g} kg at the bulk density {density:.4g} kg/m^3"),
+    }
+    result.update(_thermal_balance(restitution, R_bar, M_bar, weighting,
+                                   steady["epsilon_critical"], r * Omega, scan))
+    return result
+
+
+def _thermal_balance(restitution: Mapping[str, object], R_bar: float, M_bar: float,
+                     weighting: str, eps_cr: float, r_Omega: float,
+                     scan: tuple[float, float, int]) -> dict[str, object]:
+    """Where the impact-averaged eps of a pair (R_bar [m], M_bar [kg]) equals eps_cr: the
+    entries ``roots``, ``status``, ``reason``, ``velocity_dispersion`` [m/s],
+    ``velocity_dispersion_rOmega`` and ``effective_epsilon`` of
+    `kinetic_dispersion_estimate` (NaN without a stable balance).  r_Omega [m/s]: the
+    radius times Omega; scan: (c_min [m/s], c_max [m/s], points)."""
+    def excess(log_c: float) -> float:
+        return effective_epsilon(restitution, math.exp(log_c), R_bar, M_bar, weighting) - eps_cr
+
+    c_min, c_max, n_scan = scan
+    roots, f = _balances(excess, c_min, c_max, n_scan)
+    out: dict[str, object] = {"roots": roots, "velocity_dispersion": math.nan,
+                              "velocity_dispersion_rOmega": math.nan,
+                              "effective_epsilon": math.nan}
+    stable = [root for root in roots if root["stable"]]
+    if stable:
+        c = float(stable[0]["velocity_dispersion"])
+        out.update(status="equilibrium", velocity_dispersion=c,
+                   velocity_dispersion_rOmega=c / r_Omega,
+                   effective_epsilon=effective_epsilon(restitution, c, R_bar, M_bar, weighting),
+                   reason=_balance_reason(c, r_Omega, eps_cr))
+    else:
+        status, reason = _no_balance(bool(roots), f, eps_cr, c_min, c_max)
+        out.update(status=status, reason=reason)
+    return out
+
+
+def _scan_range(c_min: float, c_max: float, n_scan: int) -> tuple[float, float, int]:
+    """The checked scan of `kinetic_dispersion_estimate`: (c_min [m/s], c_max [m/s], points)
+    with 0 < c_min < c_max and at least 2 points, else ValueError."""
     c_min = positive("c_min", c_min)
     c_max = positive("c_max", c_max)
     if c_max <= c_min or int(n_scan) < 2:
         raise ValueError("need c_min < c_max and n_scan >= 2")
-    steady = gt78_steady_state(optical_depth)
-    eps_cr = steady["epsilon_critical"]
-    R_bar, M_bar = r / 2.0, m / 2.0
-
-    def excess(log_c: float) -> float:
-        return effective_epsilon(restitution, math.exp(log_c), R_bar, M_bar, weighting) - eps_cr
-
-    roots, f = _balances(excess, c_min, c_max, int(n_scan))
-
-    result: dict[str, object] = {
-        "epsilon_critical": eps_cr, "radius": r, "mass": m, "R_bar": R_bar, "M_bar": M_bar,
-        "optical_depth": float(optical_depth), "weighting": weighting, "roots": roots,
-        "gt78": steady, "velocity_dispersion": math.nan,
-        "representative": (f"one particle of the mean radius {r:.4g} m and its own mass "
-                           f"{m:.4g} kg at the bulk density {density:.4g} kg/m^3"),
-        "velocity_dispersion_rOmega": math.nan, "effective_epsilon": math.nan,
-    }
-    stable = [root for root in roots if root["stable"]]
-    if stable:
-        c = float(stable[0]["velocity_dispersion"])
-        result.update(status="equilibrium", velocity_dispersion=c,
-                      velocity_dispersion_rOmega=c / (r * Omega),
-                      effective_epsilon=effective_epsilon(restitution, c, R_bar, M_bar,
-                                                          weighting),
-                      reason=_balance_reason(c, r * Omega, eps_cr))
-    else:
-        status, reason = _no_balance(bool(roots), f, eps_cr, c_min, c_max)
-        result.update(status=status, reason=reason)
-    return result
+    return c_min, c_max, int(n_scan)

@@ -1,11 +1,11 @@
 """Declared laws and their parameters: the machinery every parameter table of ringsim uses.
 
-A physical law the scenario can choose (a restitution law today, a friction law later) is
-declared ONCE as a `Law`: its name, its numpy function, its integer code in the C
-library, and for each parameter a `Parameter` with unit, default (or required), allowed
-range with open or closed ends, C slot, one-line meaning and source.  A `LawTable`
-(one per scenario section: ``restitution``, later ``friction``) collects the laws of a
-section.  Everything else is derived from the table:
+A physical law the scenario can choose (a restitution law, a friction model) is declared
+ONCE as a `Law`: its name, its numpy function, its integer code in the C library, and for
+each parameter a `Parameter` with unit, default (or required), allowed range with open or
+closed ends, C slot, one-line meaning and source.  A `LawTable` (one per scenario section:
+``restitution``, ``friction``) collects the laws of a section.  Everything else is derived
+from the table:
 
 * scenario validation of the section (``ringsim.config.scenario``),
 * checking and packing of the C resolver's arguments (``ringsim.engine``),
@@ -86,7 +86,10 @@ class Parameter:
     def __post_init__(self) -> None:
         if not self.lower < self.upper:
             raise ValueError(f"{self.name}: declared range is empty")
-        if self.default == AUTO:
+        if isinstance(self.default, str):
+            if self.default != AUTO:
+                raise ValueError(f"{self.name}: default {self.default!r} is neither a number "
+                                 f"nor {AUTO!r}")
             if not self.auto:
                 raise ValueError(f"{self.name}: default 'auto' without its meaning")
         elif self.default is not None and not self.contains(self.default):
@@ -224,8 +227,9 @@ class Law:
         return tuple(p.name for p in self.parameters)
 
     def defaults(self) -> dict[str, float]:
-        """Parameters with defaults (required ones are left out)."""
-        return {p.name: p.default for p in self.parameters if p.default is not None}
+        """Parameters with numeric defaults (required ones and ``auto`` ones left out)."""
+        return {p.name: p.default for p in self.parameters
+                if isinstance(p.default, int | float)}
 
     def checked(self, values: Mapping[str, Any]) -> dict[str, float]:
         """Every parameter of the law from ``values`` (defaults filled), range-checked;
@@ -252,8 +256,13 @@ class Law:
         return tuple(slots)
 
     def evaluate(self, values: Mapping[str, float], v: Any, R_bar: Any, M_bar: Any) -> Any:
-        """The numpy function with these parameter values."""
+        """The numpy function with these parameter values at speeds v [m/s] and, for a law
+        with ``uses_pair``, the pair's R_bar [m] and M_bar [kg] (ValueError if None; the
+        other laws ignore them)."""
         if self.uses_pair:
+            if R_bar is None or M_bar is None:
+                raise ValueError(f"the {self.name} law needs the reduced radius and mass of "
+                                 "the pair")
             return self.function(v, R_bar, M_bar, **values)
         return self.function(v, **values)
 

@@ -1,8 +1,8 @@
-"""The length scales of the P3M self-gravity solver (issue 12): the split scale r_s and the
-multiples of it that set the pair sum's cutoff, the mesh's cells and its layers; the split
-that ``sheet.p3m_split: auto`` takes from the layer's height span; the fixed ladder of layer
+"""The length scales of the P3M self-gravity solver: the split scale r_s and the multiples
+of it that set the pair sum's cutoff, the mesh's cells and its layers; the split that
+``sheet.p3m_split: auto`` takes from the layer's height span; the fixed ladder of layer
 counts the mesh is padded to.  Declared once here; the solver (``gravity.p3m``), its mesh
-(``physics.selfgravity.P3MMesh``), the scenario key (``physics.gravity_solvers``), the
+(``physics.p3m_mesh.P3MMesh``), the scenario key (``physics.gravity_solvers``), the
 benchmarks and the docs derive from these (docs/gravity.md, section 4b).  Pure functions.
 """
 
@@ -11,9 +11,11 @@ from __future__ import annotations
 import math
 
 #: P3M split scale r_s as a multiple of the mean particle radius, and the pair-sum cutoff,
-#: horizontal mesh cell and layer spacing as multiples of r_s: the cheapest setting found
-#: with < 1 % rms force error on a tau = 0.5 sheet (benchmarks/gravity.py, docs/gravity.md).
-#: GADGET-2 uses r_s = 1.25 cells and r_c = 4.5 r_s; 1 - L(5 r_s) = 3.6e-3.
+#: horizontal mesh cell and layer spacing as multiples of r_s: the cheapest setting with
+#: < 1 % rms force error on a tau = 0.5 sheet (docs/gravity.md, 4b, "Defaults").  The
+#: short-range rest left out beyond the cutoff is 1 - L(5 r_s) = 5.85e-3 of the pair force
+#: (``physics.p3m_mesh.long_range_fraction``).  GADGET-2 uses r_s = 1.25 cells and
+#: r_c = 4.5 r_s.
 P3M_SPLIT_RADII = 3.0
 P3M_CUTOFF_SPLITS = 5.0
 P3M_CELL_SPLITS = 1.0
@@ -21,25 +23,22 @@ P3M_LAYER_SPLITS = 0.75
 #: ``sheet.p3m_split: auto`` (the default): the split scale follows the layer's height span
 #: Z at every force evaluation.  The mesh costs ~ (L / r_s)^2 Z / r_s and the pair sum (a
 #: horizontal cell list) ~ N n (2.5 r_c)^2, n the number of particles per unit area, so the
-#: cheapest split is r_s = C (Z / n^2)^(1/5).  C from timings of one force evaluation
-#: (2026-11-24, this machine; docs/performance.md, "P3M in thick rings"): 2400 particles
-#: of 1 m at tau = 0.5 with Z = 175 m were cheapest at r_s = 4.5 m (11.2 ms against 13.9
-#: at 3 m and 15.6 at 6 m), so C = 4.5 / (175 / 0.159^2)^(1/5) = 0.77; the same C puts a
-#: 1200-particle ring with Z = 842 m at 6.2 m, where 6 m measured 6.2 ms against 29.6 ms
-#: at 3 m.
+#: cheapest split is r_s = C (Z / n^2)^(1/5).  C is the measured optimum of one force
+#: evaluation (docs/gravity.md, 4b, "The split in thick rings").
 P3M_AUTO_SPLIT_COEFFICIENT = 0.77
 #: Ratio of successive split scales ("rungs") of ``auto``, from P3M_SPLIT_RADII mean radii
 #: up: the choice moves one rung when Z changes by a factor 2^(5/4) = 2.4.
 P3M_SPLIT_RUNG = 2.0 ** 0.25
 #: The pair sum's cell list needs 2 cells per cutoff and 5 columns (rs_p3m.c,
 #: RS_P3M_CELLS_PER_CUTOFF), i.e. r_c <= min(Lx, Ly) / 2.5; a wider cutoff falls back to
-#: all pairs over 3 x 3 images (measured: 119 ms against 6 ms), so ``auto`` stays below it.
+#: all pairs over 3 x 3 images, many times slower (docs/gravity.md, 4b), so ``auto`` stays
+#: below it.
 P3M_CELL_LIST_CUTOFFS = 2.5
 #: Layer counts of the mesh are padded (empty layers on top) to the next of a fixed ladder
 #: of counts (ratio P3M_LAYER_BUCKET, from P3M_MIN_LAYERS): the vertical kernel tables, one
-#: per layer count, are then shared by every step whose layers fall in one bucket.  Before,
-#: a hot ring's span changed its layer count at nearly every step: 69 tables in 300 steps,
-#: 6.3 GB, 274 ms per step against 30 for one evaluation (measured 2026-11-24).
+#: per layer count, are then shared by every step whose layers fall in one bucket, where a
+#: hot ring's height span would otherwise ask for a new table at nearly every step
+#: (docs/gravity.md, 4b, "Layer counts on a fixed ladder").
 P3M_LAYER_BUCKET = 1.25
 P3M_MIN_LAYERS = 8
 #: Kernel tables a mesh keeps (least recently used dropped): 2 x 8193 x about 2 nz doubles each,

@@ -524,8 +524,8 @@ def model_parameters(restitution: Mapping[str, object]) -> tuple[str, dict[str, 
     return law.name, params
 
 
-def epsilon_for_pair(restitution: Mapping[str, object], v: ArrayLike, R_bar: ArrayLike,
-                     M_bar: ArrayLike) -> FloatArray | float:
+def epsilon_for_pair(restitution: Mapping[str, object], v: ArrayLike, R_bar: ArrayLike | None,
+                     M_bar: ArrayLike | None) -> FloatArray | float:
     """Coefficient of restitution of any law, given a scenario's ``restitution`` section.
 
     The one dispatch from a law's name to its function (`RESTITUTION`).
@@ -538,10 +538,10 @@ def epsilon_for_pair(restitution: Mapping[str, object], v: ArrayLike, R_bar: Arr
         take their defaults).
     v : array [m/s]
         Normal impact speed.
-    R_bar : array [m]
-        Reduced radius of the pair (used by laws with ``uses_pair`` only).
-    M_bar : array [kg]
-        Reduced mass of the pair (used by laws with ``uses_pair`` only).
+    R_bar : array [m] or None
+        Reduced radius of the pair: read by laws with ``uses_pair`` only, None for others.
+    M_bar : array [kg] or None
+        Reduced mass of the pair, as ``R_bar`` (``Law.evaluate`` refuses a None it needs).
     """
     law, params = RESTITUTION.resolve(restitution)
     return law.evaluate(params, v, R_bar, M_bar)

@@ -11,6 +11,9 @@ labels are chosen from the data so that they stay readable for any range.
   vertical profile, particle picture;
 * ``run``: ``plot_run`` (``analyze --plots``) and ``plot_comparison`` (``compare --plots``);
 * ``sweep``: ``plot_sweep`` (``sweep --plots``);
+* ``fits``: ``plot_fits``, the data and fitted laws of ``ringsim fit --plot``;
+* ``spins``, ``wakes``: the spins of a run with friction and the top view of a
+  self-gravitating sheet (``analyze --plots``);
 * ``common``: units, readable axes, run styles, equilibrium window, ``save_figure``.
 """
 

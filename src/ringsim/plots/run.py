@@ -5,7 +5,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ringsim.analysis.gravitating import snapshot_wakes
 from ringsim.plots.common import run_style, save_figure
+from ringsim.plots.spins import spin_figure
 from ringsim.plots.structure import (
     epsilon_histogram_figure,
     size_bin_figure,
@@ -18,6 +20,7 @@ from ringsim.plots.timeseries import (
     per_size_timeseries_figure,
     timeseries_figure,
 )
+from ringsim.plots.wakes import wake_figure
 
 
 def _entries(runs, equilibria):
@@ -44,17 +47,12 @@ def run_figures(run, eq: dict) -> dict:
     if "lambda_cr" in eq:
         figures["wakes.png"] = _wake_figure(run, eq, snap)
     if eq.get("spin"):
-        from ringsim.plots.spins import spin_figure
-
         figures["spins.png"] = spin_figure(run, eq)
     return figures
 
 
 def _wake_figure(run, eq: dict, snap: dict):
     """Top view of the last snapshot of a gravitating run, with its wake statistics."""
-    from ringsim.analysis.gravitating import snapshot_wakes
-    from ringsim.plots.wakes import wake_figure
-
     Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
     stats = snapshot_wakes(snap, Lx, Ly, run.scenario.orbital_frequency)
     period = run.scenario.orbital_period

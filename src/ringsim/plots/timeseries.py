@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from ringsim.analysis import timeseries as ts_stats
-from ringsim.analysis.snapshot import collision_frequency
+from ringsim.analysis.collisions import collision_frequency
 from ringsim.plots.common import (
     SPEED_SCALE,
     axis_label,
@@ -31,7 +31,7 @@ from ringsim.plots.common import (
 
 def collision_rate(run) -> np.ndarray:
     """Collisions per particle per orbit in each output interval [1/orbit] (NaN for row 0,
-    which has no interval), by ``snapshot.collision_frequency``."""
+    which has no interval), by ``collisions.collision_frequency``."""
     ts = run.timeseries
     n = int(run.snapshot(0)["radius"].size)
     Omega = run.scenario.orbital_frequency

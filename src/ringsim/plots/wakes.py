@@ -1,4 +1,4 @@
-"""Top view of a self-gravitating sheet to scale, showing its wakes (issue 12).
+"""Top view of a self-gravitating sheet to scale, showing its wakes.
 
 The surface density of one snapshot is binned on cells of about one mean particle diameter,
 smoothed by a Gaussian of one cell (``scipy.ndimage``), and shown as Sigma / <Sigma> over the

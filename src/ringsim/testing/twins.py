@@ -155,9 +155,10 @@ class PythonReferenceResolver:
             self._memory.add(key)
 
     def _apply_impulse(self, sim: rebound.Simulation, c: Any, p1: Any, p2: Any, gb: Any,
-                       dx: float,
-                       dy: float, dz: float, distance: float, dvx: float, dvy: float,
-                       dvz: float, back_time: float) -> bool:
+                       dx: float, dy: float, dz: float, distance: float, dvx: float,
+                       dvy: float, dvz: float, back_time: float) -> bool:
+        """rs_apply_impulse: the contact at separation (dx, dy, dz) [m], relative velocity
+        (dvx, dvy, dvz) [m/s], back_time [s] before the end of the step; True if resolved."""
         v_n = (dvx * dx + dvy * dy + dvz * dz) / distance
         speed_scale = (abs(p1.vx) + abs(p1.vy) + abs(p1.vz) + abs(gb.vx) + abs(gb.vy)
                        + abs(gb.vz) + abs(p2.vx) + abs(p2.vy) + abs(p2.vz))
@@ -172,18 +173,8 @@ class PythonReferenceResolver:
         M_bar = m1 * m2 / total_mass
         impact_speed = -v_n
         eps = self.epsilon(impact_speed, R_bar, M_bar)
-
-        separation_change = (1.0 + eps) * impact_speed
-        r_min = p2.r if p1.r > p2.r else p1.r
-        r_max = p2.r if p1.r < p2.r else p1.r
-        w = sim.minimum_collision_velocity
-        v_floor = r_min * w
-        v_floor *= 1.0 - (distance - r_max) / r_min
-        if v_floor > r_max * w:
-            v_floor = r_max * w
-        floored = separation_change < v_floor
-        if floored:
-            separation_change = v_floor
+        separation_change, floored = _floored_separation_change(
+            sim, p1.r, p2.r, distance, (1.0 + eps) * impact_speed)
         self.normal_dissipation += 0.5 * M_bar * separation_change * (
             2.0 * impact_speed - separation_change)
 
@@ -194,45 +185,49 @@ class PythonReferenceResolver:
         share2 = m1 / total_mass
         share1 = m2 / total_mass
         if self.friction_model != "none":
-            while len(self.spins) < sim.N:
-                self.spins.append([0.0, 0.0, 0.0])
-            theta = sim.OMEGA * (sim.t - back_time)     # rs_spin_frame_angle
-            cos, sin = math.cos(theta), math.sin(theta)
-            w1 = _to_rotating(self.spins[c.p1], cos, sin)
-            w2 = _to_rotating(self.spins[c.p2], cos, sin)
-            jtx, jty, jtz = self._tangential_impulse(
-                w1, w2, p1.r, p2.r, share1, share2, M_bar,
-                separation_change, dx, dy, dz, distance, dvx, dvy, dvz)
-            self.spins[c.p1] = _from_rotating(w1, cos, sin)
-            self.spins[c.p2] = _from_rotating(w2, cos, sin)
+            jtx, jty, jtz = self._rough_impulse(
+                sim, c, p1.r, p2.r, share1, share2, M_bar, separation_change,
+                (dx, dy, dz, distance), (dvx, dvy, dvz), back_time)
             jx += jtx
             jy += jty
             jz += jtz
-        p2.vx = p2.vx - share2 * jx
-        p2.vy = p2.vy - share2 * jy
-        p2.vz = p2.vz - share2 * jz
-        p1.vx = p1.vx + share1 * jx
-        p1.vy = p1.vy + share1 * jy
-        p1.vz = p1.vz + share1 * jz
-        if back_time > 0.0:
-            p2.x = p2.x - back_time * (share2 * jx)
-            p2.y = p2.y - back_time * (share2 * jy)
-            p2.z = p2.z - back_time * (share2 * jz)
-            p1.x = p1.x + back_time * (share1 * jx)
-            p1.y = p1.y + back_time * (share1 * jy)
-            p1.z = p1.z + back_time * (share1 * jz)
+        _kick(p1, p2, share1, share2, jx, jy, jz, back_time)
         if dx > 0.0:
             sim.collisions_plog += -abs(dx) * (old_vy_outer - p1.vy) * m1
         else:
             sim.collisions_plog += -abs(dx) * (old_vy_outer - p2.vy) * m2
         sim.collisions_log_n += 1
+        self._record(sim.t, impact_speed, R_bar, M_bar, eps, floored)
+        return True
 
+    def _rough_impulse(self, sim: rebound.Simulation, c: Any, R1: float, R2: float,
+                       share1: float, share2: float, M_bar: float, separation_change: float,
+                       separation: tuple[float, float, float, float],
+                       velocity: tuple[float, float, float], back_time: float
+                       ) -> tuple[float, float, float]:
+        """rs_apply_impulse's rough-sphere branch: the stored spins of the pair turned into
+        the rotating frame's axes at the contact time, the tangential impulse applied to
+        them (:meth:`_tangential_impulse`), and stored back; returns j_t [m/s]."""
+        while len(self.spins) < sim.N:
+            self.spins.append([0.0, 0.0, 0.0])
+        theta = sim.OMEGA * (sim.t - back_time)     # rs_spin_frame_angle
+        cos, sin = math.cos(theta), math.sin(theta)
+        w1 = _to_rotating(self.spins[c.p1], cos, sin)
+        w2 = _to_rotating(self.spins[c.p2], cos, sin)
+        jt = self._tangential_impulse(w1, w2, R1, R2, share1, share2, M_bar,
+                                      separation_change, *separation, *velocity)
+        self.spins[c.p1] = _from_rotating(w1, cos, sin)
+        self.spins[c.p2] = _from_rotating(w2, cos, sin)
+        return jt
+
+    def _record(self, t: float, impact_speed: float, R_bar: float, M_bar: float, eps: float,
+                floored: bool) -> None:
+        """rs_record: the statistics and the log of one collision."""
         self.count += 1
         self.n_floored += int(floored)
         self.sum_epsilon += eps
         self.sum_vn += impact_speed
-        self.log.append((sim.t, impact_speed, R_bar, M_bar, eps))
-        return True
+        self.log.append((t, impact_speed, R_bar, M_bar, eps))
 
     def _tangential_impulse(self, w1: list[float], w2: list[float], R1: float, R2: float,
                             share1: float, share2: float, M_bar: float,
@@ -300,6 +295,43 @@ class PythonReferenceResolver:
         }
 
 
+def _floored_separation_change(sim: rebound.Simulation, R1: float, R2: float,
+                               distance: float, separation_change: float
+                               ) -> tuple[float, bool]:
+    """rs_apply_impulse's floor: the separation speed [m/s] raised to REBOUND's minimum
+    collision velocity (scaled with the radii and the overlap), and whether it was."""
+    r_min = R2 if R1 > R2 else R1
+    r_max = R2 if R1 < R2 else R1
+    w = sim.minimum_collision_velocity
+    v_floor = r_min * w
+    v_floor *= 1.0 - (distance - r_max) / r_min
+    if v_floor > r_max * w:
+        v_floor = r_max * w
+    if separation_change < v_floor:
+        return v_floor, True
+    return separation_change, False
+
+
+def _kick(p1: Any, p2: Any, share1: float, share2: float, jx: float, jy: float, jz: float,
+          back_time: float) -> None:
+    """rs_apply_impulse's update: the impulse j (per reduced mass, [m/s]) on both particles'
+    velocities and, for a contact back_time [s] before the end of the step, the positions
+    the new velocities reach in the rest of it."""
+    p2.vx = p2.vx - share2 * jx
+    p2.vy = p2.vy - share2 * jy
+    p2.vz = p2.vz - share2 * jz
+    p1.vx = p1.vx + share1 * jx
+    p1.vy = p1.vy + share1 * jy
+    p1.vz = p1.vz + share1 * jz
+    if back_time > 0.0:
+        p2.x = p2.x - back_time * (share2 * jx)
+        p2.y = p2.y - back_time * (share2 * jy)
+        p2.z = p2.z - back_time * (share2 * jz)
+        p1.x = p1.x + back_time * (share1 * jx)
+        p1.y = p1.y + back_time * (share1 * jy)
+        p1.z = p1.z + back_time * (share1 * jz)
+
+
 def _to_rotating(s: list[float], cos: float, sin: float) -> list[float]:
     """rs_spin_to_rotating: stored spin -> the rotating frame's axes at angle theta."""
     return [cos * s[0] + sin * s[1], cos * s[1] - sin * s[0], s[2]]
@@ -310,16 +342,15 @@ def _from_rotating(w: list[float], cos: float, sin: float) -> list[float]:
     return [cos * w[0] - sin * w[1], cos * w[1] + sin * w[0], w[2]]
 
 
-#: Particles searched at once by `count_overlaps_numpy`: bounds its transient memory (150
-#: bytes per particle at N = 3e5 against 940 when all were searched at once).
+#: Particles searched at once by `count_overlaps_numpy`: bounds its transient memory (about 150
+#: bytes per particle at N = 3e5, 940 if all were searched at once).
 OVERLAP_CHUNK = 1 << 13
 
 
 def count_overlaps_numpy(arrays: dict[str, np.ndarray], Lx: float, Ly: float, shift: float,
                          fraction: float) -> int:
-    """Pairs overlapping by more than ``fraction`` of the smaller radius (the numpy twin of
-    ``rs_count_overlaps``, behind ``engine.box.count_overlaps``; the engine's count until
-    issue 16).
+    """Pairs overlapping by more than ``fraction`` of the smaller radius: the numpy twin of
+    ``rs_count_overlaps``, the C count behind ``engine.box.count_overlaps``.
 
     Candidates within twice the largest radius come from scipy's cKDTree over the particles
     and their shear-periodic radial images (`physics.selfgravity.radial_images`; periodic in
