@@ -49,6 +49,7 @@ from typing import Any
 from ringsim.batch import LabelledStream as _LabelledStream
 from ringsim.batch import dask_client as _dask_client
 from ringsim.batch import existing_action, run_dask, run_local, run_to_file
+from ringsim.config.sweep import load_sweep
 from ringsim.errors import InputError
 from ringsim.store.summary import write_summary
 
@@ -321,6 +322,35 @@ def _plan_line(sweep_path, tasks: Sequence[PointTask], out_dir: Path, scheduler:
             f"finished already; {where})")
 
 
+def _output_dir(sweep_path: str | os.PathLike, out: str | os.PathLike | None) -> Path:
+    """The sweep's output directory: ``out``, else ``runs/<sweep file stem>``."""
+    out_dir = Path(out) if out is not None else default_output_dir(sweep_path)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise InputError(str(out_dir), "--out", "exists and is not a directory")
+    return out_dir
+
+
+def _execute(tasks: Sequence[PointTask], client, n_workers: int,
+             report: Callable[[PointResult], None]) -> None:
+    """Run the points on the Dask ``client``, on ``n_workers`` local processes, or, with
+    nothing left to run (``n_workers`` 0), analyse the finished points in this process;
+    ``report`` receives every point's result."""
+    try:
+        if client is not None:
+            _run_dask(client, tasks, report)
+        elif n_workers:
+            _run_local(tasks, n_workers, report)
+        else:
+            for task in tasks:
+                try:
+                    report(run_point(task))
+                except Exception as exc:  # noqa: BLE001 - reported as a failed point
+                    report(_failed(task, exc))
+    finally:
+        if client is not None:
+            client.close()
+
+
 def run_sweep(sweep_path: str | os.PathLike, out: str | os.PathLike | None = None,
               workers: int | None = None, scheduler: str | None = None,
               echo: Callable[[str], None] | None = print) -> SweepResult:
@@ -343,16 +373,12 @@ def run_sweep(sweep_path: str | os.PathLike, out: str | os.PathLike | None = Non
         Invalid sweep file or option, Dask missing, or an existing run file that cannot be
         reused; nothing is written then.
     """
-    from ringsim.config.sweep import load_sweep
-
     say = echo if echo is not None else (lambda line: None)
     if workers is not None and workers < 1:
         raise InputError("<command line>", "--workers", f"{workers} is not a positive number "
                          "of worker processes")
     sweep = load_sweep(sweep_path)
-    out_dir = Path(out) if out is not None else default_output_dir(sweep_path)
-    if out_dir.exists() and not out_dir.is_dir():
-        raise InputError(str(out_dir), "--out", "exists and is not a directory")
+    out_dir = _output_dir(sweep_path, out)
     tasks = plan_sweep(sweep, out_dir)
     client = _dask_client(scheduler) if scheduler else None
 
@@ -375,20 +401,7 @@ def run_sweep(sweep_path: str | os.PathLike, out: str | os.PathLike | None = Non
             line += f": {result.error}"
         say(line)
 
-    try:
-        if client is not None:
-            _run_dask(client, tasks, report)
-        elif todo:
-            _run_local(tasks, n_workers, report)
-        else:  # everything finished already: analyse in this process
-            for task in tasks:
-                try:
-                    report(run_point(task))
-                except Exception as exc:  # noqa: BLE001 - reported as a failed point
-                    report(_failed(task, exc))
-    finally:
-        if client is not None:
-            client.close()
+    _execute(tasks, client, n_workers if todo else 0, report)
     ordered = [results[t.index] for t in tasks]
     csv_path, h5_path = write_summary(out_dir, sweep, ordered)
     wall = time.perf_counter() - start

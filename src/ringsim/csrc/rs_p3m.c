@@ -10,7 +10,7 @@
  * |            | (numpy FFT), rs_p3m_interpolate, rs_p3m_short; REBOUND's gravity "none"  |
  * | parameters | struct rs_p3m: split scale r_s [m], cutoff r_c [m], Plummer softening b   |
  * |            | [m], mesh nx x ny, layer spacing dz [m]; G, Omega, box and t from the sim |
- * | Python twin| ringsim.physics.selfgravity.long_range_fraction, P3MMesh (numpy)         |
+ * | Python twin| ringsim.physics.p3m_mesh.long_range_fraction, P3MMesh (numpy)         |
  *
  * Physics.  Force split of Hockney & Eastwood / GADGET-2 (Springel 2005, eq. 21-22): the
  * Newtonian pair force is cut into a long-range part, the force between Gaussian clouds
