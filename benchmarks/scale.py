@@ -260,7 +260,7 @@ def plot(results: list[dict], path: Path) -> None:
             label="1 thread, CPU time (less disturbed by other jobs)")
     before = sorted(BEFORE_NS.items())
     ax.plot([k for k, _ in before], [v for _, v in before], "x:", color="grey",
-            label="before (issue 16, 1 thread)")
+            label="before scaling (1 thread)")
     ax.axhline(TARGET_NS, color="k", ls="--", lw=1, label=f"target {TARGET_NS:.0f} ns")
     smallest = min(r["wall_ns"]["1"] for r in results)
     ax.axhline(TARGET_FLATNESS * smallest, color="k", ls=":", lw=1,

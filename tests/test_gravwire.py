@@ -1,5 +1,5 @@
 """Self-gravity wired into runs: the C truncation field, the sheet's set-up, the run's numbers
-and rows, resume, and the analysis of a gravitating run (issue 12)."""
+and rows, resume, and the analysis of a gravitating run."""
 
 import math
 

@@ -1,4 +1,4 @@
-"""Line detection follows the kick of a step (``rs_sheet_detect.c``, Method 1a; issue 12).
+"""Line detection follows the kick of a step (``rs_sheet_detect.c``, Method 1a).
 
 REBOUND's leapfrog and SEI drift half a step, kick every velocity by a dt, and drift half a
 step, so within a step a particle's path is two straight pieces.  The sheet detector finds

@@ -1,4 +1,4 @@
-"""Line mode: swept-path collision detection with contact-time resolution (issue 7).
+"""Line mode: swept-path collision detection with contact-time resolution.
 
 What is checked, and to what tolerance:
 

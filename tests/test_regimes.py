@@ -1,4 +1,4 @@
-"""The regimes of a self-gravitating ring against r_h (issue 12, item 5), as measured in
+"""The regimes of a self-gravitating ring against r_h, as measured in
 docs/validation.md, "Self-gravity": no wakes at r_h = 0.6, aggregates at r_h = 1.3.
 
 Short runs (slow: about three CPU-minutes together): tau = 0.25, 1 m ice, Bridges law,

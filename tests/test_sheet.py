@@ -61,7 +61,7 @@ def test_size_distribution_drawn_with_the_seed(broad_scenario):
 
 
 def test_gravity_sets_tree_gravity_one_ghost_ring_and_the_field_beyond(broad_scenario):
-    # one ring plus the analytic field of the sheet beyond it (issue 12, docs/gravity.md)
+    # one ring plus the analytic field of the sheet beyond it (docs/gravity.md)
     from ringsim.gravity.tree import has_ghost_field
 
     sc = broad_scenario(LONG, {"sheet.gravity": True, "sheet.gravity_solver": "tree",

@@ -1,4 +1,4 @@
-"""Spin diagnostics and the energy budget with friction (issue 13, item 3).
+"""Spin diagnostics and the energy budget with friction.
 
 * The resolver's dissipation counters close the energy exactly: in a periodic box without
   shear or gravity, kinetic energy (translation + rotation) lost = normal + tangential

@@ -1,4 +1,4 @@
-"""The sheet detector resolves the contacts of a step in time order (issue 11, item 1).
+"""The sheet detector resolves the contacts of a step in time order.
 
 What is checked, and to what tolerance:
 

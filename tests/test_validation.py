@@ -1,4 +1,4 @@
-"""The validation ladder of issue 6 (validation/) at small sizes.
+"""The validation ladder (validation/) at small sizes.
 
 Each test runs one reference case with fewer particles and orbits than the documented
 run (docs/validation.md, "Reference cases") and asserts the agreement the report states,
