@@ -30,10 +30,13 @@ from __future__ import annotations
 
 import contextlib
 import io
+import multiprocessing
 import os
 import signal
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import as_completed as futures_completed
 from pathlib import Path
 from typing import Any
 
@@ -245,19 +248,11 @@ def run_local(fn: Callable[[Any], Any], tasks: Sequence[Any], workers: int,
     REBOUND installs its own SIGINT handler whenever it integrates, which drops a SIGINT
     that arrives between two integrations.
     """
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
     pool = ProcessPoolExecutor(max_workers=workers, initializer=_quiet_worker)
     try:
         with _sigterm_as_interrupt():
             futures = {pool.submit(fn, task): task for task in tasks}
-            for future in as_completed(futures):
-                task = futures[future]
-                try:
-                    result = future.result()
-                except Exception as exc:  # noqa: BLE001 - any failure of one task is reported
-                    result = failed(task, exc)
-                report(result)
+            _collect(futures_completed(futures), futures, report, failed)
     except KeyboardInterrupt:
         pool.shutdown(wait=False, cancel_futures=True)
         _stop_children()
@@ -265,12 +260,23 @@ def run_local(fn: Callable[[Any], Any], tasks: Sequence[Any], workers: int,
     pool.shutdown(wait=True)
 
 
+def _collect(completed: Iterable[Any], task_of: Mapping[Any, Any],
+             report: Callable[[Any], None],
+             failed: Callable[[Any, BaseException], Any]) -> None:
+    """``report`` the result of every future as it completes (``failed(task, exc)`` for a
+    task that raised); ``task_of`` maps a future to its task."""
+    for future in completed:
+        try:
+            result = future.result()
+        except Exception as exc:  # noqa: BLE001 - any failure of one task is reported
+            result = failed(task_of[future], exc)
+        report(result)
+
+
 def _stop_children(poll: float = 0.2) -> None:
     """Send SIGTERM to this process's children until none is left: a run stops at its next
     output, an idle worker ends, and a worker that took a queued task meanwhile gets the
     next signal (poll [s])."""
-    import multiprocessing
-
     while children := multiprocessing.active_children():
         for child in children:
             with contextlib.suppress(OSError):
@@ -305,13 +311,7 @@ def run_dask(client, fn: Callable[[Any], Any], tasks: Sequence[Any],
     futures = client.map(fn, list(tasks), pure=False)
     by_future = dict(zip(futures, tasks, strict=True))
     try:
-        for future in as_completed(futures):
-            task = by_future[future]
-            try:
-                result = future.result()
-            except Exception as exc:  # noqa: BLE001 - any failure of one task is reported
-                result = failed(task, exc)
-            report(result)
+        _collect(as_completed(futures), by_future, report, failed)
     except KeyboardInterrupt:   # tasks not started are dropped; running ones go on
         client.cancel(futures)
         raise
