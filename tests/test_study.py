@@ -20,6 +20,7 @@ import pytest
 
 import ringsim
 from ringsim.cli import main
+from ringsim.config.schema import ScenarioError
 from ringsim.config.study import load_study
 from ringsim.study import run_study
 from ringsim.study.runs import run_id
@@ -148,6 +149,24 @@ def test_report_from_the_summaries_alone_is_the_same(reference, tmp_path):
     assert [p.name for p in result.files] == ["report.json", "report.md", "ratios.png"]
     assert (out / "report.json").read_bytes() == reference["json"]
     assert (out / "report.md").read_text() == reference["md"]
+
+
+def test_quick_prose_goes_into_the_quick_report_only(reference, tmp_path):
+    """``quick.report``: prose of the quick form, after the study's own prose."""
+    study = copy_study(reference, tmp_path / "copy", summaries=True, runs=False)
+    (study.parent / "quick.md").write_text("What the **quick form** leaves out.\n")
+    study.write_text(study.read_text().replace("  length: {orbits: 0.3}\n",
+                                               "  length: {orbits: 0.3}\n"
+                                               "  report: quick.md\n"))
+    run_study(study, quick=True, report_only=True, echo=None, command=COMMAND)
+    text = (study.parent / "study.quick.report" / "report.md").read_text()
+    assert PROSE.strip() + "\n\nWhat the **quick form** leaves out." in text
+    assert text == reference["md"].replace(
+        PROSE.strip(), PROSE.strip() + "\n\nWhat the **quick form** leaves out.")
+    study.write_text(study.read_text().replace("  report: quick.md\n",
+                                               "  report: missing.md\n"))
+    with pytest.raises(ScenarioError, match=r"quick\.report"):
+        run_study(study, quick=True, report_only=True, echo=None, command=COMMAND)
 
 
 def test_rerun_reproduces_the_summaries_except_their_cost(reference, tmp_path):

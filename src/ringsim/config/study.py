@@ -33,7 +33,7 @@ from ringsim.config.schema import (
 STUDY_KEYS = ("name", "description", "base", "seeds", "overrides", "cases", "ratios",
               "quantities", "variants", "variant_seeds", "length", "quick", "report")
 #: Keys of the ``quick`` section besides dotted scenario overrides.
-QUICK_KEYS = ("length", "seeds", "variant_seeds", "variants")
+QUICK_KEYS = ("length", "seeds", "variant_seeds", "variants", "report")
 #: Keys of a ``length`` section.
 LENGTH_KEYS = ("orbits", "until_equilibrium", "max_orbits")
 #: Scenario keys a study sets itself, which cases, variants and ``quick`` may not set: the
@@ -112,6 +112,9 @@ class Study:
     report : str or None
         The study's prose: a Markdown file spliced into its report (its path, beside the
         study file).
+    quick_report : str or None
+        Prose of the quick form only (``quick.report``), added after ``report`` in the
+        quick form's report.
     """
 
     name: str
@@ -126,6 +129,7 @@ class Study:
     full: Mode
     quick_mode: Mode | None
     report: str | None
+    quick_report: str | None = None
 
     @property
     def folder(self) -> Path:
@@ -400,6 +404,8 @@ def load_study(path: str | PathLike, quantities: Sequence[str] | None = None) ->
                   base_file=base_file, overrides=overrides, cases=cases, ratios=ratios,
                   quantities=_quantities(top, quantities), full=full,
                   quick_mode=_quick_mode(top, base, full),
-                  report=_report(top, Path(source).parent))
+                  report=_report(top, Path(source).parent),
+                  quick_report=(_report(top.section("quick"), Path(source).parent)
+                                if top.has("quick") else None))
     _check_runs(study)
     return study

@@ -182,7 +182,9 @@ def write_report(study, quick: bool, specs, ids, summaries: dict, out_dir: Path,
     out_dir.mkdir(parents=True, exist_ok=True)
     files = [write_json(out_dir / "report.json", report)]
     figure = plot_ratios(report, out_dir)
-    prose = Path(study.report).read_text(encoding="utf-8") if study.report else ""
+    prose = "\n\n".join(Path(file).read_text(encoding="utf-8").strip()
+                        for file in (study.report, study.quick_report if quick else None)
+                        if file)
     text = report_markdown(report, summaries, prose, command,
                            figure.name if figure is not None else None)
     md = out_dir / "report.md"
