@@ -86,14 +86,21 @@ def _power_label(value: float) -> str:
     return f"${mantissa:g}\\times10^{{{exponent}}}$"
 
 
+#: Mantissas of the labelled ticks of a log axis, densest last: a range under a decade or
+#: two gets the finer ones, so that every axis carries at least three labels.
+_LOG_MANTISSAS = ((1.0, 2.0, 5.0), (1.0, 3.0), (1.0,), (1.0, 1.5, 2.0, 3.0, 5.0, 7.0))
+
+
 def _log_ticks(lo: float, hi: float, max_ticks: int) -> list[float]:
     decades = math.log10(hi / lo)
     e_lo, e_hi = math.floor(math.log10(lo)), math.ceil(math.log10(hi))
-    for subs in ((1.0, 2.0, 5.0), (1.0, 3.0), (1.0,)):
-        ticks = [m * 10.0 ** e for e in range(e_lo, e_hi + 1) for m in subs
-                 if lo * (1 - 1e-9) <= m * 10.0 ** e <= hi * (1 + 1e-9)]
-        if 2 <= len(ticks) <= max_ticks:
-            return ticks
+    sets = [[m * 10.0 ** e for e in range(e_lo, e_hi + 1) for m in subs
+             if lo * (1 - 1e-9) <= m * 10.0 ** e <= hi * (1 + 1e-9)]
+            for subs in _LOG_MANTISSAS]
+    for least in (3, 2):
+        for ticks in sets:
+            if least <= len(ticks) <= max_ticks:
+                return ticks
     step = max(1, math.ceil(decades / (max_ticks - 1)))
     ticks = [10.0 ** e for e in range(e_lo, e_hi + 1) if e % step == 0
              and lo * (1 - 1e-9) <= 10.0 ** e <= hi * (1 + 1e-9)]
