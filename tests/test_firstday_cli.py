@@ -183,3 +183,31 @@ def test_fit_all_with_radii_fits_all_five(tmp_path, capsys):
     assert main(["fit", str(data), "--model", "all", "--json", str(out)]) in (0, 1)
     assert len(json.loads(out.read_text())) == 5
     assert "skipped" not in capsys.readouterr().out
+
+
+def test_ringsim_alone_prints_the_help_and_succeeds(capsys):
+    """``ringsim`` with no command lists the commands (exit 0), not an error."""
+    assert main([]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: ringsim") and "study" in out and "analyze" in out
+
+
+def test_a_run_file_given_to_run_points_to_analyze_and_resume(tmp_path, capsys):
+    """``ringsim run RUN.h5``: exit 2, one line naming ``analyze`` and ``--resume``, and
+    the file is left as it was."""
+    path = tmp_path / "r.h5"
+    with h5py.File(path, "w") as f:
+        f.attrs["status"] = "finished"
+    before = path.read_bytes()
+    assert main(["run", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "ringsim analyze" in err[0] and "--resume" in err[0]
+    assert path.read_bytes() == before
+
+
+def test_python_callers_are_told_the_python_keyword(tmp_path, line_scenario):
+    """``ringsim.run`` on an existing file names ``force=True`` beside ``--force``."""
+    path = tmp_path / "exists.h5"
+    path.write_bytes(b"")
+    with pytest.raises(ringsim.InputError, match=r"force=True"):
+        ringsim.run(line_scenario(), output=path, progress=False)

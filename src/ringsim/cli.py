@@ -140,10 +140,28 @@ def _paper_epsilon(args) -> int:
     return EXIT_OK
 
 
+#: The first bytes of every HDF5 file (a run file given where a scenario belongs).
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+
+
+def _refuse_run_file(path: str) -> None:
+    """InputError pointing to ``analyze`` and ``--resume`` if ``path`` is an HDF5 file."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(len(HDF5_SIGNATURE))
+    except OSError:
+        return   # the scenario reader says what is wrong with it
+    if head == HDF5_SIGNATURE:
+        raise InputError(path, "SCENARIO.yaml", "an HDF5 run file, not a scenario: "
+                         f"'ringsim analyze {path}' shows its equilibrium, 'ringsim run "
+                         f"SCENARIO.yaml --resume -o {path}' continues it")
+
+
 def _cmd_run(args) -> int:
     from ringsim.config.scenario import load_scenario
     from ringsim.engine.runner import run
 
+    _refuse_run_file(args.scenario)
     scenario = load_scenario(args.scenario)
     path = run(scenario, output=args.output, force=args.force, resume=args.resume,
                progress=not args.no_progress)
@@ -420,6 +438,9 @@ def main(argv: list[str] | None = None) -> int:
     argv = [a for a in argv if a != "--debug"]
     try:
         parser = build_parser()
+        if not argv:   # `ringsim` alone: what it can do, not an error
+            parser.print_help()
+            return EXIT_OK
         args = parser.parse_args(argv)
         return int(args.func(args) or 0)
     except InputError as exc:

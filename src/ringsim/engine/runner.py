@@ -480,8 +480,9 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
             runner.start_resume()
         else:
             if path.exists() and not force:
-                raise InputError(str(path), "output", "file exists; use --force to "
-                                 "overwrite or --resume to continue it")
+                raise InputError(str(path), "output", "file exists; overwrite it with "
+                                 "--force (force=True in Python) or continue it with "
+                                 "--resume (resume=True)")
             runner.start_new()
         status = runner.loop(stop)
         if status == "finished":   # one file to keep: the part files of a large run go in
