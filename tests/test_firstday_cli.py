@@ -211,3 +211,23 @@ def test_python_callers_are_told_the_python_keyword(tmp_path, line_scenario):
     path.write_bytes(b"")
     with pytest.raises(ringsim.InputError, match=r"force=True"):
         ringsim.run(line_scenario(), output=path, progress=False)
+
+
+def test_run_threads_option_gives_the_same_bits(tmp_path, line_scenario, capsys):
+    """``ringsim run --threads 2`` stores the thread count in the run's scenario and writes
+    the same datasets as the scenario's own count; ``--threads 0`` is bad input."""
+    from ringsim.testing import run_file_datasets
+
+    scenario_file = tmp_path / "line.yaml"
+    scenario_file.write_text(line_scenario().to_yaml())
+    one, two = tmp_path / "one.h5", tmp_path / "two.h5"
+    assert main(["run", str(scenario_file), "-o", str(one), "--no-progress"]) == 0
+    assert main(["run", str(scenario_file), "-o", str(two), "--no-progress",
+                 "--threads", "2"]) == 0
+    assert ringsim.open_run(two).scenario.integration.threads == 2
+    assert run_file_datasets(one) == run_file_datasets(two)
+    capsys.readouterr()
+    assert main(["run", str(scenario_file), "-o", str(tmp_path / "bad.h5"),
+                 "--threads", "0"]) == 2
+    assert "--threads" in capsys.readouterr().err
+    assert not (tmp_path / "bad.h5").exists()

@@ -311,3 +311,20 @@ def test_point_file_names_are_safe_and_distinct():
     long = sweep.point_file_name({"description": "x" * 400})
     assert len(long) < 200 and long.endswith(".h5")
     assert sweep.point_file_name({"seed": 1}) != sweep.point_file_name({"seed": 1.0})
+
+
+def test_threads_option_reuses_the_points_and_refuses_a_bad_count(swept, tmp_path, capsys):
+    """``--threads`` sets ``integration.threads`` of every point: finished points made on
+    another thread count are reused (it changes no result); 0 threads is bad input, with one
+    line naming ``--threads`` and nothing written."""
+    out = copy_of(swept, tmp_path)
+    result = sweep.run_sweep(swept["sweep_file"], out=out, workers=1, echo=None, threads=2)
+    assert [r.action for r in result.results] == ["reuse"] * 4
+    assert [t.scenario.integration.threads for t in sweep.plan_sweep(
+        sweep.load_sweep(swept["sweep_file"]), out, threads=2)] == [2] * 4
+    fresh = tmp_path / "never"
+    assert main(["sweep", str(swept["sweep_file"]), "--threads", "0", "--out",
+                 str(fresh)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--threads" in err[0]
+    assert not fresh.exists()

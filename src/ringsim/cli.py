@@ -158,11 +158,11 @@ def _refuse_run_file(path: str) -> None:
 
 
 def _cmd_run(args) -> int:
-    from ringsim.config.scenario import load_scenario
+    from ringsim.config.scenario import load_scenario, with_threads
     from ringsim.engine.runner import run
 
     _refuse_run_file(args.scenario)
-    scenario = load_scenario(args.scenario)
+    scenario = with_threads(load_scenario(args.scenario), args.threads)
     path = run(scenario, output=args.output, force=args.force, resume=args.resume,
                progress=not args.no_progress)
     from ringsim.store.runfile import open_run
@@ -336,6 +336,12 @@ def _export_arguments(sub) -> None:
     p.set_defaults(func=_cmd_export)
 
 
+def _add_threads_option(p) -> None:
+    """``--threads N``: the ``integration.threads`` of every run a command makes."""
+    p.add_argument("--threads", type=int, default=None, metavar="N", help="integration."
+                   "threads of every run (changes the speed, never a result)")
+
+
 def _run_arguments(sub) -> None:
     p = sub.add_parser("run", help="run a scenario and write its HDF5 run file")
     p.add_argument("scenario", metavar="SCENARIO.yaml")
@@ -345,6 +351,7 @@ def _run_arguments(sub) -> None:
     p.add_argument("--resume", action="store_true", help="continue a stopped run from its "
                    "last checkpoint")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (batch jobs)")
+    _add_threads_option(p)
     p.set_defaults(func=_cmd_run)
 
 
@@ -385,8 +392,7 @@ def _study_arguments(sub) -> None:
                    "particles and length)")
     p.add_argument("--report-only", action="store_true", help="write the report from the "
                    "summaries alone; run nothing")
-    p.add_argument("--threads", type=int, default=None, metavar="N", help="integration."
-                   "threads of every run (changes the speed, never a result)")
+    _add_threads_option(p)
     p.set_defaults(func=_cmd_study)
 
 
@@ -398,6 +404,7 @@ def _sweep_arguments(sub) -> None:
                    "runs/<sweep file name>)")
     p.add_argument("--plots", metavar="DIR", help="write PNG figures of the summary (c and "
                    "H against the swept parameter) into DIR")
+    _add_threads_option(p)
     p.set_defaults(func=_cmd_sweep)
 
 

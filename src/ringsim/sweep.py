@@ -49,6 +49,7 @@ from typing import Any
 from ringsim.batch import LabelledStream as _LabelledStream
 from ringsim.batch import dask_client as _dask_client
 from ringsim.batch import existing_action, run_dask, run_local, run_to_file
+from ringsim.config.scenario import with_threads
 from ringsim.config.sweep import load_sweep
 from ringsim.errors import InputError
 from ringsim.store.summary import write_summary
@@ -190,7 +191,7 @@ def _point_scenario(base, params: Mapping[str, Any], stem: str):
     return with_overrides(scenario, {"name": f"{base.name}_{stem}"})
 
 
-def plan_sweep(sweep, out: str | os.PathLike) -> list[PointTask]:
+def plan_sweep(sweep, out: str | os.PathLike, threads: int | None = None) -> list[PointTask]:
     """The tasks of a sweep: one per grid point with its run file and what to do with it.
 
     Nothing is written.  Raises InputError when two points would share a run file or an
@@ -200,6 +201,7 @@ def plan_sweep(sweep, out: str | os.PathLike) -> list[PointTask]:
     ----------
     sweep : ringsim.scenario.Sweep
     out : output directory
+    threads : ``integration.threads`` of every point (None: the scenario's)
     """
     out = Path(out).absolute()
     tasks: list[PointTask] = []
@@ -210,7 +212,8 @@ def plan_sweep(sweep, out: str | os.PathLike) -> list[PointTask]:
             raise InputError(sweep.source, "grid", f"points {seen[name]} and {params} are the "
                              f"same run ({name}); remove the repeated value")
         seen[name] = params
-        scenario = _point_scenario(sweep.base, params, name[:-len(".h5")])
+        scenario = with_threads(_point_scenario(sweep.base, params, name[:-len(".h5")]),
+                                threads)
         path = out / name
         action = _existing_action(path, scenario) if path.exists() else "run"
         tasks.append(PointTask(index=index, params=dict(params), scenario=scenario,
@@ -353,7 +356,8 @@ def _execute(tasks: Sequence[PointTask], client, n_workers: int,
 
 def run_sweep(sweep_path: str | os.PathLike, out: str | os.PathLike | None = None,
               workers: int | None = None, scheduler: str | None = None,
-              echo: Callable[[str], None] | None = print) -> SweepResult:
+              echo: Callable[[str], None] | None = print,
+              threads: int | None = None) -> SweepResult:
     """Run every grid point of a sweep file and write ``summary.csv`` and ``summary.h5``.
 
     Parameters
@@ -366,6 +370,8 @@ def run_sweep(sweep_path: str | os.PathLike, out: str | os.PathLike | None = Non
         Address of a Dask scheduler (``tcp://host:8786``); needs ``pip install ringsim[dask]``.
     echo : callable or None
         Receives the progress lines (default ``print``).
+    threads : int, optional
+        ``integration.threads`` of every point (changes the speed, never a result).
 
     Raises
     ------
@@ -379,7 +385,7 @@ def run_sweep(sweep_path: str | os.PathLike, out: str | os.PathLike | None = Non
                          "of worker processes")
     sweep = load_sweep(sweep_path)
     out_dir = _output_dir(sweep_path, out)
-    tasks = plan_sweep(sweep, out_dir)
+    tasks = plan_sweep(sweep, out_dir, threads)
     client = _dask_client(scheduler) if scheduler else None
 
     todo = [t for t in tasks if t.action != "reuse"]
@@ -413,7 +419,7 @@ def run_sweep(sweep_path: str | os.PathLike, out: str | os.PathLike | None = Non
 
 
 def sweep_command(args) -> int:
-    """``ringsim sweep SWEEP.yaml [--workers N] [--scheduler ADDRESS] [--out DIR]
+    """``ringsim sweep SWEEP.yaml [--workers N] [--scheduler ADDRESS] [--out DIR] [--threads N]
     [--plots DIR]``; ``--plots`` draws ``sweep.png`` (``ringsim.plots.plot_sweep``) from
     the summary once every point is done.
 
@@ -427,7 +433,7 @@ def sweep_command(args) -> int:
     if plots is not None and Path(plots).exists() and not Path(plots).is_dir():
         raise InputError(str(plots), "--plots", "exists and is not a directory")
     result = run_sweep(args.sweep, out=args.out, workers=args.workers,
-                       scheduler=args.scheduler, echo=echo)
+                       scheduler=args.scheduler, echo=echo, threads=args.threads)
     if plots is not None:
         from ringsim.plots import plot_sweep
 

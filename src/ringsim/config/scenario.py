@@ -68,6 +68,7 @@ from ringsim.config.sections import (
     SheetConfig,
     read_threads,
 )
+from ringsim.errors import InputError
 from ringsim.physics.gravity_solvers import AUTO_SOFTENING_FRACTION
 from ringsim.physics.sizes import (
     Mixture,
@@ -371,6 +372,20 @@ def _set_dotted(given: dict, dotted: str, value: Any, source: str) -> None:
             node[index] = copy.deepcopy(value)
         else:
             node = node[index]
+
+
+def with_threads(sc: Scenario, threads: int | None) -> Scenario:
+    """``sc`` with ``integration.threads`` from a command's ``--threads`` (None: unchanged).
+
+    The thread count changes the speed of a run, never its result.  InputError naming
+    ``--threads`` unless it is a whole number of at least 1.
+    """
+    if threads is None:
+        return sc
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise InputError("<command line>", "--threads",
+                         f"{threads} is not a positive number of threads")
+    return with_overrides(sc, {"integration.threads": threads})
 
 
 def with_overrides(sc: Scenario, overrides: Mapping[str, Any]) -> Scenario:
