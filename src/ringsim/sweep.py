@@ -408,7 +408,13 @@ def run_sweep(sweep_path: str | os.PathLike, out: str | os.PathLike | None = Non
         say(line)
 
     _execute(tasks, client, n_workers if todo else 0, report)
-    ordered = [results[t.index] for t in tasks]
+    return _summarise(sweep, out_dir, [results[t.index] for t in tasks], start, say)
+
+
+def _summarise(sweep, out_dir: Path, ordered: list[PointResult], start: float,
+               say: Callable[[str], None]) -> SweepResult:
+    """Write the summary of the points' results (in grid order) and say how the sweep
+    went; ``start`` is the sweep's ``time.perf_counter()`` at its start."""
     csv_path, h5_path = write_summary(out_dir, sweep, ordered)
     wall = time.perf_counter() - start
     n_bad = sum(r.status != "finished" for r in ordered)
