@@ -40,6 +40,7 @@ from concurrent.futures import as_completed as futures_completed
 from pathlib import Path
 from typing import Any
 
+from ringsim.config.scenario import result_dict
 from ringsim.errors import InputError
 
 __all__ = [
@@ -78,11 +79,7 @@ def first_difference(a: Any, b: Any, prefix: str = "", asker: str = "the sweep")
 def _compared(scenario, extend: bool) -> dict:
     """The scenario's keys that must agree with a run file's: all but the thread count
     (and, when a run may be extended, its duration)."""
-    d = scenario.to_dict()
-    d["integration"].pop("threads", None)
-    if extend:
-        d["integration"].pop("orbits", None)
-    return d
+    return result_dict(scenario, without_orbits=extend)
 
 
 def existing_action(path: str | Path, scenario, *, extend: bool = False,

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from os import PathLike
 from typing import Any
@@ -374,18 +374,43 @@ def _set_dotted(given: dict, dotted: str, value: Any, source: str) -> None:
             node = node[index]
 
 
-def with_threads(sc: Scenario, threads: int | None) -> Scenario:
-    """``sc`` with ``integration.threads`` from a command's ``--threads`` (None: unchanged).
+#: Scenario keys that change how fast a run goes, never its result: scenarios that differ
+#: only in them make the same run.
+SPEED_ONLY_KEYS = ("integration.threads",)
 
-    The thread count changes the speed of a run, never its result.  InputError naming
-    ``--threads`` unless it is a whole number of at least 1.
-    """
-    if threads is None:
-        return sc
-    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+
+def without_keys(d: Mapping[str, Any], dotted: Iterable[str]) -> dict[str, Any]:
+    """A deep copy of the nested dict ``d`` without the dotted keys (absent ones ignored)."""
+    out = copy.deepcopy(dict(d))
+    for key in dotted:
+        *path, last = key.split(".")
+        node = out
+        for part in path:
+            node = node.get(part, {})
+        node.pop(last, None)
+    return out
+
+
+def result_dict(sc: Scenario, *, without_orbits: bool = False) -> dict[str, Any]:
+    """What two scenarios must share to make the same run: ``sc.to_dict()`` without
+    `SPEED_ONLY_KEYS`, and without ``integration.orbits`` where a run may be lengthened."""
+    return without_keys(sc.to_dict(), SPEED_ONLY_KEYS
+                        + (("integration.orbits",) if without_orbits else ()))
+
+
+def check_threads(threads: int | None) -> None:
+    """InputError naming ``--threads`` unless it is None or a whole number of at least 1."""
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
+                                or threads < 1):
         raise InputError("<command line>", "--threads",
                          f"{threads} is not a positive number of threads")
-    return with_overrides(sc, {"integration.threads": threads})
+
+
+def with_threads(sc: Scenario, threads: int | None) -> Scenario:
+    """``sc`` with ``integration.threads`` from a command's ``--threads`` (None: unchanged;
+    it changes the speed of a run, never its result); InputError as `check_threads`."""
+    check_threads(threads)
+    return sc if threads is None else with_overrides(sc, {"integration.threads": threads})
 
 
 def with_overrides(sc: Scenario, overrides: Mapping[str, Any]) -> Scenario:

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 
 import rebound
 
+from ringsim.config.scenario import result_dict
 from ringsim.engine import box, invariants, sheet
 from ringsim.engine.binary import simulation_binary, simulation_from_binary
 from ringsim.engine.resolver import ResolverHandle, install_resolver
@@ -65,12 +66,8 @@ def resumable_orbits(path: Path, old: Scenario, new: Scenario) -> tuple[float, f
     """Old and new ``integration.orbits`` of a run file's scenario ``old`` and the scenario
     ``new`` that continues it; InputError unless only they (or the thread count, which
     changes no result) differ, or if the new duration is shorter."""
-    was, now = old.to_dict(), new.to_dict()
-    old_orbits = was["integration"].pop("orbits")
-    new_orbits = now["integration"].pop("orbits")
-    was["integration"].pop("threads", None)
-    now["integration"].pop("threads", None)
-    if was != now:
+    old_orbits, new_orbits = old.integration.orbits, new.integration.orbits
+    if result_dict(old, without_orbits=True) != result_dict(new, without_orbits=True):
         raise InputError(str(path), "--resume",
                          "the scenario differs from the one the run file was made with "
                          "(only integration.orbits may grow)")

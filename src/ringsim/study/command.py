@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ringsim.batch import ACTIONS, dask_client, run_dask, run_local
+from ringsim.config.scenario import check_threads
 from ringsim.config.study import load_study
 from ringsim.errors import InputError
 from ringsim.study.runs import (
@@ -59,9 +60,9 @@ def default_output_dir(study_path: str | os.PathLike, quick: bool = False) -> Pa
 
 
 def _check_options(workers: int | None, threads: int | None, out: Path) -> None:
-    for option, value in (("--workers", workers), ("--threads", threads)):
-        if value is not None and value < 1:
-            raise InputError("<command line>", option, f"{value} is not a positive number")
+    if workers is not None and workers < 1:
+        raise InputError("<command line>", "--workers", f"{workers} is not a positive number")
+    check_threads(threads)
     if out.exists() and not out.is_dir():
         raise InputError(str(out), "--out", "exists and is not a directory")
 

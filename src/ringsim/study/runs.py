@@ -31,13 +31,13 @@ from typing import Any
 import yaml
 
 from ringsim.batch import LabelledStream, existing_action, run_to_file
-from ringsim.config.scenario import with_overrides
+from ringsim.config.scenario import SPEED_ONLY_KEYS, with_overrides, without_keys
 from ringsim.errors import InputError
 
 #: Scenario keys left out of a run's identity: its labels and the thread count change no
 #: result, and a run asked for with more ``integration.orbits`` is the same run lengthened.
-IDENTITY_EXCLUDES = ("name", "description", "output.path", "integration.threads",
-                     "integration.orbits")
+LABEL_KEYS = ("name", "description", "output.path")
+IDENTITY_EXCLUDES = (*LABEL_KEYS, *SPEED_ONLY_KEYS, "integration.orbits")
 #: The ``format`` of a summary file.
 SUMMARY_FORMAT = "ringsim study summary 1"
 #: Plain numbers of a summary and their units.
@@ -47,19 +47,13 @@ SUMMARY_UNITS = {"orbits": "orbits", "n_particles": "count", "mean_radius": "m",
 
 
 def _without(d: dict, dotted: Iterable[str]) -> dict:
-    d = json.loads(json.dumps(d))
-    for key in dotted:
-        *path, last = key.split(".")
-        node = d
-        for part in path:
-            node = node.get(part, {})
-        node.pop(last, None)
-    return d
+    """``d`` without the dotted keys, as plain JSON values (the text a hash is taken of)."""
+    return json.loads(json.dumps(without_keys(d, dotted)))
 
 
 def summary_scenario(scenario) -> dict:
     """The scenario a summary records: without its labels and thread count."""
-    return _without(scenario.to_dict(), IDENTITY_EXCLUDES[:4])
+    return _without(scenario.to_dict(), (*LABEL_KEYS, *SPEED_ONLY_KEYS))
 
 
 def canonical_yaml(d: Mapping) -> str:
