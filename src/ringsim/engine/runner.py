@@ -41,6 +41,7 @@ from ringsim.analysis import snapshot
 from ringsim.engine import box, gravity, invariants, sheet, timestep
 from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.checkpoint import LoopState, checkpoint_of, resume
+from ringsim.engine.native import set_detector_threads, use_threaded_sei
 from ringsim.engine.progress import progress_bar
 from ringsim.engine.statistics import histogram_edges, with_outer_bins
 from ringsim.engine.stop import StopRequest as _StopRequest
@@ -129,12 +130,11 @@ class Runner:
         self._output(first=True)
 
     def _set_threads(self) -> None:
-        """Line detection's search and the gravity solver (P3M) on ``integration.threads``
-        threads (no effect on results)."""
+        """The SEI step, line detection's search and the gravity solver (P3M) on
+        ``integration.threads`` threads (no effect on results)."""
         threads = self.scenario.integration.thread_count()
+        use_threaded_sei(self.sim, threads)
         if self.scenario.integration.collision_detection == "line":
-            from ringsim.engine.native import set_detector_threads
-
             set_detector_threads(self.handle.address, threads)
         set_gravity_threads(self.sim, threads)
 
