@@ -334,7 +334,7 @@ P3M_TABLE = 4096
 
 class P3MStruct(ctypes.Structure):
     """Mirror of ``struct rs_p3m`` (split, cutoff, softening, dz [m]; mesh; per-call
-    layer geometry and shear offset)."""
+    layer geometry and shear offset; the smallest radius [m] in the pair sum)."""
     _fields_ = [
         ("split", ctypes.c_double),
         ("cutoff", ctypes.c_double),
@@ -349,6 +349,7 @@ class P3MStruct(ctypes.Structure):
         ("z0", ctypes.c_double),
         ("shift", ctypes.c_double),
         ("alpha", ctypes.c_double),
+        ("pair_min_radius", ctypes.c_double),
         ("table", ctypes.c_double * (P3M_TABLE + 2)),
     ]
 
