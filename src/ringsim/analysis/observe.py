@@ -156,7 +156,7 @@ def observe(run, elevations=DEFAULT_ELEVATIONS, azimuths=DEFAULT_AZIMUTHS,
     views = [{"elevation_deg": float(b), "azimuth_deg": float(a), **_combine(v, b)}
              for (b, a), v in per_view.items()]
     period = run.scenario.orbital_period
-    out = {"run": path, "snapshots": indices,
+    out: dict[str, object] = {"run": path, "snapshots": indices,
            "snapshot_orbits": [float(s["t"]) / period for s in snaps],
            "geometric_optical_depth": float(np.mean([occultation.geometric_optical_depth(
                s["radius"], Lx, Ly) for s in snaps])),

@@ -115,9 +115,10 @@ def _fit_result(res, n: int) -> dict:
     err = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     g, h, tau_g, phi_w = (float(v) for v in res.x)
     phi_w = phi_w % 180.0
-    out = {name: {"value": v, "stderr": float(e), "units": "deg" if name.endswith("_deg")
-                  else "dimensionless"}
-           for name, v, e in zip(PARAMETERS, (g, h, tau_g, phi_w), err, strict=True)}
+    out: dict[str, object] = {
+        name: {"value": v, "stderr": float(e),
+               "units": "deg" if name.endswith("_deg") else "dimensionless"}
+        for name, v, e in zip(PARAMETERS, (g, h, tau_g, phi_w), err, strict=True)}
     width = 1.0 - g
     # H/W = h / (1 - g): gradient (1 / (1 - g), h / (1 - g)^2) in (h, g)
     grad = np.array([h / width**2, 1.0 / width, 0.0, 0.0])
