@@ -53,8 +53,10 @@ def figure(rows: list[dict]):
     fig, ax = plt.subplots(figsize=(8.0, 4.8))
     for i, b in enumerate(ELEVATIONS):
         sel = [r for r in rows if r["elevation"] == b]
+        worst = max(r["relative_error"] for r in sel)
+        capped = f" (ray cap: up to {100 * worst:.1f} %)" if worst > 0.0105 else ""
         ax.plot([r["n"] for r in sel], [r["seconds"] for r in sel], "o-", color=f"C{i}",
-                label=f"B = {b:g}°")
+                label=f"B = {b:g}°{capped}")
     set_readable_axis(ax, "x", [r["n"] for r in rows], log=True)
     set_readable_axis(ax, "y", [r["seconds"] for r in rows], log=True)
     ax.set_xlabel("particles in the snapshot")
