@@ -201,7 +201,8 @@ def test_bar_model_is_the_hand_calculation():
 
 @pytest.fixture(scope="module")
 def small_wake_run(tmp_path_factory):
-    """The bundled wake scenario reduced (1500 particles, 1 orbit): a quick gravitating run."""
+    """The bundled wake scenario reduced (1500 particles, 1 orbit): a gravitating run of
+    about 10 CPU-seconds with the command below."""
     from ringsim.config.scenario import load_scenario, with_overrides
 
     scenario = with_overrides(load_scenario(
@@ -212,7 +213,6 @@ def small_wake_run(tmp_path_factory):
     return ringsim.run(scenario, output=out, progress=False)
 
 
-@pytest.mark.slow
 def test_observe_prints_the_asymmetry_and_the_fitted_height_over_width(
         small_wake_run, tmp_path, capsys):
     """`ringsim observe` on the reduced wake scenario: exit 0, the asymmetry table and the
