@@ -269,3 +269,31 @@ def test_bad_arguments_exit_2_with_one_line(args, key, tmp_path, capsys, tiny_ru
     err = capsys.readouterr().err.strip()
     assert code == 2
     assert len(err.splitlines()) == 1 and key in err, err
+
+
+def test_observe_figures_label_their_axes_and_show_the_model():
+    """The tau_n figures from bar-model views: labelled axes with units, at least three
+    labelled ticks on each, one marker series per B and the model drawn as lines."""
+    from ringsim.plots.observe import tau_azimuth_figure, tau_elevation_figure
+
+    truth = (0.6, 0.08, 0.3, 110.0)
+    views = []
+    for b in (5.0, 20.0, 90.0):
+        for a in range(0, 360, 30):
+            tau = float(wake_model.bar_optical_depth(b, float(a), *truth))
+            views.append({"elevation_deg": b, "azimuth_deg": float(a), "transmission":
+                          math.exp(-tau / math.sin(math.radians(b))),
+                          "normal_optical_depth": tau, "normal_optical_depth_stderr": 0.01})
+    obs = {"views": views, "geometric_optical_depth": 0.5,
+           "azimuthal_asymmetry": asymmetry(views),
+           "bar_model": wake_model.fit_bar_model(*(np.array([v[k] for v in views]) for k in (
+               "elevation_deg", "azimuth_deg", "normal_optical_depth",
+               "normal_optical_depth_stderr")))}
+    for fig, unit in ((tau_azimuth_figure(obs), "[deg]"), (tau_elevation_figure(obs), "[deg]")):
+        ax = fig.axes[0]
+        assert unit in ax.get_xlabel() and "τ_n" in ax.get_ylabel()
+        for axis in (ax.xaxis, ax.yaxis):
+            labels = [t.get_text() for t in axis.get_ticklabels() if t.get_text()]
+            assert len(labels) >= 3, labels
+        assert len(ax.get_lines()) >= 3   # model curves and the geometric tau
+        fig.clf()
