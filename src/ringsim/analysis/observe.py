@@ -172,7 +172,7 @@ def observe(run, elevations=DEFAULT_ELEVATIONS, azimuths=DEFAULT_AZIMUTHS,
     return out
 
 
-#: Units of the JSON's numbers (angles are also named *_deg).
+#: Units of the JSON's numbers (angles are also named ``*_deg``).
 UNITS = {"geometric_optical_depth": "dimensionless", "transmission": "dimensionless",
          "normal_optical_depth": "dimensionless", "elevation_deg": "deg",
          "azimuth_deg": "deg", "snapshot_orbits": "orbits", "rays": "count",

@@ -78,8 +78,9 @@ def fit_bar_model(elevation_deg, azimuth_deg, tau_n, tau_n_err) -> dict:
 
     Returns
     -------
-    dict: each of ``PARAMETERS`` and ``height_over_width`` as ``{"value", "stderr",
-    "units"}``, ``wake_angle_from_radial_deg`` (180 - phi_W, trailing wakes 0-90 deg),
+    dict: each of ``PARAMETERS`` and ``height_over_width`` as
+    ``{"value", "stderr", "units"}``, ``wake_angle_from_radial_deg`` (180 - phi_W, trailing
+    wakes 0-90 deg),
     ``chi2``, ``reduced_chi2``, ``n_points``, ``success``.
     """
     from scipy.optimize import least_squares

@@ -8,6 +8,7 @@
   azimuth of peak transmission, at the instrument's radial resolution;
 * ``observe_sightline.png``: the sheet seen along two lines of sight (along the wakes and
   90 deg from them): rays that pass are white.
+
 The arrays come from ``analysis.observe`` and ``analysis.wake_model``; nothing is computed here.
 """
 
