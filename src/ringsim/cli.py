@@ -267,6 +267,17 @@ def _cmd_compare(args) -> int:
     return EXIT_OK
 
 
+def _cmd_observe(args) -> int:
+    from ringsim.analysis.observe import observation_table, observe
+
+    (run,) = _open_runs([args.run])
+    _print_status(run)
+    obs = observe(run, args.elevation, args.azimuth, args.snapshot, args.rays, args.precision)
+    print(observation_table(obs))
+    _write_results(args, obs, "plot_observation", run, obs)
+    return EXIT_OK
+
+
 def _cmd_export(args) -> int:
     from ringsim.engine import export
 
@@ -363,6 +374,23 @@ def _analyze_arguments(sub) -> None:
     p.set_defaults(func=_cmd_analyze)
 
 
+def _observe_arguments(sub) -> None:
+    p = sub.add_parser("observe", help="synthetic stellar occultations: T and tau_n at (B, phi)")
+    p.add_argument("run", metavar="RUN.h5")
+    p.add_argument("--elevation", type=float, nargs="+", metavar="DEG", help="opening angles "
+                   "B [deg] (default 3.45 10 20 45 90)")
+    p.add_argument("--azimuth", type=float, nargs="+", metavar="DEG", help="azimuths phi "
+                   "[deg] from radial toward orbital motion (default every 15)")
+    p.add_argument("--snapshot", type=int, metavar="K", help="one snapshot (default: all in "
+                   "the equilibrium window)")
+    rays = p.add_mutually_exclusive_group()
+    rays.add_argument("--rays", type=int, metavar="N", help="rays per view and snapshot")
+    rays.add_argument("--precision", type=float, metavar="P", help="relative error of tau_n")
+    p.add_argument("--json", metavar="OUT.json", help="write the views as JSON")
+    p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
+    p.set_defaults(func=_cmd_observe)
+
+
 def _compare_arguments(sub) -> None:
     p = sub.add_parser("compare", help="side-by-side equilibria with ratios")
     p.add_argument("runs", metavar="RUN.h5", nargs="+")
@@ -422,7 +450,8 @@ def _fit_arguments(sub) -> None:
 
 #: The subcommands, in the order ``ringsim --help`` lists them: each adds its parser.
 _SUBCOMMANDS = (_epsilon_arguments, _export_arguments, _run_arguments, _analyze_arguments,
-                _compare_arguments, _sweep_arguments, _study_arguments, _fit_arguments)
+                _observe_arguments, _compare_arguments, _sweep_arguments, _study_arguments,
+                _fit_arguments)
 
 
 def build_parser() -> argparse.ArgumentParser:
