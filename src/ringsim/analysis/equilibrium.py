@@ -1,8 +1,9 @@
 """Equilibria of runs, with error bars, and their comparison (``ringsim analyze`` / ``compare``).
 
-The equilibrium window is found on the velocity dispersion and the thickness (MSER-5 on
-each, the later start wins); every quantity is then averaged over that same window with a
-standard error corrected for autocorrelation (``timeseries.stationary_mean``).  A run whose
+The equilibrium window is found on the velocity dispersion and the thickness, number- and
+mass-weighted (MSER-5 on each, the latest start wins); every quantity is then averaged over
+that same window with a standard error corrected for autocorrelation
+(``timeseries.stationary_mean``).  A run whose
 window is too short or still drifts is reported as not in equilibrium, with the reason.
 The keys of the result are part of the interface users rely on: docs/interface.md,
 "Equilibrium JSON".
@@ -40,7 +41,6 @@ def _window_stats(values: np.ndarray, start: int, units: str) -> dict:
     """Mean and autocorrelation-corrected stderr of values[start:] (no further truncation)."""
     mean, stderr, _ = timeseries.autocorrelated_mean(np.asarray(values[start:], dtype=float))
     return _value(mean, stderr, units)
-
 
 
 def _scaled(value: dict, scale: float, units: str) -> dict:
@@ -136,9 +136,11 @@ def stationary_window(orbits: np.ndarray, velocity_dispersion: np.ndarray,
                 "reason": "the copies of the tiled start are not independent yet: no window"}
     series = [("velocity dispersion", velocity_dispersion, 1e3, "mm/s"),
               ("thickness", thickness, 1.0, "m")]
-    if mass_weighted is not None:
-        series += [("mass-weighted velocity dispersion", mass_weighted[0], 1e3, "mm/s"),
-                   ("mass-weighted thickness", mass_weighted[1], 1.0, "m")]
+    for (name, number, scale, shown), values in zip(series[:2], mass_weighted or (),
+                                                    strict=False):
+        if not np.allclose(values, number, rtol=1e-9, atol=0.0, equal_nan=True):
+            # (identical particles give the same series to rounding: judged once)
+            series.append((f"mass-weighted {name}", values, scale, shown))
     fits = {name: timeseries.stationary_mean(orbits[first:],
                                              scale * np.asarray(values, float)[first:],
                                              time_unit="orbit", value_unit=shown)
@@ -186,7 +188,8 @@ def equilibrium(run) -> dict:
         `size_dispersion_ratio`) and ``kinetic_estimate`` (the dilute-ring energy balance
         of the scenario's law, ``kinetic.kinetic_dispersion_estimate``), ``energy_budget``
         and, with friction, ``spin`` and ``rotational_energy_fraction``
-        (``analysis.spins``); after a tiled start ``tiled_copies_independent_from_orbit``.
+        (``analysis.spins``); weighted and local c and H, ``weightings``
+        (``analysis.motions``); after a tiled start ``tiled_copies_independent_from_orbit``.
     """
     ts = run.timeseries
     sc = run.scenario
