@@ -159,3 +159,41 @@ def test_the_p3m_cutoff_constant_is_the_computed_one():
                  "docs/gravity.md"):
         text = (root / path).read_text()
         assert "5.85e-3" in text and "3.6e-3" not in text, path
+
+
+def test_a_gravitating_run_prints_one_energy_balance(tmp_path, gravitating_scenario):
+    """The tiny self-gravitating sheet (0.2 orbit): its table holds one energy balance, the
+    one with nu_grav where that is measured, else the shear-heating budget; never both and
+    no rows of "n/a"."""
+    import ringsim
+
+    path = ringsim.run(gravitating_scenario(), output=tmp_path / "g.h5", progress=False)
+    eq = ringsim.equilibrium(ringsim.open_run(path))
+    text = equilibrium_table(eq)
+    with_gravity = text.count("heating / (dissipation + d/dt E_kin)")
+    without = text.count("heating / dissipation ")
+    assert with_gravity + without == 1, text
+    assert with_gravity == int(math.isfinite(eq["energy_closure"]["mean"]))
+    assert "n/a" not in text
+
+
+@pytest.mark.parametrize("sizes, shown", [({}, False), (
+    {"particles.size_distribution": {"kind": "monodisperse", "radius": 1.0}}, True)])
+def test_the_closed_form_is_printed_for_identical_spheres_only(tmp_path, rough_scenario,
+                                                               sizes, shown):
+    """A 0.2-orbit rough ring (beta = 0) of 1-2 m particles, and the same of identical 1 m
+    spheres: only the second prints the closed form 2/9 (beside E_rot about the mean
+    spin, which is at most E_rot: the mean spin's part is >= 0)."""
+    import ringsim
+
+    sc = rough_scenario({"model": "constant", "beta": 0.0},
+                        **{"integration.orbits": 0.2, **sizes})
+    path = ringsim.run(sc, output=tmp_path / "r.h5", progress=False)
+    eq = ringsim.equilibrium(ringsim.open_run(path))
+    text = equilibrium_table(eq)
+    assert ("closed form" in text) is shown
+    assert eq["spin"]["closed_form_applies"] is shown
+    assert "E_rot about the mean spin / E_tr" in text
+    for b in eq["spin"]["per_size_bin"]:
+        assert b["rotational_energy_random"] <= b["rotational_energy"] * (1 + 1e-12)
+        assert b["rotational_energy_mean_rotating"] >= 0.0
