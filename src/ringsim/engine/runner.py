@@ -375,8 +375,8 @@ class Runner:
                                                   h["thickness_mass_weighted"]))
         if not window["in_equilibrium"]:
             return None
-        return (f"until_equilibrium: c and H stationary at orbit {h['orbits'][-1]:.4g} "
-                f"({window['reason']})")
+        return (f"until_equilibrium: c and H stationary (number- and mass-weighted) at orbit "
+                f"{h['orbits'][-1]:.4g} ({window['reason']})")
 
     def stop_reason(self, status: str, reason: str | None) -> str:
         """Why the run ended, for the file's ``stop_reason`` attribute."""
