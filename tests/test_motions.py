@@ -175,6 +175,13 @@ def test_a_gravitating_run_prints_one_energy_balance(tmp_path, gravitating_scena
     assert with_gravity + without == 1, text
     assert with_gravity == int(math.isfinite(eq["energy_closure"]["mean"]))
     assert "n/a" not in text
+    # the headline numbers by weighting, in the JSON with their declared units
+    for key in motions.MOTION_KEYS + ("velocity_dispersion_number_weighted",
+                                      "thickness_number_weighted", "local_dispersion_cell"):
+        assert eq[key]["units"] == quantities.unit(key) and math.isfinite(eq[key]["mean"])
+    assert eq["weightings"]["thickness_cross_section_weighted"] == "cross section"
+    assert eq["weightings"]["velocity_dispersion"] == "number"
+    assert "local velocity dispersion c_loc, number-weighted" in text
 
 
 @pytest.mark.parametrize("sizes, shown", [({}, False), (
