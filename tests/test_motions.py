@@ -181,6 +181,7 @@ def test_a_gravitating_run_prints_one_energy_balance(tmp_path, gravitating_scena
         assert eq[key]["units"] == quantities.unit(key) and math.isfinite(eq[key]["mean"])
     assert eq["weightings"]["thickness_cross_section_weighted"] == "cross section"
     assert eq["weightings"]["velocity_dispersion"] == "number"
+    assert eq["weightings"]["toomre_Q_mass"] == "mass"
     assert "local velocity dispersion c_loc, number-weighted" in text
 
 

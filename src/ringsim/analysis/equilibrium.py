@@ -205,7 +205,6 @@ def equilibrium(run) -> dict:
     out: dict = {"name": sc.name}
     out.update(_table_quantities(ts, start, radius, mass, Omega, Lx, Ly))
     out.update(motions.motion_equilibrium(run, start))
-    motions.name_weightings(out)
     out["equilibrium_from_orbit"] = _value(float(orbits[start]) if start < orbits.size
                                            else math.nan, 0.0,
                                            quantities.unit("equilibrium_from_orbit"))
@@ -223,6 +222,7 @@ def equilibrium(run) -> dict:
     out["scenario"] = sc.to_dict()
     out["kinetic_estimate"] = kinetic_estimate(sc.restitution_dict(), radius, mass,
                                                out["optical_depth"], Omega)
+    motions.name_weightings(out)
     return out
 
 
