@@ -253,7 +253,8 @@ def spin_table_lines(eq: dict, budget: bool = True) -> list[str]:
                  f"{_fmt(s['rotational_energy_fraction'])} (mean spin included)")
     random = s.get("rotational_energy_fraction_random")
     if random:
-        lines.append(f"  {'E_rot about the mean spin / E_tr':<42} {random['mean']:.4g}"
+        lines.append(f"  {'E_rot about the mean spin / E_tr':<42} {random['mean']:.4g} "
+                     "(the window's snapshots; each size bin's mean spin removed)"
                      + (f" (closed form of the collisional balance for identical spheres "
                         f"without mean spin: {reference:.4g})" if reference is not None
                         else ""))
