@@ -254,10 +254,10 @@ def spin_table_lines(eq: dict, budget: bool = True) -> list[str]:
     random = s.get("rotational_energy_fraction_random")
     if random:
         lines.append(f"  {'E_rot about the mean spin / E_tr':<42} {random['mean']:.4g} "
-                     "(the window's snapshots; each size bin's mean spin removed)"
-                     + (f" (closed form of the collisional balance for identical spheres "
+                     "(window snapshots, each size bin's mean spin removed"
+                     + (f"; closed form of the collisional balance for identical spheres "
                         f"without mean spin: {reference:.4g})" if reference is not None
-                        else ""))
+                        else ")"))
     for key in ("mean_spin_z", "rms_spin"):
         lines.append(f"  {QUANTITY[key].table_label:<42} {_fmt(s[key])}")
     if s["friction"]["model"] == "coulomb":
