@@ -205,3 +205,18 @@ def test_the_closed_form_is_printed_for_identical_spheres_only(tmp_path, rough_s
     for b in eq["spin"]["per_size_bin"]:
         assert b["rotational_energy_random"] <= b["rotational_energy"] * (1 + 1e-12)
         assert b["rotational_energy_mean_rotating"] >= 0.0
+
+
+def test_compare_prints_each_warning_once(tmp_path, ring_scenario, capsys):
+    """The tiny ring (0.3 orbit) is not in equilibrium: ``compare`` says so once (in its
+    table), not again on stderr; ``analyze`` once as well."""
+    import ringsim
+    from ringsim.cli import main
+
+    path = ringsim.run(ring_scenario(), output=tmp_path / "r.h5", progress=False)
+    assert main(["compare", str(path), str(path)]) == 0
+    captured = capsys.readouterr()
+    assert (captured.out + captured.err).count("never reached equilibrium") == 2  # two runs
+    assert main(["analyze", str(path)]) == 0
+    captured = capsys.readouterr()
+    assert (captured.out + captured.err).count("never reached equilibrium") == 1
