@@ -260,9 +260,7 @@ def _cmd_compare(args) -> int:
     runs = _open_runs(paths)
     equilibria = [equilibrium(run) for run in runs]
     comp = comparison(equilibria, systematics)
-    for warning in comp["warnings"]:
-        print(f"ringsim: {warning}", file=sys.stderr)
-    print(comparison_table(comp))
+    print(comparison_table(comp))   # its warnings first, each printed once
     _write_results(args, comp, "plot_comparison", runs, equilibria)
     return EXIT_OK
 

@@ -98,9 +98,11 @@ class Runner:
         self.commit_cost = 0.0  # wall time [s] of the last commit
         self.wall_start = time.perf_counter()
         self.wall_before = 0.0  # wall time [s] of earlier sessions of this run
-        # c and H so far, for until_equilibrium: orbits [orbits], c [m/s], H [m]
-        self.history: dict[str, list[float]] = {"orbits": [], "velocity_dispersion": [],
-                                                "thickness": []}
+        # c and H so far (number- and mass-weighted), for until_equilibrium: orbits
+        # [orbits], c [m/s], H [m]
+        self.history: dict[str, list[float]] = {
+            key: [] for key in ("orbits", "velocity_dispersion", "thickness",
+                                "velocity_dispersion_mass_weighted", "thickness_mass_weighted")}
 
     # -- set-up --------------------------------------------------------------------------------
 
@@ -368,11 +370,13 @@ class Runner:
         from ringsim.analysis.equilibrium import stationary_window
 
         h = {key: np.asarray(values) for key, values in self.history.items()}
-        window = stationary_window(h["orbits"], h["velocity_dispersion"], h["thickness"])
+        window = stationary_window(h["orbits"], h["velocity_dispersion"], h["thickness"],
+                                   mass_weighted=(h["velocity_dispersion_mass_weighted"],
+                                                  h["thickness_mass_weighted"]))
         if not window["in_equilibrium"]:
             return None
-        return (f"until_equilibrium: c and H stationary at orbit {h['orbits'][-1]:.4g} "
-                f"({window['reason']})")
+        return (f"until_equilibrium: c and H stationary (number- and mass-weighted) at orbit "
+                f"{h['orbits'][-1]:.4g} ({window['reason']})")
 
     def stop_reason(self, status: str, reason: str | None) -> str:
         """Why the run ended, for the file's ``stop_reason`` attribute."""
