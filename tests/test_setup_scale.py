@@ -1,8 +1,9 @@
 """Issue 16, set-up at scale: particles added in one C call, overlap-free placement on a grid.
 
-The placement's result is fixed by its rule (the higher index of each overlapping pair is
-drawn again) and the exact pair test, so the C grid search must find exactly the pairs a
-brute-force numpy search finds; the C add must build the simulation ``sim.add`` builds.
+The placement's result is fixed by its rule (of each overlapping pair the much smaller
+particle, else the higher index, is drawn again) and the exact pair test, so the C grid
+search must find exactly the pairs a brute-force numpy search finds; the C add must build
+the simulation ``sim.add`` builds.
 """
 
 import numpy as np
@@ -58,7 +59,18 @@ def test_grid_search_finds_exactly_the_brute_force_pairs(Lx, Ly, radii_kind):
         grid.move(moved, x, y, z)
         found = grid.overlapping_later(moved)
     np.testing.assert_array_equal(found, _brute_force(x, y, z, radii, Lx, Ly, moved))
-    assert max(moved[0], moved[1]) in found
+    pair = np.array([min(moved[0], moved[1])]), np.array([max(moved[0], moved[1])])
+    assert placement.yielding(*pair, radii)[0] in found
+
+
+def test_the_much_smaller_particle_of_an_overlapping_pair_yields():
+    radii = np.array([1.0, 5.0, 1.0, 0.2, 3.0])
+    lo, hi = np.array([0, 1, 0, 1, 2, 3]), np.array([1, 3, 2, 4, 3, 4])
+    # 0 is 5 times smaller than 1: 0 yields; 3 is 25 times smaller than 1: 3 yields; equal
+    # radii: the higher index; 4 (3 m) is within a factor 4 of 1 (5 m): the higher index;
+    # 3 (0.2 m) is 5 times smaller than 2 and 15 times smaller than 4
+    np.testing.assert_array_equal(placement.yielding(lo, hi, radii), [0, 3, 2, 4, 3, 3])
+    assert placement.YIELD_RATIO == 4.0   # RS_YIELD_RATIO of csrc/rs_setup.c
 
 
 def test_dense_sheet_starts_without_overlaps(broad_scenario):
