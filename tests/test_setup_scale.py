@@ -64,13 +64,14 @@ def test_grid_search_finds_exactly_the_brute_force_pairs(Lx, Ly, radii_kind):
 
 
 def test_the_much_smaller_particle_of_an_overlapping_pair_yields():
-    radii = np.array([1.0, 5.0, 1.0, 0.2, 3.0])
-    lo, hi = np.array([0, 1, 0, 1, 2, 3]), np.array([1, 3, 2, 4, 3, 4])
-    # 0 is 5 times smaller than 1: 0 yields; 3 is 25 times smaller than 1: 3 yields; equal
-    # radii: the higher index; 4 (3 m) is within a factor 4 of 1 (5 m): the higher index;
-    # 3 (0.2 m) is 5 times smaller than 2 and 15 times smaller than 4
-    np.testing.assert_array_equal(placement.yielding(lo, hi, radii), [0, 3, 2, 4, 3, 3])
-    assert placement.YIELD_RATIO == 4.0   # RS_YIELD_RATIO of csrc/rs_setup.c
+    radii = np.array([1.0, 12.0, 1.0, 0.05, 5.0, 0.5, 5.0])
+    lo, hi = np.array([0, 1, 0, 1, 2, 3, 5]), np.array([1, 3, 2, 4, 3, 4, 6])
+    # 0 is 12 times smaller than 1: 0 yields; 3 is 240 times smaller than 1: 3 yields; equal
+    # radii: the higher index; 4 (5 m) is within a factor 10 of 1 (12 m): the higher index;
+    # 3 (5 cm) is 20 times smaller than 2 and 100 times smaller than 4; 5 and 6 are exactly
+    # a factor 10 apart, as the ends of a 0.5-5 m power law: the higher index, the larger
+    np.testing.assert_array_equal(placement.yielding(lo, hi, radii), [0, 3, 2, 4, 3, 3, 6])
+    assert placement.YIELD_RATIO == 10.0   # RS_YIELD_RATIO of csrc/rs_setup.c
 
 
 def test_dense_sheet_starts_without_overlaps(broad_scenario):

@@ -58,9 +58,9 @@ int64_t rs_add_particles(struct reb_simulation* r, rs_add_function add, int64_t 
 
 /** Radius classes of the overlap grid at most (ringsim.engine.placement.MAX_CLASSES). */
 #define RS_MAX_CLASSES 32
-/** Of an overlapping pair, a particle this many times smaller than the other is drawn again
- *  (ringsim.engine.placement.YIELD_RATIO). */
-#define RS_YIELD_RATIO 4.0
+/** Of an overlapping pair, a particle more than this many times smaller than the other is
+ *  drawn again (ringsim.engine.placement.YIELD_RATIO). */
+#define RS_YIELD_RATIO 10.0
 
 
 /** Cell index of a coordinate c >= 0 in cells of width w, clamped to [0, n). */

@@ -31,11 +31,12 @@ import numpy as np
 REACH_MARGIN = 1e-9
 #: Radii of one class of the grid differ by less than this factor.
 CLASS_RATIO = 2.0
-#: Of an overlapping pair, a particle this many times smaller than the other is drawn again
-#: (RS_YIELD_RATIO in csrc/rs_setup.c); within this factor the higher index is.  Wide
-#: enough that a size distribution narrower than it keeps the placement of identical
-#: particles, narrow enough that a metre-sized particle never yields to centimetre-sized ones.
-YIELD_RATIO = 4.0
+#: Of an overlapping pair, a particle more than this many times smaller than the other is
+#: drawn again (RS_YIELD_RATIO in csrc/rs_setup.c); within this factor the higher index is.
+#: Wide enough that a size distribution spanning at most this factor (0.5-5 m, say) keeps
+#: the placement of identical particles bit for bit, narrow enough that a metre-sized
+#: particle never yields to the centimetre-sized ones around it.
+YIELD_RATIO = 10.0
 #: Classes at most (RS_MAX_CLASSES in csrc/rs_setup.c): radii spanning 2^31.
 MAX_CLASSES = 32
 _DOUBLE_P = ctypes.POINTER(ctypes.c_double)
