@@ -30,10 +30,13 @@ from ringsim.physics.gravity_solvers import SOLVER_PARAMETERS
 from ringsim.physics.laws import DIMENSIONLESS
 from ringsim.physics.restitution import RESTITUTION
 from ringsim.physics.sizes import (
+    CUTOFF_PARAMETERS,
+    MIN_CUTOFF_ACCEPTANCE,
     Mixture,
     MixtureComponent,
     Monodisperse,
     PowerLaw,
+    PowerLawCutoff,
     SizeDistribution,
 )
 
@@ -63,6 +66,7 @@ SECTION_KEYS: dict[str, tuple[str, ...]] = {
 SIZE_KINDS: dict[str, tuple[str, ...]] = {
     "monodisperse": ("radius",),
     "powerlaw": ("q", "r_min", "r_max"),
+    "powerlaw_cutoff": tuple(p.name for p in CUTOFF_PARAMETERS),
     "mixture": ("components",),
 }
 #: Words of ``integration.collision_detection``.
@@ -126,7 +130,8 @@ def read_planet(top: Section) -> Planet:
 def read_size_distribution(particles: Section) -> SizeDistribution:
     sec = particles.section("size_distribution", required=True,
                             allowed="a mapping: kind monodisperse {radius}, powerlaw "
-                            "{q, r_min, r_max} or mixture {components}")
+                            "{q, r_min, r_max}, powerlaw_cutoff {q, r_min, r_max, r_cut, "
+                            "cutoff_exponent} or mixture {components}")
     kind = sec.string("kind", choices=tuple(SIZE_KINDS))
     sec.check_keys(("kind",) + SIZE_KINDS[kind], context=f"kind {kind}")
     if kind == "monodisperse":
@@ -139,6 +144,8 @@ def read_size_distribution(particles: Section) -> SizeDistribution:
             raise sec.error("r_min", f"r_min = {r_min:g} m is larger than r_max = {r_max:g} m",
                             "0 < r_min <= r_max")
         return PowerLaw(q=q, r_min=r_min, r_max=r_max)
+    if kind == "powerlaw_cutoff":
+        return read_cutoff(sec)
     allowed = "a non-empty list of {radius [m], number_fraction} mappings"
     components = sec.get("components", REQUIRED, allowed)
     if not isinstance(components, (list, tuple)) or not components:
@@ -157,6 +164,22 @@ def read_size_distribution(particles: Section) -> SizeDistribution:
         raise sec.error("components", f"number fractions sum to {total:.12g}",
                         f"they must sum to 1 within {FRACTION_SUM_TOLERANCE:g}")
     return Mixture(components=tuple(parsed))
+
+
+def read_cutoff(sec: Section) -> PowerLawCutoff:
+    """``kind: powerlaw_cutoff``, validated against its declaration `CUTOFF_PARAMETERS`."""
+    values = {p.name: sec.number(p.name, REQUIRED if p.required else p.default,
+                                 unit="" if p.unit == DIMENSIONLESS else p.unit, **p.limits())
+              for p in CUTOFF_PARAMETERS}
+    if values["r_min"] > values["r_max"]:
+        raise sec.error("r_min", f"r_min = {values['r_min']:g} m is larger than r_max = "
+                        f"{values['r_max']:g} m", "0 < r_min <= r_max")
+    sizes = PowerLawCutoff(**values)
+    if sizes.acceptance() < MIN_CUTOFF_ACCEPTANCE:
+        raise sec.error("r_cut", f"r_cut = {values['r_cut']:g} m leaves fewer than "
+                        f"{MIN_CUTOFF_ACCEPTANCE:g} of the power law's particles",
+                        "a cutoff radius nearer r_max")
+    return sizes
 
 
 def read_particles(top: Section) -> Particles:

@@ -72,7 +72,7 @@ class Particles:
     ----------
     density : float [kg/m^3]
         Bulk density of every particle (900 for solid ice; lower for porous aggregates).
-    size_distribution : Monodisperse | PowerLaw | Mixture
+    size_distribution : Monodisperse | PowerLaw | PowerLawCutoff | Mixture
     inertia_factor : float [dimensionless]
         k in the moment of inertia I = k m R^2 (2/5: solid sphere); used with a
         ``friction`` section only (`ringsim.physics.friction.INERTIA_FACTOR`).
