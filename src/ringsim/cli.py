@@ -177,14 +177,15 @@ def _cmd_run(args) -> int:
 
 
 def _open_runs(paths: list[str]):
-    from ringsim.store.root_checks import check_box
+    from ringsim.store.run_checks import check_arrays, check_box
     from ringsim.store.runfile import open_run
 
     # open_run checks each file (RunFileError, exit status 2, for a damaged one), and
-    # check_box the box its attributes state
+    # store.run_checks its box and the shapes of its arrays
     runs = [open_run(path) for path in paths]
     for run in runs:
         check_box(run.attrs, run.path)
+        check_arrays(run)
     return runs
 
 

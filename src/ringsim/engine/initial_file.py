@@ -48,7 +48,7 @@ from ringsim.errors import InputError, excerpt
 from ringsim.physics.constants import SHEAR, SPEED_OF_LIGHT
 from ringsim.physics.selfgravity import shear_offset
 from ringsim.store.bulk import SPIN_FIELDS
-from ringsim.store.root_checks import check_box
+from ringsim.store.run_checks import check_box
 from ringsim.store.runfile import open_run
 
 #: CSV columns of a particle file, in the order `ringsim export --csv` writes them, and the
