@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 import h5py
+import numpy as np
 import pytest
 import yaml
 
@@ -237,6 +238,26 @@ def test_nan_box_in_a_run_file_exits_2(capsys, tmp_path, tiny_run, attribute, va
     start = _text(**{"sheet.n_particles": None, "sheet.optical_depth": None,
                      "sheet.initial_state": {"file": "box.h5"}})
     _run(capsys, tmp_path, start, f"{run}: {attribute}: ")
+
+
+@pytest.mark.parametrize("dataset, damage, key", [
+    ("timeseries/orbits", lambda a: a[:-1], "orbits"),
+    ("timeseries/orbits", lambda a: np.stack([a, a], axis=-1), "orbits"),
+    ("timeseries/thickness", lambda a: np.array([b"x"] * a.size), "thickness"),
+    ("snapshots/000001/vx", lambda a: a[:-1], "snapshots/vx"),
+    ("snapshots/000001/mass", lambda a: np.array([b"x"] * a.size), "snapshots/mass"),
+])
+def test_run_file_arrays_of_the_wrong_shape_exit_2(capsys, tmp_path, tiny_run, dataset,
+                                                   damage, key):
+    run = tmp_path / "shapes.h5"
+    shutil.copy(tiny_run["run"], run)
+    with h5py.File(run, "r+") as f:
+        data = damage(f[dataset][...])
+        del f[dataset]
+        f[dataset] = data
+    for argv in (["analyze", str(run)], ["export", str(run), "--csv",
+                                         str(tmp_path / "x.csv")]):
+        _bad_input(capsys, tmp_path, argv, f"{run}: {key}: ")
 
 
 @pytest.mark.parametrize("argv, option", [

@@ -313,6 +313,8 @@ def run_file_damage(draw, kinds=("attribute", "yaml", "timeseries", "snapshot")
 
 
 def _reshaped(data: np.ndarray, how: str):
+    if not np.issubdtype(data.dtype, np.number):   # damaged before: numbers again
+        data = np.zeros(data.shape)
     return {"short": data[: max(0, data.shape[0] - 1)], "long": np.concatenate([data, data]),
             "2d": np.stack([data, data], axis=-1), "text": np.array([b"x"] * data.shape[0]),
             "nan": np.full(data.shape, np.nan), "empty": data[:0],

@@ -4,8 +4,8 @@
   [m] (positive, finite numbers) and ``N_root_x``, ``N_root_y`` (whole numbers from 1 to
   `MAX_ROOT_BOXES`);
 * `check_arrays`: every time series a number array of one row per output (``t``'s
-  length; per-bin series ``(rows, bins)``), every snapshot's particle arrays numbers of
-  one length.
+  length; the per-bin series, ``size_bin_*`` and ``*_histogram``, ``(rows, bins)``),
+  every snapshot's particle arrays numbers of one length.
 
 A file that fails (NaN, inf, 0 or a negative box size, a text, rows of unequal lengths, a
 snapshot of mismatched arrays) is bad input: `RunFileError` names the file and the item,
@@ -62,6 +62,11 @@ def _is_numbers(array: np.ndarray) -> bool:
                                                                       np.complexfloating)
 
 
+def _per_bin(name: str) -> bool:
+    """A time series with one column per bin (size bins, histograms): rows x bins."""
+    return name.startswith("size_bin_") or name.endswith("_histogram")
+
+
 def check_arrays(run) -> None:
     """Raise `RunFileError` if a time series of ``run`` (a `store.runfile.Run`) is not a
     number array with one row per output, or a snapshot's particle arrays are not number
@@ -74,7 +79,7 @@ def check_arrays(run) -> None:
         if name.endswith("_edges"):    # bin edges: one list, not rows
             good = values.ndim == 1 and values.size >= 2
         else:
-            good = values.ndim in (1, 2) and values.shape[0] == t.size
+            good = values.ndim == (2 if _per_bin(name) else 1) and values.shape[0] == t.size
         if not (good and _is_numbers(values)):
             raise RunFileError(run.path, f"the time series {name} has shape {values.shape} "
                                f"and type {values.dtype} ({t.size} rows of numbers)", name)
