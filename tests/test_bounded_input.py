@@ -244,6 +244,8 @@ def test_nan_box_in_a_run_file_exits_2(capsys, tmp_path, tiny_run, attribute, va
     ("timeseries/orbits", lambda a: a[:-1], "orbits"),
     ("timeseries/orbits", lambda a: np.stack([a, a], axis=-1), "orbits"),
     ("timeseries/thickness", lambda a: np.array([b"x"] * a.size), "thickness"),
+    ("timeseries/optical_depth", lambda a: np.full(a.shape, np.nan), "optical_depth"),
+    ("timeseries/collisions", lambda a: -a - 1, "collisions"),
     ("snapshots/000001/vx", lambda a: a[:-1], "snapshots/vx"),
     ("snapshots/000001/mass", lambda a: np.array([b"x"] * a.size), "snapshots/mass"),
 ])

@@ -4,8 +4,9 @@
   [m] (positive, finite numbers) and ``N_root_x``, ``N_root_y`` (whole numbers from 1 to
   `MAX_ROOT_BOXES`);
 * `check_arrays`: every time series a number array of one row per output (``t``'s
-  length; the per-bin series, ``size_bin_*`` and ``*_histogram``, ``(rows, bins)``),
-  every snapshot's particle arrays numbers of one length.
+  length; the per-bin series, ``size_bin_*`` and ``*_histogram``, ``(rows, bins)``), the
+  time, step, optical depth and counts finite (counts >= 0); every snapshot's particle
+  arrays numbers of one length.
 
 A file that fails (NaN, inf, 0 or a negative box size, a text, rows of unequal lengths, a
 snapshot of mismatched arrays) is bad input: `RunFileError` names the file and the item,
@@ -20,6 +21,7 @@ from collections.abc import Mapping
 import h5py
 import numpy as np
 
+from ringsim import quantities
 from ringsim.errors import excerpt
 from ringsim.store.bulk import SNAPSHOT_FIELDS, SPIN_FIELDS
 from ringsim.store.runfile import RunFileError
@@ -62,6 +64,16 @@ def _is_numbers(array: np.ndarray) -> bool:
                                                                       np.complexfloating)
 
 
+#: Time series that are finite in every row a run writes (the time, the step, the optical
+#: depth and the collisions' momentum transport); counts are finite and >= 0 too.
+_FINITE = ("t", "orbits", "dt", "optical_depth", "collisions_plog")
+
+
+def _is_count(name: str) -> bool:
+    quantity = quantities.QUANTITY.get(name)
+    return quantity is not None and quantity.unit == "count"
+
+
 def _per_bin(name: str) -> bool:
     """A time series with one column per bin (size bins, histograms): rows x bins."""
     return name.startswith("size_bin_") or name.endswith("_histogram")
@@ -83,6 +95,11 @@ def check_arrays(run) -> None:
         if not (good and _is_numbers(values)):
             raise RunFileError(run.path, f"the time series {name} has shape {values.shape} "
                                f"and type {values.dtype} ({t.size} rows of numbers)", name)
+        if name in _FINITE or _is_count(name):
+            low = 0.0 if _is_count(name) else -np.inf
+            if not bool(np.all(np.isfinite(values) & (values >= low))):
+                raise RunFileError(run.path, f"the time series {name} holds values that are "
+                                   "not finite" + (" or negative" if low == 0 else ""), name)
     with h5py.File(run.path, "r") as f:   # shapes and types only: no data is read
         for i, name in enumerate(sorted(f["snapshots"])):
             _check_snapshot(run.path, i, f["snapshots"][name])
