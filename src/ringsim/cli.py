@@ -23,7 +23,7 @@ import traceback
 from pathlib import Path
 
 from ringsim import __version__
-from ringsim.errors import InputError
+from ringsim.errors import InputError, clip
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 
@@ -177,10 +177,16 @@ def _cmd_run(args) -> int:
 
 
 def _open_runs(paths: list[str]):
+    from ringsim.store.run_checks import check_arrays, check_box
     from ringsim.store.runfile import open_run
 
-    # open_run checks each file (RunFileError, exit status 2, for a damaged one)
-    return [open_run(path) for path in paths]
+    # open_run checks each file (RunFileError, exit status 2, for a damaged one), and
+    # store.run_checks its box and the shapes of its arrays
+    runs = [open_run(path) for path in paths]
+    for run in runs:
+        check_box(run.attrs, run.path)
+        check_arrays(run)
+    return runs
 
 
 def _print_status(run) -> None:
@@ -446,6 +452,16 @@ def _fit_arguments(sub) -> None:
     p.set_defaults(func=_cmd_fit)
 
 
+def _check_targets(args) -> None:
+    """Every output option names a usable file or folder, before the command does any work
+    (``store.output_paths``)."""
+    from ringsim.store.output_paths import check_file_target, check_folder_target
+
+    for name in ("json", "csv", "rebound", "plot", "write_restitution"):
+        check_file_target(getattr(args, name, None), "--" + name.replace("_", "-"))
+    check_folder_target(getattr(args, "plots", None), "--plots")
+
+
 #: The subcommands, in the order ``ringsim --help`` lists them: each adds its parser.
 _SUBCOMMANDS = (_epsilon_arguments, _export_arguments, _run_arguments, _analyze_arguments,
                 _observe_arguments, _compare_arguments, _sweep_arguments, _study_arguments,
@@ -476,6 +492,7 @@ def main(argv: list[str] | None = None) -> int:
             parser.print_help()
             return EXIT_OK
         args = parser.parse_args(argv)
+        _check_targets(args)
         return int(args.func(args) or 0)
     except InputError as exc:
         if debug:
@@ -488,8 +505,8 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # noqa: BLE001 - the command line's last resort, status 1
         if debug:
             traceback.print_exc()
-        print(f"ringsim: error: {type(exc).__name__}: {exc} (rerun with --debug for a "
-              "traceback)", file=sys.stderr)
+        print(f"ringsim: error: {type(exc).__name__}: {clip(str(exc), 300)} (rerun with "
+              "--debug for a traceback)", file=sys.stderr)
         return EXIT_FAILURE
 
 

@@ -41,6 +41,8 @@ from ringsim.analysis import snapshot
 from ringsim.engine import box, gravity, invariants, sheet, timestep
 from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.checkpoint import LoopState, checkpoint_of, resume
+from ringsim.engine.failure import record_failure
+from ringsim.engine.memory import check_particle_memory
 from ringsim.engine.native import set_detector_threads, use_threaded_sei
 from ringsim.engine.progress import progress_bar
 from ringsim.engine.statistics import histogram_edges, with_outer_bins
@@ -435,6 +437,9 @@ class Runner:
                 # finished one can be extended
                 self.checkpoint(attributes={"status": status,
                                             "stop_reason": self.stop_reason(status, reason)})
+        except Exception as error:   # any other error: the file says failed, and why
+            record_failure(self, error)
+            raise
         finally:
             if bar is not None:
                 bar.close()
@@ -476,6 +481,7 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
         writer per file: ``store.lock.RunFileLock``).
     """
     path = Path(output if output is not None else scenario.output.path)
+    check_particle_memory(scenario)
     with RunFileLock(path), _StopRequest() as stop:
         runner = Runner(scenario, path, progress)
         if resume:
