@@ -92,6 +92,7 @@ class Runner:
         self.check_momentum = not scenario.sheet.gravity
         self.gravity: dict | None = None  # engine.gravity.scenario_gravity of a gravitating run
         self.state = LoopState()
+        self.stop: _StopRequest | None = None   # the loop's; integrations then end on a signal
         self.pending_rows: list[dict] = []
         self.pending_events: list[tuple[float, float, str]] = []
         self.last_write = time.perf_counter()
@@ -354,8 +355,13 @@ class Runner:
     # -- the loop ------------------------------------------------------------------------------
 
     def _advance(self, t_next: float) -> None:
-        """Integrate to the first step end at or after ``t_next`` [s]."""
-        self.sim.integrate(t_next, exact_finish_time=0)
+        """Integrate to the first step end at or after ``t_next`` [s], or to the end of
+        the step in progress when SIGINT or SIGTERM arrives (``self.stop.requested``)."""
+        stop = self.stop
+        if stop is None:
+            self.sim.integrate(t_next, exact_finish_time=0)
+        else:
+            stop.integrate(self.sim, t_next)
         raise_pending(self.sim)   # an error in a solver's callback, which ctypes swallows
 
     def equilibrium_reached(self) -> str | None:
@@ -398,6 +404,7 @@ class Runner:
         reason = None
         try:
             with contextlib.nullcontext(stop) if stop is not None else _StopRequest() as stop:
+                self.stop = stop
                 while self.sim.t < self.t_end * (1 - 1e-12):
                     if stop.requested:
                         status = "stopped"
@@ -410,7 +417,10 @@ class Runner:
                     try:
                         self._advance(t_next)
                     except KeyboardInterrupt:
-                        # REBOUND stopped after a complete step: checkpoint here
+                        stop.requested = True
+                    if stop.requested:
+                        # stopped after a complete step, perhaps inside the interval: no
+                        # row now (a resumed run writes it), a checkpoint of this step
                         status = "stopped"
                         break
                     try:
