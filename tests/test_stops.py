@@ -5,6 +5,7 @@ and full disks").
 
 from __future__ import annotations
 
+import csv
 import os
 import signal
 import subprocess
@@ -175,3 +176,81 @@ def test_sigint_to_ringsim_run_at_ten_moments_exits_130_and_resumes_identically(
     assert ref.keys() == res.keys()
     for name in ref:
         assert ref[name] == res[name], f"{name} differs from the uninterrupted run"
+
+
+SWEEP_SCENARIO = """\
+name: stops
+seed: 1
+planet: {Omega: 2.0e-4}
+particles:
+  density: 900.0
+  size_distribution: {kind: powerlaw, q: 3.0, r_min: 1.0, r_max: 2.0}
+sheet: {optical_depth: 0.25, n_particles: 100}
+restitution: {model: dilley, xi0: 0.16, p: 0.65, kappa: 0.0}
+integration: {orbits: 0.4}
+output: {timeseries_every: 0.02, snapshot_every: 0.2, checkpoint_every: 0.1}
+"""
+
+SWEEP = """\
+base: stops.yaml
+grid:
+  seed: [1, 2, 3, 4, 5]
+"""
+
+
+def _group_members(pgid: int) -> list[int]:
+    """Live (not zombie) processes of the process group ``pgid``, from /proc."""
+    members = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as f:
+                stat = f.read()
+        except OSError:
+            continue
+        fields = stat[stat.rindex(")") + 2:].split()   # after the command's name
+        if int(fields[2]) == pgid and fields[0] != "Z":
+            members.append(int(entry))
+    return members
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["SIGTERM", "SIGKILL"])
+def test_sweep_parent_killed_leaves_no_process_and_the_rerun_finishes(tmp_path, sig):
+    """A sweep's parent sent SIGTERM (or SIGKILL) while its two workers run: after 5 s no
+    process of its process group is left (the workers stop their runs at a checkpoint and
+    exit, also when their parent is gone); after SIGTERM the parent exits 130 and writes the
+    summary of what finished; running the sweep again finishes every point."""
+    (tmp_path / "stops.yaml").write_text(SWEEP_SCENARIO)
+    (tmp_path / "sweep.yaml").write_text(SWEEP)
+    out = tmp_path / "runs"
+    log = (tmp_path / "sweep.log").open("w")   # a file: orphans would hold a pipe open
+    proc = subprocess.Popen([sys.executable, "-m", "ringsim.cli", "sweep", "sweep.yaml",
+                             "--workers", "2", "--out", str(out)], cwd=tmp_path,
+                            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    deadline = time.monotonic() + 120
+    while proc.poll() is None and time.monotonic() < deadline \
+            and not any(out.glob("*.h5")):
+        time.sleep(0.02)
+    time.sleep(0.5)
+    assert proc.poll() is None, "the sweep ended before the signal"
+    sent = time.monotonic()
+    proc.send_signal(sig)
+    proc.wait(timeout=60)
+    log.close()
+    err = (tmp_path / "sweep.log").read_text()
+    time.sleep(max(0.0, sent + 5.0 - time.monotonic()))
+    left = _group_members(proc.pid)
+    for pid in left:   # do not leave them to the next test
+        os.kill(pid, signal.SIGKILL)
+    assert not left, f"processes left 5 s after {sig.name}: {left}"
+    if sig == signal.SIGTERM:
+        assert proc.returncode == 130, err
+        assert (out / "summary.csv").exists(), "no summary of what finished"
+        rows = list(csv.DictReader((out / "summary.csv").open()))
+        assert len(rows) == 5 and {r["status"] for r in rows} <= {"finished", "stopped"}
+    assert main(["sweep", str(tmp_path / "sweep.yaml"), "--workers", "2",
+                 "--out", str(out)]) == 0
+    rows = list(csv.DictReader((out / "summary.csv").open()))
+    assert [r["status"] for r in rows] == ["finished"] * 5
