@@ -254,3 +254,45 @@ def test_sweep_parent_killed_leaves_no_process_and_the_rerun_finishes(tmp_path, 
                  "--out", str(out)]) == 0
     rows = list(csv.DictReader((out / "summary.csv").open()))
     assert [r["status"] for r in rows] == ["finished"] * 5
+
+
+def _file_size_limit(limit: int):
+    """A ``preexec_fn`` that limits the size of every file the process writes [bytes]."""
+    import resource
+
+    return lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_FSIZE semantics")
+def test_full_disk_ends_the_run_with_one_line_and_resume_finishes_it(tmp_path,
+                                                                      stops_scenario):
+    """A file size limit (``ulimit -f``, as a full disk: the write fails) at 90 % of the
+    finished file's size: ``ringsim run`` exits 1 with one line naming --resume, no
+    segmentation fault and no traceback, no ``.tmp`` left, and the run file keeps its last
+    commit (a readable checkpoint); with the limit gone, --resume finishes a run equal to
+    the uninterrupted one."""
+    sc = stops_scenario(**{"integration.orbits": 0.4, "sheet.n_particles": 100,
+                           "output.snapshot_every": 0.02})
+    scenario_file = tmp_path / "s.yaml"
+    scenario_file.write_text(sc.to_yaml())
+    reference = ringsim.run(sc, output=tmp_path / "ref.h5", progress=False)
+    limit = int(0.9 * reference.stat().st_size)
+    path = tmp_path / "full.h5"
+    done = subprocess.run([sys.executable, "-m", "ringsim.cli", "run", str(scenario_file),
+                           "-o", str(path), "--no-progress"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=300,
+                          preexec_fn=_file_size_limit(limit))
+    assert done.returncode == 1, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--resume" in lines[0] and "Errno 27" in lines[0], lines
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["full.h5", "ref.h5", "s.yaml"]
+    assert path.stat().st_size <= limit
+    kept = ringsim.open_run(path)
+    assert kept.attrs["status"] == "running" and runfile.read_checkpoint(path) is not None
+    assert 1 <= kept.timeseries["t"].size < ringsim.open_run(reference).timeseries["t"].size
+    assert main(["run", str(scenario_file), "-o", str(path), "--resume",
+                 "--no-progress"]) == 0
+    ref, res = run_file_datasets(reference), run_file_datasets(path)
+    assert ref.keys() == res.keys()
+    for name in ref:
+        assert ref[name] == res[name], f"{name} differs from the uninterrupted run"

@@ -28,6 +28,7 @@ bit-identical to one that never stopped.
 from __future__ import annotations
 
 import contextlib
+import errno
 import math
 import os
 import sys
@@ -59,6 +60,8 @@ WRITE_INTERVAL = 2.0
 #: A commit copies the run file (crash consistency, ``store.runfile``): rows alone are
 #: written no more often than this share of wall time allows.
 COMMIT_COST_SHARE = 0.02
+#: errno values of a full disk: no space, a file size limit (``ulimit -f``), a quota.
+DISK_FULL = (errno.ENOSPC, errno.EFBIG, errno.EDQUOT)
 #: With ``integration.until_equilibrium`` the run asks the equilibrium finder whether c and
 #: H are stationary at every this many time-series outputs.
 EQUILIBRIUM_CHECK_EVERY = 10
@@ -480,8 +483,34 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
         The file exists (without ``force``), there is nothing to resume, the file to resume
         is damaged (``store.runfile.RunFileError``), or another process writes it (one
         writer per file: ``store.lock.RunFileLock``).
+    OSError
+        The disk is full (or a file size or quota limit is reached, `DISK_FULL`): the run
+        file keeps its last commit, no temporary file is left, and the message says whether
+        ``resume`` continues it.
     """
     path = Path(output if output is not None else scenario.output.path)
+    try:
+        return _run(scenario, path, force, resume, progress)
+    except OSError as exc:
+        if exc.errno not in DISK_FULL:
+            raise
+        raise _disk_full(exc, path) from None
+
+
+def _disk_full(exc: OSError, path: Path) -> OSError:
+    """The one-line error of a run whose disk filled: what the file keeps, what to do."""
+    try:
+        kept = runfile.read_checkpoint(path) is not None
+    except InputError:   # the file of a run that wrote nothing beyond its set-up
+        kept = False
+    advice = (f"{path} keeps its last commit; continue it with --resume once there is space"
+              if kept else f"{path} holds no checkpoint yet; run it again with --force once "
+              "there is space")
+    return OSError(exc.errno, f"{exc.strerror} writing {exc.filename or path}: {advice}")
+
+
+def _run(scenario, path: Path, force: bool, resume: bool, progress: bool) -> Path:
+    """`run` on the run file ``path``."""
     with RunFileLock(path), _StopRequest() as stop:
         runner = Runner(scenario, path, progress)
         if resume:

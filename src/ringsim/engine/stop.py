@@ -40,8 +40,9 @@ class StopRequest:
     """Turns SIGINT (Ctrl-C) and SIGTERM into a clean stop after the current step.
 
     Use as a context manager around a run (it installs its handlers, and puts the previous
-    ones back at the end), and integrate with `integrate`.  Outside the main thread, signals
-    are left alone and `integrate` is REBOUND's.
+    ones back at the end), and integrate with `integrate`.  While it is active, SIGXFSZ is
+    ignored, so that a file size limit fails a write (EFBIG) instead of killing the run.
+    Outside the main thread, signals are left alone and `integrate` is REBOUND's.
     """
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -56,6 +57,10 @@ class StopRequest:
                 self._previous[sig] = signal.signal(sig, self._handler)
             except ValueError:  # not in the main thread: leave signals alone
                 break
+        if self._previous and hasattr(signal, "SIGXFSZ"):
+            # a file size limit (ulimit -f) then fails the write (EFBIG, a clean error)
+            # instead of killing the process mid-commit
+            self._previous[signal.SIGXFSZ] = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         return self
 
     def _handler(self, signum: int, frame: object) -> None:
