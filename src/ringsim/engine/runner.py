@@ -28,7 +28,6 @@ bit-identical to one that never stopped.
 from __future__ import annotations
 
 import contextlib
-import errno
 import math
 import os
 import sys
@@ -50,7 +49,7 @@ from ringsim.errors import InputError
 from ringsim.gravity.registry import raise_pending, set_gravity_threads
 from ringsim.physics import friction
 from ringsim.physics.gravity import toomre_q
-from ringsim.store import runfile
+from ringsim.store import guarded, runfile
 from ringsim.store.background import CommitThread
 from ringsim.store.lock import RunFileLock
 
@@ -60,8 +59,6 @@ WRITE_INTERVAL = 2.0
 #: A commit copies the run file (crash consistency, ``store.runfile``): rows alone are
 #: written no more often than this share of wall time allows.
 COMMIT_COST_SHARE = 0.02
-#: errno values of a full disk: no space, a file size limit (``ulimit -f``), a quota.
-DISK_FULL = (errno.ENOSPC, errno.EFBIG, errno.EDQUOT)
 #: With ``integration.until_equilibrium`` the run asks the equilibrium finder whether c and
 #: H are stationary at every this many time-series outputs.
 EQUILIBRIUM_CHECK_EVERY = 10
@@ -95,7 +92,7 @@ class Runner:
         self.check_momentum = not scenario.sheet.gravity
         self.gravity: dict | None = None  # engine.gravity.scenario_gravity of a gravitating run
         self.state = LoopState()
-        self.stop: _StopRequest | None = None   # the loop's; integrations then end on a signal
+        self.stop = _StopRequest()   # the loop's (an inactive one until then)
         self.pending_rows: list[dict] = []
         self.pending_events: list[tuple[float, float, str]] = []
         self.last_write = time.perf_counter()
@@ -360,11 +357,7 @@ class Runner:
     def _advance(self, t_next: float) -> None:
         """Integrate to the first step end at or after ``t_next`` [s], or to the end of
         the step in progress when SIGINT or SIGTERM arrives (``self.stop.requested``)."""
-        stop = self.stop
-        if stop is None:
-            self.sim.integrate(t_next, exact_finish_time=0)
-        else:
-            stop.integrate(self.sim, t_next)
+        self.stop.integrate(self.sim, t_next)
         raise_pending(self.sim)   # an error in a solver's callback, which ctypes swallows
 
     def equilibrium_reached(self) -> str | None:
@@ -421,9 +414,7 @@ class Runner:
                         self._advance(t_next)
                     except KeyboardInterrupt:
                         stop.requested = True
-                    if stop.requested:
-                        # stopped after a complete step, perhaps inside the interval: no
-                        # row now (a resumed run writes it), a checkpoint of this step
+                    if stop.requested:   # after a complete step: checkpoint here, no row
                         status = "stopped"
                         break
                     try:
@@ -484,34 +475,10 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
         is damaged (``store.runfile.RunFileError``), or another process writes it (one
         writer per file: ``store.lock.RunFileLock``).
     OSError
-        The disk is full (or a file size or quota limit is reached, `DISK_FULL`): the run
-        file keeps its last commit, no temporary file is left, and the message says whether
-        ``resume`` continues it.
+        A full disk (``store.guarded.full_disk``): the file keeps its last commit.
     """
     path = Path(output if output is not None else scenario.output.path)
-    try:
-        return _run(scenario, path, force, resume, progress)
-    except OSError as exc:
-        if exc.errno not in DISK_FULL:
-            raise
-        raise _disk_full(exc, path) from None
-
-
-def _disk_full(exc: OSError, path: Path) -> OSError:
-    """The one-line error of a run whose disk filled: what the file keeps, what to do."""
-    try:
-        kept = runfile.read_checkpoint(path) is not None
-    except InputError:   # the file of a run that wrote nothing beyond its set-up
-        kept = False
-    advice = (f"{path} keeps its last commit; continue it with --resume once there is space"
-              if kept else f"{path} holds no checkpoint yet; run it again with --force once "
-              "there is space")
-    return OSError(exc.errno, f"{exc.strerror} writing {exc.filename or path}: {advice}")
-
-
-def _run(scenario, path: Path, force: bool, resume: bool, progress: bool) -> Path:
-    """`run` on the run file ``path``."""
-    with RunFileLock(path), _StopRequest() as stop:
+    with RunFileLock(path), _StopRequest() as stop, guarded.full_disk(path):
         runner = Runner(scenario, path, progress)
         if resume:
             if not path.exists():

@@ -13,11 +13,15 @@ such file is a temporary copy or a new part file, ``store.runfile``, ``store.bul
 from __future__ import annotations
 
 import contextlib
+import errno
 import io
 import os
 from collections.abc import Iterator
 
 import h5py
+
+#: errno values of a full disk: no space, a file size limit (``ulimit -f``), a quota.
+DISK_FULL = (errno.ENOSPC, errno.EFBIG, errno.EDQUOT)
 
 
 class GuardedFile(io.RawIOBase):
@@ -102,3 +106,25 @@ def h5_file(path: str | os.PathLike, mode: str) -> Iterator[h5py.File]:
 def _named(error: OSError, path: str | os.PathLike) -> OSError:
     """``error`` with the file's name (os.write's errors have none)."""
     return OSError(error.errno, error.strerror or str(error), os.fspath(path))
+
+
+@contextlib.contextmanager
+def full_disk(path: str | os.PathLike) -> Iterator[None]:
+    """Turn a full disk (`DISK_FULL`) while the run file ``path`` is written into an
+    OSError whose one line says what the file keeps and what to do: ``--resume`` once
+    there is space if it holds a checkpoint, else run again with ``--force``."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.errno not in DISK_FULL:
+            raise
+        try:
+            with h5py.File(path, "r") as f:
+                kept = "checkpoint" in f
+        except OSError:
+            kept = False
+        advice = (f"{os.fspath(path)} keeps its last commit; continue it with --resume once "
+                  "there is space" if kept else f"{os.fspath(path)} holds no checkpoint "
+                  "yet; run it again with --force once there is space")
+        raise OSError(exc.errno, f"{exc.strerror} writing {exc.filename or os.fspath(path)}: "
+                      f"{advice}") from None

@@ -21,7 +21,7 @@ Crash consistency: the file a reader sees is only ever replaced whole.  The one 
 previous complete state (time series, snapshots and checkpoint of one commit), and a
 reader never sees a half-written file.  HDF5 itself changes a file in place through many
 separate writes, so in-place updates do not give this (docs/run_file.md has the
-measurements).
+measurements).  A full disk fails a commit cleanly (``store.guarded``).
 """
 
 from __future__ import annotations
