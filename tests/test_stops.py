@@ -296,3 +296,45 @@ def test_full_disk_ends_the_run_with_one_line_and_resume_finishes_it(tmp_path,
     assert ref.keys() == res.keys()
     for name in ref:
         assert ref[name] == res[name], f"{name} differs from the uninterrupted run"
+
+
+#: Writes a run file with a small snapshot, then under a file size limit of 200 kB commits a
+#: snapshot of 100,000 particles that goes into a part file (external_bytes 0): the commit
+#: must raise OSError EFBIG after HDF5 closed the part file and the copy.
+PART_FILE_SCRIPT = """
+import errno, resource, signal, sys
+import h5py
+import numpy as np
+from ringsim.store.runfile import RunFileWriter
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+path = sys.argv[1]
+writer = RunFileWriter(path, external_bytes=0)
+writer.create(scenario_yaml="name: x", seed=1, attributes={}, size_bin_edges=None,
+              histogram_edges={})
+fields = ("x", "y", "z", "vx", "vy", "vz", "radius", "mass")
+rng = np.random.default_rng(5)
+writer.commit(snapshot=(0, 0.0, {k: rng.random(10) for k in fields}))
+resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, 200_000))
+try:
+    writer.commit(snapshot=(1, 1.0, {k: rng.random(100_000) for k in fields}))
+except OSError as exc:
+    assert exc.errno == errno.EFBIG, exc
+    with h5py.File(path, "r") as f:
+        print("EFBIG", len(f["snapshots"]))
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_FSIZE semantics")
+def test_full_disk_while_writing_a_part_file_raises_and_keeps_the_commit(tmp_path):
+    """A part file (a large snapshot, ``store.bulk``) that cannot be written: the commit
+    raises OSError (EFBIG) instead of crashing h5py at exit (exit 0, no traceback), the new
+    part file and the temporary copy are removed, and the run file keeps its one snapshot
+    (in the part file of the first commit)."""
+    path = tmp_path / "run.h5"
+    done = subprocess.run([sys.executable, "-c", PART_FILE_SCRIPT, str(path)],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["EFBIG", "1"] and "Traceback" not in done.stderr
+    names = sorted(p.name for p in tmp_path.rglob("*"))   # external_bytes 0: the first
+    assert names[:2] == ["run.h5", "run.h5.parts"] and len(names) == 3   # snapshot's part
+    assert names[2].startswith("snapshot_000000_"), names

@@ -222,9 +222,9 @@ def _quiet_worker(owner: int) -> None:
     theirs); a run installs its own handlers and stops at a checkpoint (``engine.stop``).
 
     On Linux a worker gets SIGTERM when its parent ends (``PR_SET_PDEATHSIG``), and every
-    worker checks before and after each task that ``owner`` (the pid of the process that
-    made the pool) is still its parent (`_worker_task`), so no worker outlives a killed
-    sweep or study."""
+    worker checks before and after each task that its parent and ``owner`` (the pid of the
+    process that made the pool) are still there (`_worker_task`), so no worker outlives a
+    killed sweep or study."""
     global _POOL_OWNER
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
@@ -290,8 +290,8 @@ def run_local(fn: Callable[[Any], Any], tasks: Sequence[Any], workers: int,
     result as it arrives (``failed(task, exc)`` for a task that raised).
 
     On SIGINT or SIGTERM the tasks not started are dropped, the worker processes (the
-    children of this process) are sent SIGTERM until they have ended (a run stops at its
-    next output with a checkpoint, ``engine.stop``; an idle worker ends), and
+    children of this process) are sent SIGTERM until they have ended (a run stops after the
+    step in progress with a checkpoint, ``engine.stop``; an idle worker ends), and
     KeyboardInterrupt is raised.  SIGTERM, not SIGINT: an idle worker ignores SIGINT.
     A worker whose parent is gone exits (`_quiet_worker`).
     """
@@ -322,9 +322,9 @@ def _collect(completed: Iterable[Any], task_of: Mapping[Any, Any],
 
 
 def _stop_children(poll: float = 0.2) -> None:
-    """Send SIGTERM to this process's children until none is left: a run stops at its next
-    output, an idle worker ends, and a worker that took a queued task meanwhile gets the
-    next signal (poll [s])."""
+    """Send SIGTERM to this process's children until none is left: a run stops after the
+    step in progress, an idle worker ends, and a worker that took a queued task meanwhile
+    gets the next signal (poll [s])."""
     while children := multiprocessing.active_children():
         for child in children:
             with contextlib.suppress(OSError):
