@@ -20,6 +20,7 @@
  * Python's: none is lost.
  */
 #define _POSIX_C_SOURCE 200809L
+#define _DARWIN_C_SOURCE   /* macOS: keep the BSD names its system headers use */
 
 #include <signal.h>
 #include <stddef.h>
