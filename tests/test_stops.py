@@ -338,3 +338,48 @@ def test_full_disk_while_writing_a_part_file_raises_and_keeps_the_commit(tmp_pat
     names = sorted(p.name for p in tmp_path.rglob("*"))   # external_bytes 0: the first
     assert names[:2] == ["run.h5", "run.h5.parts"] and len(names) == 3   # snapshot's part
     assert names[2].startswith("snapshot_000000_"), names
+
+
+STUDY = """\
+name: stops-study
+description: two cases of the stop tests' sheet
+base: stops.yaml
+seeds: [1, 2]
+cases:
+  k0: {}
+  k01: {restitution.kappa: 0.1}
+ratios: [[k01, k0]]
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_study_killed_alone_leaves_no_process_and_the_rerun_finishes(tmp_path):
+    """SIGKILL to a study alone (not its workers): its workers, whose parent is gone, stop
+    their runs at a checkpoint and exit; after 5 s no process of its group is left, and the
+    study started again resumes them and writes its report (exit 0)."""
+    (tmp_path / "stops.yaml").write_text(SWEEP_SCENARIO)
+    (tmp_path / "study.yaml").write_text(STUDY)
+    out = tmp_path / "report"
+    proc = subprocess.Popen([sys.executable, "-m", "ringsim.cli", "study", "study.yaml",
+                             "--workers", "2", "--out", str(out)], cwd=tmp_path,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    deadline = time.monotonic() + 120
+    while proc.poll() is None and time.monotonic() < deadline \
+            and not any(out.glob("runs/*.h5")):
+        time.sleep(0.02)
+    time.sleep(0.5)
+    assert proc.poll() is None, "the study ended before the signal"
+    sent = time.monotonic()
+    proc.kill()
+    proc.wait(timeout=60)
+    time.sleep(max(0.0, sent + 5.0 - time.monotonic()))
+    left = _group_members(proc.pid)
+    for pid in left:
+        os.kill(pid, signal.SIGKILL)
+    assert not left, f"processes left 5 s after SIGKILL: {left}"
+    statuses = {ringsim.open_run(p).attrs["status"] for p in out.glob("runs/*.h5")}
+    assert "stopped" in statuses and "running" not in statuses, statuses
+    assert main(["study", str(tmp_path / "study.yaml"), "--workers", "2",
+                 "--out", str(out)]) == 0
+    assert (out / "report.json").exists()
