@@ -26,6 +26,9 @@ from ringsim.physics.constants import G_SI
 FALSE_ALARM = 1e-3
 #: Chance that a window of random sheets is said to hold a wake (`mean_wake`).
 WINDOW_FALSE_ALARM = 1e-2
+#: The numbers of a snapshot's dominant mode, None without a significant wake.
+MODE_KEYS = ("mode_m", "mode_n", "kx", "ky", "wavelength", "wavelength_err", "pitch_angle_deg",
+             "pitch_angle_err_deg", "azimuthal_mode")
 
 
 def sheared_grid_spectrum(x, y, mass, Lx, Ly, shift, n=128):
@@ -81,19 +84,15 @@ def wake_statistics(x, y, mass, Lx, Ly, shift, n=128, false_alarm=FALSE_ALARM):
     """The dominant shear-periodic mode of a snapshot's surface density.
 
     The modes a shear-periodic box holds at the snapshot's time are those of the sheared
-    grid (module docstring): integers (m, n) with the physical wave vector
-
-        k_y = 2 pi n / Ly,    k_x = 2 pi (m + n s / Ly) / Lx,
-
-    s the shear offset (1.5 Omega Lx t mod Ly, so s / Ly = 1.5 Omega t Lx / Ly mod 1).  The
-    dominant mode is the single largest |delta_k|^2 below the grid's Nyquist band (|k| < pi n
-    / (2 L)); its wavelength 2 pi / |k| and pitch atan(k_y / k_x) are those of that one mode,
-    so they are a wave the box holds: lambda = Ly sin(pitch) / |n|.  Under pure Poisson noise
-    (a random sheet of the same masses, the wake-free reference) each |delta_k|^2 / shot is
-    exponentially distributed, so the chance that the largest of n_modes independent modes
-    exceeds the observed peak is ``p_value = 1 - (1 - exp(-peak / shot))^n_modes``; the wake
-    is ``significant`` when p_value < ``false_alarm``.  Without a significant wake the
-    mode's numbers (m, n, kx, ky, wavelength, pitch) are None: no wave is claimed.
+    grid (module docstring): integers (m, n), wave vector k_y = 2 pi n / Ly, k_x = 2 pi (m +
+    n s / Ly) / Lx, s the shear offset (1.5 Omega Lx t mod Ly).  The dominant mode is the
+    largest |delta_k|^2 below the grid's Nyquist band (|k| < pi n / (2 L)); its wavelength
+    2 pi / |k| and pitch atan(k_y / k_x) are that one mode's, a wave the box holds (lambda =
+    Ly sin(pitch) / |n|).  Under pure Poisson noise (a random sheet of the same masses, the
+    wake-free reference) each |delta_k|^2 / shot is exponentially distributed, so the
+    largest of n_modes independent modes exceeds the peak with the chance ``p_value = 1 -
+    (1 - exp(-peak / shot))^n_modes``; the wake is ``significant`` when p_value <
+    ``false_alarm``.  Without it the mode's numbers (`MODE_KEYS`) are None.
 
     Parameters
     ----------
@@ -103,20 +102,16 @@ def wake_statistics(x, y, mass, Lx, Ly, shift, n=128, false_alarm=FALSE_ALARM):
     n : int
         Grid cells per side.
     false_alarm : float [dimensionless]
-        Chance of calling a random sheet's peak a wake.
 
     Returns
     -------
-    dict: ``mode_m``, ``mode_n`` (the mode's integers, the sign chosen so that k_x > 0, or
-    k_y > 0 where k_x = 0), ``kx``, ``ky`` [1/m] (its physical wave vector, same sign),
-    ``wavelength`` [m] and ``wavelength_err`` [m] (half the spacing of neighbouring modes),
-    ``pitch_angle_deg`` [deg] (sign convention in the module docstring) and
-    ``pitch_angle_err_deg``; ``peak_amplitude`` (A of Sigma = <Sigma> (1 + A cos(k.r)) of
-    the mode, shot noise subtracted), ``amplitude`` (rms surface-density contrast of the
-    grid, with Poisson noise) and ``poisson_amplitude`` (its expectation for a uniform
-    random sheet of these masses) [dimensionless]; ``significance`` (peak / shot),
-    ``p_value``, ``significant``, ``azimuthal_mode`` (|n|: 1 is the longest
-    non-axisymmetric wave the box holds, 0 an axisymmetric one; None without a wake).
+    dict: ``mode_m``, ``mode_n`` (signs chosen so that k_x > 0, or k_y > 0 where k_x = 0),
+    ``kx``, ``ky`` [1/m], ``wavelength`` [m], ``pitch_angle_deg`` [deg] (sign convention in
+    the module docstring) and their errors (`wave_of`, half the modes' spacing);
+    ``azimuthal_mode`` (|n|: 1 is the longest non-axisymmetric wave the box holds);
+    ``peak_amplitude`` (A of Sigma = <Sigma> (1 + A cos(k.r)), shot noise subtracted),
+    ``amplitude`` and ``poisson_amplitude`` (`_contrast`); ``significance`` (peak / shot),
+    ``p_value``, ``significant``.
     """
     spec = sheared_grid_spectrum(x, y, mass, Lx, Ly, shift, n)
     power, kx, ky, shot = spec["power"], spec["kx"], spec["ky"], spec["shot"]
@@ -128,33 +123,33 @@ def wake_statistics(x, y, mass, Lx, Ly, shift, n=128, false_alarm=FALSE_ALARM):
     n_modes = int(np.count_nonzero(band)) // 2
     significance = peak / shot
     p_value = float(-np.expm1(n_modes * np.log1p(-np.exp(-significance))))
-    sigma = spec["sigma"]
-    contrast = sigma / sigma.mean() - 1.0
-    mass = np.asarray(mass, dtype=float)
-    cell_mass = mass.sum() / n**2
-    out = {
-        "amplitude": float(np.sqrt(np.mean(contrast**2))),
-        # CIC spreads each particle over 4 cells: the variance of a cell's mass is reduced by
-        # sum of squared weights, 4/9 on average
-        "poisson_amplitude": float(np.sqrt(4.0 / 9.0 * np.sum(mass**2) / n**2) / cell_mass),
-        "peak_amplitude": float(2.0 * np.sqrt(max(peak - shot, 0.0))),
-        "significance": float(significance),
-        "p_value": p_value,
-        "significant": bool(p_value < false_alarm),
-    }
+    out = _contrast(spec["sigma"], np.asarray(mass, dtype=float), n)
+    out.update({"peak_amplitude": float(2.0 * np.sqrt(max(peak - shot, 0.0))),
+                "significance": float(significance), "p_value": p_value,
+                "significant": bool(p_value < false_alarm)})
     if not out["significant"]:
-        out.update(dict.fromkeys(("mode_m", "mode_n", "kx", "ky", "wavelength",
-                                  "wavelength_err", "pitch_angle_deg", "pitch_angle_err_deg",
-                                  "azimuthal_mode")))
+        out.update(dict.fromkeys(MODE_KEYS))
         return out
     m_index, n_index = (int(i) if i <= n // 2 else int(i) - n for i in peak_idx)
-    k0 = np.array([kx[peak_idx], ky[peak_idx]])
+    k0 = (float(kx[peak_idx]), float(ky[peak_idx]))
     sign = 1 if (k0[0] > 0 or (k0[0] == 0 and k0[1] > 0)) else -1
-    out.update({"mode_m": sign * m_index, "mode_n": sign * n_index,
-                "kx": float(sign * k0[0]), "ky": float(sign * k0[1]),
-                "azimuthal_mode": abs(n_index)})
+    out.update({"mode_m": sign * m_index, "mode_n": sign * n_index, "kx": sign * k0[0],
+                "ky": sign * k0[1], "azimuthal_mode": abs(n_index)})
     out.update(wave_of(out["kx"], out["ky"], 0.5 * 2.0 * np.pi / max(Lx, Ly)))
     return out
+
+
+def _contrast(sigma: np.ndarray, mass: np.ndarray, n: int) -> dict:
+    """``amplitude``, the rms contrast of the surface density ``sigma`` [kg/m^2] on its n x
+    n grid, and ``poisson_amplitude``, its expectation for a uniform random sheet of the
+    masses ``mass`` [kg] [dimensionless]."""
+    contrast = sigma / sigma.mean() - 1.0
+    cell_mass = mass.sum() / n**2
+    # CIC spreads each particle over 4 cells: the variance of a cell's mass is reduced by
+    # the sum of squared weights, 4/9 on average
+    return {"amplitude": float(np.sqrt(np.mean(contrast**2))),
+            "poisson_amplitude": float(np.sqrt(4.0 / 9.0 * np.sum(mass**2) / n**2)
+                                       / cell_mass)}
 
 
 def wave_of(kx: float, ky: float, dk: float) -> dict:
