@@ -1,13 +1,17 @@
 """Bound Hill-sphere groups, contact groups, overlap events and the aggregating verdict of a
 run (analysis/aggregation.py), on synthetic sheets."""
 
+import json
 import math
+import shutil
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+import ringsim
 from ringsim.analysis import aggregation as agg
+from ringsim.cli import main
 from ringsim.physics import gravity as patch
 from ringsim.physics.constants import G_SI
 
@@ -132,3 +136,34 @@ def test_a_run_without_self_gravity_is_never_aggregating():
     Omega = omega_for(1.3)
     result = agg.run_aggregation(fake_run(sheet(Omega), Omega, gravity=False))
     assert result["aggregating"] is False and "snapshots" not in result
+
+
+def test_analyze_and_compare_flag_an_aggregating_run(tmp_path, gravitating_scenario, capsys):
+    """A real run that aggregates (400 identical 1 m spheres, tau = 0.25, r_h = 1.3, one
+    orbit: the runs of docs/validation.md hold 20-85 % of their mass bound from orbit 0.5 on,
+    against the 10 % of the verdict): `analyze` says so and withholds its collision
+    statistics (JSON NaN, the fluid averages in aggregation.as_fluid, printed "withheld"),
+    and `compare` warns and gives no ratio for them."""
+    a = 1.0e8 * 1.3 / float(patch.hill_parameter(1.0, 1.0, DENSITY, GM, 1.0e8))
+    sc = gravitating_scenario(name="clumping", seed=1, **{
+        "planet.a": a, "sheet.optical_depth": 0.25, "sheet.n_particles": 400,
+        "integration.orbits": 1.0, "integration.dt": 5e-4, "integration.dt_safety": 0.2,
+        "output.path": "runs/r.h5", "output.timeseries_every": 0.05,
+        "output.snapshot_every": 0.25})
+    path = ringsim.run(sc, output=tmp_path / "c.h5", progress=False)
+    capsys.readouterr()
+    assert main(["analyze", str(path), "--json", str(tmp_path / "eq.json")]) == 0
+    printed = capsys.readouterr().out
+    eq = json.loads((tmp_path / "eq.json").read_text())
+    assert eq["aggregating"] is True and eq["aggregation"]["bound_fraction_max"] >= 0.1
+    assert math.isnan(eq["collision_frequency"]["mean"])
+    assert eq["aggregation"]["as_fluid"]["collision_frequency"]["mean"] > 0.0
+    assert "clumping aggregates" in printed and "withheld: the ring aggregates" in printed
+    shutil.copy(path, tmp_path / "d.h5")
+    assert main(["compare", str(path), str(tmp_path / "d.h5"), "--json",
+                 str(tmp_path / "cmp.json")]) == 0
+    captured = capsys.readouterr()
+    assert "clumping aggregates" in captured.err
+    comp = json.loads((tmp_path / "cmp.json").read_text())
+    assert all(r["aggregating"] for r in comp["runs"])
+    assert math.isnan(comp["ratios"][0]["collision_frequency"]["mean"])

@@ -57,6 +57,9 @@ from ringsim.physics.selfgravity import shear_offset
 AGGREGATING_FRACTION = 0.1
 #: The equilibrium's collision statistics, withheld for an aggregating run.
 COLLISION_KEYS = ("collision_frequency", "collisional_viscosity", "mean_epsilon")
+#: The keys of an aggregation whose units ``quantities`` declares.
+AGGREGATION_UNITS = ("rows", "overlap_rows", "max_overlapping_pairs", "multi_encounter_share",
+                     "bound_fraction_max", "bound_fraction_last", "contact_fraction_last")
 #: Printed by ``analyze`` and ``compare`` for an aggregating run.
 AGGREGATING_WARNING = ("WARNING: {name} aggregates ({share:.0f} % of the mass in bound "
                        "Hill-sphere groups in a snapshot of the window): its collision "
@@ -240,11 +243,6 @@ def run_aggregation(run, start: int | None = None, from_orbit: float | None = No
                contact_fraction_last=snaps[-1]["contact_fraction"],
                aggregating=bool(max(shares) >= AGGREGATING_FRACTION))
     return out
-
-
-#: The keys of an aggregation whose units ``quantities`` declares.
-AGGREGATION_UNITS = ("rows", "overlap_rows", "max_overlapping_pairs", "multi_encounter_share",
-                     "bound_fraction_max", "bound_fraction_last", "contact_fraction_last")
 
 
 def withhold_collision_statistics(eq: dict, agg: dict) -> None:
