@@ -78,8 +78,8 @@ def _run(good, out: Path, *options: str) -> int:
 @pytest.mark.parametrize("mode", ["new", "force", "resume"])
 def test_a_link_in_place_of_an_own_file_is_refused(good, tmp_path, capsys, role, mode):
     """A run (new, --force, --resume) refuses a symbolic link in place of RUN.h5.parts,
-    RUN.h5.lock or RUN.h5.tmp: before, --resume emptied the folder a parts link named and a
-    lock or tmp link had its target overwritten."""
+    RUN.h5.lock or RUN.h5.tmp, which would otherwise let a commit empty the folder a parts
+    link names or overwrite the target of a lock or tmp link."""
     victim = _victim(tmp_path)
     out = tmp_path / "run.h5"
     if mode != "new":
@@ -133,7 +133,8 @@ def test_force_replaces_only_a_run_file(good, tmp_path, capsys):
 
 
 def test_dev_null_is_never_replaced():
-    """-o /dev/null --force (as root this replaced the device node with a regular file).
+    """-o /dev/null --force is refused (as root, a replacement would turn the device node
+    into a regular file).
     The check alone is called: a regression must not replace the machine's /dev/null (the
     run path is covered by the FIFO above)."""
     with pytest.raises(InputError, match="not a regular file"):
@@ -243,8 +244,9 @@ LINKS = {
 @pytest.mark.parametrize("kind", list(LINKS))
 @pytest.mark.parametrize("command", ["analyze", "export", "resume"])
 def test_links_out_of_the_run_file_are_refused(good, tmp_path, capsys, kind, command):
-    """Before, analyze and export followed such links, export wrote the outside file's
-    values to CSV, and --resume packed the outside file into the run."""
+    """Links that leave the run file are refused, so that analyze and export never read
+    the outside file, export never writes its values to CSV, and --resume never packs it
+    into the run."""
     bad = _with_link(good, tmp_path, LINKS[kind])
     before = sha256(bad)
     csv = tmp_path / "snap.csv"
@@ -273,7 +275,7 @@ def test_a_part_file_that_is_a_link_is_refused(good, tmp_path, capsys):
 # --- D2: array sizes --------------------------------------------------------------------------
 
 def test_export_checks_the_particle_count(good, tmp_path, capsys):
-    """A snapshot of 61 particles in a run of 60: before, export wrote its 61 rows."""
+    """A snapshot of 61 particles in a run of 60 is refused, not exported as 61 rows."""
     bad = tmp_path / "run.h5"
     shutil.copyfile(good["path"], bad)
     with h5py.File(bad, "a") as f:
@@ -315,8 +317,9 @@ CHECKPOINT_ATTRIBUTES = {
 
 @pytest.mark.parametrize("case", list(CHECKPOINT_ATTRIBUTES))
 def test_bad_checkpoint_attributes_refuse_resume(good, tmp_path, capsys, case):
-    """Before, root_size = -1 turned a finished file back to running, N_root_x = 1e9 gave
-    no optical-depth rows and rows = 3.7 repeated rows."""
+    """Bad checkpoint attributes refuse --resume: otherwise root_size = -1 turns a finished
+    file back to running, N_root_x = 1e9 gives no optical-depth rows and rows = 3.7
+    repeats rows."""
     value, words = CHECKPOINT_ATTRIBUTES[case]
     bad = tmp_path / "run.h5"
     shutil.copyfile(good["path"], bad)
