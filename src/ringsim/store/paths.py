@@ -90,29 +90,21 @@ def check_replaceable(path: str | os.PathLike) -> None:
                          "only run files: remove it yourself or choose another -o")
 
 
-def create_new(path: Path) -> None:
-    """Create ``path`` as a new empty file, never through a link: a leftover regular file
-    of that name is removed first, a link or any other kind is refused (InputError)."""
+def create_new(path: Path, copy_of: Path | None = None) -> None:
+    """Create ``path`` as a new file, empty or a copy of ``copy_of``, never through a link:
+    a leftover regular file of that name is removed first, a link or any other kind is
+    refused (InputError)."""
     st = _lstat(path)
     if st is not None:
         if not stat.S_ISREG(st.st_mode):
             raise InputError(str(path), "temporary copy", "is a symbolic link or not a "
                              "regular file; ringsim writes its own files only")
         path.unlink()
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
-    os.close(fd)
-
-
-def copy_new(source: Path, target: Path) -> None:
-    """Copy ``source`` to the new file ``target`` (`create_new`; neither through a link)."""
-    create_new(target)
-    fd_in = os.open(source, os.O_RDONLY | os.O_NOFOLLOW)
-    try:
-        fd_out = os.open(target, os.O_WRONLY | os.O_NOFOLLOW)
-        with os.fdopen(fd_in, "rb", closefd=False) as src, os.fdopen(fd_out, "wb") as dst:
-            shutil.copyfileobj(src, dst, 1 << 20)
-    finally:
-        os.close(fd_in)
+    fd_out = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
+    with os.fdopen(fd_out, "wb") as dst:
+        if copy_of is not None:
+            with open(os.open(copy_of, os.O_RDONLY | os.O_NOFOLLOW), "rb") as src:
+                shutil.copyfileobj(src, dst, 1 << 20)
 
 
 def folder_of_parts(folder: Path) -> bool:

@@ -203,7 +203,7 @@ class RunFileWriter:
     @contextlib.contextmanager
     def _replacing(self, copy: bool) -> Iterator[tuple[h5py.File, Parts]]:
         parts = Parts(self.path, self.external_bytes)
-        paths.copy_new(self.path, self.tmp) if copy else paths.create_new(self.tmp)
+        paths.create_new(self.tmp, copy_of=self.path if copy else None)
         try:
             with h5py.File(self.tmp, "a" if copy else "w") as f:
                 yield f, parts
