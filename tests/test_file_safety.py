@@ -258,6 +258,19 @@ def test_links_out_of_the_run_file_are_refused(good, tmp_path, capsys, kind, com
     assert sha256(bad) == before and not csv.exists()
 
 
+def test_a_snapshot_read_checks_its_links_again(good, tmp_path):
+    """A snapshot is read from the file as it is then: a link put in after the run was
+    opened is refused too."""
+    bad = tmp_path / "run.h5"
+    shutil.copyfile(good["path"], bad)
+    run = ringsim.open_run(bad)
+    with h5py.File(bad, "a") as f:
+        LINKS["absolute"](f, _outside(tmp_path))
+    assert run.snapshot(1)["x"].size == 60
+    with pytest.raises(runfile.RunFileError, match="/snapshots/000002: an external link"):
+        run.snapshot(2)
+
+
 def test_a_part_file_that_is_a_link_is_refused(good, tmp_path, capsys):
     bad = tmp_path / "run.h5"
     shutil.copyfile(good["path"], bad)

@@ -120,36 +120,58 @@ def _check_soft(f: h5py.File, link: h5py.SoftLink, key: str, run_path: Path) -> 
             node = node[part]
 
 
-def check_links(f: h5py.File, run_path: str | os.PathLike, *, part: bool = False) -> int:
+def _non_hard_links(f: h5py.File, only: str | None, run_path: Path) -> tuple[list[str], int]:
+    """Paths of the links of ``f`` (or of ``only`` and below it) that are not hard links,
+    and how many links were visited (HDF5's own walk, ``H5Lvisit``: each group once)."""
+    found: list[str] = []
+    walked = 0
+    base = "" if only is None else only.rstrip("/")
+
+    def visit(name: bytes, info) -> bool | None:
+        nonlocal walked
+        walked += 1
+        if info.type != h5py.h5l.TYPE_HARD:
+            found.append(f"{base}/{name.decode(errors='replace')}")
+        return True if walked > MAX_LINKS else None   # True stops the walk
+
+    if only is not None:
+        walked += 1
+        link = f.get(only, getlink=True)
+        if not isinstance(link, h5py.HardLink):
+            return [base], walked
+        if f.get(only, getclass=True) is not h5py.Group:
+            return [], walked
+    top = f[only or "/"]   # held: the walk needs its identifier open
+    top.id.links.visit(visit, info=True)
+    if walked > MAX_LINKS:
+        raise RunFileError(run_path, f"holds more than {MAX_LINKS} links: refused")
+    return found, walked
+
+
+def check_links(f: h5py.File, run_path: str | os.PathLike, *, part: bool = False,
+                only: str | None = None) -> int:
     """Check every link of the open file ``f`` (and of the part files it links); returns
-    how many were walked.  ``run_path`` is the run file (its part-file folder is beside
+    how many were visited.  ``run_path`` is the run file (its part-file folder is beside
     it); ``part`` is true when ``f`` is itself a part file (which may hold no external
-    link).  RunFileError naming the first refused link."""
+    link); ``only`` names one item (``"/snapshots/000001"``) whose link and contents alone
+    are checked, in a file checked whole when it was opened.  RunFileError naming the
+    first refused link."""
     run_path = Path(run_path)
-    stack, seen, walked = [f], set(), 0
-    while stack:
-        group = stack.pop()
-        for name in group:
-            walked += 1
-            if walked > MAX_LINKS:
-                raise RunFileError(run_path, f"holds more than {MAX_LINKS} links: refused")
-            key = f"{group.name.rstrip('/')}/{name}"
-            link = group.get(name, getlink=True)
-            if isinstance(link, h5py.ExternalLink):
-                if part:
-                    raise RunFileError(run_path, "a part file holds an external link: "
-                                       "refused", key)
-                path = part_file(run_path, str(link.filename), key)
-                with h5py.File(path, "r") as linked:
-                    walked += check_links(linked, run_path, part=True)
-            elif isinstance(link, h5py.SoftLink):
-                _check_soft(f, link, key, run_path)
-            elif group.get(name, getclass=True) is h5py.Group:
-                child = group[name]
-                address = h5py.h5o.get_info(child.id).addr
-                if address not in seen:   # a hard link back to an ancestor: walk once
-                    seen.add(address)
-                    stack.append(child)
+    keys, walked = _non_hard_links(f, only, run_path)
+    for key in keys:
+        link = f.get(key, getlink=True)
+        if isinstance(link, h5py.ExternalLink):
+            if part:
+                raise RunFileError(run_path, "a part file holds an external link: refused",
+                                   key)
+            path = part_file(run_path, str(link.filename), key)
+            with h5py.File(path, "r") as linked:
+                walked += check_links(linked, run_path, part=True)
+        elif isinstance(link, h5py.SoftLink):
+            _check_soft(f, link, key, run_path)
+        else:
+            raise RunFileError(run_path, "a link of a kind ringsim does not write (user-"
+                               "defined): refused", key)
     return walked
 
 

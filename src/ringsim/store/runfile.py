@@ -340,13 +340,13 @@ def _version(value: object, path: Path) -> tuple[int, int]:
 
 
 @contextlib.contextmanager
-def _reading(path: str | os.PathLike) -> Iterator[h5py.File]:
+def _reading(path: str | os.PathLike, item: str | None = None) -> Iterator[h5py.File]:
     """Open a run file for reading after checking it is one this ringsim can read.
 
     Raises RunFileError (bad input, exit status 2) for a missing, empty, non-HDF5,
     truncated or otherwise unreadable file, a newer format, a file being written by another
-    process, a link out of the file or its part files (``store.contents``), and for HDF5
-    errors while reading it.
+    process, a link out of the file or its part files (``store.contents``; only those of
+    ``item`` when given), and for HDF5 errors while reading it.
     """
     path = Path(path)
     if not path.is_file():
@@ -371,7 +371,7 @@ def _reading(path: str | os.PathLike) -> Iterator[h5py.File]:
                                f"newer ringsim; this ringsim reads formats up to "
                                f"{FORMAT_VERSION}: upgrade ringsim", "format_version")
         try:
-            contents.check_links(f, path)   # before any link is followed
+            contents.check_links(f, path, only=item)   # before any link is followed
             yield f
         except InputError:
             raise
@@ -506,7 +506,7 @@ class Run:
     def snapshot(self, i: int) -> dict:
         """Snapshot ``i`` (negative counts from the end) as a dict of arrays plus ``t`` [s]."""
         name = self._snapshot_names[i]
-        with _reading(self.path) as f:
+        with _reading(self.path, f"/snapshots/{name}") as f:
             g = f["snapshots"][name]
             contents.check_snapshot(g, SNAPSHOT_FIELDS + SPIN_FIELDS, self._n_particles(f),
                                     self.path)
