@@ -42,7 +42,7 @@ MAX_PARTICLES = 10**8
 MAX_ROWS = 10**8
 #: Most values in one row of a per-size-bin or histogram time series.
 MAX_ROW_WIDTH = 10**4
-#: Most bytes of the REBOUND binary of a checkpoint (its particles are 128 bytes each).
+#: Most bytes of the REBOUND binary of a checkpoint (a generous 1 kB per particle).
 MAX_CHECKPOINT_BYTES = 1024 * MAX_PARTICLES
 #: Most values in one dataset of ``/checkpoint_statistics``.
 MAX_STATISTICS = 10**6
