@@ -24,6 +24,7 @@ from pathlib import Path
 
 from ringsim import __version__
 from ringsim.errors import InputError, clip
+from ringsim.store.paths import check_outputs
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 
@@ -76,7 +77,15 @@ class _Parser(argparse.ArgumentParser):
         raise InputError("<command line>", self.prog, message)
 
 
+def _add_force_option(p) -> None:
+    """``--force``: replace existing output files (never an input of the command)."""
+    p.add_argument("--force", action="store_true", help="replace existing output files "
+                   "(never an input of the command)")
+
+
 def _cmd_epsilon(args) -> int:
+    check_outputs({"--json": args.json, "--plot": args.plot}, [args.restitution or ""],
+                  args.force)
     if args.plot and Path(args.plot).suffix.lower() != ".png":
         raise InputError(args.plot, "--plot", "the figure must be a .png file")
     if args.restitution is None:
@@ -227,6 +236,7 @@ def _write_json(path: str, payload) -> None:
 def _cmd_analyze(args) -> int:
     from ringsim.analysis.equilibrium import equilibrium, equilibrium_table
 
+    check_outputs({"--json": args.json, "--plots": args.plots}, [args.run], args.force)
     (run,) = _open_runs([args.run])
     _print_status(run)
     eq = equilibrium(run)
@@ -251,6 +261,8 @@ def _cmd_compare(args) -> int:
     from ringsim.analysis.compare import comparison, comparison_table
     from ringsim.analysis.equilibrium import equilibrium
 
+    check_outputs({"--json": args.json, "--plots": args.plots},
+                  [*args.runs, args.systematics or ""], args.force)
     systematics = None
     if args.systematics:
         from ringsim.analysis.budget import load_budget
@@ -274,6 +286,7 @@ def _cmd_compare(args) -> int:
 def _cmd_observe(args) -> int:
     from ringsim.analysis.observe import observation_table, observe
 
+    check_outputs({"--json": args.json, "--plots": args.plots}, [args.run], args.force)
     (run,) = _open_runs([args.run])
     _print_status(run)
     obs = observe(run, args.elevation, args.azimuth, args.snapshot, args.rays, args.precision)
@@ -288,6 +301,7 @@ def _cmd_export(args) -> int:
     if not (args.csv or args.rebound):
         raise InputError("<command line>", "export", "give --csv OUT.csv and/or "
                          "--rebound OUT.bin")
+    check_outputs({"--csv": args.csv, "--rebound": args.rebound}, [args.run], args.force)
     (run,) = _open_runs([args.run])
     for option, path, suffix in (("--csv", args.csv, ".csv"), ("--rebound", args.rebound,
                                                                ".bin")):
@@ -319,6 +333,8 @@ def _cmd_study(args) -> int:
 def _cmd_fit(args) -> int:
     from ringsim.analysis.fit import fit_command
 
+    check_outputs({"--json": args.json, "--plot": args.plot,
+                   "--write-restitution": args.write_restitution}, [args.data], args.force)
     return fit_command(args)
 
 
@@ -335,6 +351,7 @@ def _epsilon_arguments(sub) -> None:
                    "colliding identical spheres, one curve each")
     p.add_argument("--density", metavar="RHO", type=float, help="bulk density [kg/m^3] "
                    "(default 900, or the scenario's)")
+    _add_force_option(p)
     p.set_defaults(func=_cmd_epsilon)
 
 
@@ -348,6 +365,7 @@ def _export_arguments(sub) -> None:
                    "(x_m ... mass_kg, the format of sheet.initial_state)")
     p.add_argument("--rebound", metavar="OUT.bin", help="write a REBOUND simulation that "
                    "continues the snapshot (see docs/export.md)")
+    _add_force_option(p)
     p.set_defaults(func=_cmd_export)
 
 
@@ -362,7 +380,8 @@ def _run_arguments(sub) -> None:
     p.add_argument("scenario", metavar="SCENARIO.yaml")
     p.add_argument("-o", "--output", metavar="RUN.h5", help="run file (default: the "
                    "scenario's output.path)")
-    p.add_argument("--force", action="store_true", help="overwrite an existing run file")
+    p.add_argument("--force", action="store_true", help="overwrite an existing run file "
+                   "(only a ringsim run file)")
     p.add_argument("--resume", action="store_true", help="continue a stopped run from its "
                    "last checkpoint")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (batch jobs)")
@@ -375,6 +394,7 @@ def _analyze_arguments(sub) -> None:
     p.add_argument("run", metavar="RUN.h5")
     p.add_argument("--json", metavar="OUT.json", help="write the equilibrium as JSON")
     p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
+    _add_force_option(p)
     p.set_defaults(func=_cmd_analyze)
 
 
@@ -392,6 +412,7 @@ def _observe_arguments(sub) -> None:
     rays.add_argument("--precision", type=float, metavar="P", help="relative error of tau_n")
     p.add_argument("--json", metavar="OUT.json", help="write the views as JSON")
     p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
+    _add_force_option(p)
     p.set_defaults(func=_cmd_observe)
 
 
@@ -402,6 +423,7 @@ def _compare_arguments(sub) -> None:
     p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
     p.add_argument("--systematics", metavar="BUDGET.json", help="measured systematic "
                    "uncertainties of the ratios (ringsim.analysis.budget)")
+    _add_force_option(p)
     p.set_defaults(func=_cmd_compare)
 
 
@@ -449,6 +471,7 @@ def _fit_arguments(sub) -> None:
     p.add_argument("--plot", metavar="PNG", help="plot data and fitted curves")
     p.add_argument("--write-restitution", metavar="OUT.yaml",
                    help="write the best fit as a scenario 'restitution' section")
+    _add_force_option(p)
     p.set_defaults(func=_cmd_fit)
 
 
