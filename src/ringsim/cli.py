@@ -5,76 +5,23 @@ traceback, no output written; also a damaged, newer-format or locked run file); 
 interrupted (SIGINT/SIGTERM; ``run`` wrote a checkpoint first); 1 anything else (a run that
 failed a runtime invariant included).  ``--debug`` shows tracebacks.
 
-A reader that closes stdout early (``ringsim analyze RUN.h5 --plots figs | head``) does not
-stop a command: the rest of what it prints is discarded, its files (figures, JSON, run
-files) are still written, and the exit status is the command's own (0 on success).  The
-closed pipe is not an error of ringsim: a shell script with ``set -o pipefail`` is not
-failed by ``head`` taking the lines it wanted.
+A reader that closes stdout early does not stop a command (``cli_io.ClosedPipeSafeStdout``).
 """
 
 from __future__ import annotations
 
 import argparse
-import io
 import json
-import os
 import sys
 import traceback
 from pathlib import Path
 
 from ringsim import __version__
+from ringsim.cli_io import ClosedPipeSafeStdout, Parser
 from ringsim.errors import InputError, clip
 from ringsim.store.paths import check_outputs
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
-
-
-class _ClosedPipeSafeStdout(io.TextIOBase):
-    """stdout that survives its reader going away: after the first BrokenPipeError the
-    file descriptor is pointed at /dev/null (so the interpreter's final flush is quiet too)
-    and the rest of the output is dropped."""
-
-    def __init__(self, stream):
-        self.stream = stream
-        self.reader_gone = False
-
-    def write(self, text: str) -> int:
-        if not self.reader_gone:
-            try:
-                self.stream.write(text)
-                if "\n" in text:
-                    self.stream.flush()
-            except BrokenPipeError:
-                self._drop()
-        return len(text)
-
-    def flush(self) -> None:
-        if not self.reader_gone:
-            try:
-                self.stream.flush()
-            except BrokenPipeError:
-                self._drop()
-
-    def _drop(self) -> None:
-        self.reader_gone = True
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        try:
-            os.dup2(devnull, self.stream.fileno())
-        finally:
-            os.close(devnull)
-
-    def isatty(self) -> bool:
-        return self.stream.isatty()
-
-    def fileno(self) -> int:
-        return self.stream.fileno()
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse that reports usage errors as bad input (status 2) in one line."""
-
-    def error(self, message):
-        raise InputError("<command line>", self.prog, message)
 
 
 def _add_force_option(p) -> None:
@@ -493,19 +440,19 @@ _SUBCOMMANDS = (_epsilon_arguments, _export_arguments, _run_arguments, _analyze_
 
 def build_parser() -> argparse.ArgumentParser:
     """The parser of the ``ringsim`` command and its subcommands (docs/interface.md)."""
-    parser = _Parser(prog="ringsim", description="Collisional N-body simulations of a "
+    parser = Parser(prog="ringsim", description="Collisional N-body simulations of a "
                      "planetary-ring patch with size- and mass-dependent restitution.")
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
     parser.add_argument("--version", action="version", version=f"ringsim {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     for add_arguments in _SUBCOMMANDS:
         add_arguments(sub)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    if argv is None and not isinstance(sys.stdout, _ClosedPipeSafeStdout):
-        sys.stdout = _ClosedPipeSafeStdout(sys.stdout)
+    if argv is None and not isinstance(sys.stdout, ClosedPipeSafeStdout):
+        sys.stdout = ClosedPipeSafeStdout(sys.stdout)
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv  # accepted anywhere on the line
     argv = [a for a in argv if a != "--debug"]
