@@ -131,7 +131,11 @@ class Runner:
         self.writer.create(scenario_yaml=self.scenario.yaml_text, seed=self.scenario.seed,
                            attributes=attributes, size_bin_edges=self.edges,
                            histogram_edges=histogram_edges())
-        self._output(first=True)
+        try:
+            self._output(first=True)
+        except Exception as error:   # the file exists now: it says failed, and why
+            record_failure(self, error)
+            raise
 
     def _set_threads(self) -> None:
         """The SEI step, line detection's search and the gravity solver (P3M) on
