@@ -206,6 +206,16 @@ def check_snapshot(g: h5py.Group, names: tuple[str, ...], n_particles: int | Non
     return -1 if n is None else n
 
 
+def check_finite(arrays: Mapping[str, np.ndarray], group: str, run_path: Path) -> None:
+    """A snapshot's particle arrays read: every value finite (a run never writes NaN or
+    infinite positions, velocities, radii or masses; a file that holds them is damaged)."""
+    for name, values in arrays.items():
+        values = np.asarray(values)
+        if values.dtype.kind == "f" and not np.all(np.isfinite(values)):
+            raise RunFileError(run_path, "holds values that are not finite (NaN or "
+                               "infinite): a damaged file", f"{group}/{name}")
+
+
 def check_bytes(ds: h5py.Dataset, limit: int, run_path: Path) -> None:
     """A dataset read whole: at most ``limit`` values."""
     if not isinstance(ds, h5py.Dataset) or ds.size > limit:

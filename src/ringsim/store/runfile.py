@@ -510,8 +510,8 @@ class Run:
             g = f["snapshots"][name]
             contents.check_snapshot(g, SNAPSHOT_FIELDS + SPIN_FIELDS, self._n_particles(f),
                                     self.path)
-            out = {field_name: g[field_name][...] for field_name in SNAPSHOT_FIELDS
-                   + SPIN_FIELDS if field_name in g}
+            out = {key: g[key][...] for key in SNAPSHOT_FIELDS + SPIN_FIELDS if key in g}
+            contents.check_finite(out, g.name, self.path)
             out["t"] = float(g.attrs["t"])
         return out
 
