@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from ringsim.config.scenario import scenario_from_dict
-from ringsim.engine import box, sheet, timestep
+from ringsim.engine import box, native, sheet, timestep
 
 #: The broad sheet, twice as long along the orbit (y) as across it (x).
 LONG = {"name": "sheet-test", "sheet.aspect": 2.0}
@@ -29,7 +29,9 @@ def test_box_holds_the_optical_depth_exactly(built):
 def test_simulation_settings(built):
     sim = built.sim
     assert sim.N == 400
-    assert sim.integrator == "sei" and sim.boundary == "shear" and sim.collision == "tree"
+    # REBOUND's SEI arithmetic on threads (tests/test_sei.py: the same bits as "sei")
+    assert sim.integrator == native.THREADED_SEI
+    assert sim.boundary == "shear" and sim.collision == "tree"
     assert sim.OMEGA == 2.0e-4 and sim.OMEGAZ == 2.0e-4
     assert sim.rand_seed == 11, "REBOUND's collision shuffle is seeded from the scenario"
     assert sim.gravity == "none" and (sim.N_ghost_x, sim.N_ghost_y, sim.N_ghost_z) == (1, 1, 0)
