@@ -141,6 +141,12 @@ _DECLARED = (
              "speeds the restitution law was measured over"),
     Quantity("law_outside_sizes", "count", "impacts of the interval outside the reduced "
              "radii the restitution law was measured over"),
+    *(Quantity(f"law_{what}_{side}", "count", f"impacts of the interval {side} the "
+               f"{label} the restitution law was measured over")
+      for what, label in (("speeds", "impact speeds"), ("sizes", "reduced radii"),
+                          ("masses", "reduced masses")) for side in ("below", "above")),
+    Quantity("law_critically_damped", "count", "impacts of the interval whose law gives "
+             "ε = 0 because its damping ratio ξ ≥ 1 (critical damping; dilley)"),
     Quantity("momentum_residual", "m/s", "deviation of the sheet's mass-weighted mean motion "
              "relative to the shear flow from a free epicycle since the previous row (runtime "
              "invariant 3 below; 0 in row 0; NaN in rows written by format 1.0 before a "
@@ -218,6 +224,17 @@ _DECLARED = (
              "impact speeds", "cm/s", 100.0),
     Quantity("law_range.sizes", "m", "reduced radii the law was measured over",
              "reduced radii", "cm", 100.0),
+    Quantity("law_range.masses", "kg", "reduced masses the law was measured at",
+             "reduced masses", "g", 1e3),
+    Quantity("law_range.outside_masses", "fraction of impacts", "share of the window's "
+             "impacts outside the reduced masses the law was measured at"),
+    *(Quantity(f"law_range.{what}_{side}", "fraction of impacts", f"share of the window's "
+               f"impacts {side} the {what} the law was measured over")
+      for what in ("speeds", "sizes", "masses") for side in ("below", "above")),
+    Quantity("law_range.critically_damped", "fraction of impacts", "share of the window's "
+             "impacts whose law gives ε = 0 because ξ ≥ 1 (critical damping)"),
+    Quantity("law_range.critically_damped_count", "count", "impacts of the window whose "
+             "law gives ε = 0 because ξ ≥ 1"),
     # --- the energy budget and the spins (analysis.spins) --------------------------------------
     Quantity("energy_budget.heating", "W/m^2", "shear heating (9/4) Ω² Σ ν_trans + (3/2) Ω "
              "Δplog / (Lx Ly Δt)", "shear heating"),
@@ -305,7 +322,9 @@ TIMESERIES = ("t", "orbits", "dt", "velocity_dispersion", "velocity_dispersion_m
               "collisions_log_n", "collisions_plog", "mean_epsilon", "mean_impact_speed",
               "translational_viscosity", "max_vertical_amplitude", "z_half_period",
               "overlapping_pairs", "multi_encounters", "law_outside_speeds",
-              "law_outside_sizes", "momentum_residual", "toomre_Q",
+              "law_outside_sizes", "law_speeds_below", "law_speeds_above",
+              "law_sizes_below", "law_sizes_above", "law_masses_below", "law_masses_above",
+              "law_critically_damped", "momentum_residual", "toomre_Q",
               "size_bin_velocity_dispersion", "size_bin_thickness", "size_bin_n",
               "one_minus_epsilon_histogram", "impact_speed_histogram", "normal_dissipation",
               "tangential_dissipation", "sliding_collisions", "rotational_energy",
