@@ -161,6 +161,16 @@ _DECLARED = (
     Quantity("size_bin_thickness", "m", _SIZES + "rms z of each size bin about the sheet's "
              "mass-weighted mean height", weighting="number"),
     Quantity("size_bin_n", "count", _SIZES + "particles in each size bin"),
+    *(_speed(f"size_bin_sigma_{axis}", _SIZES + f"rms {name} velocity of each size bin "
+             "about the sheet's mass-weighted mean velocity (the velocity ellipsoid)",
+             weighting="number")
+      for axis, name in (("x", "radial"), ("y", "azimuthal"), ("z", "vertical"))),
+    Quantity("size_bin_pair_collisions", "count", "runs with size bins and "
+             "`output.log_collisions` > 0 (2-D: rows × bins²): sampled collisions of the "
+             "interval per pair of bins, entry i n_bins + j the smaller partner in bin i, the "
+             "larger in bin j (radii from R̄ and M̄ at the one bulk density)"),
+    Quantity("size_bin_pair_epsilon_sum", DIMENSIONLESS, "as `size_bin_pair_collisions`: "
+             "the summed law's ε of those collisions (mean ε = sum / count)"),
     Quantity("one_minus_epsilon_histogram", "count", "per interval, counts of 1 - ε in the "
              "bins `one_minus_epsilon_bin_edges` (first bin: 1 - ε < 1e-4, i.e. nearly "
              "elastic)"),
@@ -326,6 +336,8 @@ TIMESERIES = ("t", "orbits", "dt", "velocity_dispersion", "velocity_dispersion_m
               "law_sizes_below", "law_sizes_above", "law_masses_below", "law_masses_above",
               "law_critically_damped", "momentum_residual", "toomre_Q",
               "size_bin_velocity_dispersion", "size_bin_thickness", "size_bin_n",
+              "size_bin_sigma_x", "size_bin_sigma_y", "size_bin_sigma_z",
+              "size_bin_pair_collisions", "size_bin_pair_epsilon_sum",
               "one_minus_epsilon_histogram", "impact_speed_histogram", "normal_dissipation",
               "tangential_dissipation", "sliding_collisions", "rotational_energy",
               "rotational_energy_ratio", "mean_spin_z", "rms_spin")

@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from ringsim import quantities
-from ringsim.analysis import collisions, motions, spins, tiling, timeseries
+from ringsim.analysis import collisions, motions, size_bins, spins, tiling, timeseries
 from ringsim.analysis.gravitating import gravity_equilibrium, gravity_table_lines
 from ringsim.analysis.law_range import LAW_RANGE_WARNING as LAW_RANGE_WARNING
 from ringsim.analysis.law_range import law_range, law_range_lines
@@ -233,6 +233,9 @@ def _add_size_sections(out: dict, run, start: int, radius: np.ndarray, mass: np.
     spins of an equilibrium (radius [m] and mass [kg] of the first snapshot)."""
     ts = run.timeseries
     out["per_size_bin"] = _per_size_bin(ts, start, radius, mass)
+    size_bins.add_ellipsoid(out["per_size_bin"], ts, start)
+    out["vertical_segregation"] = size_bins.vertical_segregation(run, start)
+    out["pair_epsilon"] = size_bins.pair_epsilon(run, start)
     out["size_ratio"] = size_dispersion_ratio(out["per_size_bin"])
     out["law_range"] = law_range(ts, start, run.scenario.restitution.model)
     out["energy_budget"] = spins.energy_budget(run, start)
@@ -390,6 +393,7 @@ def equilibrium_table(eq: dict) -> str:
         line = size_ratio_line(eq.get("size_ratio"))
         if line:
             lines.append("  " + line)
+    lines += size_bins.size_bin_lines(eq)
     lines += ["  " + line for line in law_range_lines(eq)]
     lines += spins.spin_table_lines(eq, budget=not _gravity_balance_shown(eq))
     return "\n".join(lines)

@@ -45,6 +45,7 @@ from ringsim.engine.native import (
     RANGE_STATISTICS,
     VN_BIN_EDGES,
 )
+from ringsim.physics.pair_bins import pair_bin_sums
 
 #: The counters of the law's measured range a run file's row holds, each as the time
 #: series ``law_<name>``.
@@ -89,6 +90,22 @@ def summary(stats: ctypes.Structure, log: np.ndarray, log_every: int) -> dict[st
                                                    "outside_sizes", *FRICTION_STATISTICS,
                                                    *RANGE_STATISTICS)},
     }
+
+
+def law_rows(stats: Mapping[str, Any], edges: np.ndarray | None, density: float,
+             log_capacity: int) -> dict[str, Any]:
+    """The run-file row entries of the law's range (``law_<name>`` of `LAW_RANGE_COUNTERS`)
+    and, with size bins [m] and a collision log (``log_capacity`` > 0), the interval's
+    sampled collisions per pair of size bins (``size_bin_pair_collisions`` and
+    ``size_bin_pair_epsilon_sum``, ``physics.pair_bins.pair_bin_sums``; particles of one
+    ``density`` [kg/m^3])."""
+    row: dict[str, Any] = {f"law_{name}": int(stats[name]) for name in LAW_RANGE_COUNTERS}
+    log = stats["log"]
+    if edges is not None and log_capacity > 0:
+        counts, sums = pair_bin_sums(log["R_bar"], log["M_bar"], log["epsilon"], density,
+                                     edges)
+        row["size_bin_pair_collisions"], row["size_bin_pair_epsilon_sum"] = counts, sums
+    return row
 
 
 def checked_log(log_capacity: Any, log_every: Any) -> tuple[int, int]:
