@@ -234,6 +234,14 @@ _DECLARED = (
              "impact speeds", "cm/s", 100.0),
     Quantity("law_range.sizes", "m", "reduced radii the law was measured over",
              "reduced radii", "cm", 100.0),
+    *(_speed(f"sigma_{axis}", f"rms {name} velocity of a size bin about the sheet's "
+             "mass-weighted mean velocity, window mean", f"sigma_{axis}", weighting="number")
+      for axis, name in (("x", "radial"), ("y", "azimuthal"), ("z", "vertical"))),
+    Quantity("pair_epsilon.edges", "m", "radius edges of the size bins of the pair table"),
+    Quantity("pair_epsilon.counts", "count", "sampled collisions of the window per pair of "
+             "size bins (row: the smaller partner's bin, column: the larger's)"),
+    Quantity("pair_epsilon.mean_epsilon", DIMENSIONLESS, "mean law's ε of those collisions "
+             "(NaN where none)"),
     Quantity("law_range.masses", "kg", "reduced masses the law was measured at",
              "reduced masses", "g", 1e3),
     Quantity("law_range.outside_masses", "fraction of impacts", "share of the window's "
