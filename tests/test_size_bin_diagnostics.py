@@ -146,3 +146,29 @@ def test_analyze_splits_the_law_range_below_and_above(broad_run, tmp_path, capsy
     assert ("100.0 % of impacts outside the reduced masses the dilley law was measured over "
             "(60-600 g): 0.0 % below, 100.0 % above") in text
     assert "of impacts critically damped (xi >= 1, eps = 0)" in text
+
+
+@pytest.mark.slow
+def test_compare_divides_each_size_bin(broad_run, tmp_path, ring_scenario, capsys):
+    # a second ring of the same bins with a more dissipative law: per bin, the printed and
+    # written ratio is c(other) / c(broad) of the two equilibria, with the propagated error
+    sc = ring_scenario(name="broad-k", restitution={"model": "constant", "epsilon": 0.3},
+                       **{"particles.size_distribution.r_min": 0.1,
+                          "particles.size_distribution.r_max": 2.0,
+                          "sheet.n_particles": 300, "integration.orbits": 0.5,
+                          "output.snapshot_every": 0.1})
+    other = ringsim.run(sc, output=tmp_path / "other.h5", progress=False)
+    out = tmp_path / "cmp.json"
+    assert main(["compare", str(broad_run), str(other), "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    comp = json.loads(out.read_text())
+    a, b = (ringsim.equilibrium(ringsim.open_run(p)) for p in (broad_run, other))
+    rows = comp["ratios"][0]["per_size_bin"]
+    assert len(rows) == len(a["per_size_bin"]) >= 3
+    for row, x, y in zip(rows, b["per_size_bin"], a["per_size_bin"], strict=True):
+        assert (row["r_low"], row["r_high"]) == (x["r_low"], x["r_high"])
+        for key in ("velocity_dispersion", "thickness", "sigma_z"):
+            if math.isfinite(row[key]["mean"]):
+                assert row[key]["mean"] == pytest.approx(x[key]["mean"] / y[key]["mean"],
+                                                         rel=1e-12)
+    assert "per size bin, ratio ± stat:" in text
