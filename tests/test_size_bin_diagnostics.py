@@ -53,6 +53,9 @@ def test_pair_bin_sums_sort_pairs_by_both_partners():
     expected[0, 0], expected[0, 2], expected[1, 1] = 1, 2, 1    # (small bin, large bin)
     np.testing.assert_array_equal(counts.reshape(3, 3), expected)
     assert sums.reshape(3, 3)[0, 2] == pytest.approx(1.0, rel=1e-15)
+    # a pair lighter than any two ice spheres of its R_bar is left out, not misplaced
+    counts, _ = pair_bin_sums([0.05], [1e-6], [0.5], ICE, edges)
+    assert counts.sum() == 0
 
 
 def test_the_ellipsoid_of_each_bin_makes_its_dispersion(broad_run):

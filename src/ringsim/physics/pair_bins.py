@@ -57,17 +57,20 @@ def pair_bin_sums(R_bar: ArrayLike, M_bar: ArrayLike, epsilon: ArrayLike, densit
     Returns
     -------
     (counts int64, eps_sums float), each of shape (n_bins^2,); entry i n_bins + j holds the
-    pairs whose smaller partner is in bin i and larger in bin j (i <= j).
+    pairs whose smaller partner is in bin i and larger in bin j (i <= j).  Pairs whose
+    R_bar and M_bar no two spheres of ``density`` give (mu <= R_bar^3) are left out.
     """
     edges = np.asarray(edges, dtype=float)
     n_bins = edges.size - 1
     small, large = pair_radii(R_bar, M_bar, density)
+    # a pair whose masses do not fit the density (no real radii) is left out
+    fits = np.isfinite(small) & np.isfinite(large) & (small > 0)
 
     def index(r):
-        return np.clip(np.searchsorted(edges, r, side="right") - 1, 0, n_bins - 1)
+        return np.clip(np.searchsorted(edges, r[fits], side="right") - 1, 0, n_bins - 1)
 
     cell = index(small) * n_bins + index(large)
     counts = np.bincount(cell, minlength=n_bins * n_bins).astype(np.int64)
-    sums = np.bincount(cell, weights=np.asarray(epsilon, dtype=float),
+    sums = np.bincount(cell, weights=np.asarray(epsilon, dtype=float)[fits],
                        minlength=n_bins * n_bins)
     return counts, sums.astype(float)     # (bincount of nothing gives integers)
