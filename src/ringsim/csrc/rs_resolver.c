@@ -56,6 +56,10 @@
  * param[0]      double    tabor            v_c, speed where eps = 1          m/s
  * param[1]      double    tabor            q, hardness exponent, 0<q<1/2     -
  * log_capacity  int64_t   all              ring-buffer length of the log     -
+ * measured[4]   double    all              v_min, v_max, R_min, R_max the    m/s, m
+ *                                          law was measured over (0, inf:
+ *                                          not stated)
+ * measured_masses[2] double all            M_min, M_max it was measured at   kg
  * friction_model int32_t  -                RS_FRICTION_* (none=0, constant=1, -
  *                                          coulomb=2; ringsim.physics.friction.FRICTION)
  * friction[0]   double    constant         beta, tangential restitution      -
