@@ -31,8 +31,8 @@ NUMBER = {"mean", "stderr", "units"}
 
 @pytest.fixture(scope="module")
 def full_run(tmp_path_factory):
-    """A run that writes every optional row: a size distribution, friction, self-gravity
-    (120 particles, 0.3 orbit, a few seconds)."""
+    """A run that writes every optional row: a size distribution, friction, self-gravity,
+    a collision log (120 particles, 0.3 orbit, a few seconds)."""
     sc = scenario_from_dict({
         "name": "every-row", "seed": 5,
         "planet": {"GM": 3.7931e16, "a": 1.0e8},
@@ -43,7 +43,7 @@ def full_run(tmp_path_factory):
         "friction": {"model": "coulomb", "mu": 0.5},
         "integration": {"orbits": 0.3},
         "output": {"path": "runs/every-row.h5", "timeseries_every": 0.02,
-                   "snapshot_every": 0.1},
+                   "snapshot_every": 0.1, "log_collisions": 100},
     }, source="<test>")
     return ringsim.run(sc, output=tmp_path_factory.mktemp("q") / "every-row.h5",
                        progress=False)

@@ -141,6 +141,12 @@ _DECLARED = (
              "speeds the restitution law was measured over"),
     Quantity("law_outside_sizes", "count", "impacts of the interval outside the reduced "
              "radii the restitution law was measured over"),
+    *(Quantity(f"law_{what}_{side}", "count", f"impacts of the interval {side} the "
+               f"{label} the restitution law was measured over")
+      for what, label in (("speeds", "impact speeds"), ("sizes", "reduced radii"),
+                          ("masses", "reduced masses")) for side in ("below", "above")),
+    Quantity("law_critically_damped", "count", "impacts of the interval whose law gives "
+             "ε = 0 because its damping ratio ξ ≥ 1 (critical damping; dilley)"),
     Quantity("momentum_residual", "m/s", "deviation of the sheet's mass-weighted mean motion "
              "relative to the shear flow from a free epicycle since the previous row (runtime "
              "invariant 3 below; 0 in row 0; NaN in rows written by format 1.0 before a "
@@ -155,6 +161,16 @@ _DECLARED = (
     Quantity("size_bin_thickness", "m", _SIZES + "rms z of each size bin about the sheet's "
              "mass-weighted mean height", weighting="number"),
     Quantity("size_bin_n", "count", _SIZES + "particles in each size bin"),
+    *(_speed(f"size_bin_sigma_{axis}", _SIZES + f"rms {name} velocity of each size bin "
+             "about the sheet's mass-weighted mean velocity (the velocity ellipsoid)",
+             weighting="number")
+      for axis, name in (("x", "radial"), ("y", "azimuthal"), ("z", "vertical"))),
+    Quantity("size_bin_pair_collisions", "count", "runs with size bins and "
+             "`output.log_collisions` > 0 (2-D: rows × bins²): sampled collisions of the "
+             "interval per pair of bins, entry i n_bins + j the smaller partner in bin i, the "
+             "larger in bin j (radii from R̄ and M̄ at the one bulk density)"),
+    Quantity("size_bin_pair_epsilon_sum", DIMENSIONLESS, "as `size_bin_pair_collisions`: "
+             "the summed law's ε of those collisions (mean ε = sum / count)"),
     Quantity("one_minus_epsilon_histogram", "count", "per interval, counts of 1 - ε in the "
              "bins `one_minus_epsilon_bin_edges` (first bin: 1 - ε < 1e-4, i.e. nearly "
              "elastic)"),
@@ -218,6 +234,25 @@ _DECLARED = (
              "impact speeds", "cm/s", 100.0),
     Quantity("law_range.sizes", "m", "reduced radii the law was measured over",
              "reduced radii", "cm", 100.0),
+    *(_speed(f"sigma_{axis}", f"rms {name} velocity of a size bin about the sheet's "
+             "mass-weighted mean velocity, window mean", f"sigma_{axis}", weighting="number")
+      for axis, name in (("x", "radial"), ("y", "azimuthal"), ("z", "vertical"))),
+    Quantity("pair_epsilon.edges", "m", "radius edges of the size bins of the pair table"),
+    Quantity("pair_epsilon.counts", "count", "sampled collisions of the window per pair of "
+             "size bins (row: the smaller partner's bin, column: the larger's)"),
+    Quantity("pair_epsilon.mean_epsilon", DIMENSIONLESS, "mean law's ε of those collisions "
+             "(NaN where none)"),
+    Quantity("law_range.masses", "kg", "reduced masses the law was measured at",
+             "reduced masses", "g", 1e3),
+    Quantity("law_range.outside_masses", "fraction of impacts", "share of the window's "
+             "impacts outside the reduced masses the law was measured at"),
+    *(Quantity(f"law_range.{what}_{side}", "fraction of impacts", f"share of the window's "
+               f"impacts {side} the {what} the law was measured over")
+      for what in ("speeds", "sizes", "masses") for side in ("below", "above")),
+    Quantity("law_range.critically_damped", "fraction of impacts", "share of the window's "
+             "impacts whose law gives ε = 0 because ξ ≥ 1 (critical damping)"),
+    Quantity("law_range.critically_damped_count", "count", "impacts of the window whose "
+             "law gives ε = 0 because ξ ≥ 1"),
     # --- aggregation of the window (analysis.aggregation) -------------------------------------
     Quantity("aggregation.rows", "count", "time-series rows of the window"),
     Quantity("aggregation.overlap_rows", "count", "rows of the window with pairs overlapping "
@@ -322,8 +357,12 @@ TIMESERIES = ("t", "orbits", "dt", "velocity_dispersion", "velocity_dispersion_m
               "collisions_log_n", "collisions_plog", "mean_epsilon", "mean_impact_speed",
               "translational_viscosity", "max_vertical_amplitude", "z_half_period",
               "overlapping_pairs", "multi_encounters", "law_outside_speeds",
-              "law_outside_sizes", "momentum_residual", "toomre_Q",
+              "law_outside_sizes", "law_speeds_below", "law_speeds_above",
+              "law_sizes_below", "law_sizes_above", "law_masses_below", "law_masses_above",
+              "law_critically_damped", "momentum_residual", "toomre_Q",
               "size_bin_velocity_dispersion", "size_bin_thickness", "size_bin_n",
+              "size_bin_sigma_x", "size_bin_sigma_y", "size_bin_sigma_z",
+              "size_bin_pair_collisions", "size_bin_pair_epsilon_sum",
               "one_minus_epsilon_histogram", "impact_speed_histogram", "normal_dissipation",
               "tangential_dissipation", "sliding_collisions", "rotational_energy",
               "rotational_energy_ratio", "mean_spin_z", "rms_spin")

@@ -34,7 +34,33 @@ def _combined(members: Sequence[dict]) -> dict:
     eq["reason"] = "; ".join(f"{m['name']}: {m['reason']}" for m in members
                              if not m["in_equilibrium"]) or members[0]["reason"]
     eq["replicas"] = [m["name"] for m in members]
+    if all(_same_bins(m, members[0]) for m in members):
+        eq["per_size_bin"] = [{**row, **{key: budget.replica_mean(
+            [m["per_size_bin"][k][key] for m in members]) for key in PER_BIN if key in row}}
+            for k, row in enumerate(members[0]["per_size_bin"])]
     return eq
+
+
+#: The per-size-bin numbers `compare` divides between runs.
+PER_BIN = ("velocity_dispersion", "thickness", "sigma_x", "sigma_y", "sigma_z")
+
+
+def _same_bins(a: dict, b: dict) -> bool:
+    """Whether two equilibria have size bins, the same ones (edges to 1e-9)."""
+    x, y = a.get("per_size_bin") or [], b.get("per_size_bin") or []
+    return bool(x) and len(x) == len(y) and all(
+        math.isclose(p[k], q[k], rel_tol=1e-9) for p, q in zip(x, y, strict=True)
+        for k in ("r_low", "r_high"))
+
+
+def per_bin_ratios(eq: dict, base: dict) -> list[dict] | None:
+    """Per size bin, the ratio eq / base of each `PER_BIN` number with its propagated
+    standard error, with the bin edges [m]; None unless both runs have the same bins."""
+    if not _same_bins(eq, base):
+        return None
+    return [{"r_low": a["r_low"], "r_high": a["r_high"],
+             **{key: ratio(a[key], b[key]) for key in PER_BIN if key in a and key in b}}
+            for a, b in zip(eq["per_size_bin"], base["per_size_bin"], strict=True)]
 
 
 def comparison(equilibria: Sequence[dict], systematics: dict | None = None) -> dict:
@@ -79,6 +105,7 @@ def comparison(equilibria: Sequence[dict], systematics: dict | None = None) -> d
                                                                        r["mean"])
             r["total"] = math.hypot(r["statistical"], r["systematic"])
             entry[key] = r
+        entry["per_size_bin"] = per_bin_ratios(eq, base)
         ratios.append(entry)
     warnings = [NOT_IN_EQUILIBRIUM.format(name=eq["name"], reason=eq["reason"])
                 for eq in equilibria if not eq["in_equilibrium"]]
@@ -125,5 +152,20 @@ def comparison_table(comp: dict) -> str:
             r = entry[key]
             lines.append(f"  {label:<38} {_ratio_text(r):>44}   "
                          f"({r['significance']:+.1f} sigma)")
+        lines += _per_bin_lines(entry.get("per_size_bin"))
     lines.append(f"systematic budget: {comp.get('systematics', 'not measured')}")
     return "\n".join(lines)
+
+
+def _per_bin_lines(rows: list[dict] | None) -> list[str]:
+    """The per-size-bin ratios of one comparison (statistical errors only)."""
+    if not rows:
+        return []
+    keys = [key for key in PER_BIN if key in rows[0]]
+    names = {"velocity_dispersion": "c", "thickness": "H"}
+    lines = ["  per size bin, ratio ± stat:",
+             f"    {'r [m]':<17}" + "".join(f"{names.get(key, key):>18}" for key in keys)]
+    for row in rows:
+        cells = "".join(f"{_fmt(row[key]):>18}" for key in keys)
+        lines.append(f"    {row['r_low']:7.3g} - {row['r_high']:<7.3g}{cells}")
+    return lines

@@ -16,10 +16,19 @@ import math
 import numpy as np
 
 from ringsim import quantities
-from ringsim.analysis import aggregation, collisions, motions, spins, tiling, timeseries
+from ringsim.analysis import (
+    aggregation,
+    collisions,
+    motions,
+    size_bins,
+    spins,
+    tiling,
+    timeseries,
+)
 from ringsim.analysis.gravitating import gravity_equilibrium, gravity_table_lines
+from ringsim.analysis.law_range import LAW_RANGE_WARNING as LAW_RANGE_WARNING
+from ringsim.analysis.law_range import law_range, law_range_lines
 from ringsim.physics import kinetic
-from ringsim.physics.restitution import RESTITUTION
 
 #: The equilibrium quantities (declared in ``ringsim.quantities``): key -> (label, unit of
 #: the JSON number (SI unless the key says otherwise), unit shown in tables, scale from the
@@ -233,6 +242,9 @@ def _add_size_sections(out: dict, run, start: int, radius: np.ndarray, mass: np.
     spins of an equilibrium (radius [m] and mass [kg] of the first snapshot)."""
     ts = run.timeseries
     out["per_size_bin"] = _per_size_bin(ts, start, radius, mass)
+    size_bins.add_ellipsoid(out["per_size_bin"], ts, start)
+    out["vertical_segregation"] = size_bins.vertical_segregation(run, start)
+    out["pair_epsilon"] = size_bins.pair_epsilon(run, start)
     out["size_ratio"] = size_dispersion_ratio(out["per_size_bin"])
     out["law_range"] = law_range(ts, start, run.scenario.restitution.model)
     out["energy_budget"] = spins.energy_budget(run, start)
@@ -249,64 +261,6 @@ def _aggregation_and_gravity(run, start: int, out: dict) -> None:
     aggregation.withhold_collision_statistics(out, aggregation.run_aggregation(run, start))
     if run.scenario.sheet.gravity:
         out.update(gravity_equilibrium(run, start, out))
-
-
-#: Share of impacts outside the speeds (or sizes) a law was measured over above which
-#: ``analyze`` and ``compare`` warn that the result extrapolates the law.
-LAW_RANGE_WARNING = 0.10
-
-
-def law_range(ts: dict, start: int, model: str) -> dict | None:
-    """Share of the equilibrium window's impacts outside the impact speeds and reduced radii
-    the restitution law's parameters were measured over (``physics.restitution``'s
-    declaration; the run's ``law_outside_speeds`` / ``law_outside_sizes`` counts).  None
-    for run files without these counts.
-
-    Returns
-    -------
-    dict with ``outside_speeds``, ``outside_sizes`` [fraction of impacts, NaN without
-    impacts or where the law states no range], ``speeds`` [m/s] and ``sizes`` [m] (the
-    measured ranges, None where not stated) and ``source``.
-    """
-    if "law_outside_speeds" not in ts:
-        return None
-    measured = RESTITUTION[model].measured
-    impacts = float(np.sum(ts["collisions"][start:]))
-
-    def share(key: str, declared) -> float:
-        if declared is None or not impacts:
-            return math.nan
-        return float(np.sum(ts[key][start:])) / impacts
-
-    return {"outside_speeds": share("law_outside_speeds", measured.speeds),
-            "outside_sizes": share("law_outside_sizes", measured.sizes),
-            "speeds": list(measured.speeds) if measured.speeds else None,
-            "sizes": list(measured.sizes) if measured.sizes else None,
-            "source": measured.source,
-            "units": {key: quantities.unit(f"law_range.{key}") for key in
-                      ("outside_speeds", "outside_sizes", "speeds", "sizes")}}
-
-
-def law_range_lines(eq: dict) -> list[str]:
-    """Lines saying how much of a run's equilibrium extrapolates its restitution law, with a
-    WARNING above `LAW_RANGE_WARNING`."""
-    rng = eq.get("law_range")
-    if not rng:
-        return []
-    lines = []
-    for key in ("speeds", "sizes"):
-        share = rng[f"outside_{key}"]
-        if rng[key] is None or not math.isfinite(share):
-            continue
-        shown = quantities.QUANTITY[f"law_range.{key}"]
-        lo, hi = (x * shown.scale for x in rng[key])
-        text = (f"{100 * share:.1f} % of impacts outside the {shown.label} the "
-                f"{eq['restitution']['model']} law was measured over ({lo:g}-{hi:g} "
-                f"{shown.shown})")
-        lines.append(("WARNING: " if share > LAW_RANGE_WARNING else "") + text
-                     + (": the result extrapolates the law" if share > LAW_RANGE_WARNING
-                        else ""))
-    return lines
 
 
 def _per_size_bin(ts: dict, start: int, radius: np.ndarray, mass: np.ndarray) -> list[dict]:
@@ -461,6 +415,7 @@ def equilibrium_table(eq: dict) -> str:
         line = size_ratio_line(eq.get("size_ratio"))
         if line:
             lines.append("  " + line)
+    lines += size_bins.size_bin_lines(eq)
     lines += ["  " + line for line in law_range_lines(eq)]
     lines += spins.spin_table_lines(eq, budget=not _gravity_balance_shown(eq))
     return "\n".join(lines)

@@ -364,13 +364,15 @@ def _binned_statistics(idx: NDArray[np.intp], n_bins: int, w: FloatArray, z: Flo
         return np.bincount(b, weights=deviation * deviation, minlength=n_bins) / counts
 
     with np.errstate(invalid="ignore", divide="ignore"):
-        square_sum = sum(bin_mean_square(comp - ref) for comp, ref in zip(w[:, inside], w_ref,
-                                                                          strict=True))
+        squares = [bin_mean_square(comp - ref) for comp, ref in zip(w[:, inside], w_ref,
+                                                                    strict=True)]
         z_square = bin_mean_square(z[inside] - z_ref)
     usable = counts >= 1
-    c = np.where(usable, np.sqrt(square_sum / 3.0), np.nan)
+    c = np.where(usable, np.sqrt(sum(squares) / 3.0), np.nan)
     h = np.where(usable, np.sqrt(z_square), np.nan)
-    return {"n": counts.astype(np.int64), "velocity_dispersion": c, "thickness": h}
+    return {"n": counts.astype(np.int64), "velocity_dispersion": c, "thickness": h,
+            **{f"sigma_{axis}": np.where(usable, np.sqrt(square), np.nan)
+               for axis, square in zip("xyz", squares, strict=True)}}
 
 
 def snapshot_summary(x: ArrayLike, y: ArrayLike, z: ArrayLike, vx: ArrayLike, vy: ArrayLike,
@@ -409,7 +411,8 @@ def snapshot_summary(x: ArrayLike, y: ArrayLike, z: ArrayLike, vx: ArrayLike, vy
         ``mean_radius`` [m]; ``mean_mass`` [kg]; ``translational_viscosity`` [m^2/s].
         Per-bin arrays (length n_bins): ``size_bin_edges`` [m] (n_bins + 1),
         ``size_bin_n``, ``size_bin_velocity_dispersion`` [m/s] and
-        ``size_bin_thickness`` [m] (about the sheet's mass-weighted mean velocity and
+        ``size_bin_thickness`` [m], ``size_bin_sigma_x/_y/_z`` [m/s] (the velocity
+        ellipsoid's rms deviations; about the sheet's mass-weighted mean velocity and
         height, see ``_binned_statistics``; NaN for an empty bin).
     """
     Omega = positive("Omega", Omega)
@@ -470,4 +473,5 @@ def _size_bin_entries(r: FloatArray, m: FloatArray, w: FloatArray, z: FloatArray
                                 w_ref=w @ m / np.sum(m), z_ref=float(np.dot(m, z) / np.sum(m)))
     return {"size_bin_edges": edges, "size_bin_n": binned["n"],
             "size_bin_velocity_dispersion": binned["velocity_dispersion"],
-            "size_bin_thickness": binned["thickness"]}
+            "size_bin_thickness": binned["thickness"],
+            **{f"size_bin_sigma_{axis}": binned[f"sigma_{axis}"] for axis in "xyz"}}

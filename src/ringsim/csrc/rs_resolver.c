@@ -56,6 +56,10 @@
  * param[0]      double    tabor            v_c, speed where eps = 1          m/s
  * param[1]      double    tabor            q, hardness exponent, 0<q<1/2     -
  * log_capacity  int64_t   all              ring-buffer length of the log     -
+ * measured[4]   double    all              v_min, v_max, R_min, R_max the    m/s, m
+ *                                          law was measured over (0, inf:
+ *                                          not stated)
+ * measured_masses[2] double all            M_min, M_max it was measured at   kg
  * friction_model int32_t  -                RS_FRICTION_* (none=0, constant=1, -
  *                                          coulomb=2; ringsim.physics.friction.FRICTION)
  * friction[0]   double    constant         beta, tangential restitution      -
@@ -75,7 +79,10 @@
  * (10 per decade) plus under/overflow; histogram of the dissipation 1 - eps in
  * RS_EPS_NBINS log bins from 1e-4 to 1 (10 per decade; 1 - eps < 1e-4, including
  * eps = 1, goes to the underflow; eps = 0 to the last bin); a ring buffer of sampled
- * collisions (t [s], v [m/s], R_bar [m], M_bar [kg], eps); multi_encounters (see below).
+ * collisions (t [s], v [m/s], R_bar [m], M_bar [kg], eps); multi_encounters (see below);
+ * collisions outside the speeds [m/s], reduced radii [m] and reduced masses [kg] the law
+ * was measured over (measured, measured_masses), each below and above the range;
+ * critically_damped, the collisions whose law gives eps = 0 because xi >= 1 (dilley).
  * The eps recorded is that of the law, also when minimum_collision_velocity raises the
  * impulse.
  *
@@ -207,10 +214,15 @@ int rs_histogram_bins(int which){
 /* Restitution laws (the Python twin in ringsim/testing/twins.py calls these through     */
 /* rs_epsilon_array; ringsim/physics/restitution.py holds the numpy versions).           */
 
+static double rs_dilley_xi(double v, double R_bar, double M_bar,
+                           double xi0, double p, double kappa){
+    return xi0 * pow(R_bar / RS_DILLEY_R_REF, -RS_DILLEY_RADIUS_EXPONENT)
+           * pow(M_bar / RS_DILLEY_M_REF, -kappa) * pow(v / RS_DILLEY_V_REF, p);
+}
+
 static double rs_dilley_epsilon(double v, double R_bar, double M_bar,
                                 double xi0, double p, double kappa){
-    const double xi = xi0 * pow(R_bar / RS_DILLEY_R_REF, -RS_DILLEY_RADIUS_EXPONENT)
-                      * pow(M_bar / RS_DILLEY_M_REF, -kappa) * pow(v / RS_DILLEY_V_REF, p);
+    const double xi = rs_dilley_xi(v, R_bar, M_bar, xi0, p, kappa);
     if (!(xi < 1.0)){
         return 0.0;     /* critically damped or overdamped: no rebound */
     }
@@ -363,6 +375,8 @@ struct rs_resolver* rs_resolver_create(int32_t model, double param0, double para
     res->log_every = log_every;
     const double unknown[4] = {0.0, INFINITY, 0.0, INFINITY};
     memcpy(res->measured, unknown, sizeof(unknown));
+    res->measured_masses[0] = 0.0;
+    res->measured_masses[1] = INFINITY;
     res->friction_model = RS_FRICTION_NONE;
     res->inertia_factor = 0.4;     /* solid sphere; used only with friction */
     return res;
@@ -456,6 +470,17 @@ static void rs_record(struct rs_resolver* res, double t, double v_n, double R_ba
     s->sum_vn += v_n;
     s->outside_speeds += (v_n < res->measured[0] || v_n > res->measured[1]);
     s->outside_sizes += (R_bar < res->measured[2] || R_bar > res->measured[3]);
+    s->speeds_below += (v_n < res->measured[0]);
+    s->speeds_above += (v_n > res->measured[1]);
+    s->sizes_below += (R_bar < res->measured[2]);
+    s->sizes_above += (R_bar > res->measured[3]);
+    s->masses_below += (M_bar < res->measured_masses[0]);
+    s->masses_above += (M_bar > res->measured_masses[1]);
+    if (eps == 0.0 && res->model == RS_MODEL_DILLEY
+        && !(rs_dilley_xi(v_n, R_bar, M_bar, res->param[0], res->param[1], res->param[2])
+             < 1.0)){
+        s->critically_damped++;     /* xi >= 1: critically damped or overdamped */
+    }
 
     if (v_n > 0.0){
         const double bin = floor((log10(v_n) - RS_VN_LOG10_MIN) * RS_BINS_PER_DECADE);

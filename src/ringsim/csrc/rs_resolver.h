@@ -50,6 +50,14 @@ struct rs_stats {
                                                dissipated, 1/2 M_bar J (2 v_n - J) with
                                                J the separation-speed change (floor
                                                included) */
+    int64_t speeds_below;                   /* of outside_speeds: v_n < measured[0] */
+    int64_t speeds_above;                   /* of outside_speeds: v_n > measured[1] */
+    int64_t sizes_below;                    /* of outside_sizes: R_bar < measured[2] */
+    int64_t sizes_above;                    /* of outside_sizes: R_bar > measured[3] */
+    int64_t masses_below;                   /* M_bar < measured_masses[0] */
+    int64_t masses_above;                   /* M_bar > measured_masses[1] */
+    int64_t critically_damped;              /* collisions whose law gives eps = 0 because
+                                               its damping ratio xi >= 1 (dilley) */
 };
 
 /* Pairs resolved in the current step of the swept-path modes (open-addressing set), and
@@ -92,6 +100,8 @@ struct rs_resolver {
                                with rs_spins_read, set with rs_spins_write at the frame
                                angle rs_spin_frame_angle; NULL until needed */
     int64_t spin_capacity;  /* particles spin has room for */
+    double measured_masses[2];  /* [kg] reduced masses the law's parameters were measured
+                                   at: M_min, M_max (0, inf: unknown) */
 };
 
 /* Friction models (struct rs_resolver.friction_model). */

@@ -32,6 +32,11 @@ FRICTION_CODES = {"none": 0, **{law.name: law.code for law in FRICTION}}
 #: Statistics fields of friction (after the others in the C struct): a checkpoint that
 #: lacks them restores them as zero.
 FRICTION_STATISTICS = ("tangential_dissipation", "n_sliding", "normal_dissipation")
+#: Statistics fields of the law's measured range split below and above it, and of the
+#: critically damped collisions (after the friction fields): a checkpoint that lacks them
+#: restores them as zero.
+RANGE_STATISTICS = ("speeds_below", "speeds_above", "sizes_below", "sizes_above",
+                    "masses_below", "masses_above", "critically_damped")
 
 #: Bin edges of the normal-impact-speed histogram [m/s].
 VN_BIN_EDGES = np.logspace(-7.0, 2.0, 91)
@@ -67,6 +72,7 @@ class _Stats(ctypes.Structure):
         ("tangential_dissipation", ctypes.c_double),
         ("n_sliding", ctypes.c_int64),
         ("normal_dissipation", ctypes.c_double),
+        *((name, ctypes.c_int64) for name in RANGE_STATISTICS),
     ]
 
 
@@ -96,6 +102,7 @@ class _Resolver(ctypes.Structure):
         ("inertia_factor", ctypes.c_double),
         ("spin", ctypes.POINTER(ctypes.c_double)),
         ("spin_capacity", ctypes.c_int64),
+        ("measured_masses", ctypes.c_double * 2),
     ]
 
 

@@ -104,6 +104,14 @@ def measured_range(model: str) -> tuple[float, float, float, float]:
     return (float(speeds[0]), float(speeds[1]), float(sizes[0]), float(sizes[1]))
 
 
+def measured_masses(model: str) -> tuple[float, float]:
+    """(M_min, M_max) [kg], the reduced masses the law's parameters were measured at, from
+    its declaration; (0, inf) where not stated.  The resolver counts the collisions below
+    and above them (``masses_below``, ``masses_above``)."""
+    masses = rs.RESTITUTION[model].measured.masses or (0.0, math.inf)
+    return (float(masses[0]), float(masses[1]))
+
+
 class ResolverHandle:
     """Parameters and statistics of ringsim's C resolver in one simulation.
 
@@ -159,6 +167,7 @@ class ResolverHandle:
         self._address: int | None = address
         self._struct: _Resolver | None = _Resolver.from_address(address)
         self._struct.measured[:] = measured_range(model)
+        self._struct.measured_masses[:] = measured_masses(model)
         self.friction = (None if friction_model == "none"
                          else {"model": friction_model, **friction_params})
         self.inertia_factor = k

@@ -46,7 +46,7 @@ from ringsim.engine.failure import record_failure
 from ringsim.engine.memory import check_particle_memory
 from ringsim.engine.native import set_detector_threads, use_threaded_sei
 from ringsim.engine.progress import progress_bar
-from ringsim.engine.statistics import histogram_edges, with_outer_bins
+from ringsim.engine.statistics import histogram_edges, law_rows, with_outer_bins
 from ringsim.engine.stop import StopRequest as _StopRequest
 from ringsim.errors import InputError
 from ringsim.gravity.registry import raise_pending, set_gravity_threads
@@ -195,8 +195,8 @@ class Runner:
             "z_half_period": 0.5 * g.z_period,
             "overlapping_pairs": box.count_overlaps(arrays, g, self.sim.t),
             "multi_encounters": int(stats["multi_encounters"]),
-            "law_outside_speeds": int(stats["outside_speeds"]),
-            "law_outside_sizes": int(stats["outside_sizes"]),
+            **law_rows(stats, self.edges, self.scenario.particles.density,
+                       self.handle.log_capacity),
             "one_minus_epsilon_histogram": with_outer_bins(stats["histograms"]
                                                            ["one_minus_epsilon"]),
             "impact_speed_histogram": with_outer_bins(stats["histograms"]["v_n"]),

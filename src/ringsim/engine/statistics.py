@@ -17,12 +17,16 @@ The resolver accumulates, since its creation or the last reset:
 * ``outside_speeds``, ``outside_sizes``: collisions outside the speeds and reduced radii
   the law's parameters were measured over; with friction the dissipation in the
   tangential and normal directions [J] and the sliding collisions
-  (``native.FRICTION_STATISTICS``).
+  (``native.FRICTION_STATISTICS``);
+* ``speeds_below`` / ``_above``, ``sizes_below`` / ``_above``, ``masses_below`` /
+  ``_above``: collisions below and above the measured speeds, reduced radii and reduced
+  masses, and ``critically_damped``: collisions whose law gives eps = 0 because its
+  damping ratio xi >= 1 (``native.RANGE_STATISTICS``).
 
 ``ResolverHandle.stats`` reads them with `summary`; ``stats_state``/``set_stats`` save and
 restore them with `saved`, `checked` and `restore`, so that a checkpoint restores the
-statistics of the open output interval bit for bit.  The friction fields are restored as
-zero from a checkpoint that does not hold them.
+statistics of the open output interval bit for bit.  The friction and range fields are
+restored as zero from a checkpoint that does not hold them.
 """
 
 from __future__ import annotations
@@ -38,8 +42,14 @@ from ringsim.engine.native import (
     FRICTION_STATISTICS,
     LOG_DTYPE,
     ONE_MINUS_EPSILON_BIN_EDGES,
+    RANGE_STATISTICS,
     VN_BIN_EDGES,
 )
+from ringsim.physics.pair_bins import pair_bin_sums
+
+#: The counters of the law's measured range a run file's row holds, each as the time
+#: series ``law_<name>``.
+LAW_RANGE_COUNTERS = ("outside_speeds", "outside_sizes", *RANGE_STATISTICS)
 
 #: numpy type of each scalar ctypes type of the statistics struct.
 _NUMPY_TYPES = {ctypes.c_int64: np.int64, ctypes.c_double: np.float64}
@@ -77,8 +87,25 @@ def summary(stats: ctypes.Structure, log: np.ndarray, log_every: int) -> dict[st
         "log_written": int(stats.log_written),
         "log_every": log_every,
         **{name: getattr(stats, name) for name in ("multi_encounters", "outside_speeds",
-                                                   "outside_sizes", *FRICTION_STATISTICS)},
+                                                   "outside_sizes", *FRICTION_STATISTICS,
+                                                   *RANGE_STATISTICS)},
     }
+
+
+def law_rows(stats: Mapping[str, Any], edges: np.ndarray | None, density: float,
+             log_capacity: int) -> dict[str, Any]:
+    """The run-file row entries of the law's range (``law_<name>`` of `LAW_RANGE_COUNTERS`)
+    and, with size bins [m] and a collision log (``log_capacity`` > 0), the interval's
+    sampled collisions per pair of size bins (``size_bin_pair_collisions`` and
+    ``size_bin_pair_epsilon_sum``, ``physics.pair_bins.pair_bin_sums``; particles of one
+    ``density`` [kg/m^3])."""
+    row: dict[str, Any] = {f"law_{name}": int(stats[name]) for name in LAW_RANGE_COUNTERS}
+    log = stats["log"]
+    if edges is not None and log_capacity > 0:
+        counts, sums = pair_bin_sums(log["R_bar"], log["M_bar"], log["epsilon"], density,
+                                     edges)
+        row["size_bin_pair_collisions"], row["size_bin_pair_epsilon_sum"] = counts, sums
+    return row
 
 
 def checked_log(log_capacity: Any, log_every: Any) -> tuple[int, int]:
@@ -154,8 +181,9 @@ def checked(stats: ctypes.Structure, state: Mapping[str, Any]) -> dict[str, np.n
     for name, ctype in _fields(stats):
         if name in state:
             value = np.asarray(state[name])
-        elif name in FRICTION_STATISTICS:
-            value = np.zeros((), _NUMPY_TYPES[ctype])   # a checkpoint from before friction
+        elif name in FRICTION_STATISTICS or name in RANGE_STATISTICS:
+            # a checkpoint from before friction or before the split ranges
+            value = np.zeros((), _NUMPY_TYPES[ctype])
         else:
             raise ValueError(f"statistics: {name} missing")
         expected = (ctype._length_,) if issubclass(ctype, ctypes.Array) else ()

@@ -177,11 +177,14 @@ class MeasuredRange:
         Radii of curvature of the spheres; None: not stated or not a size-dependent law.
     source : str
         Where the range comes from, or why it is not stated.
+    masses : (float, float) or None [kg]
+        (Effective) masses of the impactors; None: not stated.
     """
 
     speeds: tuple[float, float] | None
     sizes: tuple[float, float] | None
     source: str
+    masses: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -345,11 +348,11 @@ class LawTable:
                 lines.append(f"| `{law.name}` | `{par.name}` | {unit} | real | {default} | "
                              f"{par.range_text()} | {par.meaning} | {par.source} |")
         lines += ["", "| model | law | source | measured speeds [m/s] | measured radii [m] | "
-                  "measured by |", "|---|---|---|---|---|---|"]
+                  "measured masses [kg] | measured by |", "|---|---|---|---|---|---|---|"]
         for law in self.laws:
             m = law.measured
-            speeds = f"{m.speeds[0]:g} – {m.speeds[1]:g}" if m.speeds else "not stated"
-            sizes = f"{m.sizes[0]:g} – {m.sizes[1]:g}" if m.sizes else "not stated"
+            speeds, sizes, masses = (f"{r[0]:g} – {r[1]:g}" if r else "not stated"
+                                     for r in (m.speeds, m.sizes, m.masses))
             lines.append(f"| `{law.name}` | {law.formula} | {law.source} | {speeds} | "
-                         f"{sizes} | {m.source} |")
+                         f"{sizes} | {masses} | {m.source} |")
         return "\n".join(lines) + "\n"

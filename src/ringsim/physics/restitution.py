@@ -429,10 +429,10 @@ def constant_epsilon(v: ArrayLike, epsilon: float) -> FloatArray | float:
 
 _D93 = "Dilley (1993)"
 _HATZES = MeasuredRange(
-    speeds=(1e-4, 5e-2), sizes=(0.025, 0.20),
-    source="Hatzes et al. (1988, MNRAS 231, 1091): ice spheres against an ice brick, contact "
-           "surfaces of radii of curvature 2.5-20 cm, about 0.01-5 cm/s, as fitted by Dilley "
-           "(1993) sect. 5 (R_bar = 2.5 cm, M_bar = 60 g is the reference pair)")
+    speeds=(1e-4, 5e-2), sizes=(0.025, 0.20), masses=(0.060, 0.600), source="Hatzes et al. "
+    "(1988, MNRAS 231, 1091): ice spheres against an ice brick, radii of curvature 2.5-20 cm, "
+    "0.01-5 cm/s, fitted by Dilley (1993) sect. 5; mass not varied, an effective mass with the "
+    "disc pendulum's inertia (sect. 2, 5): 60 g (2.5 cm ice sphere) the least, 600 g assumed")
 
 #: Where the plastic laws were applied: no measured range of their own.
 _FIG1A_COMPARISON = MeasuredRange(
