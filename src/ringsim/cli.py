@@ -23,6 +23,7 @@ import traceback
 from pathlib import Path
 
 from ringsim import __version__
+from ringsim.cli_examples import epilog
 from ringsim.errors import InputError
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -434,6 +435,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for add_arguments in _SUBCOMMANDS:
         add_arguments(sub)
+    for name, command in sub.choices.items():   # an example at the end of every --help
+        command.epilog = epilog(name)
+        command.formatter_class = argparse.RawDescriptionHelpFormatter
     return parser
 
 
