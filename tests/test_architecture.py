@@ -45,8 +45,8 @@ LAYERS = {
     "errors": "base", "checks": "base", "report": "base", "quantities": "base",
     "__init__": "base",
     "__version__": "base", "_resolver": "engine",
-    "userlaw": "cli",
-    "cli_examples": "cli",  # the example at the end of every subcommand's --help  # the `ringsim epsilon --restitution` command's law, table and figure
+    "userlaw": "cli",  # the `ringsim epsilon --restitution` command's law, table and figure
+    "cli_examples": "cli",  # the example at the end of every subcommand's --help
     # front ends of batches of runs, like the sweep: the shared run-file policy and studies
     "batch": "sweep", "study": "sweep",
 }

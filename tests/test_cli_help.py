@@ -60,7 +60,7 @@ def test_examples_parse_and_name_existing_files(name):
 
 
 def test_an_example_with_a_renamed_option_fails_to_parse():
-    (argv,) = _example_commands("example:\n  ringsim run x.yaml --workers 2  # not an option of run\n")
+    (argv,) = _example_commands("example:\n  ringsim run x.yaml --workers 2  # not of run\n")
     assert argv == ["ringsim", "run", "x.yaml", "--workers", "2"]
     with pytest.raises(InputError):
         build_parser().parse_args(argv[1:])

@@ -83,7 +83,8 @@ def reduce_file(path: Path) -> None:
 
 
 def run_steps(steps, workdir: Path) -> dict[str, str]:
-    """Run the steps in ``workdir`` (the working directory); returns each command's stdout by its command line."""
+    """Run the steps in ``workdir`` (the working directory); returns each command's stdout
+    by its command line."""
     printed = {}
     for step in steps:
         if step[0] == "file":
