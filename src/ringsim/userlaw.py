@@ -95,9 +95,16 @@ def law_title(law: dict, density: float) -> str:
 
 
 def plot_user_curves(curves: Sequence[Curve], title: str, path: str | Path) -> Path:
+    """Write `user_curves_figure` as a PNG at ``path``; returns the path."""
+    from ringsim.plots.common import save_figure
+
+    return save_figure(user_curves_figure(curves, title), path, dpi=120)
+
+
+def user_curves_figure(curves: Sequence[Curve], title: str):
     """One panel: epsilon against impact speed (in the figures' speed unit, mm/s), a line
-    per radius; writes a PNG."""
-    from ringsim.plots.common import SPEED_SCALE, SPEED_UNIT, pyplot, save_figure
+    per radius (a matplotlib Figure)."""
+    from ringsim.plots.common import SPEED_SCALE, SPEED_UNIT, pyplot
 
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 5.0))
@@ -110,4 +117,4 @@ def plot_user_curves(curves: Sequence[Curve], title: str, path: str | Path) -> P
     ax.set_title(title, fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, loc="lower left")
-    return save_figure(fig, path, dpi=120)
+    return fig

@@ -3,16 +3,17 @@
 Left: E_rot/E_tr against time, with the equilibrium window shaded, its mean, and the
 collisional-balance closed form for constant beta (``physics.friction.
 collisional_spin_ratio``).  Right: the distribution of the spins in units of Omega over the
-snapshots of the window, |w| per size bin (log axis), and the mean w_z per size bin with
+snapshots of the window, |ω| per size bin (log axis), and the mean ω_z per size bin with
 the kinematic marks (synchronous rotation 0; turning with the mean shear flow -3/4; not
 rotating in inertial space -1).  Spins are relative to the rotating frame of the sheet.
+Spins are ω, peculiar velocities w (``structure``): the symbols never share a letter.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ringsim.plots.common import equilibrium_start, pyplot
+from ringsim.plots.common import equilibrium_start, pyplot, set_readable_axis
 
 
 def _window_spins(run, t_start: float):
@@ -63,10 +64,10 @@ def spin_figure(run, eq: dict):
             if members.any():
                 ax_w.hist(w[members] / Omega, bins=bins, histtype="step", lw=1.2,
                           label=f"r = {edges[b]:.3g}-{edges[b + 1]:.3g} m")
-        ax_w.set_xscale("log")
-    ax_w.set_xlabel("|w| / Omega (rotating frame)")
+        set_readable_axis(ax_w, "x", bins, log=True, pad=0.0)
+    ax_w.set_xlabel("spin rate |ω| / Ω (rotating frame) [dimensionless]")
     ax_w.set_ylabel(f"particles (summed over {n_snaps} snapshots)")
-    ax_w.set_title(f"spin rates per size bin; rms {spin['rms_spin']['mean']:.3g} Omega",
+    ax_w.set_title(f"spin rates per size bin; rms {spin['rms_spin']['mean']:.3g} Ω",
                    fontsize=10)
     ax_w.legend(fontsize=7)
 
@@ -81,7 +82,7 @@ def spin_figure(run, eq: dict):
             errors.append(float(np.std(wz[members])) / Omega
                           / np.sqrt(members.sum() / n_snaps))
     ax_z.errorbar(centres, means, yerr=errors, fmt="o", color="C3",
-                  label="mean w_z per size bin (± std / sqrt(n per snapshot))")
+                  label="mean ω_z per size bin (± std / sqrt(n per snapshot))")
     for value, text, style in ((0.0, "synchronous (0)", "-"),
                                (-0.75, "turning with the mean shear flow (-3/4)", "--"),
                                (-1.0, "not rotating in inertial space (-1)", ":")):
@@ -90,9 +91,9 @@ def spin_figure(run, eq: dict):
                  label=f"all particles {spin['mean_spin_z']['mean']:.3f} ± "
                        f"{spin['mean_spin_z']['stderr']:.2g}")
     if len(centres) > 1:
-        ax_z.set_xscale("log")
+        set_readable_axis(ax_z, "x", edges, log=True, pad=0.0)
     ax_z.set_xlabel("particle radius [m]")
-    ax_z.set_ylabel("mean w_z / Omega (rotating frame, > 0 prograde)")
+    ax_z.set_ylabel("mean spin ω_z / Ω (rotating frame, > 0 prograde)\n[dimensionless]")
     ax_z.set_title("mean z-spin per size bin", fontsize=10)
     ax_z.legend(fontsize=7)
     fig.tight_layout()

@@ -174,10 +174,11 @@ def ellipsoid_figure(entries):
     for ax in (ax_r, ax_t):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=label_fontsize(3 * len(entries)), loc="best")
-    fig.suptitle("Velocity ellipsoid: principal rms speeds in the x-y plane and vertical; "
-                 "tilt = ½ atan2(2σxy, σxx − σyy)\n"
-                 f"(means ± standard errors over the equilibrium window; "
-                 f"{equilibrium_note([eq for _r, eq, _s in entries])})", fontsize=9)
+    fig.suptitle(wrapped("Velocity ellipsoid: principal rms speeds in the x-y plane and "
+                         "vertical; tilt = ½ atan2(2σxy, σxx − σyy)\n(means ± standard errors "
+                         "over the equilibrium window; "
+                         f"{equilibrium_note([eq for _r, eq, _s in entries])})", width=95),
+                 fontsize=9)
     return fig
 
 
