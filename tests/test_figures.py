@@ -110,22 +110,29 @@ def legend_over_title(fig) -> list[str]:
     return problems
 
 
+def _along(display: np.ndarray, samples: int = 12) -> np.ndarray:
+    """Points along the segments between consecutive finite vertices (display space), so
+    that a line crossing a legend counts even where its vertices lie outside it."""
+    a, b = display[:-1], display[1:]
+    good = np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)
+    t = np.linspace(0.0, 1.0, samples)[:, None, None]
+    return (a[good] + t * (b[good] - a[good])).reshape(-1, 2)
+
+
 def _data_points(ax) -> np.ndarray:
-    """Display coordinates of the markers and line vertices an axes plots (not the
+    """Display coordinates along the lines, steps and markers an axes plots (not the
     reference lines that span the axes, nor shaded areas)."""
     points = []
     for line in ax.lines:
         x, y = (np.asarray(v, dtype=float) for v in line.get_data())
-        if x.size < 2 or np.ptp(x[np.isfinite(x)] if np.isfinite(x).any() else [0]) == 0 \
-                or np.ptp(y[np.isfinite(y)] if np.isfinite(y).any() else [0]) == 0:
+        if x.size < 2 or np.nanmax(x) == np.nanmin(x) or np.nanmax(y) == np.nanmin(y):
             continue   # axhline / axvline: reference lines, drawn across everything
-        xy = np.column_stack([x, y])
-        points.append(line.get_transform().transform(xy[np.isfinite(xy).all(axis=1)]))
+        display = line.get_transform().transform(np.column_stack([x, y]))
+        points.append(_along(display) if line.get_linestyle() not in ("None", "") else
+                      display[np.isfinite(display).all(axis=1)])
     for patch in ax.patches:   # histograms drawn as steps (not the shaded windows)
         if type(patch).__name__ in ("StepPatch", "Polygon") and not patch.get_fill():
-            vertices = patch.get_path().vertices
-            points.append(patch.get_transform().transform(
-                vertices[np.isfinite(vertices).all(axis=1)]))
+            points.append(_along(patch.get_transform().transform(patch.get_path().vertices)))
     for collection in ax.collections:
         offsets = np.asarray(collection.get_offsets(), dtype=float)
         if offsets.ndim == 2 and len(offsets) > 1 and offsets.shape[0] < 5000:
@@ -158,6 +165,12 @@ def _axes(fig):
             yield from (child for child in ax.child_axes if child.get_visible())
 
 
+def _numeric(label: str) -> bool:
+    """A tick label that shows a number (plain, or matplotlib's math text of a power)."""
+    bare = re.sub(r"\\mathdefault|\\times|[${}^\s]", "", label)
+    return re.fullmatch(r"[-−+]?[\d.]+(?:×?10[-−+]?\d+)?|10[-−+]?\d+", bare) is not None
+
+
 def _title(ax) -> str:
     return repr(ax.get_title()[:40]) if hasattr(ax, "get_title") else "(secondary axis)"
 
@@ -172,6 +185,8 @@ def too_few_ticks(fig) -> list[str]:
             labels = [t for t, v in zip(axis.get_ticklabels(), axis.get_ticklocs(), strict=False)
                       if t.get_visible() and t.get_text().strip()
                       and lo - 1e-9 * abs(hi - lo) <= v <= hi + 1e-9 * abs(hi - lo)]
+            if not all(_numeric(t.get_text()) for t in labels):
+                continue   # a categorical axis (run names, quantities)
             if labels and len(labels) < 3:
                 problems.append(f"{_title(ax)} {name}: "
                                 f"{[t.get_text() for t in labels]}")
@@ -273,7 +288,8 @@ def _all_figures(runs, batch_figures):
     figures["epsilon.png"] = epsilon_figure(paper_curves())
     law, density, radii = read_law("model=dilley,kappa=0.1", None, [0.5, 1.0, 5.0])
     figures["epsilon --restitution"] = user_curves_figure(user_curves(law, density, radii),
-                                                          law_title(law, density))
+                                                          law_title(law, density),
+                                                          law["model"])
     data = read_data(ROOT / "analysis" / "data" / "hatzes_like.csv")
     figures["fit.png"] = fit_figure(data, [fit_model(data, m) for m in ("dilley", "bridges")])
     yield from figures.items()

@@ -100,7 +100,7 @@ def _cmd_epsilon(args) -> int:
                         "epsilon": [float(e) for e in c.epsilon]}
                        for r, c in zip(radii, curves, strict=True)]})
     if args.plot:
-        print(f"wrote {userlaw.plot_user_curves(curves, title, args.plot)}")
+        print(f"wrote {userlaw.plot_user_curves(curves, title, args.plot, law['model'])}")
     return EXIT_OK
 
 

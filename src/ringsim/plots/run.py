@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ringsim.analysis.gravitating import snapshot_wakes
 from ringsim.plots.common import run_style, save_figure, short_run_labels
+from ringsim.plots.compare_extras import extra_comparison_figures
 from ringsim.plots.spins import spin_figure
 from ringsim.plots.structure import (
     epsilon_histogram_figure,
@@ -73,6 +74,7 @@ def comparison_figures(runs, equilibria: list[dict]) -> dict:
     figures["compare_velocity_distribution.png"] = velocity_distribution_figure(entries)
     figures["compare_vertical_profile.png"] = vertical_profile_figure(entries)
     figures["compare_epsilon_histogram.png"] = epsilon_histogram_figure(entries)
+    figures.update(extra_comparison_figures(entries))
     return figures
 
 

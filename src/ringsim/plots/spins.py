@@ -35,7 +35,7 @@ def spin_figure(run, eq: dict):
     period = run.scenario.orbital_period
     spin = eq["spin"]
     start = equilibrium_start(eq)
-    fig, (ax_t, ax_w, ax_z) = plt.subplots(1, 3, figsize=(15, 4.6))
+    fig, (ax_t, ax_w, ax_z) = plt.subplots(1, 3, figsize=(15, 5.6))
     ax_t.plot(ts["orbits"][1:], ts["rotational_energy_ratio"][1:], color="C0", lw=1.0,
               label="E_rot / E_tr")
     frac = spin["rotational_energy_fraction"]
@@ -49,7 +49,7 @@ def spin_figure(run, eq: dict):
                      label=f"collisional balance (closed form) "
                            f"{spin['collisional_spin_ratio']:.3f}")
     ax_t.set_xlabel("time [orbits]")
-    ax_t.set_ylabel("E_rot / E_tr (E_tr relative to the shear flow)")
+    ax_t.set_ylabel("E_rot / E_tr (E_tr relative to the shear flow)\n[dimensionless]")
     ax_t.set_title(f"{eq['name']}: rotational / translational energy", fontsize=10)
     ax_t.legend(fontsize=8, loc="lower right")
 
@@ -69,7 +69,8 @@ def spin_figure(run, eq: dict):
     ax_w.set_ylabel(f"particles (summed over {n_snaps} snapshots)")
     ax_w.set_title(f"spin rates per size bin; rms {spin['rms_spin']['mean']:.3g} Ω",
                    fontsize=10)
-    ax_w.legend(fontsize=7)
+    below = {"loc": "upper center", "bbox_to_anchor": (0.5, -0.16), "frameon": False}
+    ax_w.legend(fontsize=7, ncols=2, **below)   # below the panels: their data fill them
 
     index = np.clip(np.searchsorted(edges, radius, side="right") - 1, 0, edges.size - 2)
     centres, means, errors = [], [], []
@@ -95,6 +96,6 @@ def spin_figure(run, eq: dict):
     ax_z.set_xlabel("particle radius [m]")
     ax_z.set_ylabel("mean spin ω_z / Ω (rotating frame, > 0 prograde)\n[dimensionless]")
     ax_z.set_title("mean z-spin per size bin", fontsize=10)
-    ax_z.legend(fontsize=7)
+    ax_z.legend(fontsize=7, **below)
     fig.tight_layout()
     return fig
