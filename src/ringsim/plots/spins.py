@@ -52,7 +52,6 @@ def spin_figure(run, eq: dict):
     ax_t.set_ylabel("E_rot / E_tr (E_tr relative to the shear flow)\n[dimensionless]")
     ax_t.set_title(f"{eq['name']}: rotational / translational energy", fontsize=10)
     ax_t.legend(fontsize=8, loc="lower right")
-
     w, wz, radius, n_snaps = _window_spins(run, (start or 0.0) * period)
     edges = np.asarray(ts.get("size_bin_edges", [radius.min(), radius.max() * (1 + 1e-12)]))
     positive = w[w > 0] / Omega
