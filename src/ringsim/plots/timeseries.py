@@ -177,7 +177,7 @@ def ellipsoid_figure(entries):
     fig.suptitle(wrapped("Velocity ellipsoid: principal rms speeds in the x-y plane and "
                          "vertical; tilt = ½ atan2(2σxy, σxx − σyy)\n(means ± standard errors "
                          "over the equilibrium window; "
-                         f"{equilibrium_note([eq for _r, eq, _s in entries])})", width=95),
+                         f"{equilibrium_note([eq for _r, eq, _s in entries])})", width=105),
                  fontsize=9)
     return fig
 
