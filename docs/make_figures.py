@@ -1,6 +1,6 @@
 """Build the figure gallery of docs/figures.md: every figure that ``ringsim analyze``,
-``compare``, ``sweep``, ``study``, ``epsilon`` and ``fit`` make, from the bundled scenarios with short
-overrides (a few minutes of CPU in all).
+``compare``, ``sweep``, ``study``, ``epsilon`` and ``fit`` make, from the bundled scenarios
+with short overrides (a few minutes of CPU in all).
 
     python docs/make_figures.py [--workdir DIR [--reuse]] [--out docs/figures/gallery]
 
