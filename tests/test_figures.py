@@ -43,33 +43,22 @@ plt = common.pyplot()
 # --- the checks ----------------------------------------------------------------------------
 
 def _texts(fig):
-    """Every text the figure draws: tick labels of the ticks inside each axis's view (the
-    ones matplotlib draws), and every other visible, non-empty text (titles, axis labels,
+    """Every text the figure draws: the labels of the ticks inside each axis's view (the
+    ones matplotlib draws) and every other visible, non-empty text (titles, axis labels,
     legends, notes)."""
-    from matplotlib.axis import Tick
     from matplotlib.text import Text
 
-    ticks = {id(t) for t in fig.findobj(Tick)}
-    tick_texts = set()
-    shown = []
+    tick_labels, drawn = set(), []
     for ax in _axes(fig):
         for axis in (ax.xaxis, ax.yaxis):
-            for tick in axis._update_ticks():
-                labels = (tick.label1, tick.label2)
-                tick_texts.update(id(t) for t in labels)
-                shown += [t for t in labels if t.get_visible() and t.get_text().strip()]
-    for text in fig.findobj(Text):
-        owner_is_tick = id(text) in tick_texts or id(getattr(text, "_tick", None)) in ticks
-        if not owner_is_tick and _visible(text) and text.get_text().strip():
-            shown.append(text)
-    return [t for t in shown if not _is_tick_label(t, fig)] + \
-        [t for t in shown if _is_tick_label(t, fig) and id(t) in tick_texts]
-
-
-def _is_tick_label(text, fig) -> bool:
-    return any(text is t for ax in _axes(fig) for axis in (ax.xaxis, ax.yaxis)
-               for tick in axis.get_major_ticks() + axis.get_minor_ticks()
-               for t in (tick.label1, tick.label2))
+            for tick in axis.get_major_ticks() + axis.get_minor_ticks():
+                tick_labels.update((id(tick.label1), id(tick.label2)))
+            if axis.get_visible():
+                drawn += [t for tick in axis._update_ticks() for t in (tick.label1, tick.label2)
+                          if t.get_visible() and t.get_text().strip()]
+    drawn += [t for t in fig.findobj(Text)
+              if id(t) not in tick_labels and _visible(t) and t.get_text().strip()]
+    return drawn
 
 
 def _visible(artist) -> bool:
@@ -79,6 +68,7 @@ def _visible(artist) -> bool:
 
 
 def text_outside_canvas(fig) -> list[str]:
+    """The texts whose drawn box leaves the canvas by more than a pixel."""
     renderer = fig.canvas.get_renderer()
     canvas = fig.bbox
     problems = []
@@ -96,6 +86,7 @@ def _legends(fig):
 
 
 def legend_over_title(fig) -> list[str]:
+    """The titles (of the axes and the figure) a legend's box overlaps."""
     renderer = fig.canvas.get_renderer()
     titles = [t for ax in fig.axes if ax.get_visible()
               for t in (ax.title, ax._left_title, ax._right_title) if t.get_text().strip()]
@@ -141,6 +132,7 @@ def _data_points(ax) -> np.ndarray:
 
 
 def legend_over_data(fig) -> list[str]:
+    """The axes whose legend, inside them, covers points along their plotted data."""
     renderer = fig.canvas.get_renderer()
     problems = []
     for ax in fig.axes:
@@ -176,27 +168,30 @@ def _title(ax) -> str:
 
 
 def too_few_ticks(fig) -> list[str]:
+    """Numeric axes with fewer than three labelled ticks in view, and labels written as
+    a × 10^n for values between 10^-3 and 10^4."""
     problems = []
     for ax in _axes(fig):
         for name, axis in (("x", ax.xaxis), ("y", ax.yaxis)):
             if not axis.get_visible():
                 continue
             lo, hi = sorted(axis.get_view_interval())
-            labels = [t for t, v in zip(axis.get_ticklabels(), axis.get_ticklocs(), strict=False)
-                      if t.get_visible() and t.get_text().strip()
-                      and lo - 1e-9 * abs(hi - lo) <= v <= hi + 1e-9 * abs(hi - lo)]
-            if not all(_numeric(t.get_text()) for t in labels):
+            shown = [(t, v) for minor in (False, True)   # matplotlib labels minor ticks too
+                     for t, v in zip(axis.get_ticklabels(minor=minor),
+                                     axis.get_ticklocs(minor=minor), strict=False)
+                     if t.get_visible() and t.get_text().strip()
+                     and lo - 1e-9 * abs(hi - lo) <= v <= hi + 1e-9 * abs(hi - lo)]
+            if not all(_numeric(t.get_text()) for t, _v in shown):
                 continue   # a categorical axis (run names, quantities)
-            if labels and len(labels) < 3:
-                problems.append(f"{_title(ax)} {name}: "
-                                f"{[t.get_text() for t in labels]}")
-            for text, value in zip(axis.get_ticklabels(), axis.get_ticklocs(), strict=False):
-                if re.search(r"times|×", text.get_text()) and 1e-3 <= abs(value) <= 1e4:
-                    problems.append(f"{_title(ax)} {name}: {text.get_text()!r}")
+            if shown and len(shown) < 3:
+                problems.append(f"{_title(ax)} {name}: {[t.get_text() for t, _v in shown]}")
+            problems += [f"{_title(ax)} {name}: {t.get_text()!r}" for t, v in shown
+                         if re.search(r"times|×", t.get_text()) and 1e-3 <= abs(v) <= 1e4]
     return problems
 
 
 def check_figure(name: str, fig) -> list[str]:
+    """Every defect the checks find in ``fig``, laid out as it is saved; closes it."""
     common.lay_out(fig)
     fig.canvas.draw()
     found = [f"{name}: text outside the canvas: {p}" for p in text_outside_canvas(fig)]
@@ -221,6 +216,10 @@ def test_the_checks_find_defects():
     ax.plot(np.linspace(0, 1, 50), np.linspace(0, 1, 50), label="data")
     ax.legend(loc="center")
     assert any("legend over data" in p for p in check_figure("on data", fig))
+    fig, ax = plt.subplots()   # matplotlib's own labels of a log axis under a decade
+    ax.plot([0.6, 2.2], [1.0, 2.0])
+    ax.set_xscale("log")
+    assert any("not plain" in p and "times" in p for p in check_figure("log", fig))
 
 
 # --- tiny runs of every kind ---------------------------------------------------------------
