@@ -27,6 +27,7 @@ SOURCES = [
     "src/ringsim/csrc/rs_gravity.c",
     "src/ringsim/csrc/rs_setup.c",
     "src/ringsim/csrc/rs_p3m.c",
+    "src/ringsim/csrc/rs_sei.c",
 ]
 
 OPENMP_FLAGS = ["-fopenmp"]

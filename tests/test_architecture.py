@@ -47,6 +47,7 @@ LAYERS = {
     "__version__": "base", "_resolver": "engine",
     "userlaw": "cli",  # the `ringsim epsilon --restitution` command's law, table and figure
     "cli_examples": "cli",  # the example at the end of every subcommand's --help
+    "cli_stdout": "cli",  # the command's stdout that survives a closed pipe
     # front ends of batches of runs, like the sweep: the shared run-file policy and studies
     "batch": "sweep", "study": "sweep",
 }

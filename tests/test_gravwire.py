@@ -74,7 +74,8 @@ def test_momentum_of_a_gravitating_sheet_without_collisions():
 # --- the sheet and the run --------------------------------------------------------------------
 
 @pytest.mark.parametrize("name, keywords", [("tree", {"opening_angle": 0.5}),
-                                            ("p3m", {"p3m_setting": (3.0, True)}),
+                                            ("p3m", {"p3m_setting": (3.0, True),
+                                                     "p3m_pair_min_radius": 0.25}),
                                             ("slab", {})])
 def test_each_declared_solver_installs_and_recognises_itself(name, keywords):
     """The registry holds one solver per declaration, in the declarations' order; each

@@ -1,8 +1,9 @@
 """Issue 16, set-up at scale: particles added in one C call, overlap-free placement on a grid.
 
-The placement's result is fixed by its rule (the higher index of each overlapping pair is
-drawn again) and the exact pair test, so the C grid search must find exactly the pairs a
-brute-force numpy search finds; the C add must build the simulation ``sim.add`` builds.
+The placement's result is fixed by its rule (of each overlapping pair the much smaller
+particle, else the higher index, is drawn again) and the exact pair test, so the C grid
+search must find exactly the pairs a brute-force numpy search finds; the C add must build
+the simulation ``sim.add`` builds.
 """
 
 import numpy as np
@@ -58,7 +59,19 @@ def test_grid_search_finds_exactly_the_brute_force_pairs(Lx, Ly, radii_kind):
         grid.move(moved, x, y, z)
         found = grid.overlapping_later(moved)
     np.testing.assert_array_equal(found, _brute_force(x, y, z, radii, Lx, Ly, moved))
-    assert max(moved[0], moved[1]) in found
+    pair = np.array([min(moved[0], moved[1])]), np.array([max(moved[0], moved[1])])
+    assert placement.yielding(*pair, radii)[0] in found
+
+
+def test_the_much_smaller_particle_of_an_overlapping_pair_yields():
+    radii = np.array([1.0, 12.0, 1.0, 0.05, 5.0, 0.5, 5.0])
+    lo, hi = np.array([0, 1, 0, 1, 2, 3, 5]), np.array([1, 3, 2, 4, 3, 4, 6])
+    # 0 is 12 times smaller than 1: 0 yields; 3 is 240 times smaller than 1: 3 yields; equal
+    # radii: the higher index; 4 (5 m) is within a factor 10 of 1 (12 m): the higher index;
+    # 3 (5 cm) is 20 times smaller than 2 and 100 times smaller than 4; 5 and 6 are exactly
+    # a factor 10 apart, as the ends of a 0.5-5 m power law: the higher index, the larger
+    np.testing.assert_array_equal(placement.yielding(lo, hi, radii), [0, 3, 2, 4, 3, 3, 6])
+    assert placement.YIELD_RATIO == 10.0   # RS_YIELD_RATIO of csrc/rs_setup.c
 
 
 def test_dense_sheet_starts_without_overlaps(broad_scenario):

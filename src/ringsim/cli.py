@@ -15,59 +15,17 @@ failed by ``head`` taking the lines it wanted.
 from __future__ import annotations
 
 import argparse
-import io
 import json
-import os
 import sys
 import traceback
 from pathlib import Path
 
 from ringsim import __version__
-from ringsim.cli_examples import epilog
-from ringsim.errors import InputError
+from ringsim.cli_examples import add_examples
+from ringsim.cli_stdout import ClosedPipeSafeStdout
+from ringsim.errors import InputError, clip
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
-
-
-class _ClosedPipeSafeStdout(io.TextIOBase):
-    """stdout that survives its reader going away: after the first BrokenPipeError the
-    file descriptor is pointed at /dev/null (so the interpreter's final flush is quiet too)
-    and the rest of the output is dropped."""
-
-    def __init__(self, stream):
-        self.stream = stream
-        self.reader_gone = False
-
-    def write(self, text: str) -> int:
-        if not self.reader_gone:
-            try:
-                self.stream.write(text)
-                if "\n" in text:
-                    self.stream.flush()
-            except BrokenPipeError:
-                self._drop()
-        return len(text)
-
-    def flush(self) -> None:
-        if not self.reader_gone:
-            try:
-                self.stream.flush()
-            except BrokenPipeError:
-                self._drop()
-
-    def _drop(self) -> None:
-        self.reader_gone = True
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        try:
-            os.dup2(devnull, self.stream.fileno())
-        finally:
-            os.close(devnull)
-
-    def isatty(self) -> bool:
-        return self.stream.isatty()
-
-    def fileno(self) -> int:
-        return self.stream.fileno()
 
 
 class _Parser(argparse.ArgumentParser):
@@ -178,10 +136,16 @@ def _cmd_run(args) -> int:
 
 
 def _open_runs(paths: list[str]):
+    from ringsim.store.run_checks import check_arrays, check_box
     from ringsim.store.runfile import open_run
 
-    # open_run checks each file (RunFileError, exit status 2, for a damaged one)
-    return [open_run(path) for path in paths]
+    # open_run checks each file (RunFileError, exit status 2, for a damaged one), and
+    # store.run_checks its box and the shapes of its arrays
+    runs = [open_run(path) for path in paths]
+    for run in runs:
+        check_box(run.attrs, run.path)
+        check_arrays(run)
+    return runs
 
 
 def _print_status(run) -> None:
@@ -261,10 +225,19 @@ def _cmd_compare(args) -> int:
     runs = _open_runs(paths)
     equilibria = [equilibrium(run) for run in runs]
     comp = comparison(equilibria, systematics)
-    for warning in comp["warnings"]:
-        print(f"ringsim: {warning}", file=sys.stderr)
-    print(comparison_table(comp))
+    print(comparison_table(comp))   # its warnings first, each printed once
     _write_results(args, comp, "plot_comparison", runs, equilibria)
+    return EXIT_OK
+
+
+def _cmd_observe(args) -> int:
+    from ringsim.analysis.observe import observation_table, observe
+
+    (run,) = _open_runs([args.run])
+    _print_status(run)
+    obs = observe(run, args.elevation, args.azimuth, args.snapshot, args.rays, args.precision)
+    print(observation_table(obs))
+    _write_results(args, obs, "plot_observation", run, obs)
     return EXIT_OK
 
 
@@ -364,6 +337,23 @@ def _analyze_arguments(sub) -> None:
     p.set_defaults(func=_cmd_analyze)
 
 
+def _observe_arguments(sub) -> None:
+    p = sub.add_parser("observe", help="synthetic stellar occultations: T and tau_n at (B, phi)")
+    p.add_argument("run", metavar="RUN.h5")
+    p.add_argument("--elevation", type=float, nargs="+", metavar="DEG", help="opening angles "
+                   "B [deg] (default 3.45 10 20 45 90)")
+    p.add_argument("--azimuth", type=float, nargs="+", metavar="DEG", help="azimuths phi "
+                   "[deg] from radial toward orbital motion (default every 15)")
+    p.add_argument("--snapshot", type=int, metavar="K", help="one snapshot (default: all in "
+                   "the equilibrium window)")
+    rays = p.add_mutually_exclusive_group()
+    rays.add_argument("--rays", type=int, metavar="N", help="rays per view and snapshot")
+    rays.add_argument("--precision", type=float, metavar="P", help="relative error of tau_n")
+    p.add_argument("--json", metavar="OUT.json", help="write the views as JSON")
+    p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
+    p.set_defaults(func=_cmd_observe)
+
+
 def _compare_arguments(sub) -> None:
     p = sub.add_parser("compare", help="side-by-side equilibria with ratios")
     p.add_argument("runs", metavar="RUN.h5", nargs="+")
@@ -421,9 +411,20 @@ def _fit_arguments(sub) -> None:
     p.set_defaults(func=_cmd_fit)
 
 
+def _check_targets(args) -> None:
+    """Every output option names a usable file or folder, before the command does any work
+    (``store.output_paths``)."""
+    from ringsim.store.output_paths import check_file_target, check_folder_target
+
+    for name in ("json", "csv", "rebound", "plot", "write_restitution"):
+        check_file_target(getattr(args, name, None), "--" + name.replace("_", "-"))
+    check_folder_target(getattr(args, "plots", None), "--plots")
+
+
 #: The subcommands, in the order ``ringsim --help`` lists them: each adds its parser.
 _SUBCOMMANDS = (_epsilon_arguments, _export_arguments, _run_arguments, _analyze_arguments,
-                _compare_arguments, _sweep_arguments, _study_arguments, _fit_arguments)
+                _observe_arguments, _compare_arguments, _sweep_arguments, _study_arguments,
+                _fit_arguments)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -435,15 +436,13 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for add_arguments in _SUBCOMMANDS:
         add_arguments(sub)
-    for name, command in sub.choices.items():   # an example at the end of every --help
-        command.epilog = epilog(name)
-        command.formatter_class = argparse.RawDescriptionHelpFormatter
+    add_examples(sub)   # an example at the end of every --help
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    if argv is None and not isinstance(sys.stdout, _ClosedPipeSafeStdout):
-        sys.stdout = _ClosedPipeSafeStdout(sys.stdout)
+    if argv is None and not isinstance(sys.stdout, ClosedPipeSafeStdout):
+        sys.stdout = ClosedPipeSafeStdout(sys.stdout)
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv  # accepted anywhere on the line
     argv = [a for a in argv if a != "--debug"]
@@ -453,6 +452,7 @@ def main(argv: list[str] | None = None) -> int:
             parser.print_help()
             return EXIT_OK
         args = parser.parse_args(argv)
+        _check_targets(args)
         return int(args.func(args) or 0)
     except InputError as exc:
         if debug:
@@ -465,8 +465,8 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # noqa: BLE001 - the command line's last resort, status 1
         if debug:
             traceback.print_exc()
-        print(f"ringsim: error: {type(exc).__name__}: {exc} (rerun with --debug for a "
-              "traceback)", file=sys.stderr)
+        print(f"ringsim: error: {type(exc).__name__}: {clip(str(exc), 300)} (rerun with "
+              "--debug for a traceback)", file=sys.stderr)
         return EXIT_FAILURE
 
 

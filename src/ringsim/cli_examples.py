@@ -20,6 +20,9 @@ EXAMPLES: dict[str, str] = {
         "ringsim run scenarios/kappa0.yaml --resume           # continues a stopped run"),
     "analyze": (
         "ringsim analyze runs/kappa0.h5 --json eq.json --plots figs/kappa0"),
+    "observe": (
+        "ringsim observe runs/kappa0.h5 --elevation 3.45 20 --plots figs/observe\n"
+        "                              # occultations at two opening angles B [deg]"),
     "compare": (
         "ringsim compare runs/kappa0.h5 runs/kappa0.1.h5 --plots figs/compare "
         "--json compare.json"),
@@ -31,6 +34,16 @@ EXAMPLES: dict[str, str] = {
     "fit": (
         "ringsim fit analysis/data/hatzes_like.csv --model all --plot fit.png"),
 }
+
+
+def add_examples(subparsers) -> None:
+    """Give every subcommand parser of ``subparsers`` its example as the ``--help`` epilog
+    (kept as written: one command a line)."""
+    import argparse
+
+    for name, command in subparsers.choices.items():
+        command.epilog = epilog(name)
+        command.formatter_class = argparse.RawDescriptionHelpFormatter
 
 
 def epilog(command: str) -> str | None:

@@ -30,8 +30,9 @@ from dataclasses import dataclass
 
 #: The unit of a pure number.
 DIMENSIONLESS = "dimensionless"
-#: How particles are weighted in an average, where a quantity is one.
-WEIGHTINGS = ("number", "mass")
+#: How particles are weighted in an average, where a quantity is one ("cross section":
+#: by pi r^2, the weighting of the optical depth and of occultations).
+WEIGHTINGS = ("number", "mass", "cross section")
 #: The unit speeds are shown in (tables and figures) and its factor from m/s.
 SPEED_SHOWN = "mm/s"
 SPEED_FACTOR = 1e3
@@ -80,6 +81,13 @@ class Quantity:
         """The label with the shown unit in brackets (none for a shown pure number)."""
         return self.label + (f" [{self.shown}]" if self.shown else "")
 
+    @property
+    def headline_label(self) -> str:
+        """`table_label` naming the weighting, for the rows of ``analyze``'s table."""
+        named = (f"{self.label}, {self.weighting.replace(' ', '-')}-weighted" if self.weighting
+                 else self.label)
+        return named + (f" [{self.shown}]" if self.shown else "")
+
     def axis_label(self, separator: str = " ") -> str:
         """A figure axis' label: the label and, in brackets, the shown unit (the stored
         unit where nothing is shown, e.g. ``[dimensionless]``)."""
@@ -102,12 +110,13 @@ _DECLARED = (
     _speed("velocity_dispersion", "1-D rms speed relative to the shear flow vy = -1.5 Ω x: "
            "sqrt(trace W / 3)", "velocity dispersion c", "number"),
     _speed("velocity_dispersion_mass_weighted", "the same as `velocity_dispersion`",
-           weighting="mass"),
+           "velocity dispersion c", "mass"),
     *(Quantity(f"sigma_{ij}", "m^2/s^2", "component of the mean-subtracted dispersion "
                "tensor W", weighting="number") for ij in ("xx", "yy", "zz", "xy")),
     Quantity("thickness", "m", "rms z about the mean", "thickness H (rms z)",
              weighting="number"),
-    Quantity("thickness_mass_weighted", "m", "rms z about the mean", weighting="mass"),
+    Quantity("thickness_mass_weighted", "m", "rms z about the mean", "thickness H (rms z)",
+             weighting="mass"),
     Quantity("filling_factor", DIMENSIONLESS, "volume fraction of particles in the midplane "
              "slab |z - <z>| < <r>", "midplane filling factor"),
     Quantity("optical_depth", DIMENSIONLESS, "dynamical optical depth Σπr² / (Lx Ly)"),
@@ -180,8 +189,8 @@ _DECLARED = (
     Quantity("impact_speed_bin_edges", "m/s", "edges of the bins of `impact_speed_histogram`"),
     # --- the equilibrium (ringsim analyze) -----------------------------------------------------
     Quantity("velocity_dispersion_rOmega", "mean radius x Omega", "c / (<r> Ω)",
-             "c / (<r> Omega)", ""),
-    Quantity("thickness_r", "mean radii", "H / <r>", "H / <r>", ""),
+             "c / (<r> Omega)", "", weighting="number"),
+    Quantity("thickness_r", "mean radii", "H / <r>", "H / <r>", "", weighting="number"),
     Quantity("collision_frequency", "1/orbit", "impacts per particle per orbit over the "
              "window", "collisions per particle per orbit", ""),
     Quantity("collisional_viscosity", "m^2/s", "2 Δplog / (3 Ω Σ Lx Ly Δt) over the window",
@@ -224,6 +233,41 @@ _DECLARED = (
              "`rotational_energy_ratio`", "E_rot / E_tr"),
     Quantity("sliding_fraction", DIMENSIONLESS, "share of the window's collisions on which "
              "Coulomb's bound acted", "sliding collisions"),
+    # --- random against coherent motion, weightings (analysis.motions) -------------------------
+    Quantity("thickness_cross_section_weighted", "m", "rms z about the mean, each particle "
+             "weighted by its cross section πr² (the weighting of the optical depth and of "
+             "occultations), over the window's snapshots", "thickness H",
+             weighting="cross section"),
+    _speed("velocity_dispersion_number_weighted", "`velocity_dispersion` under a name that "
+           "says its weighting", "velocity dispersion c", "number"),
+    Quantity("thickness_number_weighted", "m", "`thickness` under a name that says its "
+             "weighting", "thickness H (rms z)", weighting="number"),
+    _speed("velocity_dispersion_local_number_weighted", "1-D rms speed about the local mean "
+           "flow: velocities relative to the shear flow minus the mean of their (x, y) cell "
+           "of side `local_dispersion_cell` (cells of 3 or more particles), with the bias of "
+           "the cell means removed; the random part of `velocity_dispersion` without "
+           "coherent motion (wakes); over the window's snapshots",
+           "local velocity dispersion c_loc", "number"),
+    _speed("velocity_dispersion_local_mass_weighted", "the same as "
+           "`velocity_dispersion_local_number_weighted`, the particles' variances averaged "
+           "by mass",
+           "local velocity dispersion c_loc", "mass"),
+    Quantity("local_dispersion_cell", "m", "side of the (x, y) cells of the local mean flow: "
+             "λ_cr / 8, but at least the side holding 4 particles on average",
+             "cell of the local mean flow"),
+    Quantity("spin_bins.rotational_energy_random", "J", "per particle, 1/2 I |w - <w>_I|²: "
+             "the spins about the bin's inertia-weighted mean spin (the same in the rotating "
+             "and the inertial frame)", "E_rot about the mean"),
+    Quantity("spin_bins.rotational_energy_mean_rotating", "J", "per particle, 1/2 I "
+             "|<w>_I|²: the part of the mean spin, rotating frame", "E_rot of the mean spin"),
+    Quantity("spin_bins.rotational_energy_mean_inertial", "J", "per particle, 1/2 I "
+             "|<w>_I + Ω z|²: the part of the mean spin, inertial frame",
+             "E_rot of the mean spin (inertial)"),
+    Quantity("spin_bins.rotational_energy_fraction_random", DIMENSIONLESS, "E_rot about the "
+             "mean over E_tr of the bin", "E_rot about the mean / E_tr"),
+    Quantity("spin.rotational_energy_fraction_random", DIMENSIONLESS, "the spins about each "
+             "size bin's mean spin over E_tr, summed over the bins, from the window's "
+             "snapshots", "E_rot about the mean spin / E_tr"),
     # --- a gravitating run's equilibrium (analysis.gravitating) --------------------------------
     Quantity("r_h", DIMENSIONLESS, "Hill parameter of the mean pair",
              "Hill parameter r_h (mean pair)"),

@@ -19,7 +19,7 @@ import numpy as np
 
 from ringsim.config.scenario import scenario_from_dict
 from ringsim.config.schema import parse_yaml, read_text
-from ringsim.errors import InputError
+from ringsim.errors import InputError, excerpt
 from ringsim.physics import restitution as rs
 from ringsim.plots.laws import Curve
 
@@ -37,7 +37,7 @@ def _from_pairs(spec: str) -> dict[str, Any]:
     for item in spec.split(","):
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
-            raise InputError("<command line>", "--restitution", f"{item!r} is not key=value "
+            raise InputError("<command line>", "--restitution", f"{excerpt(item)} is not key=value "
                              "(e.g. model=dilley,kappa=0.1, or a YAML file)")
         section[key.strip()] = parse_yaml(value.strip(), "<command line>")
     return section
@@ -72,9 +72,9 @@ def read_law(spec: str, density: float | None, radii: Sequence[float] | None
         radii = sorted({sd.smallest_radius, sd.mean_radius, sd.largest_radius})
     for r in radii:
         if not (np.isfinite(r) and r > 0):
-            raise InputError("<command line>", "--radius", f"{r!r} is not a radius > 0 [m]")
+            raise InputError("<command line>", "--radius", f"{excerpt(r)} is not a radius > 0 [m]")
     if not (np.isfinite(density) and density > 0):
-        raise InputError("<command line>", "--density", f"{density!r} is not > 0 [kg/m^3]")
+        raise InputError("<command line>", "--density", f"{excerpt(density)} is not > 0 [kg/m^3]")
     return law, float(density), [float(r) for r in radii]
 
 

@@ -1,8 +1,9 @@
 """Equilibria of runs, with error bars, and their comparison (``ringsim analyze`` / ``compare``).
 
-The equilibrium window is found on the velocity dispersion and the thickness (MSER-5 on
-each, the later start wins); every quantity is then averaged over that same window with a
-standard error corrected for autocorrelation (``timeseries.stationary_mean``).  A run whose
+The equilibrium window is found on the velocity dispersion and the thickness, number- and
+mass-weighted (MSER-5 on each, the latest start wins); every quantity is then averaged over
+that same window with a standard error corrected for autocorrelation
+(``timeseries.stationary_mean``).  A run whose
 window is too short or still drifts is reported as not in equilibrium, with the reason.
 The keys of the result are part of the interface users rely on: docs/interface.md,
 "Equilibrium JSON".
@@ -15,7 +16,7 @@ import math
 import numpy as np
 
 from ringsim import quantities
-from ringsim.analysis import collisions, spins, tiling, timeseries
+from ringsim.analysis import collisions, motions, spins, tiling, timeseries
 from ringsim.analysis.gravitating import gravity_equilibrium, gravity_table_lines
 from ringsim.physics import kinetic
 from ringsim.physics.restitution import RESTITUTION
@@ -96,23 +97,31 @@ def _table_quantities(ts: dict, start: int, radius: np.ndarray, mass: np.ndarray
 
 
 def stationary_window(orbits: np.ndarray, velocity_dispersion: np.ndarray,
-                      thickness: np.ndarray, first_orbit: float = 0.0) -> dict:
+                      thickness: np.ndarray, first_orbit: float = 0.0,
+                      mass_weighted: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
     """Where a run's equilibrium window starts and whether c and H are stationary there.
 
     The one verdict of ringsim: ``analyze`` reports it and ``integration.until_equilibrium``
     stops a run on it.  Row 0 (the initial state, before any collision) is skipped; the
-    finder (``timeseries.stationary_mean``) runs on c and on H, the later start wins, and the
-    run is in equilibrium only if both are stationary with enough independent samples.
+    finder (``timeseries.stationary_mean``) runs on c and on H, number-weighted, and, where
+    given, mass-weighted (a few large particles can hold much of the mass and relax more
+    slowly); the latest start wins, and the run is in equilibrium only if every series is
+    stationary with enough independent samples.  Drift slopes are quoted in mm/s per orbit
+    for c and m per orbit for H.
 
     Parameters
     ----------
     orbits : array [orbits]
         Output times.
     velocity_dispersion : array [m/s]
+        Number-weighted.
     thickness : array [m]
+        Number-weighted.
     first_orbit : float [orbits]
         Rows before it are skipped too (a tiled start's copies not yet independent,
         ``tiling.independent_from_orbit``); inf: no row is, and there is no window.
+    mass_weighted : (array [m/s], array [m]) or None
+        The mass-weighted c and H, judged as well.
 
     Returns
     -------
@@ -125,13 +134,27 @@ def stationary_window(orbits: np.ndarray, velocity_dispersion: np.ndarray,
     if first >= orbits.size:
         return {"start": orbits.size - 1, "in_equilibrium": False,
                 "reason": "the copies of the tiled start are not independent yet: no window"}
-    fits = {name: timeseries.stationary_mean(orbits[first:], series[first:], time_unit="orbit")
-            for name, series in (("velocity dispersion", velocity_dispersion),
-                                 ("thickness", thickness))}
+    series = [("velocity dispersion", velocity_dispersion, 1e3, "mm/s"),
+              ("thickness", thickness, 1.0, "m")]
+    for (name, number, scale, shown), values in zip(series[:2], mass_weighted or (),
+                                                    strict=False):
+        if not np.allclose(values, number, rtol=1e-9, atol=0.0, equal_nan=True):
+            # (identical particles give the same series to rounding: judged once)
+            series.append((f"mass-weighted {name}", values, scale, shown))
+    fits = {name: timeseries.stationary_mean(orbits[first:],
+                                             scale * np.asarray(values, float)[first:],
+                                             time_unit="orbit", value_unit=shown)
+            for name, values, scale, shown in series}
     problems = [f"{name}: {fit.reason}" for name, fit in fits.items() if not fit.in_equilibrium]
     return {"start": first + max(fit.start_index for fit in fits.values()),
             "in_equilibrium": not problems,
             "reason": "; ".join(problems) if problems else fits["velocity dispersion"].reason}
+
+
+def _mass_weighted(ts) -> tuple[np.ndarray, np.ndarray] | None:
+    """The mass-weighted c [m/s] and H [m] of a time series, None if it lacks them."""
+    keys = ("velocity_dispersion_mass_weighted", "thickness_mass_weighted")
+    return (ts[keys[0]], ts[keys[1]]) if all(key in ts for key in keys) else None
 
 
 def _window(run, ts) -> tuple[dict, float | None]:
@@ -140,7 +163,7 @@ def _window(run, ts) -> tuple[dict, float | None]:
     a run not started from a tiled snapshot; ``tiling.independent_from_orbit``)."""
     independent = tiling.independent_from_orbit(run)
     return (stationary_window(ts["orbits"], ts["velocity_dispersion"], ts["thickness"],
-                              independent or 0.0), independent)
+                              independent or 0.0, _mass_weighted(ts)), independent)
 
 
 def equilibrium(run) -> dict:
@@ -165,7 +188,8 @@ def equilibrium(run) -> dict:
         `size_dispersion_ratio`) and ``kinetic_estimate`` (the dilute-ring energy balance
         of the scenario's law, ``kinetic.kinetic_dispersion_estimate``), ``energy_budget``
         and, with friction, ``spin`` and ``rotational_energy_fraction``
-        (``analysis.spins``); after a tiled start ``tiled_copies_independent_from_orbit``.
+        (``analysis.spins``); weighted and local c and H, ``weightings``
+        (``analysis.motions``); after a tiled start ``tiled_copies_independent_from_orbit``.
     """
     ts = run.timeseries
     sc = run.scenario
@@ -180,16 +204,11 @@ def equilibrium(run) -> dict:
 
     out: dict = {"name": sc.name}
     out.update(_table_quantities(ts, start, radius, mass, Omega, Lx, Ly))
+    out.update(motions.motion_equilibrium(run, start))
     out["equilibrium_from_orbit"] = _value(float(orbits[start]) if start < orbits.size
                                            else math.nan, 0.0,
                                            quantities.unit("equilibrium_from_orbit"))
-    out["per_size_bin"] = _per_size_bin(ts, start, radius, mass)
-    out["size_ratio"] = size_dispersion_ratio(out["per_size_bin"])
-    out["law_range"] = law_range(ts, start, sc.restitution.model)
-    out["energy_budget"] = spins.energy_budget(run, start)
-    out["spin"] = spins.spin_equilibrium(run, start, ts.get("size_bin_edges"))
-    if out["spin"]:
-        out["rotational_energy_fraction"] = out["spin"]["rotational_energy_fraction"]
+    _add_size_sections(out, run, start, radius, mass)
     if sc.sheet.gravity:
         out.update(gravity_equilibrium(run, start, out))
     if independent is not None:
@@ -203,7 +222,22 @@ def equilibrium(run) -> dict:
     out["scenario"] = sc.to_dict()
     out["kinetic_estimate"] = kinetic_estimate(sc.restitution_dict(), radius, mass,
                                                out["optical_depth"], Omega)
+    motions.name_weightings(out)
     return out
+
+
+def _add_size_sections(out: dict, run, start: int, radius: np.ndarray, mass: np.ndarray
+                       ) -> None:
+    """The per-size-bin rows, the size ratio, the law's range, the energy budget and the
+    spins of an equilibrium (radius [m] and mass [kg] of the first snapshot)."""
+    ts = run.timeseries
+    out["per_size_bin"] = _per_size_bin(ts, start, radius, mass)
+    out["size_ratio"] = size_dispersion_ratio(out["per_size_bin"])
+    out["law_range"] = law_range(ts, start, run.scenario.restitution.model)
+    out["energy_budget"] = spins.energy_budget(run, start)
+    out["spin"] = spins.spin_equilibrium(run, start, ts.get("size_bin_edges"))
+    if out["spin"]:
+        out["rotational_energy_fraction"] = out["spin"]["rotational_energy_fraction"]
 
 
 #: Share of impacts outside the speeds (or sizes) a law was measured over above which
@@ -379,9 +413,10 @@ def equilibrium_table(eq: dict) -> str:
              f"tau = {eq['optical_depth']:.3g}, status {eq.get('status', 'unknown')})"]
     if not eq["in_equilibrium"]:
         lines.append(NOT_IN_EQUILIBRIUM.format(name=eq["name"], reason=eq["reason"]))
-    status = "in equilibrium" if eq["in_equilibrium"] else "NOT IN EQUILIBRIUM"
+    status = (f"in equilibrium ({eq['reason']})" if eq["in_equilibrium"]
+              else "NOT IN EQUILIBRIUM (see the warning)")
     lines.append(f"equilibrium window from orbit {eq['equilibrium_from_orbit']['mean']:.3g}: "
-                 f"{status} ({eq['reason']})")
+                 f"{status}")
     if "tiled_copies_independent_from_orbit" in eq:
         tile = eq["scenario"]["sheet"]["initial_state"]["tile"]
         when = eq["tiled_copies_independent_from_orbit"]["mean"]
@@ -391,7 +426,8 @@ def equilibrium_table(eq: dict) -> str:
                         else "the copies are not independent by the last snapshot"))
     for key in TABLE_ROWS:
         q = quantities.QUANTITY[key]
-        lines.append(f"  {q.table_label:<42} {_fmt(eq[key], q.scale)}")
+        lines.append(f"  {q.headline_label:<42} {_fmt(eq[key], q.scale)}")
+    lines += motions.motion_table_lines(eq)
     lines += gravity_table_lines(eq)
     k = eq["kinetic_estimate"]
     if k["status"] == "equilibrium":
@@ -412,5 +448,13 @@ def equilibrium_table(eq: dict) -> str:
         if line:
             lines.append("  " + line)
     lines += ["  " + line for line in law_range_lines(eq)]
-    lines += spins.spin_table_lines(eq)
+    lines += spins.spin_table_lines(eq, budget=not _gravity_balance_shown(eq))
     return "\n".join(lines)
+
+
+def _gravity_balance_shown(eq: dict) -> bool:
+    """Whether the table holds a gravitating run's energy balance (with nu_grav), which is
+    then the run's one energy balance: the shear-heating budget without nu_grav is not
+    printed beside it."""
+    closure = eq.get("energy_closure")
+    return closure is not None and math.isfinite(closure["mean"])

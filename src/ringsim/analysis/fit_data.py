@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ringsim.errors import InputError
+from ringsim.errors import InputError, excerpt
 from ringsim.physics import restitution as rs
 
 _COLUMNS = ("v_m_s", "R_bar_m", "R1_m", "R2_m", "M_bar_kg", "M1_kg", "M2_kg", "epsilon",
@@ -78,10 +78,10 @@ def _parse_cell(path: str, column: str, line: int, text: str, allow_inf: bool) -
     try:
         value = float(text)
     except ValueError:
-        raise InputError(path, column, f"line {line}: {text!r} is not a number") from None
+        raise InputError(path, column, f"line {line}: {excerpt(text)} is not a number") from None
     if math.isnan(value) or (math.isinf(value) and not (allow_inf and value > 0)):
         allowed = "a finite number or inf" if allow_inf else "a finite number"
-        raise InputError(path, column, f"line {line}: {text!r} is not {allowed}")
+        raise InputError(path, column, f"line {line}: {excerpt(text)} is not {allowed}")
     return value
 
 
@@ -123,7 +123,7 @@ def _check_header(path: str, header: list[str], need_sizes: bool) -> None:
         if name not in _COLUMNS:
             close = difflib.get_close_matches(name, _COLUMNS, n=1, cutoff=0.6)
             hint = f"did you mean {close[0]!r}? " if close else ""
-            raise InputError(path, name or "<header>", f"unknown column {name!r} ({hint}"
+            raise InputError(path, name or "<header>", f"unknown column {excerpt(name)} ({hint}"
                              f"columns: {_HEADER_HELP})")
         if name in seen:
             raise InputError(path, name, "the column appears twice")

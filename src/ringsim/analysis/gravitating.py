@@ -330,7 +330,10 @@ def gravity_table_lines(eq: dict) -> list[str]:
     if "lambda_cr" not in eq:
         return []
     lines = []
+    balance = math.isfinite(eq["energy_closure"]["mean"])
     for key in GRAVITY_QUANTITIES:
+        if key in ENERGY_KEYS and not balance:
+            continue  # no balance measured: the run's one balance is analysis.spins'
         q = QUANTITY[key]
         value = eq[key]
         mean = value["mean"] * q.scale

@@ -201,7 +201,8 @@ def _drift(tw: FloatArray, vw: FloatArray, mean: float,
 
 
 def _drift_problems(slope: float, slope_err: float, drift: float, trend_sigma: float,
-                    max_relative_drift: float, time_unit: str) -> list[str]:
+                    max_relative_drift: float, time_unit: str, value_unit: str = ""
+                    ) -> list[str]:
     """The drift verdict of `stationary_mean`: a slope beyond ``trend_sigma`` standard
     errors (or a noiseless line) AND a change beyond ``max_relative_drift``."""
     significant = slope_err > 0.0 and abs(slope) > trend_sigma * slope_err
@@ -210,7 +211,8 @@ def _drift_problems(slope: float, slope_err: float, drift: float, trend_sigma: f
     if not (significant and drift > max_relative_drift):
         return []
     sigmas = abs(slope) / slope_err if slope_err > 0.0 else math.inf
-    return [f"still drifting: slope {slope:.3g} per {time_unit} is {sigmas:.1f} sigma, "
+    per = f"{value_unit} per {time_unit}" if value_unit else f"per {time_unit}"
+    return [f"still drifting: slope {slope:.3g} {per} is {sigmas:.1f} sigma, "
             f"a change of {100 * drift:.1f}% over the window"]
 
 
@@ -218,7 +220,7 @@ def stationary_mean(series_t: ArrayLike, series_values: ArrayLike, *,
                     min_fraction: float = 0.5, batch_size: int = 5,
                     min_effective_samples: float = 20.0, trend_sigma: float = 3.0,
                     max_relative_drift: float = 0.05, window_factor: float = 5.0,
-                    time_unit: str = "time unit") -> EquilibriumResult:
+                    time_unit: str = "time unit", value_unit: str = "") -> EquilibriumResult:
     """Equilibrium mean and its standard error of a time series, with a drift test.
 
     1. The transient is cut by MSER-5 (``mser_truncation``), discarding at most
@@ -252,8 +254,9 @@ def stationary_mean(series_t: ArrayLike, series_values: ArrayLike, *,
         Largest tolerated fitted change over the window relative to |mean|.
     window_factor : float
         Sokal's window constant c.
-    time_unit : str
-        Name of the unit of ``series_t`` (e.g. "orbit"), used in the drift message.
+    time_unit, value_unit : str
+        Units of ``series_t`` (e.g. "orbit") and ``series_values`` (e.g. "mm/s"), named in
+        the drift message.
     """
     t, v = _finite_samples(series_t, series_values, min_fraction)
     if v.size < 3:
@@ -263,7 +266,7 @@ def stationary_mean(series_t: ArrayLike, series_values: ArrayLike, *,
     mean, stderr, n_eff = autocorrelated_mean(vw, window_factor)
     slope, slope_err, drift = _drift(tw, vw, mean, window_factor)
     problems = (_drift_problems(slope, slope_err, drift, trend_sigma, max_relative_drift,
-                                time_unit)
+                                time_unit, value_unit)
                 + _window_problems(at_limit, n_eff, min_fraction, min_effective_samples))
     reason = "; ".join(problems) if problems else (
         f"stationary after sample {start}: {n_eff:.0f} effective samples, "

@@ -84,7 +84,9 @@ def read_gravity_keys(sec: Section, d: dict[str, Any]) -> dict[str, Any]:
 
 def p3m_setting(sheet, mean_radius: float) -> tuple[float, bool] | None:
     """(split [m], auto) of a sheet's P3M solver: ``sheet.p3m_split`` given as a number, or
-    "auto" from P3M_SPLIT_RADII mean radii up; None without P3M.
+    "auto" from P3M_SPLIT_RADII times the larger of the mean radius and
+    ``sheet.p3m_pair_min_radius`` up (the particles of the pair sum set the split); None
+    without P3M.
 
     Parameters
     ----------
@@ -93,7 +95,8 @@ def p3m_setting(sheet, mean_radius: float) -> tuple[float, bool] | None:
     """
     if sheet.gravity_solver != P3M.name:
         return None
-    return p3m_first_split(sheet.p3m_split, mean_radius), sheet.p3m_split == "auto"
+    base = max(mean_radius, sheet.p3m_pair_min_radius or 0.0)
+    return p3m_first_split(sheet.p3m_split, base), sheet.p3m_split == "auto"
 
 
 def check_gravity_box(top: Section, sheet, mean_radius: float, lx: float, ly: float) -> None:

@@ -43,6 +43,7 @@ import yaml
 
 from ringsim.config.gravity_keys import check_gravity_box, p3m_setting
 from ringsim.config.initial_state import check_tiled_stop
+from ringsim.config.intervals import check_intervals
 from ringsim.config.scenario_keys import (
     COLLISION_DETECTIONS,
     DEFAULTS,
@@ -308,6 +309,7 @@ def _build(data: Any, source: str, source_text: str | None) -> Scenario:
     integration = _read_integration(top, planet)
     check_tiled_stop(top, sheet.initial_state, integration.until_equilibrium)
     output = read_output(top, name)
+    check_intervals(top, integration, output)
     scenario = Scenario(name=name, seed=seed, description=description, planet=planet,
                         particles=particles, sheet=sheet, restitution=restitution,
                         integration=integration, output=output, friction=friction,

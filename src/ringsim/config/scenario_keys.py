@@ -30,10 +30,13 @@ from ringsim.physics.gravity_solvers import SOLVER_PARAMETERS
 from ringsim.physics.laws import DIMENSIONLESS
 from ringsim.physics.restitution import RESTITUTION
 from ringsim.physics.sizes import (
+    CUTOFF_PARAMETERS,
+    MIN_CUTOFF_ACCEPTANCE,
     Mixture,
     MixtureComponent,
     Monodisperse,
     PowerLaw,
+    PowerLawCutoff,
     SizeDistribution,
 )
 
@@ -43,6 +46,14 @@ MAX_SEED = 2**32 - 1
 MAX_OPTICAL_DEPTH = 3.0
 #: Largest step accepted [orbits]: collisions need dt << 1/Omega.
 MAX_DT_ORBITS = 0.1
+#: Smallest and largest particle radius [m]: a micrometre grain to a 100 km moonlet, far
+#: outside ring particles' centimetres to metres, inside what the box and masses hold in
+#: floating point (r^3 and the power law's moments of r_min^-q).
+MIN_RADIUS = 1e-6
+MAX_RADIUS = 1e5
+#: Longest scenario name [characters]: it names files (runs/<name>.h5 and the run file's
+#: companions), which most file systems allow up to 255 bytes.
+MAX_NAME_CHARS = 100
 #: Tolerance on the sum of a mixture's number fractions.
 FRACTION_SUM_TOLERANCE = 1e-9
 
@@ -63,6 +74,7 @@ SECTION_KEYS: dict[str, tuple[str, ...]] = {
 SIZE_KINDS: dict[str, tuple[str, ...]] = {
     "monodisperse": ("radius",),
     "powerlaw": ("q", "r_min", "r_max"),
+    "powerlaw_cutoff": tuple(p.name for p in CUTOFF_PARAMETERS),
     "mixture": ("components",),
 }
 #: Words of ``integration.collision_detection``.
@@ -96,8 +108,11 @@ DEFAULTS: dict[str, Any] = {
 
 
 def read_name(top: Section) -> str:
-    allowed = "a non-empty string without '/', '\\' or surrounding spaces"
+    allowed = (f"a non-empty string of at most {MAX_NAME_CHARS} characters without '/', "
+               "'\\' or surrounding spaces")
     name = top.string("name", what=allowed)
+    if len(name) > MAX_NAME_CHARS:   # it names files: runs/<name>.h5.parts/...
+        raise top.error("name", f"{len(name)} characters ({show(name)})", allowed)
     if name != name.strip() or any(c in name for c in "/\\\n\r\t\0"):
         raise top.error("name", f"{show(name)} cannot be used in a file name", allowed)
     return name
@@ -123,22 +138,34 @@ def read_planet(top: Section) -> Planet:
     return Planet(Omega=None, GM=gm, a=a)
 
 
+def _radius(sec: Section, name: str) -> float:
+    """A particle radius [m] > 0, within [MIN_RADIUS, MAX_RADIUS]."""
+    r = sec.number(name, unit="m", gt=0.0)
+    if not MIN_RADIUS <= r <= MAX_RADIUS:
+        raise sec.error(name, f"{r:g} m is out of range",
+                        f"a finite real number > 0 [m], from {MIN_RADIUS:g} to {MAX_RADIUS:g}")
+    return r
+
+
 def read_size_distribution(particles: Section) -> SizeDistribution:
     sec = particles.section("size_distribution", required=True,
                             allowed="a mapping: kind monodisperse {radius}, powerlaw "
-                            "{q, r_min, r_max} or mixture {components}")
+                            "{q, r_min, r_max}, powerlaw_cutoff {q, r_min, r_max, r_cut, "
+                            "cutoff_exponent} or mixture {components}")
     kind = sec.string("kind", choices=tuple(SIZE_KINDS))
     sec.check_keys(("kind",) + SIZE_KINDS[kind], context=f"kind {kind}")
     if kind == "monodisperse":
-        return Monodisperse(radius=sec.number("radius", unit="m", gt=0.0))
+        return Monodisperse(radius=_radius(sec, "radius"))
     if kind == "powerlaw":
         q = sec.number("q")
-        r_min = sec.number("r_min", unit="m", gt=0.0)
-        r_max = sec.number("r_max", unit="m", gt=0.0)
+        r_min = _radius(sec, "r_min")
+        r_max = _radius(sec, "r_max")
         if r_min > r_max:
             raise sec.error("r_min", f"r_min = {r_min:g} m is larger than r_max = {r_max:g} m",
                             "0 < r_min <= r_max")
         return PowerLaw(q=q, r_min=r_min, r_max=r_max)
+    if kind == "powerlaw_cutoff":
+        return read_cutoff(sec)
     allowed = "a non-empty list of {radius [m], number_fraction} mappings"
     components = sec.get("components", REQUIRED, allowed)
     if not isinstance(components, (list, tuple)) or not components:
@@ -149,7 +176,7 @@ def read_size_distribution(particles: Section) -> SizeDistribution:
             raise sec.error(f"components.{i}", f"got {show(item)}, not a mapping", allowed)
         comp = Section(sec.file, sec.key(f"components.{i}"), item)
         comp.check_keys(("radius", "number_fraction"))
-        parsed.append(MixtureComponent(radius=comp.number("radius", unit="m", gt=0.0),
+        parsed.append(MixtureComponent(radius=_radius(comp, "radius"),
                                        number_fraction=comp.number("number_fraction", gt=0.0,
                                                                    le=1.0)))
     total = math.fsum(c.number_fraction for c in parsed)
@@ -157,6 +184,26 @@ def read_size_distribution(particles: Section) -> SizeDistribution:
         raise sec.error("components", f"number fractions sum to {total:.12g}",
                         f"they must sum to 1 within {FRACTION_SUM_TOLERANCE:g}")
     return Mixture(components=tuple(parsed))
+
+
+def read_cutoff(sec: Section) -> PowerLawCutoff:
+    """``kind: powerlaw_cutoff``, validated against its declaration `CUTOFF_PARAMETERS`."""
+    values = {p.name: sec.number(p.name, REQUIRED if p.required else p.default,
+                                 unit="" if p.unit == DIMENSIONLESS else p.unit, **p.limits())
+              for p in CUTOFF_PARAMETERS}
+    for name in ("r_min", "r_max"):
+        if not MIN_RADIUS <= values[name] <= MAX_RADIUS:
+            raise sec.error(name, f"{values[name]:g} m is out of range", "a finite real "
+                            f"number > 0 [m], from {MIN_RADIUS:g} to {MAX_RADIUS:g}")
+    if values["r_min"] > values["r_max"]:
+        raise sec.error("r_min", f"r_min = {values['r_min']:g} m is larger than r_max = "
+                        f"{values['r_max']:g} m", "0 < r_min <= r_max")
+    sizes = PowerLawCutoff(**values)
+    if sizes.acceptance() < MIN_CUTOFF_ACCEPTANCE:
+        raise sec.error("r_cut", f"r_cut = {values['r_cut']:g} m leaves fewer than "
+                        f"{MIN_CUTOFF_ACCEPTANCE:g} of the power law's particles",
+                        "a cutoff radius nearer r_max")
+    return sizes
 
 
 def read_particles(top: Section) -> Particles:

@@ -18,14 +18,14 @@ import math
 import numbers
 from collections.abc import Mapping, Sequence
 from os import PathLike
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from ruamel.yaml import YAML
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
-from ringsim.errors import InputError
+from ringsim.config.bounds import MAX_TEXT_CHARS, BoundError, check_events
+from ringsim.errors import InputError, excerpt
 
 REQUIRED = object()
 
@@ -63,9 +63,9 @@ class ScenarioError(InputError):
 
 
 def show(value: Any) -> str:
-    """A short one-line rendering of a user's value for an error message."""
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
+    """A short one-line rendering of a user's value for an error message (a bounded
+    excerpt: its cost does not grow with the value, `ringsim.errors.excerpt`)."""
+    return excerpt(value, 60)
 
 
 def _is_real(value: Any) -> bool:
@@ -104,7 +104,7 @@ class Section:
                 lower = {a.lower(): a for a in allowed}
                 close = [lower[name.lower()]] if name.lower() in lower else []
             hint = f"did you mean {close[0]!r}? " if close else ""
-            raise self.error(name, f"unknown key {name!r}" + (f" for {context}" if context
+            raise self.error(name, f"unknown key {show(name)}" + (f" for {context}" if context
                                                                 else ""),
                              f"{hint}allowed here: {', '.join(allowed)}")
 
@@ -252,7 +252,12 @@ def plain(value: Any) -> Any:
 def read_text(path: str | PathLike) -> str:
     """The file's text, or ScenarioError with key "<file>"."""
     try:
-        return Path(path).read_text(encoding="utf-8")
+        with open(path, "rb") as stream:
+            data = stream.read(4 * MAX_TEXT_CHARS + 1)   # UTF-8: at most 4 bytes a character
+        if len(data) > 4 * MAX_TEXT_CHARS:
+            raise ScenarioError(str(path), "<file>", "the file is too large for a YAML file",
+                                f"at most {MAX_TEXT_CHARS} characters")
+        return data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise ScenarioError(str(path), "<file>", f"not UTF-8 text ({exc.reason})",
                             "a UTF-8 YAML text file") from None
@@ -265,11 +270,16 @@ def parse_yaml(text: str, source: str) -> Any:
     """YAML 1.2 text -> plain Python data (dicts, lists, str, int, float, bool, None).
 
     Safe loading only (no Python objects from tags); a syntax error or a duplicated key
-    raises `ScenarioError` with key ``"<yaml>"`` and the line and column.
+    raises `ScenarioError` with key ``"<yaml>"`` and the line and column.  The text is
+    checked first for bounded work (`config.bounds`: size, nesting, expanded aliases,
+    integer digits, string lengths), each refusal naming its dotted key.
     """
     loader = YAML(typ="safe", pure=True)
     try:
+        check_events(text)
         return loader.load(text)
+    except BoundError as exc:
+        raise ScenarioError(source, exc.key, exc.problem, exc.allowed) from None
     except YAMLError as exc:
         mark = None
         if isinstance(exc, MarkedYAMLError):

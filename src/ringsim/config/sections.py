@@ -72,7 +72,7 @@ class Particles:
     ----------
     density : float [kg/m^3]
         Bulk density of every particle (900 for solid ice; lower for porous aggregates).
-    size_distribution : Monodisperse | PowerLaw | Mixture
+    size_distribution : Monodisperse | PowerLaw | PowerLawCutoff | Mixture
     inertia_factor : float [dimensionless]
         k in the moment of inertia I = k m R^2 (2/5: solid sphere); used with a
         ``friction`` section only (`ringsim.physics.friction.INERTIA_FACTOR`).
@@ -121,6 +121,8 @@ class SheetConfig:
     p3m_split : float [m] or "auto" or None
         Split scale of the P3M solver; "auto" follows the layer's height span; None
         without P3M.
+    p3m_pair_min_radius : float [m] or None
+        P3M's field-only particles are those smaller than this (0: none); None without P3M.
     z_box : float [mean radii] or "auto"
         Initial vertical height of the box.
     initial_state : InitialStateFile or None
@@ -138,6 +140,7 @@ class SheetConfig:
     initial_state: InitialStateFile | None = None
     gravity_solver: str | None = None
     p3m_split: float | str | None = None
+    p3m_pair_min_radius: float | None = None
 
     def gravity_dict(self) -> dict[str, Any]:
         """The self-gravity keys as a scenario gives them ({} without gravity; no softening

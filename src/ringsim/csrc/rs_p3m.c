@@ -32,6 +32,12 @@
  * alpha = s / Lx; the box is doubly periodic there) and horizontal layers z0 + l dz that span
  * the particles' z range (rs_p3m_prepare sets z0 and nz at each call).
  *
+ * Field-only pairs.  Two particles both smaller than pair_min_radius (0: none) interact
+ * through the mesh only: the short-range rest of their pair is left out (every other pair
+ * is summed from both sides, so momentum is still conserved).  In a size distribution
+ * whose small particles carry little of the mass this removes most pairs
+ * (`sheet.p3m_pair_min_radius`, docs/gravity.md).
+ *
  * Validity.  r_c < min(Lx, Ly) (checked by the Python side), boundary "shear", particles
  * inside the box (REBOUND wraps them before the force evaluation), N_var = 0.  Each pair is
  * evaluated from both sides (gather): the pair forces are antisymmetric to round-off, so
@@ -60,6 +66,7 @@ struct rs_p3m {
     double z0;             /* height of layer 0 [m] (set by rs_p3m_prepare) */
     double shift;          /* shear offset s [m] at the call's time (rs_p3m_prepare) */
     double alpha;          /* s / Lx */
+    double pair_min_radius;   /* [m]: pairs of two smaller particles are mesh-only */
     double table[RS_P3M_TABLE + 2];   /* L(r)/r^3 [1/m^3] at r^2 = k rc^2 / RS_P3M_TABLE */
 };
 
@@ -400,9 +407,93 @@ static void rs_p3m_cells(const struct rs_p3m* p, const double* sx, const double*
     }
 }
 
+/* A cell list of the pair sum: the particles' wrapped positions and masses sorted by cell
+ * (x-major), the first slot of each cell in start[0..cells] and each slot's particle. */
+struct rs_p3m_list {
+    size_t n;
+    size_t* start;
+    size_t* order;
+    double *sx, *sy, *sz, *sm;
+};
+
+static void rs_p3m_list_free(struct rs_p3m_list* l){
+    free(l->start);
+    free(l->order);
+    free(l->sx);
+}
+
+/* Sort the particles of radius >= r_min (all for r_min = 0) into a cell list of ncx x ncy
+ * cells, positions wrapped into the box with the shear offset s.  Returns 0 if memory ran
+ * out. */
+static int rs_p3m_list_build(struct rs_p3m_list* l, const struct reb_particle* ps, size_t n,
+                             double r_min, int ncx, int ncy, double Lx, double Ly, double s){
+    const size_t cells = (size_t)ncx * (size_t)ncy;
+    size_t m = 0;
+    for (size_t k = 0; k < n; k++){
+        m += ps[k].r >= r_min;
+    }
+    l->n = m;
+    l->start = calloc(cells + 1, sizeof(size_t));
+    l->order = malloc((m + 1) * sizeof(size_t));
+    l->sx = malloc((4 * m + 1) * sizeof(double));
+    size_t* cell_of = malloc((n + 1) * sizeof(size_t));
+    double* wrapped = malloc((2 * n + 1) * sizeof(double));
+    if (l->start == NULL || l->order == NULL || l->sx == NULL || cell_of == NULL
+        || wrapped == NULL){
+        free(cell_of);
+        free(wrapped);
+        return 0;
+    }
+    l->sy = l->sx + m;
+    l->sz = l->sx + 2 * m;
+    l->sm = l->sx + 3 * m;
+    const double hx = Lx / ncx, hy = Ly / ncy;
+    for (size_t k = 0; k < n; k++){   /* wrap, then counting sort into cells (x-major) */
+        if (ps[k].r < r_min){
+            cell_of[k] = cells;        /* not in this list */
+            continue;
+        }
+        const double nx_img = floor((ps[k].x + 0.5 * Lx) / Lx);
+        const double x = ps[k].x - nx_img * Lx;
+        double y = ps[k].y + nx_img * s;
+        y -= Ly * floor((y + 0.5 * Ly) / Ly);
+        wrapped[2 * k] = x;
+        wrapped[2 * k + 1] = y;
+        int cx = (int)floor((x + 0.5 * Lx) / hx), cy = (int)floor((y + 0.5 * Ly) / hy);
+        cx = cx < 0 ? 0 : (cx >= ncx ? ncx - 1 : cx);
+        cy = cy < 0 ? 0 : (cy >= ncy ? ncy - 1 : cy);
+        cell_of[k] = (size_t)cx * (size_t)ncy + (size_t)cy;
+        l->start[cell_of[k] + 1]++;
+    }
+    for (size_t c = 0; c < cells; c++){
+        l->start[c + 1] += l->start[c];
+    }
+    for (size_t k = 0; k < n; k++){
+        if (cell_of[k] == cells){
+            continue;
+        }
+        const size_t slot = l->start[cell_of[k]]++;
+        l->order[slot] = k;
+        l->sx[slot] = wrapped[2 * k];
+        l->sy[slot] = wrapped[2 * k + 1];
+        l->sz[slot] = ps[k].z;
+        l->sm[slot] = ps[k].m;
+    }
+    for (size_t c = cells; c > 0; c--){   /* restore the starts */
+        l->start[c] = l->start[c - 1];
+    }
+    l->start[0] = 0;
+    free(cell_of);
+    free(wrapped);
+    return 1;
+}
+
 /* Add the short-range pair forces (see the file header) to every particle.  Positions are
  * first wrapped into the box with the shear (REBOUND evaluates forces at mid-step, before
- * its boundary check), so that every pair is found from both sides with the same image. */
+ * its boundary check), so that every pair is found from both sides with the same image.
+ * With field-only particles (pair_min_radius > 0) a second list holds the others: a
+ * field-only target sums over it, every other target over all particles, so that each
+ * pair but those of two field-only particles is summed from both sides. */
 void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
     const size_t n = r->N - r->N_var;
     struct reb_particle* const ps = r->particles;
@@ -410,6 +501,7 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
     const double Ly = r->root_size * (double)r->N_root_y;
     const double rc = p->cutoff, s = p->shift, G = r->G;
     const double inv_step = (double)RS_P3M_TABLE / (rc * rc);
+    const double r_pair = p->pair_min_radius;
     int ncx = (int)(RS_P3M_CELLS_PER_CUTOFF * Lx / rc);
     int ncy = (int)(RS_P3M_CELLS_PER_CUTOFF * Ly / rc);
     const int all_pairs = ncx < 2 * RS_P3M_CELLS_PER_CUTOFF + 1
@@ -418,67 +510,35 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
         ncx = 1;       /* one cell: every pair, at each image within r_c */
         ncy = 1;
     }
-    const size_t cells = (size_t)ncx * (size_t)ncy;
-    size_t* start = calloc(cells + 1, sizeof(size_t));
-    size_t* cell_of = malloc(2 * n * sizeof(size_t));
-    double* buf = malloc(6 * n * sizeof(double));
-    if (start == NULL || cell_of == NULL || buf == NULL){
-        free(start);
-        free(cell_of);
-        free(buf);
+    struct rs_p3m_list all = {0}, large = {0};
+    int ok = rs_p3m_list_build(&all, ps, n, 0.0, ncx, ncy, Lx, Ly, s);
+    if (ok && r_pair > 0.0){
+        ok = rs_p3m_list_build(&large, ps, n, r_pair, ncx, ncy, Lx, Ly, s);
+    }
+    if (!ok){
+        rs_p3m_list_free(&all);
+        rs_p3m_list_free(&large);
         p->error = 1;
         return;
     }
-    size_t* order = cell_of + n;
-    double *sx = buf, *sy = buf + n, *sz = buf + 2 * n, *sm = buf + 3 * n;
-    double *wxs = buf + 4 * n, *wys = buf + 5 * n;
-    const double hx = Lx / ncx, hy = Ly / ncy;
-    for (size_t k = 0; k < n; k++){   /* wrap, then counting sort into cells (x-major) */
-        const double nx_img = floor((ps[k].x + 0.5 * Lx) / Lx);
-        const double x = ps[k].x - nx_img * Lx;
-        double y = ps[k].y + nx_img * s;
-        y -= Ly * floor((y + 0.5 * Ly) / Ly);
-        wxs[k] = x;
-        wys[k] = y;
-        int cx = (int)floor((x + 0.5 * Lx) / hx), cy = (int)floor((y + 0.5 * Ly) / hy);
-        cx = cx < 0 ? 0 : (cx >= ncx ? ncx - 1 : cx);
-        cy = cy < 0 ? 0 : (cy >= ncy ? ncy - 1 : cy);
-        cell_of[k] = (size_t)cx * (size_t)ncy + (size_t)cy;
-        start[cell_of[k] + 1]++;
-    }
-    for (size_t c = 0; c < cells; c++){
-        start[c + 1] += start[c];
-    }
-    for (size_t k = 0; k < n; k++){
-        const size_t slot = start[cell_of[k]]++;
-        order[slot] = k;
-        sx[slot] = wxs[k];
-        sy[slot] = wys[k];
-        sz[slot] = ps[k].z;
-        sm[slot] = ps[k].m;
-    }
-    for (size_t c = cells; c > 0; c--){   /* restore the starts */
-        start[c] = start[c - 1];
-    }
-    start[0] = 0;
     /* targets in cell order (sources cached); each target's sum is its own, in a fixed
      * order: the same bits on any number of threads */
 #pragma omp parallel for schedule(dynamic, 256) num_threads(rs_p3m_threads(p, n))
     for (size_t slot = 0; slot < n; slot++){
+        struct reb_particle* const q = &ps[all.order[slot]];
+        const struct rs_p3m_list* src = q->r < r_pair ? &large : &all;
         double acc[3] = {0.0, 0.0, 0.0};
         if (all_pairs){
-            rs_p3m_all_images(p, sx, sy, sz, sm, n, sx[slot], sy[slot], sz[slot], Lx, Ly, s,
-                              inv_step, acc);
+            rs_p3m_all_images(p, src->sx, src->sy, src->sz, src->sm, src->n, all.sx[slot],
+                              all.sy[slot], all.sz[slot], Lx, Ly, s, inv_step, acc);
         }else{
-            rs_p3m_cells(p, sx, sy, sz, sm, start, ncx, ncy, Lx, Ly, s, sx[slot], sy[slot],
-                         sz[slot], inv_step, acc);
+            rs_p3m_cells(p, src->sx, src->sy, src->sz, src->sm, src->start, ncx, ncy, Lx, Ly,
+                         s, all.sx[slot], all.sy[slot], all.sz[slot], inv_step, acc);
         }
-        struct reb_particle* const q = &ps[order[slot]];
         q->ax += G * acc[0];
         q->ay += G * acc[1];
         q->az += G * acc[2];
     }
-    free(start);
-    free(cell_of);
-    free(buf);
+    rs_p3m_list_free(&all);
+    rs_p3m_list_free(&large);
 }

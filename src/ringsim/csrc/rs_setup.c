@@ -58,6 +58,9 @@ int64_t rs_add_particles(struct reb_simulation* r, rs_add_function add, int64_t 
 
 /** Radius classes of the overlap grid at most (ringsim.engine.placement.MAX_CLASSES). */
 #define RS_MAX_CLASSES 32
+/** Of an overlapping pair, a particle more than this many times smaller than the other is
+ *  drawn again (ringsim.engine.placement.YIELD_RATIO). */
+#define RS_YIELD_RATIO 10.0
 
 
 /** Cell index of a coordinate c >= 0 in cells of width w, clamped to [0, n). */
@@ -85,7 +88,9 @@ struct rs_found {
 
 /** Slots a and b overlap: the exact test of ringsim.engine.placement.overlapping_later
  *  (lower index first, minimal image in x and y, squares summed x + y then + z, compared
- *  with (r_lo + r_hi)^2); the higher index goes into `found`. */
+ *  with (r_lo + r_hi)^2); the one that yields goes into `found`: the smaller one where the
+ *  other is more than RS_YIELD_RATIO times larger (so the largest particles are placed first
+ *  and much smaller ones fill the room around them), else the higher index. */
 static void rs_test_pair(const struct rs_grid_particle* a, const struct rs_grid_particle* b,
                          double Lx, double Ly, struct rs_found* found) {
     const struct rs_grid_particle* lo = a->index < b->index ? a : b;
@@ -100,9 +105,11 @@ static void rs_test_pair(const struct rs_grid_particle* a, const struct rs_grid_
     dy -= Ly * nearbyint(dy / Ly);
     double s = dx * dx + dy * dy;
     s += dz * dz;
-    if (s < rr * rr && !found->flag[hi->index]) {
-        found->flag[hi->index] = 1;
-        found->list[found->count++] = hi->index;
+    const struct rs_grid_particle* yields =
+        lo->r > RS_YIELD_RATIO * hi->r ? hi : (hi->r > RS_YIELD_RATIO * lo->r ? lo : hi);
+    if (s < rr * rr && !found->flag[yields->index]) {
+        found->flag[yields->index] = 1;
+        found->list[found->count++] = yields->index;
     }
 }
 
@@ -309,9 +316,10 @@ static void rs_search(const struct rs_grid* g, int64_t s, int all, struct rs_fou
 }
 
 /**
- * The higher index of every overlapping pair with at least one of the k particles idx (all
- * n particles if idx is NULL), each pair tested once, written to out[0..count) (unsorted,
- * each once; out has room for n); returns count, or -1 without memory.  Particle i looks at
+ * The yielding particle (rs_test_pair) of every overlapping pair with at least one of the
+ * k particles idx (all n particles if idx is NULL), each pair tested once, written to
+ * out[0..count) (unsorted, each once; out has room for n); returns count, or -1 without
+ * memory.  Particle i looks at
  * the cells of class c within r_i + largest[c] (1 + margin).  Particles are searched in the
  * order of their cells (neighbours stay in the cache).
  */

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import rebound
 
+from ringsim.engine import native
 from ringsim.store import runfile
 
 
@@ -22,7 +23,8 @@ def simulation_binary(sim: rebound.Simulation) -> bytes:
     fd, name = tempfile.mkstemp(suffix=".bin")
     os.close(fd)
     try:
-        sim.save_to_file(name, delete_file=True)
+        with native.rebound_sei(sim):     # the file names REBOUND's SEI (same bits)
+            sim.save_to_file(name, delete_file=True)
         return Path(name).read_bytes()
     finally:
         os.unlink(name)

@@ -19,7 +19,7 @@ from fractions import Fraction
 import numpy as np
 import rebound
 
-from ringsim.engine.native import _LIB
+from ringsim.engine.native import _LIB, use_threaded_sei
 from ringsim.physics.constants import SHEAR
 
 #: Overlaps deeper than this fraction of the smaller radius are reported.
@@ -107,6 +107,7 @@ def configure_box(sim: rebound.Simulation, geometry: SheetGeometry) -> None:
     particle is added (the tree is built as particles arrive).
     """
     sim.integrator = "sei"
+    use_threaded_sei(sim)      # REBOUND's SEI, bit for bit, on threads
     sim.OMEGA = geometry.Omega
     sim.OMEGAZ = geometry.Omega
     sim.root_size = geometry.root_size

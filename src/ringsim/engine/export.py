@@ -21,6 +21,7 @@ import numpy as np
 
 from ringsim.config.scenario import scenario_from_dict
 from ringsim.engine.initial_file import CSV_COLUMNS, CSV_FIELDS, CSV_SPIN_COLUMNS
+from ringsim.engine.native import rebound_sei
 from ringsim.engine.sheet import new_simulation
 from ringsim.errors import InputError
 from ringsim.gravity.registry import scenario_gravity_arguments
@@ -82,7 +83,8 @@ def export_rebound(run, index: int, out: str | Path) -> tuple[Path, dict]:
     out.parent.mkdir(parents=True, exist_ok=True)
     if out.exists():
         out.unlink()  # save_to_file appends to an existing file
-    sim.save_to_file(str(out))
+    with rebound_sei(sim):      # the file names REBOUND's SEI: plain REBOUND loads it
+        sim.save_to_file(str(out))
     gravity = None
     if scenario.sheet.gravity:      # the run loop's arguments, those not given left out
         gravity = {key: value for key, value in scenario_gravity_arguments(scenario).items()

@@ -79,4 +79,10 @@ def scenario_gravity(scenario, radii, masses, geometry) -> dict:
                         scenario.orbital_frequency, planet.GM, planet.a)
     out["attributes"].update(solver_attributes(scenario, geometry))
     out["message"] += f"; solver {scenario.sheet.gravity_solver or 'tree'}"
+    r_pair = scenario.sheet.p3m_pair_min_radius or 0.0
+    if r_pair > 0.0:
+        small = np.asarray(radii) < r_pair
+        share = float(np.sum(np.asarray(masses)[small]) / np.sum(masses))
+        out["message"] += (f"; field-only below {r_pair:g} m: {small.mean():.1%} of the "
+                           f"particles by number, {share:.2%} by mass")
     return out

@@ -36,16 +36,19 @@ from pathlib import Path
 
 import numpy as np
 
+from ringsim.config.intervals import MAX_STEPS
 from ringsim.engine.box import (
     OVERLAP_REPORT_FRACTION,
     SheetGeometry,
     box_geometry,
     count_overlaps,
 )
-from ringsim.errors import InputError
-from ringsim.physics.constants import SHEAR
+from ringsim.engine.timestep import auto_dt
+from ringsim.errors import InputError, excerpt
+from ringsim.physics.constants import SHEAR, SPEED_OF_LIGHT
 from ringsim.physics.selfgravity import shear_offset
 from ringsim.store.bulk import SPIN_FIELDS
+from ringsim.store.run_checks import check_box
 from ringsim.store.runfile import open_run
 
 #: CSV columns of a particle file, in the order `ringsim export --csv` writes them, and the
@@ -146,7 +149,8 @@ def _number(scenario, path: Path, attrs: dict, name: str) -> float:
     """The run file's root attribute ``name`` as a float; InputError if it is no number."""
     value = attrs.get(name)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise _error(scenario, f"{path}: the attribute {name} is {value!r}, not a number")
+        raise _error(scenario, f"{path}: the attribute {name} is {excerpt(value)}, not a "
+                     "number")
     return float(value)
 
 
@@ -155,6 +159,7 @@ def _read_run(scenario, path: Path) -> FileState:
         run = open_run(path)
     except (OSError, KeyError) as exc:
         raise _error(scenario, f"{path} is not a ringsim run file ({exc})") from None
+    check_box(run.attrs, path)
     index = scenario.sheet.initial_state.snapshot
     if not -run.n_snapshots <= index < run.n_snapshots:
         raise _error(scenario, f"{path} has {run.n_snapshots} snapshots, no index {index} "
@@ -210,7 +215,12 @@ def refuse_copies_alike(scenario) -> None:
 
 
 def _read_csv(scenario, path: Path) -> FileState:
-    lines = [line for line in path.read_text(encoding="utf-8").splitlines()
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise _error(scenario, f"{path}: not UTF-8 text ({exc.reason} at byte "
+                     f"{exc.start})") from None
+    lines = [line for line in text.splitlines()
              if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
         raise _error(scenario, f"{path} has no header line ({', '.join(CSV_COLUMNS)})")
@@ -220,7 +230,7 @@ def _read_csv(scenario, path: Path) -> FileState:
     missing = [c for c in wanted if c not in header]
     unknown = [c for c in header if c not in wanted]
     if missing or unknown or len(header) != len(wanted):
-        what = (f"unknown column {unknown[0]!r}" if unknown else
+        what = (f"unknown column {excerpt(unknown[0])}" if unknown else
                 f"missing column {missing[0]!r}" if missing else "a column appears twice")
         raise _error(scenario, f"{path}: {what} (the header is {','.join(CSV_COLUMNS)}, "
                      f"optionally followed by all of {','.join(CSV_SPIN_COLUMNS)}; units in "
@@ -229,10 +239,31 @@ def _read_csv(scenario, path: Path) -> FileState:
         table = np.array([[float(cell) for cell in line.split(",")] for line in lines[1:]],
                          dtype=float).reshape(-1, len(header))
     except ValueError as exc:
-        raise _error(scenario, f"{path}: not a table of numbers ({exc})") from None
+        raise _error(scenario, f"{path}: not a table of numbers "
+                     f"({excerpt(str(exc), 100)})") from None
     arrays = {field: table[:, header.index(column)]
               for field, column in zip(CSV_FIELDS + SPIN_FIELDS, wanted, strict=False)}
     return FileState(arrays, None, 0, 0, scenario.sheet.initial_state.t)
+
+
+def _check_speeds(scenario, path: Path, a: dict, Omega: float) -> None:
+    """Refuse speeds relative to the shear flow at or above the speed of light, and, with
+    ``dt: auto`` and tree detection, speeds whose time step would make the run longer than
+    `config.intervals.MAX_STEPS` steps (dt << r/v: ``engine.timestep.auto_dt``)."""
+    w = np.sqrt(a["vx"] ** 2 + (a["vy"] + SHEAR * Omega * a["x"]) ** 2 + a["vz"] ** 2)
+    fastest = float(np.max(w))
+    if not fastest < SPEED_OF_LIGHT:
+        raise _error(scenario, f"{path}: a particle moves at {fastest:.3g} m/s relative to "
+                     f"the shear flow, not below the speed of light ({SPEED_OF_LIGHT:g} m/s)")
+    integration = scenario.integration
+    if integration.dt != "auto" or integration.collision_detection != "tree":
+        return
+    dt = auto_dt(a, Omega, integration.dt_safety)
+    steps = integration.orbits * scenario.orbital_period / dt
+    if steps > MAX_STEPS:
+        raise _error(scenario, f"{path}: a particle moves at {fastest:.3g} m/s relative to "
+                     f"the shear flow: dt: auto would take {steps:.3g} steps, more than "
+                     f"{MAX_STEPS:.0e}")
 
 
 def read_initial_state(scenario):
@@ -259,6 +290,7 @@ def read_initial_state(scenario):
         if not np.all(a[field] > 0):
             raise _error(scenario, f"{path}: every {field} must be > 0")
     Omega = scenario.orbital_frequency
+    _check_speeds(scenario, path, a, Omega)
     if loaded.root_size is not None:
         geometry = SheetGeometry(loaded.root_size, loaded.n_root_x, loaded.n_root_y, 1, Omega)
     else:

@@ -7,9 +7,11 @@ of the C functions REBOUND calls.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import importlib.util
 import os
+from collections.abc import Iterator
 from typing import Any, cast
 
 import numpy as np
@@ -208,7 +210,7 @@ def _declare_detector(lib: ctypes.CDLL) -> None:
 #: One function of each C source.  setup.py compiles every source into the one library, so
 #: a library without one of them is a broken build, refused when it is loaded.
 _ONE_SYMBOL_PER_SOURCE = ("rs_resolve", "rs_sheet_step", "rs_add_particles", "rs_ghost_field",
-                          "rs_p3m_short")
+                          "rs_p3m_short", "rs_sei_register")
 
 
 def _load_library() -> ctypes.CDLL:
@@ -332,7 +334,7 @@ P3M_TABLE = 4096
 
 class P3MStruct(ctypes.Structure):
     """Mirror of ``struct rs_p3m`` (split, cutoff, softening, dz [m]; mesh; per-call
-    layer geometry and shear offset)."""
+    layer geometry and shear offset; the smallest radius [m] in the pair sum)."""
     _fields_ = [
         ("split", ctypes.c_double),
         ("cutoff", ctypes.c_double),
@@ -347,6 +349,7 @@ class P3MStruct(ctypes.Structure):
         ("z0", ctypes.c_double),
         ("shift", ctypes.c_double),
         ("alpha", ctypes.c_double),
+        ("pair_min_radius", ctypes.c_double),
         ("table", ctypes.c_double * (P3M_TABLE + 2)),
     ]
 
@@ -371,6 +374,63 @@ def _declare_p3m(lib: ctypes.CDLL) -> None:
 _declare_p3m(_LIB)
 #: True: the library has the P3M solver, as it has every source (checked at load).
 HAS_P3M = True
+
+#: Name of ringsim's threaded SEI in REBOUND's registry of integrators (csrc/rs_sei.c): the
+#: arithmetic of REBOUND's "sei", with its drift and kick loops on OpenMP threads.
+THREADED_SEI = "ringsim_sei"
+_THREADED_SEI_NAME = THREADED_SEI.encode("ascii")   # lives as long as the registry
+
+
+def _register_threaded_sei(lib: ctypes.CDLL) -> None:
+    """Register the threaded SEI with REBOUND, once per process (at import), through
+    REBOUND's public ``reb_integrator_register``."""
+    lib.rs_sei_register.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_char_p]
+    lib.rs_sei_register.restype = None
+    lib.rs_sei_set_threads.argtypes = [ctypes.c_void_p, ctypes.c_int]
+    lib.rs_sei_set_threads.restype = ctypes.c_int
+    lib.rs_sei_particles_per_thread.restype = ctypes.c_int
+    librebound = rebound.clibrebound
+    lib.rs_sei_register(ctypes.cast(librebound.reb_integrator_register, ctypes.c_void_p),
+                        ctypes.cast(librebound.reb_simulation_update_acceleration,
+                                    ctypes.c_void_p),
+                        _THREADED_SEI_NAME)
+
+
+_register_threaded_sei(_LIB)
+
+
+def use_threaded_sei(sim: rebound.Simulation, threads: int = 1) -> None:
+    """Integrate ``sim`` (SEI) with ringsim's threaded SEI on ``threads`` OpenMP threads.
+
+    The same bits as REBOUND's ``sei`` on any number of threads (tests/test_sei.py): a
+    speed setting only.  A simulation with another integrator is left as it is.
+    """
+    threads = checked_threads(threads)
+    if str(sim.integrator) not in ("sei", THREADED_SEI):
+        return
+    if str(sim.integrator) != THREADED_SEI:
+        sim.integrator = THREADED_SEI
+    _LIB.rs_sei_set_threads(ctypes.addressof(sim), threads)
+
+
+def sei_particles_per_thread() -> int:
+    """Particles a thread at least before the threaded SEI splits its loops."""
+    return int(_LIB.rs_sei_particles_per_thread())
+
+
+@contextlib.contextmanager
+def rebound_sei(sim: rebound.Simulation) -> Iterator[None]:
+    """Within the block ``sim`` integrates with REBOUND's own ``sei``, so that a file saved
+    there loads in plain REBOUND; afterwards the threaded SEI is back with its threads."""
+    if str(sim.integrator) != THREADED_SEI:
+        yield
+        return
+    threads = int(sim.integrator.threads)
+    sim.integrator = "sei"
+    try:
+        yield
+    finally:
+        use_threaded_sei(sim, threads)
 
 
 #: glibc's mallopt parameters (malloc.h) and the largest mmap threshold it accepts on a

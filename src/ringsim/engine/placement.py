@@ -1,18 +1,23 @@
 """Overlap-free random placement of the initial particles (`ringsim.engine.sheet.initial_state`).
 
-Particles are drawn at random; in each round, the higher index of every overlapping pair is
-drawn again, until no pair overlaps.  Which particles are drawn again, and so the use of the
-random generator, is fixed by that rule and the exact pair test alone: how the overlapping
-pairs are found does not change a bit of the result.  They are found on grids of cells
-(`OverlapGrid`, ``rs_grid`` in ``csrc/rs_setup.c``), one per radius class (radii within a
-factor 2), each particle looking at the cells of a class within its radius plus the class's
-largest radius; after the first round only around the particles just drawn again, since a
-pair of particles that were not drawn again did not overlap before and still does not (the
-test depends on the two particles' positions alone).  `overlapping_later` is the same test
-in numpy (the Python twin, for tests).  Heights enter the test as they are (not from a
-frame that moves between rounds), so a pair within rounding of contact is judged alike in
-every round.  The search's cost at scale: docs/performance.md, "Set-up and snapshot I/O at
-scale".
+Particles are drawn at random; in each round, the particle that yields in every overlapping
+pair is drawn again, until no pair overlaps (`yielding`): the smaller of the two where the
+other is more than `YIELD_RATIO` times larger, else the higher index. The largest particles
+are so placed first and much smaller ones, most of a broad size distribution, fill the room
+around them; with the higher index alone a metre-sized particle would be drawn again among
+thousands of centimetre-sized ones and never find room. Within a factor `YIELD_RATIO` in
+radius the higher index yields, as for identical particles. Which particles are drawn again,
+and so the use of the random generator, is fixed by that rule and the exact pair test alone:
+how the overlapping pairs are found does not change a bit of the result. They are found on
+grids of cells (`OverlapGrid`, ``rs_grid`` in ``csrc/rs_setup.c``), one per radius class
+(radii within a factor 2), each particle looking at the cells of a class within its radius
+plus the class's largest radius; after the first round only around the particles just drawn
+again, since a pair of particles that were not drawn again did not overlap before and still
+does not (the test depends on the two particles' positions alone). `overlapping_later` is
+the same test in numpy (the Python twin, for tests). Heights enter the test as they are (not
+from a frame that moves between rounds), so a pair within rounding of contact is judged
+alike in every round. The search's cost at scale: docs/performance.md, "Set-up and snapshot
+I/O at scale".
 """
 
 from __future__ import annotations
@@ -26,6 +31,12 @@ import numpy as np
 REACH_MARGIN = 1e-9
 #: Radii of one class of the grid differ by less than this factor.
 CLASS_RATIO = 2.0
+#: Of an overlapping pair, a particle more than this many times smaller than the other is
+#: drawn again (RS_YIELD_RATIO in csrc/rs_setup.c); within this factor the higher index is.
+#: Wide enough that a size distribution spanning at most this factor (0.5-5 m, say) keeps
+#: the placement of identical particles bit for bit, narrow enough that a metre-sized
+#: particle never yields to the centimetre-sized ones around it.
+YIELD_RATIO = 10.0
 #: Classes at most (RS_MAX_CLASSES in csrc/rs_setup.c): radii spanning 2^31.
 MAX_CLASSES = 32
 _DOUBLE_P = ctypes.POINTER(ctypes.c_double)
@@ -67,9 +78,25 @@ def wrap_horizontal(pos: np.ndarray, Lx: float, Ly: float) -> tuple[np.ndarray, 
             np.ascontiguousarray((pos[:, 1] + 0.5 * Ly) % Ly))
 
 
+def yielding(lo: np.ndarray, hi: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """The particle of each pair (lo < hi, indices) drawn again when they overlap: the
+    smaller one where the other is more than `YIELD_RATIO` times larger, else the higher
+    index (``rs_test_pair``).
+
+    Parameters
+    ----------
+    lo, hi : int arrays
+    radii : array [m]
+    """
+    r_lo, r_hi = radii[lo], radii[hi]
+    return np.where(r_lo > YIELD_RATIO * r_hi, hi,
+                    np.where(r_hi > YIELD_RATIO * r_lo, lo, hi))
+
+
 def overlapping_later(x: np.ndarray, y: np.ndarray, z: np.ndarray, radii: np.ndarray,
                       i: np.ndarray, j: np.ndarray, Lx: float, Ly: float) -> np.ndarray:
-    """Sorted unique higher indices of the candidate pairs (i, j) that overlap (numpy twin).
+    """Sorted unique `yielding` particles of the candidate pairs (i, j) that overlap (numpy
+    twin).
 
     Periodic in x and y (at t = 0 the radial images are not shifted in y).  Each pair is
     tested with its lower index first, so the test does not depend on the candidates' order.
@@ -89,7 +116,7 @@ def overlapping_later(x: np.ndarray, y: np.ndarray, z: np.ndarray, radii: np.nda
     d[:, 0] -= Lx * np.round(d[:, 0] / Lx)
     d[:, 1] -= Ly * np.round(d[:, 1] / Ly)
     overlap = np.sum(d * d, axis=1) < (radii[lo] + radii[hi]) ** 2
-    return np.unique(hi[overlap])
+    return np.unique(yielding(lo, hi, radii)[overlap])
 
 
 class OverlapGrid:
@@ -136,8 +163,8 @@ class OverlapGrid:
                                *(a.ctypes.data_as(_DOUBLE_P) for a in arrays))
 
     def overlapping_later(self, searched: np.ndarray | None = None) -> np.ndarray:
-        """Sorted higher indices of the overlapping pairs with a particle of ``searched``
-        (indices; None: all pairs)."""
+        """Sorted `yielding` particles of the overlapping pairs with a particle of
+        ``searched`` (indices; None: all pairs)."""
         index = None if searched is None else np.ascontiguousarray(searched, dtype=np.int64)
         count = self._lib.rs_grid_overlapping(
             self._grid, 0 if index is None else index.size,

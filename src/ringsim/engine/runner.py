@@ -41,6 +41,9 @@ from ringsim.analysis import snapshot
 from ringsim.engine import box, gravity, invariants, sheet, timestep
 from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.checkpoint import LoopState, checkpoint_of, resume
+from ringsim.engine.failure import record_failure
+from ringsim.engine.memory import check_particle_memory
+from ringsim.engine.native import set_detector_threads, use_threaded_sei
 from ringsim.engine.progress import progress_bar
 from ringsim.engine.statistics import histogram_edges, with_outer_bins
 from ringsim.engine.stop import StopRequest as _StopRequest
@@ -97,9 +100,11 @@ class Runner:
         self.commit_cost = 0.0  # wall time [s] of the last commit
         self.wall_start = time.perf_counter()
         self.wall_before = 0.0  # wall time [s] of earlier sessions of this run
-        # c and H so far, for until_equilibrium: orbits [orbits], c [m/s], H [m]
-        self.history: dict[str, list[float]] = {"orbits": [], "velocity_dispersion": [],
-                                                "thickness": []}
+        # c and H so far (number- and mass-weighted), for until_equilibrium: orbits
+        # [orbits], c [m/s], H [m]
+        self.history: dict[str, list[float]] = {
+            key: [] for key in ("orbits", "velocity_dispersion", "thickness",
+                                "velocity_dispersion_mass_weighted", "thickness_mass_weighted")}
 
     # -- set-up --------------------------------------------------------------------------------
 
@@ -129,12 +134,11 @@ class Runner:
         self._output(first=True)
 
     def _set_threads(self) -> None:
-        """Line detection's search and the gravity solver (P3M) on ``integration.threads``
-        threads (no effect on results)."""
+        """The SEI step, line detection's search and the gravity solver (P3M) on
+        ``integration.threads`` threads (no effect on results)."""
         threads = self.scenario.integration.thread_count()
+        use_threaded_sei(self.sim, threads)
         if self.scenario.integration.collision_detection == "line":
-            from ringsim.engine.native import set_detector_threads
-
             set_detector_threads(self.handle.address, threads)
         set_gravity_threads(self.sim, threads)
 
@@ -368,11 +372,13 @@ class Runner:
         from ringsim.analysis.equilibrium import stationary_window
 
         h = {key: np.asarray(values) for key, values in self.history.items()}
-        window = stationary_window(h["orbits"], h["velocity_dispersion"], h["thickness"])
+        window = stationary_window(h["orbits"], h["velocity_dispersion"], h["thickness"],
+                                   mass_weighted=(h["velocity_dispersion_mass_weighted"],
+                                                  h["thickness_mass_weighted"]))
         if not window["in_equilibrium"]:
             return None
-        return (f"until_equilibrium: c and H stationary at orbit {h['orbits'][-1]:.4g} "
-                f"({window['reason']})")
+        return (f"until_equilibrium: c and H stationary (number- and mass-weighted) at orbit "
+                f"{h['orbits'][-1]:.4g} ({window['reason']})")
 
     def stop_reason(self, status: str, reason: str | None) -> str:
         """Why the run ended, for the file's ``stop_reason`` attribute."""
@@ -431,6 +437,9 @@ class Runner:
                 # finished one can be extended
                 self.checkpoint(attributes={"status": status,
                                             "stop_reason": self.stop_reason(status, reason)})
+        except Exception as error:   # any other error: the file says failed, and why
+            record_failure(self, error)
+            raise
         finally:
             if bar is not None:
                 bar.close()
@@ -472,6 +481,7 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
         writer per file: ``store.lock.RunFileLock``).
     """
     path = Path(output if output is not None else scenario.output.path)
+    check_particle_memory(scenario)
     with RunFileLock(path), _StopRequest() as stop:
         runner = Runner(scenario, path, progress)
         if resume:

@@ -27,6 +27,7 @@ from ringsim.engine.native import _LIB
 from ringsim.engine.placement import OverlapGrid, wrap_horizontal
 from ringsim.engine.resolver import ResolverHandle, install_resolver
 from ringsim.engine.timestep import choose_dt
+from ringsim.errors import InputError
 from ringsim.gravity.registry import (
     install_gravity,
     installed_gravity,
@@ -47,6 +48,10 @@ INITIAL_FILLING_FACTOR = 0.1
 #: 1e6 particles needs (docs/performance.md, "Set-up and snapshot I/O at scale").  More is
 #: an error.
 PLACEMENT_ROUNDS = 2000
+
+
+class PlacementError(ValueError):
+    """The particles do not fit into the box without overlaps (`initial_state`)."""
 
 
 def minimum_scale_height(radii: np.ndarray, area: float) -> float:
@@ -77,9 +82,11 @@ def initial_state(radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
     vertical equilibrium from the start.  (Heights drawn with vz of the horizontal
     dispersion would all fall through the mid-plane together a quarter orbit later, a
     burst of collisions that heats the ring, crowds the layer and enlarges the box.)
-    Particles drawn overlapping another are drawn again, so the run starts without
-    overlaps; the box is shear-periodic at t = 0, where the images across the radial
-    boundary are not shifted in y.
+    Of two particles drawn overlapping, one is drawn again (the much smaller one, else the
+    higher index: ``engine.placement``), so the run starts without overlaps and the largest
+    particles find room first; the box is
+    shear-periodic at t = 0, where the images across the radial boundary are not shifted in
+    y.
 
     Parameters
     ----------
@@ -114,14 +121,35 @@ def initial_state(radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
             grid.move(bad, x, y, z)
             bad = grid.overlapping_later(bad)
     if bad.size:
-        raise ValueError(f"{n} particles could not be placed without overlaps in "
-                         f"{PLACEMENT_ROUNDS} rounds of random draws")
+        raise PlacementError(f"{bad.size} of {n} particles could not be placed without "
+                             f"overlaps in {PLACEMENT_ROUNDS} rounds of random draws")
     vel = np.empty((n, 3))
     vel[:, :2] = rng.normal(0.0, dispersion, (n, 2))
     vel[:, 2] = rng.normal(0.0, Omega * h, n)
     vel[:, 1] += -1.5 * Omega * pos[:, 0]
     return {"x": pos[:, 0], "y": pos[:, 1], "z": pos[:, 2],
             "vx": vel[:, 0], "vy": vel[:, 1], "vz": vel[:, 2]}
+
+
+def placed_state(scenario, radii: np.ndarray, geometry: SheetGeometry, dispersion: float,
+                 rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """`initial_state` of a scenario; a sheet that cannot be placed is bad input (`InputError`
+    naming the scenario's file and ``sheet.optical_depth``: exit status 2), not a failure.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    radii : array [m]
+    geometry : SheetGeometry
+    dispersion : float [m/s]
+    rng : numpy Generator
+    """
+    try:
+        return initial_state(radii, geometry, dispersion, rng)
+    except PlacementError as exc:
+        raise InputError(scenario.source, "sheet.optical_depth",
+                         f"{exc}; lower the optical depth, narrow the size distribution or "
+                         "raise sheet.z_box") from None
 
 
 def centre_of_mass_at_rest(state: dict[str, np.ndarray], masses: np.ndarray,
@@ -285,8 +313,8 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
     if geometry is None:
         geometry = box_geometry(radii, sheet_cfg.optical_depth, sheet_cfg.aspect, Omega,
                                 z_half)
-        state = centre_of_mass_at_rest(initial_state(radii, geometry, dispersion, rng),
-                                       masses, Omega)
+        state = centre_of_mass_at_rest(placed_state(scenario, radii, geometry, dispersion,
+                                                    rng), masses, Omega)
     else:
         geometry = SheetGeometry(geometry.root_size, geometry.n_root_x, geometry.n_root_y,
                                  max(1, math.ceil(2.0 * z_half / geometry.root_size)), Omega)

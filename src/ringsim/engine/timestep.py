@@ -6,8 +6,11 @@ import math
 
 import numpy as np
 
-#: Largest allowed time step [orbits] (resolves the epicycle).
-DT_MAX_ORBITS = 1e-3
+from ringsim.config.intervals import AUTO_DT_MAX_ORBITS
+
+#: Largest allowed time step [orbits] (resolves the epicycle); declared beside the output
+#: intervals' check, which counts steps with it.
+DT_MAX_ORBITS = AUTO_DT_MAX_ORBITS
 
 #: A collision deflects a particle when its partner carries at least this share of the
 #: pair's mass (its velocity then changes by at least this share of the relative-velocity

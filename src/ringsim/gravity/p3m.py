@@ -75,7 +75,7 @@ def p3m_parameters(Lx, Ly, split, cutoff=None, cell=None, dz=None) -> dict:
             "nx": _even_cells(Lx, cell), "ny": _even_cells(Ly, cell)}
 
 
-def describe(Lx, Ly, softening, split, auto=False) -> dict:
+def describe(Lx, Ly, softening, split, auto=False, pair_min_radius=0.0) -> dict:
     """Root attributes of a run file for the P3M solver at its defaults, each with
     ``units_<name>`` beside it; with ``auto`` the split, cutoff, mesh and layers given are
     those of the first rung, and ``p3m_split_auto`` says that the split follows the height
@@ -85,6 +85,8 @@ def describe(Lx, Ly, softening, split, auto=False) -> dict:
     ----------
     Lx, Ly, softening, split : float [m]
     auto : bool
+    pair_min_radius : float [m]
+        Particles below it are field-only (0: none).
     """
     p = p3m_parameters(Lx, Ly, split)
     largest = p3m_auto_split(split, math.inf, 1, Lx, Ly) if auto else p["split"]
@@ -98,6 +100,8 @@ def describe(Lx, Ly, softening, split, auto=False) -> dict:
             "units_p3m_mesh": "cells (x, y)",
             "p3m_cell": np.array([Lx / p["nx"], Ly / p["ny"]]), "units_p3m_cell": "m",
             "p3m_layer_spacing": p["dz"], "units_p3m_layer_spacing": "m",
+            "p3m_pair_min_radius": float(pair_min_radius), "units_p3m_pair_min_radius":
+                "m (smaller particles are field-only: mesh, no pair sum; 0: none)",
             "softening": float(softening), "units_softening": "m"}
 
 
@@ -140,12 +144,15 @@ class P3MSolver:
         particles' height span (``physics.p3m_scales.p3m_auto_split``, rungs from
         ``split`` up; cutoff, cell and layers at their default multiples of it).  Each
         rung keeps its own parameters and mesh, made when first used.
+    pair_min_radius : float [m]
+        Particles smaller than this are field-only (``sheet.p3m_pair_min_radius``): on the
+        mesh, not in the pair sum; 0: every particle in the pair sum.
     """
 
     def __init__(self, Lx: float, Ly: float, softening: float, split: float,
                  cutoff: float | None = None, cell: float | None = None,
                  dz: float | None = None, G: float = G_SI, workers: int = 1,
-                 auto: bool = False) -> None:
+                 auto: bool = False, pair_min_radius: float = 0.0) -> None:
         if not HAS_P3M:
             raise ImportError("ringsim._resolver was built without rs_p3m.c; rebuild the "
                               "extension (`python setup.py build_ext --inplace`)")
@@ -155,6 +162,7 @@ class P3MSolver:
         self.Lx, self.Ly, self.G = float(Lx), float(Ly), float(G)
         self.softening, self.workers, self.threads = float(softening), workers, 1
         self.first_split, self.auto = float(split), bool(auto)
+        self.pair_min_radius = float(pair_min_radius)
         self._explicit = (cutoff, cell, dz)
         self._rungs: dict[float, tuple[P3MStruct, P3MMesh]] = {}
         self.error: BaseException | None = None
@@ -172,7 +180,8 @@ class P3MSolver:
                 raise ValueError(f"P3M cutoff {par['cutoff']:.3g} m must be below the box's "
                                  f"width ({min(self.Lx, self.Ly):.3g} m)")
             params = P3MStruct(split=split, cutoff=par["cutoff"], softening=self.softening,
-                               dz=par["dz"], nx=par["nx"], ny=par["ny"], threads=self.threads)
+                               dz=par["dz"], nx=par["nx"], ny=par["ny"], threads=self.threads,
+                               pair_min_radius=self.pair_min_radius)
             _LIB.rs_p3m_init(ctypes.byref(params))
             mesh = P3MMesh(self.Lx, self.Ly, params.nx, params.ny, par["dz"], split,
                            G=self.G, workers=self.threads)
@@ -263,30 +272,38 @@ def set_threads(sim: rebound.Simulation, threads: int) -> None:
         solver.set_threads(threads)
 
 
-def install(sim: rebound.Simulation, *, p3m_setting: tuple[float, bool]) -> None:
+def install(sim: rebound.Simulation, *, p3m_setting: tuple[float, bool],
+            p3m_pair_min_radius: float = 0.0) -> None:
     """A `P3MSolver` of ``sim``'s box and softening with ``p3m_setting`` = (split scale
-    [m], auto: the split follows the height span from there up), the other parameters at
-    their defaults (``physics.p3m_scales.P3M_*``)."""
+    [m], auto: the split follows the height span from there up) and the field-only radius
+    ``p3m_pair_min_radius`` [m], the other parameters at their defaults
+    (``physics.p3m_scales.P3M_*``)."""
     split, auto = p3m_setting
     Lx = sim.root_size * sim.N_root_x
     Ly = sim.root_size * sim.N_root_y
-    install_p3m(sim, P3MSolver(Lx, Ly, sim.softening, split, G=G_SI, auto=auto))
+    install_p3m(sim, P3MSolver(Lx, Ly, sim.softening, split, G=G_SI, auto=auto,
+                               pair_min_radius=p3m_pair_min_radius))
 
 
 def arguments(scenario) -> dict:
-    """``p3m_setting`` (split [m], auto) of a scenario's P3M solver."""
-    return {"p3m_setting": scenario.p3m_setting}
+    """``p3m_setting`` (split [m], auto) and ``p3m_pair_min_radius`` [m] of a scenario's
+    P3M solver."""
+    return {"p3m_setting": scenario.p3m_setting,
+            "p3m_pair_min_radius": float(scenario.sheet.p3m_pair_min_radius or 0.0)}
 
 
 def recognise(sim: rebound.Simulation) -> dict | None:
-    """``p3m_setting`` of the P3M solver installed in ``sim`` (None: none)."""
+    """`arguments` of the P3M solver installed in ``sim`` (None: none)."""
     solver = installed_solver(sim)
-    return None if solver is None else {"p3m_setting": solver.setting}
+    return None if solver is None else {"p3m_setting": solver.setting,
+                                        "p3m_pair_min_radius": solver.pair_min_radius}
 
 
 def attributes(keywords: dict, geometry) -> dict:
     """`describe` of the solver in ``geometry``'s box (Lx, Ly [m])."""
-    return describe(geometry.Lx, geometry.Ly, keywords["softening"], *keywords["p3m_setting"])
+    split, auto = keywords["p3m_setting"]
+    return describe(geometry.Lx, geometry.Ly, keywords["softening"], split, auto,
+                    pair_min_radius=keywords.get("p3m_pair_min_radius", 0.0))
 
 
 SOLVER = GravitySolver(P3M, install=install, arguments=arguments, recognise=recognise,

@@ -8,3 +8,5 @@ G_SI = 6.67430e-11
 SHEAR = 1.5
 #: One orbit in radians.
 TWO_PI = 2.0 * math.pi
+#: Speed of light in vacuum c [m/s], exact by the SI's definition of the metre (2019).
+SPEED_OF_LIGHT = 299_792_458.0

@@ -43,6 +43,14 @@ P3M_SPLIT = Parameter(
     meaning="split scale r_s of P3M's Gaussian force split (cutoff, mesh cells and layers "
             "are multiples of it)",
     source="docs/gravity.md, section 4b (benchmarks/gravity.py, benchmarks/p3m_split.py)")
+P3M_PAIR_MIN_RADIUS = Parameter(
+    "p3m_pair_min_radius", "m", default=0.0, lower=0.0, lower_closed=True, example=0.1,
+    meaning="particles smaller than this radius are field-only: their mass is on P3M's mesh "
+            "and the mesh field acts on them, but they are not in the short-range pair sum "
+            "(neither as sources nor as targets); the automatic split then starts from "
+            "P3M_SPLIT_RADII x the larger of the mean radius and this radius",
+    source="docs/gravity.md, section \"Field-only small particles\" (the force error it "
+           "introduces, measured against the full solver)")
 
 
 @dataclass(frozen=True)
@@ -90,12 +98,13 @@ def _p3m_box(values: Mapping[str, Any], mean_radius: float, n_particles: int, Lx
 
     Parameters
     ----------
-    values : P3M's keys (``p3m_split`` [m] or "auto")
+    values : P3M's keys (``p3m_split`` [m] or "auto", ``p3m_pair_min_radius`` [m])
     mean_radius : float [m]
     n_particles : int
     Lx, Ly : float [m]
     """
-    cutoff = P3M_CUTOFF_SPLITS * p3m_first_split(values["p3m_split"], mean_radius)
+    base = max(mean_radius, float(values.get("p3m_pair_min_radius") or 0.0))
+    cutoff = P3M_CUTOFF_SPLITS * p3m_first_split(values["p3m_split"], base)
     if min(Lx, Ly) > cutoff:
         return None
     return (f"p3m needs a box wider than its pair-sum cutoff ({cutoff:.3g} m); "
@@ -111,7 +120,7 @@ TREE = SolverDeclaration(
     implied_by=("opening_angle",))
 P3M = SolverDeclaration(
     "p3m", "ringsim's shear-periodic P3M: a layered mesh with scipy.fft plus a pair sum in C",
-    (SOFTENING, P3M_SPLIT), check_box=_p3m_box)
+    (SOFTENING, P3M_SPLIT, P3M_PAIR_MIN_RADIUS), check_box=_p3m_box)
 SLAB = SolverDeclaration(
     "slab", "the vertical field of the horizontally averaged layer only (hot rings)",
     lacks="no pair forces")

@@ -14,6 +14,7 @@ labels are chosen from the data so that they stay readable for any range.
 * ``fits``: ``plot_fits``, the data and fitted laws of ``ringsim fit --plot``;
 * ``spins``, ``wakes``: the spins of a run with friction and the top view of a
   self-gravitating sheet (``analyze --plots``);
+* ``observe``: ``plot_observation``, the synthetic occultations (``observe --plots``);
 * ``common``: units, readable axes, run styles, equilibrium window, ``save_figure``.
 """
 
@@ -25,6 +26,7 @@ from ringsim.plots.laws import (
     paper_curves,
     plot_epsilon_curves,
 )
+from ringsim.plots.observe import plot_observation
 from ringsim.plots.run import comparison_figures, plot_comparison, plot_run, run_figures
 from ringsim.plots.sweep import plot_sweep, sweep_figure
 
@@ -38,6 +40,7 @@ __all__ = [
     "paper_curves",
     "plot_comparison",
     "plot_epsilon_curves",
+    "plot_observation",
     "plot_run",
     "plot_sweep",
     "run_figures",

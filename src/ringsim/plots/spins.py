@@ -2,11 +2,12 @@
 
 Left: E_rot/E_tr against time, with the equilibrium window shaded, its mean, and the
 collisional-balance closed form for constant beta (``physics.friction.
-collisional_spin_ratio``).  Right: the distribution of the spins in units of Omega over the
-snapshots of the window, |ω| per size bin (log axis), and the mean ω_z per size bin with
-the kinematic marks (synchronous rotation 0; turning with the mean shear flow -3/4; not
-rotating in inertial space -1).  Spins are relative to the rotating frame of the sheet.
-Spins are ω, peculiar velocities w (``structure``): the symbols never share a letter.
+collisional_spin_ratio``; identical spheres only, where it applies).  Right: the
+distribution of the spins in units of Omega over the snapshots of the window, |ω| per size
+bin (log axis), and the mean ω_z per size bin with the kinematic marks (synchronous
+rotation 0; turning with the mean shear flow -3/4; not rotating in inertial space -1).
+Spins are relative to the rotating frame of the sheet.  Spins are ω, peculiar velocities w
+(``structure``): the symbols never share a letter.
 """
 
 from __future__ import annotations
@@ -44,7 +45,7 @@ def spin_figure(run, eq: dict):
                      label="equilibrium window")
         ax_t.axhline(frac["mean"], color="C0", ls="--", lw=1.0,
                      label=f"window mean {frac['mean']:.3f} ± {frac['stderr']:.2g}")
-    if spin["collisional_spin_ratio"] is not None:
+    if spin["collisional_spin_ratio"] is not None and spin.get("closed_form_applies", True):
         ax_t.axhline(spin["collisional_spin_ratio"], color="k", ls=":", lw=1.2,
                      label=f"collisional balance (closed form) "
                            f"{spin['collisional_spin_ratio']:.3f}")

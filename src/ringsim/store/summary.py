@@ -48,6 +48,8 @@ _PARAMETER_UNITS: dict[str, str] = {
     "particles.size_distribution.q": "dimensionless",
     "particles.size_distribution.r_min": "m",
     "particles.size_distribution.r_max": "m",
+    "particles.size_distribution.r_cut": "m",
+    "particles.size_distribution.cutoff_exponent": "dimensionless",
     "particles.size_distribution.components.N.radius": "m",
     "particles.size_distribution.components.N.number_fraction": "dimensionless",
     "sheet.optical_depth": "dimensionless", "sheet.n_particles": "count",

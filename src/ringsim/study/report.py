@@ -23,7 +23,8 @@ from ringsim.analysis.equilibrium import NOT_IN_EQUILIBRIUM, QUANTITIES
 #: What a particle weighting of ``ringsim.quantities`` counts equally.
 _WEIGHTINGS = {"number": "number: every particle counts once",
                "mass": "mass: each particle by its mass"}
-#: What the equilibrium quantities without a declared particle weighting count equally.
+#: What the equilibrium quantities count equally where their declared particle weighting
+#: alone does not say it.
 _OTHER_WEIGHTINGS = {
     "velocity_dispersion_rOmega": "number: c over the mean radius times Omega",
     "thickness_r": "number: H over the mean radius",
@@ -35,10 +36,10 @@ _OTHER_WEIGHTINGS = {
 
 
 def weighting(quantity: str) -> str:
-    """What an equilibrium quantity counts equally: its declared particle weighting
-    (``ringsim.quantities``), else what it averages over."""
+    """What an equilibrium quantity counts equally: what it averages over where that is
+    said here, else its declared particle weighting (``ringsim.quantities``)."""
     declared = quantities.QUANTITY[quantity].weighting
-    return _WEIGHTINGS[declared] if declared else _OTHER_WEIGHTINGS.get(quantity, "")
+    return _OTHER_WEIGHTINGS.get(quantity) or (_WEIGHTINGS[declared] if declared else "")
 
 
 #: How a case's equilibrium is averaged (the report says it once).
