@@ -28,6 +28,7 @@ SOURCES = [
     "src/ringsim/csrc/rs_setup.c",
     "src/ringsim/csrc/rs_p3m.c",
     "src/ringsim/csrc/rs_sei.c",
+    "src/ringsim/csrc/rs_stop.c",
 ]
 
 OPENMP_FLAGS = ["-fopenmp"]

@@ -29,10 +29,12 @@ raises is turned into a failed result by the caller's ``failed`` function.
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import io
 import multiprocessing
 import os
 import signal
+import sys
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -207,12 +209,61 @@ class LabelledStream(io.TextIOBase):
 
 # --- executors --------------------------------------------------------------------------------
 
-def _quiet_worker() -> None:
+#: Linux's prctl option that sends a signal to a process when its parent ends.
+_PR_SET_PDEATHSIG = 1
+#: In a worker process: the pid of the process that made the pool, and the worker's
+#: parent at its start (the same with the fork start method).
+_POOL_OWNER: tuple[int, int] | None = None
+
+
+def _quiet_worker(owner: int) -> None:
     """Worker processes ignore SIGINT between tasks, so that Ctrl-C never kills an idle
     worker, and end on SIGTERM (the handler of the parent they were forked from is not
-    theirs); a run installs its own handlers and stops at a checkpoint (``engine.stop``)."""
+    theirs); a run installs its own handlers and stops at a checkpoint (``engine.stop``).
+
+    On Linux a worker gets SIGTERM when its parent ends (``PR_SET_PDEATHSIG``), and every
+    worker checks before and after each task that its parent and ``owner`` (the pid of the
+    process that made the pool) are still there (`_worker_task`), so no worker outlives a
+    killed sweep or study."""
+    global _POOL_OWNER
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _POOL_OWNER = (owner, os.getppid())
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
+    if _owner_gone():   # it ended before the prctl call
+        os._exit(1)
+
+
+def _owner_gone() -> bool:
+    """In a worker: True if the process that made the pool has ended (the worker's parent
+    changed, or that pid no longer exists)."""
+    if _POOL_OWNER is None:
+        return False
+    owner, parent = _POOL_OWNER
+    if os.getppid() != parent:
+        return True
+    try:
+        os.kill(owner, 0)
+    except ProcessLookupError:
+        return True
+    except PermissionError:
+        return False
+    return False
+
+
+def _worker_task(fn: Callable[[Any], Any], task: Any) -> Any:
+    """``fn(task)`` in a pool worker; a worker whose pool's owner is gone starts no task
+    and exits after the one it ran (nobody would read the result; its run stopped at a
+    checkpoint on the parent-death signal)."""
+    if _owner_gone():
+        os._exit(1)
+    result = fn(task)
+    if _owner_gone():
+        os._exit(1)
+    return result
 
 
 @contextlib.contextmanager
@@ -239,16 +290,16 @@ def run_local(fn: Callable[[Any], Any], tasks: Sequence[Any], workers: int,
     result as it arrives (``failed(task, exc)`` for a task that raised).
 
     On SIGINT or SIGTERM the tasks not started are dropped, the worker processes (the
-    children of this process) are sent SIGTERM until they have ended (a run stops at its
-    next output with a checkpoint, ``engine.stop``; an idle worker ends), and
-    KeyboardInterrupt is raised.  SIGTERM, not SIGINT:
-    REBOUND installs its own SIGINT handler whenever it integrates, which drops a SIGINT
-    that arrives between two integrations.
+    children of this process) are sent SIGTERM until they have ended (a run stops after the
+    step in progress with a checkpoint, ``engine.stop``; an idle worker ends), and
+    KeyboardInterrupt is raised.  SIGTERM, not SIGINT: an idle worker ignores SIGINT.
+    A worker whose parent is gone exits (`_quiet_worker`).
     """
-    pool = ProcessPoolExecutor(max_workers=workers, initializer=_quiet_worker)
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=_quiet_worker,
+                               initargs=(os.getpid(),))
     try:
         with _sigterm_as_interrupt():
-            futures = {pool.submit(fn, task): task for task in tasks}
+            futures = {pool.submit(_worker_task, fn, task): task for task in tasks}
             _collect(futures_completed(futures), futures, report, failed)
     except KeyboardInterrupt:
         pool.shutdown(wait=False, cancel_futures=True)
@@ -271,9 +322,9 @@ def _collect(completed: Iterable[Any], task_of: Mapping[Any, Any],
 
 
 def _stop_children(poll: float = 0.2) -> None:
-    """Send SIGTERM to this process's children until none is left: a run stops at its next
-    output, an idle worker ends, and a worker that took a queued task meanwhile gets the
-    next signal (poll [s])."""
+    """Send SIGTERM to this process's children until none is left: a run stops after the
+    step in progress, an idle worker ends, and a worker that took a queued task meanwhile
+    gets the next signal (poll [s])."""
     while children := multiprocessing.active_children():
         for child in children:
             with contextlib.suppress(OSError):

@@ -407,8 +407,20 @@ def run_sweep(sweep_path: str | os.PathLike, out: str | os.PathLike | None = Non
             line += f": {result.error}"
         say(line)
 
-    _execute(tasks, client, n_workers if todo else 0, report)
+    try:
+        _execute(tasks, client, n_workers if todo else 0, report)
+    except KeyboardInterrupt:   # the summary of what finished, then exit status 130
+        _summarise(sweep, out_dir, [results.get(t.index) or _not_finished(t) for t in tasks],
+                   start, say)
+        raise
     return _summarise(sweep, out_dir, [results[t.index] for t in tasks], start, say)
+
+
+def _not_finished(task: PointTask) -> PointResult:
+    """The result of a point an interrupted sweep did not finish (stopped or not started)."""
+    return PointResult(index=task.index, params=task.params, file=Path(task.path).name,
+                       status="stopped", action=task.action,
+                       error="stopped before the end; start the sweep again to continue it")
 
 
 def _summarise(sweep, out_dir: Path, ordered: list[PointResult], start: float,

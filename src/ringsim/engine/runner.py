@@ -41,6 +41,7 @@ from ringsim.analysis import snapshot
 from ringsim.engine import box, gravity, invariants, sheet, timestep
 from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.checkpoint import LoopState, checkpoint_of, resume
+from ringsim.engine.ending import equilibrium_reached, stop_reason
 from ringsim.engine.failure import record_failure
 from ringsim.engine.memory import check_particle_memory
 from ringsim.engine.native import set_detector_threads, use_threaded_sei
@@ -51,7 +52,7 @@ from ringsim.errors import InputError
 from ringsim.gravity.registry import raise_pending, set_gravity_threads
 from ringsim.physics import friction
 from ringsim.physics.gravity import toomre_q
-from ringsim.store import runfile
+from ringsim.store import guarded, runfile
 from ringsim.store.background import CommitThread
 from ringsim.store.lock import RunFileLock
 
@@ -61,9 +62,6 @@ WRITE_INTERVAL = 2.0
 #: A commit copies the run file (crash consistency, ``store.runfile``): rows alone are
 #: written no more often than this share of wall time allows.
 COMMIT_COST_SHARE = 0.02
-#: With ``integration.until_equilibrium`` the run asks the equilibrium finder whether c and
-#: H are stationary at every this many time-series outputs.
-EQUILIBRIUM_CHECK_EVERY = 10
 
 
 def _interval_index(t: float, every: float) -> int:
@@ -94,6 +92,7 @@ class Runner:
         self.check_momentum = not scenario.sheet.gravity
         self.gravity: dict | None = None  # engine.gravity.scenario_gravity of a gravitating run
         self.state = LoopState()
+        self.stop = _StopRequest()   # the loop's (an inactive one until then)
         self.pending_rows: list[dict] = []
         self.pending_events: list[tuple[float, float, str]] = []
         self.last_write = time.perf_counter()
@@ -358,39 +357,10 @@ class Runner:
     # -- the loop ------------------------------------------------------------------------------
 
     def _advance(self, t_next: float) -> None:
-        """Integrate to the first step end at or after ``t_next`` [s]."""
-        self.sim.integrate(t_next, exact_finish_time=0)
+        """Integrate to the first step end at or after ``t_next`` [s], or to the end of
+        the step in progress when SIGINT or SIGTERM arrives (``self.stop.requested``)."""
+        self.stop.integrate(self.sim, t_next)
         raise_pending(self.sim)   # an error in a solver's callback, which ctypes swallows
-
-    def equilibrium_reached(self) -> str | None:
-        """With ``integration.until_equilibrium``: the reason to stop if the equilibrium
-        finder calls c and H stationary now (checked every `EQUILIBRIUM_CHECK_EVERY`
-        outputs, so a resumed run decides at the same outputs), else None."""
-        if not self.scenario.integration.until_equilibrium \
-                or (self.state.rows - 1) % EQUILIBRIUM_CHECK_EVERY:
-            return None
-        from ringsim.analysis.equilibrium import stationary_window
-
-        h = {key: np.asarray(values) for key, values in self.history.items()}
-        window = stationary_window(h["orbits"], h["velocity_dispersion"], h["thickness"],
-                                   mass_weighted=(h["velocity_dispersion_mass_weighted"],
-                                                  h["thickness_mass_weighted"]))
-        if not window["in_equilibrium"]:
-            return None
-        return (f"until_equilibrium: c and H stationary (number- and mass-weighted) at orbit "
-                f"{h['orbits'][-1]:.4g} ({window['reason']})")
-
-    def stop_reason(self, status: str, reason: str | None) -> str:
-        """Why the run ended, for the file's ``stop_reason`` attribute."""
-        if status == "stopped":
-            return "interrupted (SIGINT/SIGTERM); continue with --resume"
-        if reason:
-            return reason
-        orbits = self.scenario.integration.orbits
-        if not self.scenario.integration.until_equilibrium:
-            return f"reached integration.orbits = {orbits:g}"
-        return (f"until_equilibrium: reached the maximum integration.orbits = {orbits:g} "
-                "without c and H stationary")
 
     def loop(self, stop: _StopRequest | None = None) -> str:
         """Integrate to the end (or a stop); returns the status written to the file.
@@ -404,11 +374,12 @@ class Runner:
         reason = None
         try:
             with contextlib.nullcontext(stop) if stop is not None else _StopRequest() as stop:
+                self.stop = stop
                 while self.sim.t < self.t_end * (1 - 1e-12):
                     if stop.requested:
                         status = "stopped"
                         break
-                    reason = self.equilibrium_reached()
+                    reason = equilibrium_reached(self.scenario, self.history, self.state.rows)
                     if reason:
                         break
                     t_next = min(self.state.rows * self.ts_every, self.t_end)
@@ -416,7 +387,8 @@ class Runner:
                     try:
                         self._advance(t_next)
                     except KeyboardInterrupt:
-                        # REBOUND stopped after a complete step: checkpoint here
+                        stop.requested = True
+                    if stop.requested:   # after a complete step: checkpoint here, no row
                         status = "stopped"
                         break
                     try:
@@ -435,8 +407,8 @@ class Runner:
                 # a final checkpoint (a signal now waits for it): a stopped run resumes
                 # from here, the resolver's statistics of the open interval included; a
                 # finished one can be extended
-                self.checkpoint(attributes={"status": status,
-                                            "stop_reason": self.stop_reason(status, reason)})
+                why = stop_reason(self.scenario, status, reason)
+                self.checkpoint(attributes={"status": status, "stop_reason": why})
         except Exception as error:   # any other error: the file says failed, and why
             record_failure(self, error)
             raise
@@ -479,10 +451,12 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
         The file exists (without ``force``), there is nothing to resume, the file to resume
         is damaged (``store.runfile.RunFileError``), or another process writes it (one
         writer per file: ``store.lock.RunFileLock``).
+    OSError
+        A full disk (``store.guarded.full_disk``): the file keeps its last commit.
     """
     path = Path(output if output is not None else scenario.output.path)
     check_particle_memory(scenario)
-    with RunFileLock(path), _StopRequest() as stop:
+    with RunFileLock(path), _StopRequest() as stop, guarded.full_disk(path):
         runner = Runner(scenario, path, progress)
         if resume:
             if not path.exists():

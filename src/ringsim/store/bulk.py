@@ -20,14 +20,17 @@ the run file: move or copy them together, under the same names.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import secrets
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 import h5py
 import numpy as np
+
+from ringsim.store import guarded
 
 SNAPSHOT_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "radius", "mass")
 #: Spins [rad/s] relative to the rotating frame (w_z > 0 prograde), only in runs with friction.
@@ -81,13 +84,15 @@ class Parts:
         self.external_bytes = int(external_bytes)
         self.new: list[Path] = []
 
-    def new_file(self, kind: str) -> tuple[h5py.File, str]:
-        """A new part file (open for writing) and its link target relative to the run
-        file's folder."""
+    @contextlib.contextmanager
+    def new_file(self, kind: str) -> Iterator[tuple[h5py.File, str]]:
+        """A new part file (open for writing, closed at the end; OSError if the disk is
+        full, ``store.guarded``) and its link target relative to the run file's folder."""
         self.folder.mkdir(exist_ok=True)
         name = f"{kind}_{secrets.token_hex(6)}.h5"
         self.new.append(self.folder / name)
-        return h5py.File(self.folder / name, "w"), f"{self.folder.name}/{name}"
+        with guarded.h5_file(self.folder / name, "w") as part:
+            yield part, f"{self.folder.name}/{name}"
 
     def flush(self) -> None:
         """Put the new part files (and their folder entries) on disk."""
@@ -152,8 +157,7 @@ def write_snapshot(f: h5py.File, index: int, t: float, arrays: Mapping[str, np.n
     if parts is None or size <= parts.external_bytes:
         g = snaps.create_group(name)
     else:
-        part, target = parts.new_file(f"snapshot_{name}")
-        with part:
+        with parts.new_file(f"snapshot_{name}") as (part, target):
             _snapshot_attributes(part, t)
             _snapshot_datasets(part, arrays)
         snaps[name] = h5py.ExternalLink(target, "/")
@@ -219,8 +223,7 @@ def write_checkpoint(f: h5py.File, checkpoint, parts: Parts | None = None) -> No
     if parts is not None and size > parts.external_bytes:
         if "checkpoint" in f:
             del f["checkpoint"]
-        part, target = parts.new_file("checkpoint")
-        with part:
+        with parts.new_file("checkpoint") as (part, target):
             _checkpoint_dataset(part, checkpoint)
             if spins is not None:
                 _spins_dataset(part, spins)

@@ -21,7 +21,7 @@ Crash consistency: the file a reader sees is only ever replaced whole.  The one 
 previous complete state (time series, snapshots and checkpoint of one commit), and a
 reader never sees a half-written file.  HDF5 itself changes a file in place through many
 separate writes, so in-place updates do not give this (docs/run_file.md has the
-measurements).
+measurements).  A full disk fails a commit cleanly (``store.guarded``).
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ import numpy as np
 
 from ringsim import quantities
 from ringsim.errors import InputError
-from ringsim.store import bulk
+from ringsim.store import bulk, guarded
 from ringsim.store.bulk import (  # noqa: F401 (the layout's names, declared in bulk)
     CHECKPOINT_SPINS,
     CHECKPOINT_STATISTICS,
@@ -226,7 +226,7 @@ class RunFileWriter:
         if copy:
             shutil.copyfile(self.path, self.tmp)
         try:
-            with h5py.File(self.tmp, "a" if copy else "w") as f:
+            with guarded.h5_file(self.tmp, "a" if copy else "w") as f:   # full disk: OSError
                 yield f, parts
                 linked = linked_parts(f)
             parts.flush()

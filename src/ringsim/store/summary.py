@@ -15,6 +15,7 @@ import numpy as np
 
 from ringsim import quantities
 from ringsim.physics.restitution import RESTITUTION
+from ringsim.store import guarded
 
 #: Equilibrium quantities of the summary: (key of ``compare.equilibrium``, column stem with
 #: the unit in its name, unit: the declared one of ``ringsim.quantities`` with a note where
@@ -170,7 +171,7 @@ def write_summary(out_dir: str | os.PathLike, sweep, results: Sequence[Any]
     os.replace(tmp_csv, csv_path)
 
     tmp_h5 = h5_path.with_name(".summary.h5.tmp")
-    with h5py.File(tmp_h5, "w") as f:
+    with guarded.h5_file(tmp_h5, "w") as f:   # a full disk: an OSError, not a crash
         f.attrs["sweep_yaml"] = sweep.source_text or ""
         f.attrs["sweep_file"] = str(sweep.source)
         f.attrs["base_scenario_yaml"] = sweep.base.yaml_text
