@@ -1,10 +1,10 @@
 """Every figure ringsim makes, rendered for a tiny run of each kind and checked by program.
 
 Kinds: a plain ring and its kappa = 0.1 twin (``analyze`` and ``compare``), a rough ring
-(spins), a self-gravitating sheet (wakes, Toomre Q), a sweep (``sweep.png``), a study
-(``ratios.png``), and the figures without runs (``epsilon``, ``epsilon --restitution``,
-``fit``).  Each figure is built by the function the command uses, laid out as
-``save_figure`` lays it out, drawn, and checked:
+(spins), a self-gravitating sheet (wakes, Toomre Q, and ``observe``'s occultations), a
+sweep (``sweep.png``), a study (``ratios.png``), and the figures without runs
+(``epsilon``, ``epsilon --restitution``, ``fit``).  Each figure is built by the function
+the command uses, laid out as ``save_figure`` lays it out, drawn, and checked:
 
 * no text outside the canvas (a title running off an edge, a label cut off);
 * no legend overlapping a title (the axes' or the figure's);
@@ -27,10 +27,17 @@ import yaml
 import ringsim
 from ringsim.analysis.fit import fit_model
 from ringsim.analysis.fit_data import read_data
+from ringsim.analysis.observe import observation_pictures, observe
 from ringsim.cli import main
 from ringsim.config.scenario import with_overrides
 from ringsim.plots import common, epsilon_figure, paper_curves
 from ringsim.plots.fits import fit_figure
+from ringsim.plots.observe import (
+    scan_figure,
+    sightline_figure,
+    tau_azimuth_figure,
+    tau_elevation_figure,
+)
 from ringsim.plots.run import comparison_figures, run_figures
 from ringsim.plots.study import ratio_figure
 from ringsim.plots.sweep import read_summary, sweep_figure
@@ -283,6 +290,13 @@ def _all_figures(runs, batch_figures):
         yield from ((f"compare {'+'.join(pair)}/{k}", f) for k, f in comparison_figures(
             [r for r, _ in chosen], [e for _, e in chosen]).items())
     yield from batch_figures.items()
+    run, _eq = runs["grav"]   # ringsim observe: a few views of the gravitating sheet
+    obs = observe(run, [10.0, 45.0], [0.0, 45.0, 90.0], snapshot=-1, rays=300)
+    pictures = observation_pictures(run, obs)
+    yield from {"observe_tau_azimuth.png": tau_azimuth_figure(obs),
+                "observe_tau_elevation.png": tau_elevation_figure(obs),
+                "observe_scan.png": scan_figure(pictures),
+                "observe_sightline.png": sightline_figure(pictures)}.items()
     figures = {}
     figures["epsilon.png"] = epsilon_figure(paper_curves())
     law, density, radii = read_law("model=dilley,kappa=0.1", None, [0.5, 1.0, 5.0])
