@@ -299,7 +299,8 @@ def box_lines(check: dict) -> list[str]:
                         for k, runs in by_kappa.items()}
             for kappa, runs in sorted(by_kappa.items()):
                 wakes = [r["wake_wavelength"]["mean"] / r["lambda_cr"]["mean"] for r in runs
-                         if "wake_wavelength" in r and math.isfinite(r["wake_wavelength"]["mean"])]
+                         if r.get("wake_wavelength", {}).get("mean") is not None
+                         and math.isfinite(r["wake_wavelength"]["mean"])]
                 seen = sum(r.get("wake_significant_fraction", 0.0) for r in runs) / len(runs)
                 cells = [_check_value(combined[kappa], None, key, scale, digits)
                          for key, _, scale, digits in BOX_COLUMNS]

@@ -47,7 +47,7 @@ LAYERS = {
     "__version__": "base", "_resolver": "engine",
     "userlaw": "cli",  # the `ringsim epsilon --restitution` command's law, table and figure
     "cli_examples": "cli",  # the example at the end of every subcommand's --help
-    "cli_stdout": "cli",  # the command's stdout that survives a closed pipe
+    "cli_io": "cli",   # the command line's stdout and argument parser
     # front ends of batches of runs, like the sweep: the shared run-file policy and studies
     "batch": "sweep", "study": "sweep",
 }
@@ -77,7 +77,7 @@ ALLOWED = {
         "module",
         "the run loop writes one time-series row per output from snapshot_summary, a pure "
         "numpy function of the particle arrays that imports nothing of the engine"),
-    ("ringsim.engine.runner", "ringsim.analysis.equilibrium"): (
+    ("ringsim.engine.ending", "ringsim.analysis.equilibrium"): (
         "function",
         "integration.until_equilibrium stops a run on the same stationarity verdict that "
         "analyze reports (one verdict, declared once in analysis.equilibrium)"),

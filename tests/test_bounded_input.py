@@ -339,3 +339,40 @@ def test_rebound_error_leaves_the_file_failed_with_the_reason(capsys, tmp_path):
                     for m in f["guards"]["message"][...]]
     assert failure.startswith("GenericError: An error occurred during the integration")
     assert any(m.startswith("FAILED at orbit") and failure in m for m in messages)
+
+
+def test_an_error_in_the_first_output_leaves_the_file_failed(monkeypatch, capsys, tmp_path):
+    """The window between the run file's creation and the loop: an error in the first
+    output (here a diagnostic that raises) leaves the file failed with the reason."""
+    from ringsim.engine.runner import Runner
+
+    def broken_output(self, first=False):
+        raise RuntimeError("a diagnostic broke")
+
+    monkeypatch.setattr(Runner, "_output", broken_output)   # ringsim's own code, not REBOUND
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text(_text())
+    out = tmp_path / "out.h5"
+    assert main(["run", str(scenario), "-o", str(out), "--no-progress"]) == 1
+    capsys.readouterr()
+    with h5py.File(out, "r") as f:
+        assert f.attrs["status"] == "failed"
+        assert str(f.attrs["failure"]) == "RuntimeError: a diagnostic broke"
+
+
+def test_a_snapshot_with_nan_positions_is_bad_input(capsys, tmp_path):
+    """A damaged snapshot (NaN in x, found by the fuzzing suite) is refused in one line
+    naming the dataset, not a ValueError deep in a diagnostic."""
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text(_text())
+    out = tmp_path / "out.h5"
+    assert main(["run", str(scenario), "-o", str(out), "--no-progress"]) == 0
+    with h5py.File(out, "r+") as f:
+        name = sorted(f["snapshots"])[-1]
+        x = f["snapshots"][name]["x"][...]
+        x[0] = float("nan")
+        f["snapshots"][name]["x"][...] = x
+    capsys.readouterr()
+    assert main(["analyze", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"/snapshots/{name}/x" in err[0] and "not finite" in err[0]

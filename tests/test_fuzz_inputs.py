@@ -374,8 +374,6 @@ WITH_LINKS = ("attribute", "timeseries", "snapshot", "link")
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="dangling soft links in a run file: exit 1 until the run-file "
-                          "readers check every link (issue 43, D2)", strict=False)
 def test_crafted_run_file_links_exit_0_or_2(tmp_path_factory, tiny_run):
     @LONG
     @given(run_file_damage(WITH_LINKS))

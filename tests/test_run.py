@@ -124,8 +124,16 @@ def test_refuses_to_overwrite_without_force(tmp_path, capsys, small_scenario):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and str(out) in err[0] and "--force" in err[0]
     assert out.read_bytes() == b"precious"
-    assert main(["run", str(scenario_file), "-o", str(out), "--no-progress", "--force"]) == 0
-    assert h5py.is_hdf5(out)
+    # --force replaces only a ringsim run file, never these bytes
+    assert main(["run", str(scenario_file), "-o", str(out), "--no-progress", "--force"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a ringsim run file" in err[0]
+    assert out.read_bytes() == b"precious"
+    run_file = tmp_path / "run.h5"
+    assert main(["run", str(scenario_file), "-o", str(run_file), "--no-progress"]) == 0
+    assert main(["run", str(scenario_file), "-o", str(run_file), "--no-progress",
+                 "--force"]) == 0
+    assert h5py.is_hdf5(run_file)
 
 
 @pytest.fixture

@@ -349,6 +349,7 @@ cases:
   k0: {}
   k01: {restitution.kappa: 0.1}
 ratios: [[k01, k0]]
+length: {orbits: 2.0}     # runs long enough to be under way when the study is killed
 """
 
 

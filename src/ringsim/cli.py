@@ -5,11 +5,7 @@ traceback, no output written; also a damaged, newer-format or locked run file); 
 interrupted (SIGINT/SIGTERM; ``run`` wrote a checkpoint first); 1 anything else (a run that
 failed a runtime invariant included).  ``--debug`` shows tracebacks.
 
-A reader that closes stdout early (``ringsim analyze RUN.h5 --plots figs | head``) does not
-stop a command: the rest of what it prints is discarded, its files (figures, JSON, run
-files) are still written, and the exit status is the command's own (0 on success).  The
-closed pipe is not an error of ringsim: a shell script with ``set -o pipefail`` is not
-failed by ``head`` taking the lines it wanted.
+A reader that closes stdout early does not stop a command (``cli_io.ClosedPipeSafeStdout``).
 """
 
 from __future__ import annotations
@@ -22,20 +18,22 @@ from pathlib import Path
 
 from ringsim import __version__
 from ringsim.cli_examples import add_examples
-from ringsim.cli_stdout import ClosedPipeSafeStdout
+from ringsim.cli_io import ClosedPipeSafeStdout, Parser
 from ringsim.errors import InputError, clip
+from ringsim.store.paths import check_outputs
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
-class _Parser(argparse.ArgumentParser):
-    """argparse that reports usage errors as bad input (status 2) in one line."""
-
-    def error(self, message):
-        raise InputError("<command line>", self.prog, message)
+def _add_force_option(p) -> None:
+    """``--force``: replace existing output files (never an input of the command)."""
+    p.add_argument("--force", action="store_true", help="replace existing output files "
+                   "(never an input of the command)")
 
 
 def _cmd_epsilon(args) -> int:
+    check_outputs({"--json": args.json, "--plot": args.plot}, [args.restitution or ""],
+                  args.force)
     if args.plot and Path(args.plot).suffix.lower() != ".png":
         raise InputError(args.plot, "--plot", "the figure must be a .png file")
     if args.restitution is None:
@@ -186,6 +184,7 @@ def _write_json(path: str, payload) -> None:
 def _cmd_analyze(args) -> int:
     from ringsim.analysis.equilibrium import equilibrium, equilibrium_table
 
+    check_outputs({"--json": args.json, "--plots": args.plots}, [args.run], args.force)
     (run,) = _open_runs([args.run])
     _print_status(run)
     eq = equilibrium(run)
@@ -210,6 +209,8 @@ def _cmd_compare(args) -> int:
     from ringsim.analysis.compare import comparison, comparison_table
     from ringsim.analysis.equilibrium import equilibrium
 
+    check_outputs({"--json": args.json, "--plots": args.plots},
+                  [*args.runs, args.systematics or ""], args.force)
     systematics = None
     if args.systematics:
         from ringsim.analysis.budget import load_budget
@@ -233,6 +234,7 @@ def _cmd_compare(args) -> int:
 def _cmd_observe(args) -> int:
     from ringsim.analysis.observe import observation_table, observe
 
+    check_outputs({"--json": args.json, "--plots": args.plots}, [args.run], args.force)
     (run,) = _open_runs([args.run])
     _print_status(run)
     obs = observe(run, args.elevation, args.azimuth, args.snapshot, args.rays, args.precision)
@@ -247,6 +249,7 @@ def _cmd_export(args) -> int:
     if not (args.csv or args.rebound):
         raise InputError("<command line>", "export", "give --csv OUT.csv and/or "
                          "--rebound OUT.bin")
+    check_outputs({"--csv": args.csv, "--rebound": args.rebound}, [args.run], args.force)
     (run,) = _open_runs([args.run])
     for option, path, suffix in (("--csv", args.csv, ".csv"), ("--rebound", args.rebound,
                                                                ".bin")):
@@ -278,6 +281,8 @@ def _cmd_study(args) -> int:
 def _cmd_fit(args) -> int:
     from ringsim.analysis.fit import fit_command
 
+    check_outputs({"--json": args.json, "--plot": args.plot,
+                   "--write-restitution": args.write_restitution}, [args.data], args.force)
     return fit_command(args)
 
 
@@ -294,6 +299,7 @@ def _epsilon_arguments(sub) -> None:
                    "colliding identical spheres, one curve each")
     p.add_argument("--density", metavar="RHO", type=float, help="bulk density [kg/m^3] "
                    "(default 900, or the scenario's)")
+    _add_force_option(p)
     p.set_defaults(func=_cmd_epsilon)
 
 
@@ -307,6 +313,7 @@ def _export_arguments(sub) -> None:
                    "(x_m ... mass_kg, the format of sheet.initial_state)")
     p.add_argument("--rebound", metavar="OUT.bin", help="write a REBOUND simulation that "
                    "continues the snapshot (see docs/export.md)")
+    _add_force_option(p)
     p.set_defaults(func=_cmd_export)
 
 
@@ -321,7 +328,8 @@ def _run_arguments(sub) -> None:
     p.add_argument("scenario", metavar="SCENARIO.yaml")
     p.add_argument("-o", "--output", metavar="RUN.h5", help="run file (default: the "
                    "scenario's output.path)")
-    p.add_argument("--force", action="store_true", help="overwrite an existing run file")
+    p.add_argument("--force", action="store_true", help="overwrite an existing run file "
+                   "(only a ringsim run file)")
     p.add_argument("--resume", action="store_true", help="continue a stopped run from its "
                    "last checkpoint")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (batch jobs)")
@@ -334,6 +342,7 @@ def _analyze_arguments(sub) -> None:
     p.add_argument("run", metavar="RUN.h5")
     p.add_argument("--json", metavar="OUT.json", help="write the equilibrium as JSON")
     p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
+    _add_force_option(p)
     p.set_defaults(func=_cmd_analyze)
 
 
@@ -351,6 +360,7 @@ def _observe_arguments(sub) -> None:
     rays.add_argument("--precision", type=float, metavar="P", help="relative error of tau_n")
     p.add_argument("--json", metavar="OUT.json", help="write the views as JSON")
     p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
+    _add_force_option(p)
     p.set_defaults(func=_cmd_observe)
 
 
@@ -361,6 +371,7 @@ def _compare_arguments(sub) -> None:
     p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
     p.add_argument("--systematics", metavar="BUDGET.json", help="measured systematic "
                    "uncertainties of the ratios (ringsim.analysis.budget)")
+    _add_force_option(p)
     p.set_defaults(func=_cmd_compare)
 
 
@@ -408,6 +419,7 @@ def _fit_arguments(sub) -> None:
     p.add_argument("--plot", metavar="PNG", help="plot data and fitted curves")
     p.add_argument("--write-restitution", metavar="OUT.yaml",
                    help="write the best fit as a scenario 'restitution' section")
+    _add_force_option(p)
     p.set_defaults(func=_cmd_fit)
 
 
@@ -429,11 +441,11 @@ _SUBCOMMANDS = (_epsilon_arguments, _export_arguments, _run_arguments, _analyze_
 
 def build_parser() -> argparse.ArgumentParser:
     """The parser of the ``ringsim`` command and its subcommands (docs/interface.md)."""
-    parser = _Parser(prog="ringsim", description="Collisional N-body simulations of a "
+    parser = Parser(prog="ringsim", description="Collisional N-body simulations of a "
                      "planetary-ring patch with size- and mass-dependent restitution.")
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
     parser.add_argument("--version", action="version", version=f"ringsim {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     for add_arguments in _SUBCOMMANDS:
         add_arguments(sub)
     add_examples(sub)   # an example at the end of every --help

@@ -218,6 +218,20 @@ _DECLARED = (
              "impact speeds", "cm/s", 100.0),
     Quantity("law_range.sizes", "m", "reduced radii the law was measured over",
              "reduced radii", "cm", 100.0),
+    # --- aggregation of the window (analysis.aggregation) -------------------------------------
+    Quantity("aggregation.rows", "count", "time-series rows of the window"),
+    Quantity("aggregation.overlap_rows", "count", "rows of the window with pairs overlapping "
+             "by more than 10 % of the smaller radius"),
+    Quantity("aggregation.max_overlapping_pairs", "count", "most such pairs in one row"),
+    Quantity("aggregation.multi_encounter_share", "fraction of collisions", "multi-encounters "
+             "per collision in the window"),
+    Quantity("aggregation.bound_fraction_max", "fraction of the mass", "largest share of the "
+             "mass in bound Hill-sphere groups in a snapshot of the window", weighting="mass"),
+    Quantity("aggregation.bound_fraction_last", "fraction of the mass", "share of the mass in "
+             "bound Hill-sphere groups in the window's last snapshot", weighting="mass"),
+    Quantity("aggregation.contact_fraction_last", "fraction of the mass", "share of the mass "
+             "in contact groups of >= 10 particles in the window's last snapshot",
+             weighting="mass"),
     # --- the energy budget and the spins (analysis.spins) --------------------------------------
     Quantity("energy_budget.heating", "W/m^2", "shear heating (9/4) Ω² Σ ν_trans + (3/2) Ω "
              "Δplog / (Lx Ly Δt)", "shear heating"),
@@ -275,10 +289,13 @@ _DECLARED = (
              "window's snapshots", "Toomre Q (mass-weighted sigma_x)", weighting="mass"),
     Quantity("lambda_cr", "m", "Toomre's critical wavelength 4π²GΣ/Ω²",
              "Toomre wavelength lambda_cr"),
-    Quantity("wake_wavelength", "m", "wavelength of the dominant density wave"),
-    Quantity("wake_pitch_angle", "deg", "pitch angle of the dominant density wave",
+    Quantity("wake_wavelength", "m", "wavelength of the window's wake: of the mean wave "
+             "vector of the significant snapshots' dominant shear-periodic modes (null "
+             "without a significant wake)"),
+    Quantity("wake_pitch_angle", "deg", "pitch angle of the same mean wave vector",
              "wake pitch angle (trailing > 0)"),
-    Quantity("wake_amplitude", DIMENSIONLESS, "peak contrast A of Σ = <Σ>(1 + A cos k·r)",
+    Quantity("wake_amplitude", DIMENSIONLESS, "peak contrast A of Σ = <Σ>(1 + A cos k·r) of "
+             "the dominant mode, mean over the significant snapshots",
              "wake amplitude (peak contrast)"),
     Quantity("gravitational_viscosity", "m^2/s", "viscosity of the gravitational torque"),
     Quantity("viscous_heating", "W/m^2", "(9/4) Ω² Σ (ν_trans + ν_coll + ν_grav)",

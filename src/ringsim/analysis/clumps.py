@@ -33,9 +33,21 @@ CONTACT_LINK = 1.05
 MIN_GROUP = 10
 
 
-def _linked_pairs(x, y, z, radius, Lx, Ly, shift, link):
-    """Linked pairs (i, j) of original indices and the separation vectors r_j - r_i [m]."""
-    reach = link * 2.0 * float(radius.max())
+def near_pairs(x, y, z, Lx, Ly, shift, reach):
+    """Every pair of particles whose centres are closer than ``reach``, across the
+    shear-periodic boundaries: original indices (i, j) and separation vectors r_j - r_i [m]
+    (of the image of j nearest to i).
+
+    Parameters
+    ----------
+    x, y, z : array [m]
+    Lx, Ly : float [m]
+    shift : float [m]
+        Shear offset of the radial images (``physics.selfgravity.shear_offset``).
+    reach : float [m]
+        Less than half of Lx and Ly.
+    """
+    x, y, z = (np.asarray(v, dtype=float) for v in (x, y, z))
     index, px, py, pz = radial_images(x, y, z, Lx, shift, reach)
     tree = cKDTree(np.column_stack([px - px.min(), np.mod(py + 0.5 * Ly, Ly),
                                     pz - pz.min()]), boxsize=[1e300, Ly, 1e300])
@@ -46,7 +58,18 @@ def _linked_pairs(x, y, z, radius, Lx, Ly, shift, link):
     d = np.column_stack([px[b] - px[a], py[b] - py[a], pz[b] - pz[a]])
     d[:, 1] = (d[:, 1] + 0.5 * Ly) % Ly - 0.5 * Ly
     i, j = index[a], index[b]
-    keep = (i != j) & (np.linalg.norm(d, axis=1) < link * (radius[i] + radius[j]))
+    keep = (i != j) & (np.linalg.norm(d, axis=1) < reach)
+    i, j, d = i[keep], j[keep], d[keep]
+    # a pair near a corner can be found through two images: keep one
+    _, first = np.unique(np.minimum(i, j) * (x.size + 1) + np.maximum(i, j),
+                         return_index=True)
+    return i[first], j[first], d[first]
+
+
+def _linked_pairs(x, y, z, radius, Lx, Ly, shift, link):
+    """Linked pairs (i, j) of original indices and the separation vectors r_j - r_i [m]."""
+    i, j, d = near_pairs(x, y, z, Lx, Ly, shift, link * 2.0 * float(radius.max()))
+    keep = np.linalg.norm(d, axis=1) < link * (radius[i] + radius[j])
     return i[keep], j[keep], d[keep]
 
 

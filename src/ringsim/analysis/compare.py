@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from ringsim.analysis import budget
+from ringsim.analysis import aggregation, budget
 from ringsim.analysis.equilibrium import (
     NOT_IN_EQUILIBRIUM,
     TABLE_ROWS,
@@ -30,6 +30,7 @@ def _combined(members: Sequence[dict]) -> dict:
     for key in TABLE_ROWS:
         eq[key] = budget.replica_mean([m[key] for m in members])
     eq["in_equilibrium"] = all(m["in_equilibrium"] for m in members)
+    eq["aggregating"] = any(m.get("aggregating") for m in members)
     eq["reason"] = "; ".join(f"{m['name']}: {m['reason']}" for m in members
                              if not m["in_equilibrium"]) or members[0]["reason"]
     eq["replicas"] = [m["name"] for m in members]
@@ -56,7 +57,8 @@ def comparison(equilibria: Sequence[dict], systematics: dict | None = None) -> d
     ``statistical``; the systematic part is NaN where the budget has no entry;
     ``significance`` is the difference in units of the combined statistical error),
     ``all_in_equilibrium`` and
-    ``warnings`` (one per run the finder did not call stationary).
+    ``warnings`` (one per run the finder did not call stationary and one per aggregating
+    run, whose collision statistics are NaN and so are their ratios).
     """
     indices = budget.replica_groups(equilibria)
     if len(indices) == 1:  # only replicas of one case: compare them with each other
@@ -80,6 +82,9 @@ def comparison(equilibria: Sequence[dict], systematics: dict | None = None) -> d
         ratios.append(entry)
     warnings = [NOT_IN_EQUILIBRIUM.format(name=eq["name"], reason=eq["reason"])
                 for eq in equilibria if not eq["in_equilibrium"]]
+    warnings += [aggregation.AGGREGATING_WARNING.format(
+        name=eq["name"], share=100 * eq["aggregation"]["bound_fraction_max"])
+        for eq in equilibria if eq.get("aggregating")]
     return {"runs": groups, "ratios": ratios, "warnings": warnings,
             "all_in_equilibrium": not warnings,
             "systematics": (systematics or {}).get("description", "not measured")}
@@ -104,6 +109,8 @@ def comparison_table(comp: dict) -> str:
                      + "".join(f"{_fmt(eq[key], scale):>{width}}" for eq in runs))
     lines.append(f"{'in equilibrium':<40}"
                  + "".join(f"{str(eq['in_equilibrium']):>{width}}" for eq in runs))
+    lines.append(f"{'aggregating (collisions withheld)':<40}"
+                 + "".join(f"{str(bool(eq.get('aggregating'))):>{width}}" for eq in runs))
     for eq in runs:
         line = size_ratio_line(eq.get("size_ratio"))
         if line:

@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from ringsim import quantities
-from ringsim.analysis import collisions, motions, spins, tiling, timeseries
+from ringsim.analysis import aggregation, collisions, motions, spins, tiling, timeseries
 from ringsim.analysis.gravitating import gravity_equilibrium, gravity_table_lines
 from ringsim.physics import kinetic
 from ringsim.physics.restitution import RESTITUTION
@@ -189,7 +189,9 @@ def equilibrium(run) -> dict:
         of the scenario's law, ``kinetic.kinetic_dispersion_estimate``), ``energy_budget``
         and, with friction, ``spin`` and ``rotational_energy_fraction``
         (``analysis.spins``); weighted and local c and H, ``weightings``
-        (``analysis.motions``); after a tiled start ``tiled_copies_independent_from_orbit``.
+        (``analysis.motions``); ``aggregation``, ``aggregating``
+        (`_aggregation_and_gravity`); after a tiled start
+        ``tiled_copies_independent_from_orbit``.
     """
     ts = run.timeseries
     sc = run.scenario
@@ -209,8 +211,7 @@ def equilibrium(run) -> dict:
                                            else math.nan, 0.0,
                                            quantities.unit("equilibrium_from_orbit"))
     _add_size_sections(out, run, start, radius, mass)
-    if sc.sheet.gravity:
-        out.update(gravity_equilibrium(run, start, out))
+    _aggregation_and_gravity(run, start, out)
     if independent is not None:
         out["tiled_copies_independent_from_orbit"] = _value(
             independent, 0.0, quantities.unit("tiled_copies_independent_from_orbit"))
@@ -238,6 +239,16 @@ def _add_size_sections(out: dict, run, start: int, radius: np.ndarray, mass: np.
     out["spin"] = spins.spin_equilibrium(run, start, ts.get("size_bin_edges"))
     if out["spin"]:
         out["rotational_energy_fraction"] = out["spin"]["rotational_energy_fraction"]
+
+
+def _aggregation_and_gravity(run, start: int, out: dict) -> None:
+    """Add to the equilibrium ``out`` the run's ``aggregation`` and ``aggregating``
+    (``analysis.aggregation``: an aggregating run's collision statistics become NaN, their
+    fluid averages kept in ``aggregation["as_fluid"]``) and, for a gravitating run, the
+    gravity entries (``gravity_equilibrium``, from row ``start``)."""
+    aggregation.withhold_collision_statistics(out, aggregation.run_aggregation(run, start))
+    if run.scenario.sheet.gravity:
+        out.update(gravity_equilibrium(run, start, out))
 
 
 #: Share of impacts outside the speeds (or sizes) a law was measured over above which
@@ -426,9 +437,12 @@ def equilibrium_table(eq: dict) -> str:
                         else "the copies are not independent by the last snapshot"))
     for key in TABLE_ROWS:
         q = quantities.QUANTITY[key]
-        lines.append(f"  {q.headline_label:<42} {_fmt(eq[key], q.scale)}")
+        withheld = eq.get("aggregating") and key in aggregation.COLLISION_KEYS
+        lines.append(f"  {q.headline_label:<42} "
+                     + ("withheld: the ring aggregates" if withheld else _fmt(eq[key], q.scale)))
     lines += motions.motion_table_lines(eq)
     lines += gravity_table_lines(eq)
+    lines += aggregation.aggregation_lines(eq)
     k = eq["kinetic_estimate"]
     if k["status"] == "equilibrium":
         lines.append(f"  {'dilute kinetic estimate c / (<r> Omega)':<42} "

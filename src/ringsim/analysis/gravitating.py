@@ -16,11 +16,14 @@ What a ring dynamicist reads for a self-gravitating sheet, beside the equilibriu
   the mass, and so Sigma, sits in the large particles, which are the coolest, so it can lie
   well below the number-weighted Q (docs/gravity.md, 4c); for identical particles both are
   the same;
-* ``wake_wavelength`` [m], ``wake_pitch_angle`` [deg], ``wake_amplitude``: the dominant
-  density wave of each snapshot inside the equilibrium window (``analysis.wakes.
-  wake_statistics``), mean and standard error over those snapshots (treated as independent:
-  snapshots are ``output.snapshot_every`` apart, an orbit or more, while wakes live about an
-  orbit); with one snapshot the stderr is that snapshot's own spread of the spectral peak;
+* ``wake_wavelength`` [m], ``wake_pitch_angle`` [deg], ``wake_amplitude``: the wake of the
+  equilibrium window (``analysis.wakes.mean_wake``): the dominant shear-periodic mode of each
+  snapshot inside the window (``analysis.wakes.wake_statistics``), its wave vector averaged
+  over the snapshots with a significant wake, and the wavelength and pitch of that mean
+  vector, with errors propagated from the components' standard errors (snapshots treated
+  as independent: they are ``output.snapshot_every`` apart, an orbit or more, while wakes
+  live about an orbit).  Where the window holds no significant wake the three are null
+  (``{"mean": null, "stderr": null}``) and ``wake_significant`` is false;
 * ``gravitational_viscosity`` [m^2/s]: ``analysis.wakes.gravitational_viscosity`` of the same
   snapshots, mean and stderr over them (0 for a run with ``gravity_solver: slab``, whose
   forces are vertical: no torque acted);
@@ -28,14 +31,15 @@ What a ring dynamicist reads for a self-gravitating sheet, beside the equilibriu
   (:func:`energy_balance`): viscous heating by the shear, collisional dissipation, the rate
   of change of the random kinetic energy, and their closure.
 
-A snapshot's wake is reported whether or not it is significant against Poisson noise;
-``wake_significant_fraction`` says in how many of the window's snapshots it was.
-``wake_box_length_fraction`` says in how many of those with a significant wake the dominant
-mode is the longest non-axisymmetric wave the box holds (one wavelength along y,
-``azimuthal_mode`` 1).  For such a mode the box ties wavelength and pitch, lambda = Ly
-sin(theta): a wake lambda_cr apart at 20-25 deg is 2.4-2.9 lambda_cr long in y, more than
-a box of 2.1 lambda_cr holds.  It is common and not by itself a defect; only a larger box
-says whether the box changed c and H (docs/gravity.md, 5, "Box-long wakes").
+``wake_significant`` says whether the window holds a wake against the random-sheet
+reference, ``wake_significant_fraction`` in how many of the window's snapshots it was
+significant, ``wake_mode_n`` the most common number of wavelengths along y of the
+significant modes.  ``wake_box_length_fraction`` says in how many of those the mode is the
+longest non-axisymmetric wave the box holds (one wavelength along y).  For such a mode the
+box ties wavelength and pitch, lambda = Ly sin(theta): a wake lambda_cr apart at 20-25 deg
+is 2.4-2.9 lambda_cr long in y, more than a box of 2.1 lambda_cr holds.  It is common and
+not by itself a defect; only a larger box says whether the box changed c and H
+(docs/gravity.md, 5, "Box-long wakes").
 """
 
 from __future__ import annotations
@@ -278,8 +282,9 @@ def gravity_equilibrium(run, start: int, viscosities: dict | None = None) -> dic
     Returns
     -------
     dict of the `GRAVITY_QUANTITIES` keys (each ``{"mean", "stderr", "units"}``) plus
-    ``wake_snapshots`` (how many snapshots were analysed), ``wake_significant_fraction`` and
-    ``gravity_solver`` (the run's, "" for files that do not say).
+    ``wake_snapshots`` (how many snapshots were analysed), ``wake_significant`` and
+    ``wake_mode_n`` (`window_wake`), ``wake_significant_fraction``,
+    ``wake_box_length_fraction`` and ``gravity_solver`` (the run's, "" for files that do not say).
     """
     ts = run.timeseries
     const = run_constants(run)
@@ -300,13 +305,7 @@ def gravity_equilibrium(run, start: int, viscosities: dict | None = None) -> dic
     out["toomre_Q_mass"] = _over_snapshots(
         [mass_weighted_toomre_q(snap, const["Sigma"], Omega) for snap in snaps], math.nan,
         unit("toomre_Q_mass"))
-    out["wake_wavelength"] = _over_snapshots([s["wavelength"] for s in per],
-                                             per[0]["wavelength_err"], unit("wake_wavelength"))
-    out["wake_pitch_angle"] = _over_snapshots([s["pitch_angle_deg"] for s in per],
-                                              per[0]["pitch_angle_err_deg"],
-                                              unit("wake_pitch_angle"))
-    out["wake_amplitude"] = _over_snapshots([s["peak_amplitude"] for s in per], math.nan,
-                                            unit("wake_amplitude"))
+    out.update(window_wake(per, Lx, Ly))
     out["gravitational_viscosity"] = _over_snapshots(
         [s["gravitational_viscosity"] for s in per], math.nan, unit("gravitational_viscosity"))
     if str(run.attrs.get("gravity_solver", "")) == "slab":
@@ -325,6 +324,22 @@ def gravity_equilibrium(run, start: int, viscosities: dict | None = None) -> dic
     return out
 
 
+def window_wake(per: list[dict], Lx: float, Ly: float) -> dict:
+    """The wake entries of an equilibrium from the window's `snapshot_wakes`
+    (``wakes.mean_wake``): ``wake_wavelength`` [m], ``wake_pitch_angle`` [deg] and
+    ``wake_amplitude``, each {"mean", "stderr", "units"} with null mean and stderr where
+    the window holds no significant wake, ``wake_significant`` and ``wake_mode_n``."""
+    wake = wakes.mean_wake(per, 2.0 * np.pi / max(Lx, Ly))
+    out: dict[str, object] = {}
+    for key, mean, err in (("wake_wavelength", "wavelength", "wavelength_err"),
+                           ("wake_pitch_angle", "pitch_angle_deg", "pitch_angle_err_deg"),
+                           ("wake_amplitude", "amplitude", "amplitude_err")):
+        out[key] = {"mean": wake[mean], "stderr": wake[err], "units": unit(key)}
+    out["wake_significant"] = wake["significant"]
+    out["wake_mode_n"] = wake["mode_n"]
+    return out
+
+
 def gravity_table_lines(eq: dict) -> list[str]:
     """Rows of the plain-text equilibrium table for a gravitating run (empty otherwise)."""
     if "lambda_cr" not in eq:
@@ -336,6 +351,9 @@ def gravity_table_lines(eq: dict) -> list[str]:
             continue  # no balance measured: the run's one balance is analysis.spins'
         q = QUANTITY[key]
         value = eq[key]
+        if value["mean"] is None:  # a wake entry of a window without a significant wake
+            lines.append(f"  {q.table_label:<42} none (no significant wake)")
+            continue
         mean = value["mean"] * q.scale
         text = "n/a" if not math.isfinite(mean) else (
             f"{mean:.4g}" if not value["stderr"] else f"{mean:.4g} ± {value['stderr']:.2g}")
@@ -350,10 +368,16 @@ def gravity_table_lines(eq: dict) -> list[str]:
                      f"{' (a size distribution)' if sizes else ''}: the modes it leaves out "
                      "(wakes, encounters) matter here (docs/gravity.md 4c); run with "
                      "gravity_solver p3m")
-    ratio = eq["wake_wavelength"]["mean"] / eq["lambda_cr"]["mean"]
-    lines.append(f"  {'wake wavelength / lambda_cr':<42} {ratio:.3g} "
-                 f"({eq['wake_snapshots']} snapshots, significant wake in "
-                 f"{100 * eq['wake_significant_fraction']:.0f} %)")
+    seen = (f"{eq['wake_snapshots']} snapshots, significant wake in "
+            f"{100 * eq['wake_significant_fraction']:.0f} %")
+    if eq.get("wake_significant", True) and eq["wake_wavelength"]["mean"] is not None:
+        ratio = eq["wake_wavelength"]["mean"] / eq["lambda_cr"]["mean"]
+        mode = (f"; {eq['wake_mode_n']} wavelength(s) along y" if eq.get("wake_mode_n")
+                else "")
+        lines.append(f"  {'wake wavelength / lambda_cr':<42} {ratio:.3g} ({seen}{mode})")
+    else:
+        lines.append(f"  {'wake':<42} none significant against a random sheet ({seen}): "
+                     "no wavelength or pitch")
     if eq["wake_significant_fraction"] > 0.0 and "wake_box_length_fraction" in eq:
         lines.append(f"  {'wakes one wavelength along y (box-long)':<42} "
                      f"{100 * eq['wake_box_length_fraction']:.0f} % of the snapshots with a "

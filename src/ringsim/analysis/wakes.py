@@ -15,9 +15,20 @@ negative for leading ones.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from scipy.stats import binom
 
 from ringsim.physics.constants import G_SI
+
+#: Chance that a random sheet's strongest mode is called a wake in one snapshot.
+FALSE_ALARM = 1e-3
+#: Chance that a window of random sheets is said to hold a wake (`mean_wake`).
+WINDOW_FALSE_ALARM = 1e-2
+#: The numbers of a snapshot's dominant mode, None without a significant wake.
+MODE_KEYS = ("mode_m", "mode_n", "kx", "ky", "wavelength", "wavelength_err", "pitch_angle_deg",
+             "pitch_angle_err_deg", "azimuthal_mode")
 
 
 def sheared_grid_spectrum(x, y, mass, Lx, Ly, shift, n=128):
@@ -69,14 +80,19 @@ def sheared_grid_spectrum(x, y, mass, Lx, Ly, shift, n=128):
             "shot": float(np.sum(mass**2) / total**2)}
 
 
-def wake_statistics(x, y, mass, Lx, Ly, shift, n=128, false_alarm=1e-3):
-    """Wavelength, pitch angle and amplitude of the dominant density wave of a snapshot.
+def wake_statistics(x, y, mass, Lx, Ly, shift, n=128, false_alarm=FALSE_ALARM):
+    """The dominant shear-periodic mode of a snapshot's surface density.
 
-    The dominant mode is the largest |delta_k|^2 below the grid's Nyquist band (|k| < pi n /
-    (2 L)).  Under pure Poisson noise each |delta_k|^2 / shot is exponentially distributed,
-    so the chance that the largest of n_modes independent modes exceeds the observed peak is
-    ``p_value = 1 - (1 - exp(-peak / shot))^n_modes``; a wake is ``significant`` when
-    p_value < ``false_alarm``.
+    The modes a shear-periodic box holds at the snapshot's time are those of the sheared
+    grid (module docstring): integers (m, n), wave vector k_y = 2 pi n / Ly, k_x = 2 pi (m +
+    n s / Ly) / Lx, s the shear offset (1.5 Omega Lx t mod Ly).  The dominant mode is the
+    largest |delta_k|^2 below the grid's Nyquist band (|k| < pi n / (2 L)); its wavelength
+    2 pi / |k| and pitch atan(k_y / k_x) are that one mode's, a wave the box holds (lambda =
+    Ly sin(pitch) / |n|).  Under pure Poisson noise (a random sheet of the same masses, the
+    wake-free reference) each |delta_k|^2 / shot is exponentially distributed, so the
+    largest of n_modes independent modes exceeds the peak with the chance ``p_value = 1 -
+    (1 - exp(-peak / shot))^n_modes``; the wake is ``significant`` when p_value <
+    ``false_alarm``.  Without it the mode's numbers (`MODE_KEYS`) are None.
 
     Parameters
     ----------
@@ -84,20 +100,18 @@ def wake_statistics(x, y, mass, Lx, Ly, shift, n=128, false_alarm=1e-3):
     mass : array [kg]
     Lx, Ly, shift : float [m]
     n : int
-    false_alarm : float
+        Grid cells per side.
+    false_alarm : float [dimensionless]
 
     Returns
     -------
-    dict: ``wavelength`` [m] and its ``wavelength_err`` [m] (power-weighted spread of 2 pi/|k|
-    over the modes above half the peak, at least half the spacing of neighbouring modes),
-    ``pitch_angle_deg`` [deg] (sign convention in the module docstring) and
-    ``pitch_angle_err_deg``, ``amplitude`` (rms surface-density contrast of the grid, with
-    Poisson noise) and ``poisson_amplitude`` (its expectation for a uniform random sheet of
-    these masses) [dimensionless], ``peak_amplitude`` (A of Sigma = <Sigma> (1 + A cos(k.r))
-    from the modes above half the peak, shot noise subtracted), ``significance``
-    (peak / shot), ``p_value``, ``significant``, ``azimuthal_mode`` (wavelengths of the
-    dominant mode along the box's azimuthal side, |k_y| Ly / 2 pi: 1 is the longest
-    non-axisymmetric wave the box holds, 0 an axisymmetric one).
+    dict: ``mode_m``, ``mode_n`` (signs chosen so that k_x > 0, or k_y > 0 where k_x = 0),
+    ``kx``, ``ky`` [1/m], ``wavelength`` [m], ``pitch_angle_deg`` [deg] (sign convention in
+    the module docstring) and their errors (`wave_of`, half the modes' spacing);
+    ``azimuthal_mode`` (|n|: 1 is the longest non-axisymmetric wave the box holds);
+    ``peak_amplitude`` (A of Sigma = <Sigma> (1 + A cos(k.r)), shot noise subtracted),
+    ``amplitude`` and ``poisson_amplitude`` (`_contrast`); ``significance`` (peak / shot),
+    ``p_value``, ``significant``.
     """
     spec = sheared_grid_spectrum(x, y, mass, Lx, Ly, shift, n)
     power, kx, ky, shot = spec["power"], spec["kx"], spec["ky"], spec["shot"]
@@ -105,49 +119,108 @@ def wake_statistics(x, y, mass, Lx, Ly, shift, n=128, false_alarm=1e-3):
     band = (k > 0) & (k < 0.5 * np.pi * n / max(Lx, Ly))
     p = np.where(band, power, 0.0)
     peak_idx = np.unravel_index(np.argmax(p), p.shape)
-    peak = p[peak_idx]
-    k0 = np.array([kx[peak_idx], ky[peak_idx]])
-    # modes above half the peak on the peak's side (k and -k carry the same power)
-    near = (p >= 0.5 * peak) & ((kx * k0[0] + ky * k0[1]) > 0)
-    weights = p[near]
+    peak = float(p[peak_idx])
     n_modes = int(np.count_nonzero(band)) // 2
-    significance = float(peak / shot)
+    significance = peak / shot
     p_value = float(-np.expm1(n_modes * np.log1p(-np.exp(-significance))))
-    sigma = spec["sigma"]
-    contrast = sigma / sigma.mean() - 1.0
-    mass = np.asarray(mass, dtype=float)
-    cell_mass = mass.sum() / n**2
-    out = _dominant_wave(kx[near], ky[near], k[near], weights, k0, 2.0 * np.pi / max(Lx, Ly))
-    out.update({
-        "amplitude": float(np.sqrt(np.mean(contrast**2))),
-        # CIC spreads each particle over 4 cells: the variance of a cell's mass is reduced by
-        # sum of squared weights, 4/9 on average
-        "poisson_amplitude": float(np.sqrt(4.0 / 9.0 * np.sum(mass**2) / n**2) / cell_mass),
-        "peak_amplitude": float(2.0 * np.sqrt(max(np.sum(weights) - shot * weights.size, 0.0))),
-        "significance": significance,
-        "p_value": p_value,
-        "significant": bool(p_value < false_alarm),
-        "azimuthal_mode": int(round(abs(float(k0[1])) * Ly / (2.0 * np.pi))),
-    })
+    out = _contrast(spec["sigma"], np.asarray(mass, dtype=float), n)
+    out.update({"peak_amplitude": float(2.0 * np.sqrt(max(peak - shot, 0.0))),
+                "significance": float(significance), "p_value": p_value,
+                "significant": bool(p_value < false_alarm)})
+    if not out["significant"]:
+        out.update(dict.fromkeys(MODE_KEYS))
+        return out
+    m_index, n_index = (int(i) if i <= n // 2 else int(i) - n for i in peak_idx)
+    k0 = (float(kx[peak_idx]), float(ky[peak_idx]))
+    sign = 1 if (k0[0] > 0 or (k0[0] == 0 and k0[1] > 0)) else -1
+    out.update({"mode_m": sign * m_index, "mode_n": sign * n_index, "kx": sign * k0[0],
+                "ky": sign * k0[1], "azimuthal_mode": abs(n_index)})
+    out.update(wave_of(out["kx"], out["ky"], 0.5 * 2.0 * np.pi / max(Lx, Ly)))
     return out
 
 
-def _dominant_wave(kx, ky, k, weights, k0, dk) -> dict:
-    """Wavelength and pitch of the dominant wave from the modes near its peak: the modes'
-    wave vectors (kx, ky, |k|) [1/m] and powers (``weights``), the peak's wave vector k0
-    [1/m] and the spacing dk [1/m] of neighbouring modes.  Each value is the power-weighted
-    mean over the modes, its error the weighted spread, at least half the resolution dk."""
-    lam = 2.0 * np.pi / k
-    lam0 = float(np.sum(weights * lam) / np.sum(weights))
-    spread = float(np.sqrt(np.sum(weights * (lam - lam0) ** 2) / np.sum(weights)))
-    resolution = 0.5 * lam0**2 * dk / (2.0 * np.pi)
-    pitch = np.degrees(np.arctan(ky / np.where(kx == 0, 1e-300, kx)))
-    pitch0 = float(np.sum(weights * pitch) / np.sum(weights))
-    pitch_spread = float(np.sqrt(np.sum(weights * (pitch - pitch0) ** 2) / np.sum(weights)))
-    angular_resolution = float(np.degrees(0.5 * dk / np.hypot(*k0)))
-    return {"wavelength": lam0, "wavelength_err": max(spread, resolution),
-            "pitch_angle_deg": pitch0, "pitch_angle_err_deg": max(pitch_spread,
-                                                                  angular_resolution)}
+def _contrast(sigma: np.ndarray, mass: np.ndarray, n: int) -> dict:
+    """``amplitude``, the rms contrast of the surface density ``sigma`` [kg/m^2] on its n x
+    n grid, and ``poisson_amplitude``, its expectation for a uniform random sheet of the
+    masses ``mass`` [kg] [dimensionless]."""
+    contrast = sigma / sigma.mean() - 1.0
+    cell_mass = mass.sum() / n**2
+    # CIC spreads each particle over 4 cells: the variance of a cell's mass is reduced by
+    # the sum of squared weights, 4/9 on average
+    return {"amplitude": float(np.sqrt(np.mean(contrast**2))),
+            "poisson_amplitude": float(np.sqrt(4.0 / 9.0 * np.sum(mass**2) / n**2)
+                                       / cell_mass)}
+
+
+def wave_of(kx: float, ky: float, dk: float) -> dict:
+    """Wavelength [m] and pitch [deg] of the wave vector (kx, ky) [1/m] with the
+    uncertainty dk [1/m] on each component: ``wavelength``, ``wavelength_err``,
+    ``pitch_angle_deg`` and ``pitch_angle_err_deg`` (first-order propagation)."""
+    k = float(np.hypot(kx, ky))
+    pitch = float(np.degrees(np.arctan(ky / kx))) if kx != 0 else float(np.sign(ky) * 90.0)
+    return {"wavelength": 2.0 * np.pi / k, "wavelength_err": 2.0 * np.pi * dk / k**2,
+            "pitch_angle_deg": pitch, "pitch_angle_err_deg": float(np.degrees(dk / k))}
+
+
+def mean_wake(per_snapshot: list[dict], dk: float, false_alarm: float = FALSE_ALARM,
+              window_false_alarm: float = WINDOW_FALSE_ALARM) -> dict:
+    """The wake of a window of snapshots: the mean wave vector of their significant modes.
+
+    The wave vectors (k_x > 0) are averaged component by component and the wavelength
+    and pitch are those of the mean vector, not means of wavelengths and pitches.  Every
+    snapshot's mode is one the box holds; with one |n| throughout, the mean is one too
+    (k_y = 2 pi n / Ly, and k_x sweeps all values as the shear offset runs through a cycle).
+    The window holds a wake when the count of significant snapshots is one that random
+    sheets reach with a chance below ``window_false_alarm`` (binomial tail with
+    probability ``false_alarm`` per snapshot); otherwise wavelength and pitch are None.
+
+    Parameters
+    ----------
+    per_snapshot : list of `wake_statistics` results
+    dk : float [1/m]
+        Spacing of the box's modes (2 pi / max(Lx, Ly)): half of it is the error of a
+        single snapshot's wave vector.
+    false_alarm, window_false_alarm : float [dimensionless]
+
+    Returns
+    -------
+    dict: ``significant`` (the window holds a wake), ``significant_snapshots``,
+    ``window_p_value``, ``kx``, ``ky`` [1/m] and their errors ``kx_err``, ``ky_err``,
+    ``wavelength`` [m], ``wavelength_err``, ``pitch_angle_deg`` [deg],
+    ``pitch_angle_err_deg``, ``amplitude`` (mean ``peak_amplitude`` of the significant
+    snapshots) and ``amplitude_err``, ``mode_n`` (the most common |n|) and
+    ``mode_n_fraction`` (its share of the significant snapshots).
+    """
+    waked = [s for s in per_snapshot if s["significant"]]
+    count, total = len(waked), len(per_snapshot)
+    p_window = float(binom.sf(count - 1, total, false_alarm)) if count else 1.0
+    out: dict = {"significant": bool(count and p_window < window_false_alarm),
+                 "significant_snapshots": count, "window_p_value": p_window}
+    keys = ("kx", "ky", "kx_err", "ky_err", "wavelength", "wavelength_err",
+            "pitch_angle_deg", "pitch_angle_err_deg", "amplitude", "amplitude_err",
+            "mode_n", "mode_n_fraction")
+    if not out["significant"]:
+        out.update(dict.fromkeys(keys))
+        return out
+    k = np.array([[s["kx"], s["ky"]] for s in waked])
+    amp = np.array([s["peak_amplitude"] for s in waked])
+    mean = k.mean(axis=0)
+    err = k.std(axis=0, ddof=1) / np.sqrt(count) if count > 1 else np.full(2, 0.5 * dk)
+    wave = wave_of(float(mean[0]), float(mean[1]), 0.0)
+    kk = float(np.hypot(*mean))
+    wave["wavelength_err"] = float(2.0 * np.pi * np.hypot(mean[0] * err[0], mean[1] * err[1])
+                                   / kk**3)
+    wave["pitch_angle_err_deg"] = float(np.degrees(np.hypot(mean[1] * err[0],
+                                                            mean[0] * err[1]) / kk**2))
+    modes, counts = np.unique([s["azimuthal_mode"] for s in waked], return_counts=True)
+    out.update(wave)
+    out.update({"kx": float(mean[0]), "ky": float(mean[1]), "kx_err": float(err[0]),
+                "ky_err": float(err[1]), "amplitude": float(amp.mean()),
+                "amplitude_err": float(amp.std(ddof=1) / np.sqrt(count)) if count > 1
+                else math.nan,
+                "mode_n": int(modes[np.argmax(counts)]),
+                "mode_n_fraction": float(counts.max() / count)})
+    return out
 
 
 def vertical_stress_factor(z, mass, k, n_pairs=20000, seed=0):

@@ -7,8 +7,6 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ringsim.analysis.equilibrium import stationary_window
-
 #: With ``integration.until_equilibrium`` the run asks the equilibrium finder whether c and
 #: H are stationary at every this many time-series outputs.
 EQUILIBRIUM_CHECK_EVERY = 10
@@ -31,6 +29,8 @@ def equilibrium_reached(scenario, history: Mapping[str, Sequence[float]],
     """
     if not scenario.integration.until_equilibrium or (rows - 1) % EQUILIBRIUM_CHECK_EVERY:
         return None
+    from ringsim.analysis.equilibrium import stationary_window  # the analysis layer
+
     h = {key: np.asarray(values) for key, values in history.items()}
     window = stationary_window(h["orbits"], h["velocity_dispersion"], h["thickness"],
                                mass_weighted=(h["velocity_dispersion_mass_weighted"],

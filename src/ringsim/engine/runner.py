@@ -55,6 +55,7 @@ from ringsim.physics.gravity import toomre_q
 from ringsim.store import guarded, runfile
 from ringsim.store.background import CommitThread
 from ringsim.store.lock import RunFileLock
+from ringsim.store.paths import check_replaceable
 
 #: Time-series rows are written at most this often [s of wall time] (and at every checkpoint
 #: and at the end), so the HDF5 cost stays small against the integration.
@@ -130,7 +131,11 @@ class Runner:
         self.writer.create(scenario_yaml=self.scenario.yaml_text, seed=self.scenario.seed,
                            attributes=attributes, size_bin_edges=self.edges,
                            histogram_edges=histogram_edges())
-        self._output(first=True)
+        try:
+            self._output(first=True)
+        except Exception as error:   # the file exists now: it says failed, and why
+            record_failure(self, error)
+            raise
 
     def _set_threads(self) -> None:
         """The SEI step, line detection's search and the gravity solver (P3M) on
@@ -430,7 +435,8 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
     output : path, optional
         Run file; default the scenario's ``output.path``.
     force : bool
-        Overwrite an existing file.
+        Overwrite an existing file, which must be a ringsim run file (a regular file; no
+        name the run owns may be a symbolic link, ``store.paths``).
     resume : bool
         Continue the file's run from its last checkpoint (bit-identical to an uninterrupted
         run).
@@ -456,6 +462,8 @@ def run(scenario, output: str | os.PathLike | None = None, force: bool = False,
     """
     path = Path(output if output is not None else scenario.output.path)
     check_particle_memory(scenario)
+    if force and not resume:   # only a run file is replaced, and nothing through a link
+        check_replaceable(path)
     with RunFileLock(path), _StopRequest() as stop, guarded.full_disk(path):
         runner = Runner(scenario, path, progress)
         if resume:

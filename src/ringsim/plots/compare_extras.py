@@ -88,6 +88,12 @@ def wake_comparison_figure(entries):
     return fig
 
 
+def _measured(value) -> bool:
+    """A statistic with a finite mean and standard error (a run without wakes has None)."""
+    return bool(value) and all(isinstance(value.get(k), (int, float))
+                               and np.isfinite(value[k]) for k in ("mean", "stderr"))
+
+
 def extra_comparison_figures(entries) -> dict:
     """File name -> Figure of the compare figures that some runs have (none if no run
     has them): Toomre Q and wakes of gravitating runs, spins of rough runs."""
@@ -95,7 +101,8 @@ def extra_comparison_figures(entries) -> dict:
     gravitating = [e for e in entries if "toomre_Q" in e[1] and "toomre_Q" in e[0].timeseries]
     if gravitating:
         figures["compare_toomre_q.png"] = toomre_figure(gravitating)
-    waking = [e for e in gravitating if all(e[1].get(k) for k, _l, _s in WAKE_QUANTITIES)]
+    waking = [e for e in gravitating if all(_measured(e[1].get(k)) for k, _l, _s in
+                                            WAKE_QUANTITIES)]
     if waking:
         figures["compare_wakes.png"] = wake_comparison_figure(waking)
     rough = [e for e in entries if e[1].get("spin") and "rms_spin" in e[0].timeseries]

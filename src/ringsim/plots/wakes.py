@@ -49,8 +49,9 @@ def wake_figure(snap: dict, Lx: float, Ly: float, title: str, lambda_cr: float,
     lambda_cr : float [m]
         Toomre's critical wavelength, drawn as a bar.
     stats : dict, optional
-        ``wake_statistics`` of the snapshot (wavelength [m], pitch_angle_deg [deg],
-        significant): the crest direction is drawn and the title gives them.
+        ``wake_statistics`` of the snapshot (wavelength [m], pitch_angle_deg [deg], mode_m,
+        mode_n; None without a significant wake): the crest direction is drawn and the
+        title gives them, or says that there is no significant wake.
     """
     plt = pyplot()
     cell = 2.0 * float(np.mean(snap["radius"]))
@@ -74,7 +75,9 @@ def wake_figure(snap: dict, Lx: float, Ly: float, title: str, lambda_cr: float,
     ax.text(x0, y0 + 0.015 * Ly, f"λ_cr = {lambda_cr:.3g} m", color="cyan", fontsize=9,
             va="bottom")
     subtitle = "top view drawn to scale"
-    if stats is not None and math.isfinite(stats.get("wavelength", math.nan)):
+    if stats is not None and stats.get("wavelength") is None:
+        subtitle = "no significant wake against a random sheet; top view drawn to scale"
+    if stats is not None and stats.get("wavelength") is not None:
         pitch = math.radians(stats["pitch_angle_deg"])
         # crest direction: pitch from the azimuthal axis, trailing (pitch > 0) leaning to -y
         # at larger x
@@ -82,10 +85,10 @@ def wake_figure(snap: dict, Lx: float, Ly: float, title: str, lambda_cr: float,
         half = 0.2 * min(Lx, Ly)
         ax.plot([-half * dx, half * dx], [-half * dy, half * dy], color="cyan", lw=1.5,
                 ls="--")
-        significant = "significant" if stats.get("significant") else "NOT significant"
         subtitle = (f"dominant wave: λ = {stats['wavelength']:.3g} m "
                     f"({stats['wavelength'] / lambda_cr:.2g} λ_cr), pitch "
-                    f"{stats['pitch_angle_deg']:.3g}°, {significant}\n"
+                    f"{stats['pitch_angle_deg']:.3g}°, mode (m, n) = "
+                    f"({stats['mode_m']}, {stats['mode_n']}), significant\n"
                     f"dashed: crest direction; top view drawn to scale")
     ax.set_title(f"{title}\n{subtitle}", fontsize=9)
     return fig

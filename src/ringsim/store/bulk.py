@@ -30,7 +30,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from ringsim.store import guarded
+from ringsim.store import contents, guarded, paths
 
 SNAPSHOT_FIELDS = ("x", "y", "z", "vx", "vy", "vz", "radius", "mass")
 #: Spins [rad/s] relative to the rotating frame (w_z > 0 prograde), only in runs with friction.
@@ -86,12 +86,16 @@ class Parts:
 
     @contextlib.contextmanager
     def new_file(self, kind: str) -> Iterator[tuple[h5py.File, str]]:
-        """A new part file (open for writing, closed at the end; OSError if the disk is
-        full, ``store.guarded``) and its link target relative to the run file's folder."""
-        self.folder.mkdir(exist_ok=True)
+        """A new part file (created here under a new name, never over an existing one or
+        through a link; open for writing, closed at the end; OSError if the disk is full,
+        ``store.guarded``) and its link target relative to the run file's folder."""
+        if not paths.folder_of_parts(self.folder):   # InputError for a link in its place
+            self.folder.mkdir()
         name = f"{kind}_{secrets.token_hex(6)}.h5"
-        self.new.append(self.folder / name)
-        with guarded.h5_file(self.folder / name, "w") as part:
+        path = self.folder / name
+        self.new.append(path)
+        os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644))
+        with guarded.h5_file(path, "w") as part:
             yield part, f"{self.folder.name}/{name}"
 
     def flush(self) -> None:
@@ -108,11 +112,13 @@ class Parts:
         self.new = []
 
     def remove_unlinked(self, linked: set[str]) -> None:
-        """Remove the part files whose names are not in ``linked``."""
-        if not self.folder.is_dir():
+        """Remove the part files whose names are not in ``linked``: only files of the names
+        ringsim gives them, in the folder itself (never through a link in its place)."""
+        if not paths.folder_of_parts(self.folder):
             return
         for path in self.folder.iterdir():
-            if path.name not in linked:
+            if path.name not in linked and contents.PART_NAME.fullmatch(path.name) \
+                    and path.is_file() and not path.is_symlink():
                 path.unlink(missing_ok=True)
         if not any(self.folder.iterdir()):
             self.folder.rmdir()
@@ -242,10 +248,11 @@ def write_checkpoint(f: h5py.File, checkpoint, parts: Parts | None = None) -> No
             _overwrite(g, name, value)
 
 
-def pack_links(f: h5py.File, folder: Path) -> int:
+def pack_links(f: h5py.File, run_path: Path) -> int:
     """Copy every item ``f`` links in a part file into ``f`` itself (compression kept);
-    returns how many.  ``folder`` is the run file's folder (link targets are relative to
-    it).  The caller commits ``f`` and then removes the part files no longer linked."""
+    returns how many.  ``run_path`` is the run file (link targets are its own part files,
+    `contents.part_file`, or refused).  The caller commits ``f`` and then removes the part
+    files no longer linked."""
     packed = 0
     groups = [f] + ([f["snapshots"]] if "snapshots" in f else [])
     for group in groups:
@@ -253,8 +260,10 @@ def pack_links(f: h5py.File, folder: Path) -> int:
             link = group.get(key, getlink=True)
             if not isinstance(link, h5py.ExternalLink):
                 continue
+            source = contents.part_file(Path(run_path), str(link.filename), key)
             del group[key]
-            with h5py.File(folder / link.filename, "r") as part:
+            with h5py.File(source, "r") as part:
+                contents.check_links(part, run_path, part=True)
                 group.copy(part[link.path], group, name=key)
             packed += 1
     return packed

@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 
 from ringsim.errors import InputError
+from ringsim.store.paths import refuse_links
 
 #: flock errors that mean "this file system has no flock" (not "someone holds it").
 _NO_FLOCK = (errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOSYS, errno.EINVAL)
@@ -107,9 +108,12 @@ class RunFileLock:
         self._fd: int | None = None
 
     def acquire(self) -> RunFileLock:
+        """Take the lock; InputError if a writer holds it, or if a name the run file owns
+        is a symbolic link (``store.paths.refuse_links``: nothing is created then)."""
+        refuse_links(self.path)
         self.file.parent.mkdir(parents=True, exist_ok=True)
         while True:
-            fd = os.open(self.file, os.O_RDWR | os.O_CREAT, 0o644)
+            fd = os.open(self.file, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
@@ -170,9 +174,13 @@ def writer_of(path: str | os.PathLike) -> str | None:
     """
     lock_file = lock_path(path)
     try:
-        fd = os.open(lock_file, os.O_RDONLY)
+        fd = os.open(lock_file, os.O_RDONLY | os.O_NOFOLLOW)
     except (FileNotFoundError, PermissionError):
         return None
+    except OSError as exc:   # ELOOP: a link in its place, which no writer of ringsim holds
+        if exc.errno == errno.ELOOP:
+            return None
+        raise
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)

@@ -30,7 +30,6 @@ import contextlib
 import datetime as _dt
 import hashlib
 import os
-import shutil
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,7 +39,7 @@ import numpy as np
 
 from ringsim import quantities
 from ringsim.errors import InputError
-from ringsim.store import bulk, guarded
+from ringsim.store import bulk, contents, guarded, paths
 from ringsim.store.bulk import (  # noqa: F401 (the layout's names, declared in bulk)
     CHECKPOINT_SPINS,
     CHECKPOINT_STATISTICS,
@@ -55,6 +54,7 @@ from ringsim.store.bulk import (  # noqa: F401 (the layout's names, declared in 
 )
 from ringsim.store.bulk import write_checkpoint as _write_checkpoint
 from ringsim.store.bulk import write_snapshot as _write_snapshot
+from ringsim.store.contents import RunFileError  # noqa: F401 (raised by the readers)
 from ringsim.store.lock import writer_of
 
 #: Version of the run-file layout this ringsim writes (root attribute ``format_version``).
@@ -84,26 +84,6 @@ def units_of(name: str) -> str:
 
 def _utc_now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
-
-
-class RunFileError(InputError):
-    """A run file that cannot be used: missing, empty, not HDF5, truncated, incomplete, of
-    a newer format, or being written by another process (exit status 2).
-
-    Parameters
-    ----------
-    path : the run file
-    problem : str
-        What is wrong, in one line.
-    key : str
-        The item concerned (default "run file"; e.g. "/checkpoint", "format_version").
-    """
-
-    def __init__(self, path: str | os.PathLike, problem: str, key: str = "run file"):
-        super().__init__(str(path), key, problem)
-
-    def __reduce__(self):
-        return (type(self), (self.file, self.problem, self.key))
 
 
 def _short(exc: BaseException) -> str:
@@ -223,8 +203,7 @@ class RunFileWriter:
     @contextlib.contextmanager
     def _replacing(self, copy: bool) -> Iterator[tuple[h5py.File, Parts]]:
         parts = Parts(self.path, self.external_bytes)
-        if copy:
-            shutil.copyfile(self.path, self.tmp)
+        paths.create_new(self.tmp, copy_of=self.path if copy else None)
         try:
             with guarded.h5_file(self.tmp, "a" if copy else "w") as f:   # full disk: OSError
                 yield f, parts
@@ -336,7 +315,7 @@ def pack(path: str | os.PathLike) -> int:
         return 0
     writer = RunFileWriter(path)
     with writer._replacing(copy=True) as (f, _parts):
-        packed = bulk.pack_links(f, path.parent)
+        packed = bulk.pack_links(f, path)
     return packed
 
 
@@ -361,12 +340,13 @@ def _version(value: object, path: Path) -> tuple[int, int]:
 
 
 @contextlib.contextmanager
-def _reading(path: str | os.PathLike) -> Iterator[h5py.File]:
+def _reading(path: str | os.PathLike, item: str | None = None) -> Iterator[h5py.File]:
     """Open a run file for reading after checking it is one this ringsim can read.
 
     Raises RunFileError (bad input, exit status 2) for a missing, empty, non-HDF5,
     truncated or otherwise unreadable file, a newer format, a file being written by another
-    process, and for HDF5 errors while reading it.
+    process, a link out of the file or its part files (``store.contents``; only those of
+    ``item`` when given), and for HDF5 errors while reading it.
     """
     path = Path(path)
     if not path.is_file():
@@ -391,6 +371,7 @@ def _reading(path: str | os.PathLike) -> Iterator[h5py.File]:
                                f"newer ringsim; this ringsim reads formats up to "
                                f"{FORMAT_VERSION}: upgrade ringsim", "format_version")
         try:
+            contents.check_links(f, path, only=item)   # before any link is followed
             yield f
         except InputError:
             raise
@@ -409,6 +390,8 @@ def _require(f: h5py.File, path: Path) -> None:
         if item not in f:
             raise RunFileError(path, "missing: not a complete ringsim run file", f"/{item}")
     n = f["timeseries/t"].shape[0]
+    for ds in list(f["timeseries"].values()) + list(f["guards"].values()):
+        contents.check_rows(ds, path)
     for name, ds in f["timeseries"].items():
         if ds.maxshape[0] is None and ds.shape[0] != n:
             raise RunFileError(path, f"has {ds.shape[0]} rows, /timeseries/t has {n}",
@@ -430,6 +413,7 @@ def read_checkpoint(path: str | os.PathLike) -> Checkpoint | None:
         if "checkpoint" not in f:
             return None
         ds = f["checkpoint"]
+        contents.check_bytes(ds, contents.MAX_CHECKPOINT_BYTES, path)
         binary = ds[...].tobytes()
         state = {k: (v.item() if isinstance(v, np.generic) else _text(v))
                  for k, v in ds.attrs.items()}
@@ -441,9 +425,14 @@ def read_checkpoint(path: str | os.PathLike) -> Checkpoint | None:
         if missing:
             raise RunFileError(path, f"is incomplete (no {', '.join(missing)})",
                                "/checkpoint")
+        contents.check_checkpoint_state(state, f, path)
         statistics = None
         if CHECKPOINT_STATISTICS in f:
+            for d in f[CHECKPOINT_STATISTICS].values():
+                contents.check_bytes(d, contents.MAX_STATISTICS, path)
             statistics = {name: d[...] for name, d in f[CHECKPOINT_STATISTICS].items()}
+        if CHECKPOINT_SPINS in f:
+            contents.check_bytes(f[CHECKPOINT_SPINS], 3 * contents.particle_count(state), path)
         spins = f[CHECKPOINT_SPINS][...] if CHECKPOINT_SPINS in f else None
         if spins is not None and "frame" not in f[CHECKPOINT_SPINS].attrs:
             raise RunFileError(path, "spins written before their precession was followed "
@@ -502,6 +491,14 @@ class Run:
             raise RunFileError(self.path, f"the embedded scenario is invalid ({exc.key}: "
                                f"{exc.problem})", "scenario_yaml") from None
 
+    def _n_particles(self, f: h5py.File) -> int | None:
+        """The run's particle count: the checkpoint's, else the first snapshot's."""
+        n = f["checkpoint"].attrs.get("n_particles") if "checkpoint" in f else None
+        if n is None and self._snapshot_names:
+            first = f["snapshots"][self._snapshot_names[0]]
+            n = contents.check_snapshot(first, SNAPSHOT_FIELDS, None, self.path)
+        return None if n is None else int(n)
+
     @property
     def n_snapshots(self) -> int:
         return len(self._snapshot_names)
@@ -509,10 +506,12 @@ class Run:
     def snapshot(self, i: int) -> dict:
         """Snapshot ``i`` (negative counts from the end) as a dict of arrays plus ``t`` [s]."""
         name = self._snapshot_names[i]
-        with _reading(self.path) as f:
+        with _reading(self.path, f"/snapshots/{name}") as f:
             g = f["snapshots"][name]
-            out = {field_name: g[field_name][...] for field_name in SNAPSHOT_FIELDS
-                   + SPIN_FIELDS if field_name in g}
+            contents.check_snapshot(g, SNAPSHOT_FIELDS + SPIN_FIELDS, self._n_particles(f),
+                                    self.path)
+            out = {key: g[key][...] for key in SNAPSHOT_FIELDS + SPIN_FIELDS if key in g}
+            contents.check_finite(out, g.name, self.path)
             out["t"] = float(g.attrs["t"])
         return out
 

@@ -1,14 +1,20 @@
-"""stdout of the ``ringsim`` command that survives its reader going away.
+"""What the ``ringsim`` command line reads and prints through: stdout that survives its
+reader going away, and an argument parser whose usage errors are bad input.
 
-``ringsim analyze RUN.h5 --plots figs | head`` closes the pipe after a few lines; the rest
-of what the command prints is discarded, and its files are still written (cli.py's
-docstring).
+A reader that closes stdout early (``ringsim analyze RUN.h5 --plots figs | head``) does not
+stop a command: the rest of what it prints is discarded, its files (figures, JSON, run
+files) are still written, and the exit status is the command's own (0 on success).  The
+closed pipe is not an error of ringsim: a shell script with ``set -o pipefail`` is not
+failed by ``head`` taking the lines it wanted.
 """
 
 from __future__ import annotations
 
+import argparse
 import io
 import os
+
+from ringsim.errors import InputError
 
 
 class ClosedPipeSafeStdout(io.TextIOBase):
@@ -50,3 +56,10 @@ class ClosedPipeSafeStdout(io.TextIOBase):
 
     def fileno(self) -> int:
         return self.stream.fileno()
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse that reports usage errors as bad input (status 2) in one line."""
+
+    def error(self, message):
+        raise InputError("<command line>", self.prog, message)
