@@ -107,13 +107,13 @@ def build(workdir: Path, out: Path, reuse: bool = False) -> list[Path]:
     _cli("sweep", str(sweep), "--workers", "1", "--out", str(workdir / "sweep"), "--plots",
          str(out / "sweep"))
 
-    _cli("epsilon", "--plot", str(out / "epsilon.png"))
+    _cli("epsilon", "--plot", str(out / "epsilon.png"), "--force")
     _cli("epsilon", "--restitution", "model=dilley,kappa=0.1", "--radius", "0.5", "1", "5",
-         "--plot", str(out / "epsilon-kappa0.1.png"))
+         "--plot", str(out / "epsilon-kappa0.1.png"), "--force")
     report = ROOT / "studies" / "kappa-powerlaw" / "study.quick.report" / "report.json"
     plot_ratios(json.loads(report.read_text()), out / "study")
     _cli("fit", str(ROOT / "analysis" / "data" / "hatzes_like.csv"), "--model", "all",
-         "--plot", str(out / "fit.png"))
+         "--plot", str(out / "fit.png"), "--force")
     return sorted(out.rglob("*.png"))
 
 
