@@ -1,6 +1,6 @@
 """Build the figure gallery of docs/figures.md: every figure that ``ringsim analyze``,
-``compare``, ``sweep``, ``epsilon`` and ``fit`` make, from the bundled scenarios with short
-overrides (a few minutes of CPU in all).
+``compare``, ``sweep``, ``study``, ``epsilon`` and ``fit`` make, from the bundled scenarios
+with short overrides (a few minutes of CPU in all).
 
     python docs/make_figures.py [--workdir DIR [--reuse]] [--out docs/figures/gallery]
 
@@ -12,6 +12,7 @@ so the gallery shows exactly what a user gets.
 from __future__ import annotations
 
 import argparse
+import json
 import shutil
 import tempfile
 import time
@@ -22,9 +23,15 @@ import yaml
 import ringsim
 from ringsim.cli import main
 from ringsim.config.scenario import load_scenario, with_overrides
+from ringsim.plots.study import plot_ratios
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ROOT / "scenarios"
+
+_ROUGH = {"integration.orbits": 10, "output.snapshot_every": 1.0,
+          "friction": {"model": "coulomb", "mu": 0.5}}
+_GRAVITY = {"integration.orbits": 3, "integration.until_equilibrium": False,
+            "sheet.gravity_solver": "p3m", "output.snapshot_every": 0.5}
 
 #: Gallery runs: name -> (bundled scenario, overrides).  Fewer particles and orbits than
 #: the scenarios' own, so that the gallery builds quickly; the physics is the scenario's.
@@ -43,7 +50,19 @@ RUNS = {
         "name": "mixture", "integration.orbits": 10, "output.snapshot_every": 1.0,
         "particles.size_distribution": {"kind": "mixture", "components": [
             {"radius": 0.5, "number_fraction": 0.7}, {"radius": 2.0, "number_fraction": 0.3}]}}),
+    # rough spheres (spins.png, compare_spins.png): the quick-start ring with friction
+    "rough": ("quickstart.yaml", {"name": "rough", **_ROUGH}),
+    "rough-kappa0.1": ("quickstart.yaml", {"name": "rough-kappa0.1", **_ROUGH,
+                                           "restitution.kappa": 0.1}),
+    # self-gravity (wakes.png, compare_toomre_q.png, compare_wakes.png): a few orbits of the
+    # bundled gravitating pair on P3M
+    "gravity-kappa0": ("kappa0-gravity.yaml", _GRAVITY),
+    "gravity-kappa0.1": ("kappa0.1-gravity.yaml", _GRAVITY),
 }
+
+#: The pairs that ``compare`` draws: gallery folder -> the two runs.
+COMPARES = {"compare": ("kappa0", "kappa0.1"), "compare-rough": ("rough", "rough-kappa0.1"),
+            "compare-gravity": ("gravity-kappa0", "gravity-kappa0.1")}
 
 #: The gallery sweep: kappa x seed on a small kappa0 patch.
 SWEEP_BASE = ("kappa0.yaml", {"sheet.n_particles": 300, "integration.orbits": 12,
@@ -78,8 +97,8 @@ def build(workdir: Path, out: Path, reuse: bool = False) -> list[Path]:
         print(f"run {key}: {time.perf_counter() - start:.1f} s", flush=True)
     for key, path in runs.items():
         _cli("analyze", str(path), "--plots", str(out / f"analyze-{key}"))
-    _cli("compare", str(runs["kappa0"]), str(runs["kappa0.1"]), "--plots",
-         str(out / "compare"))
+    for folder, (first, second) in COMPARES.items():
+        _cli("compare", str(runs[first]), str(runs[second]), "--plots", str(out / folder))
 
     base = workdir / "sweep-base.yaml"
     base.write_text(yaml.safe_dump(_scenario(*SWEEP_BASE).to_dict(), sort_keys=False))
@@ -88,9 +107,13 @@ def build(workdir: Path, out: Path, reuse: bool = False) -> list[Path]:
     _cli("sweep", str(sweep), "--workers", "1", "--out", str(workdir / "sweep"), "--plots",
          str(out / "sweep"))
 
-    _cli("epsilon", "--plot", str(out / "epsilon.png"))
+    _cli("epsilon", "--plot", str(out / "epsilon.png"), "--force")
+    _cli("epsilon", "--restitution", "model=dilley,kappa=0.1", "--radius", "0.5", "1", "5",
+         "--plot", str(out / "epsilon-kappa0.1.png"), "--force")
+    report = ROOT / "studies" / "kappa-powerlaw" / "study.quick.report" / "report.json"
+    plot_ratios(json.loads(report.read_text()), out / "study")
     _cli("fit", str(ROOT / "analysis" / "data" / "hatzes_like.csv"), "--model", "all",
-         "--plot", str(out / "fit.png"))
+         "--plot", str(out / "fit.png"), "--force")
     return sorted(out.rglob("*.png"))
 
 

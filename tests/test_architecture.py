@@ -46,6 +46,7 @@ LAYERS = {
     "__init__": "base",
     "__version__": "base", "_resolver": "engine",
     "userlaw": "cli",  # the `ringsim epsilon --restitution` command's law, table and figure
+    "cli_examples": "cli",  # the example at the end of every subcommand's --help
     "cli_io": "cli",   # the command line's stdout and argument parser
     # front ends of batches of runs, like the sweep: the shared run-file policy and studies
     "batch": "sweep", "study": "sweep",

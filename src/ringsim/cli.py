@@ -17,6 +17,7 @@ import traceback
 from pathlib import Path
 
 from ringsim import __version__
+from ringsim.cli_examples import add_examples
 from ringsim.cli_io import ClosedPipeSafeStdout, Parser
 from ringsim.errors import InputError, clip
 from ringsim.store.paths import check_outputs
@@ -55,7 +56,7 @@ def _cmd_epsilon(args) -> int:
                         "epsilon": [float(e) for e in c.epsilon]}
                        for r, c in zip(radii, curves, strict=True)]})
     if args.plot:
-        print(f"wrote {userlaw.plot_user_curves(curves, title, args.plot)}")
+        print(f"wrote {userlaw.plot_user_curves(curves, title, args.plot, law['model'])}")
     return EXIT_OK
 
 
@@ -447,6 +448,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     for add_arguments in _SUBCOMMANDS:
         add_arguments(sub)
+    add_examples(sub)   # an example at the end of every --help
     return parser
 
 

@@ -94,20 +94,32 @@ def law_title(law: dict, density: float) -> str:
     return f"{law['model']} law ({params}), equal spheres of density {density:g} kg/m³"
 
 
-def plot_user_curves(curves: Sequence[Curve], title: str, path: str | Path) -> Path:
+def plot_user_curves(curves: Sequence[Curve], title: str, path: str | Path,
+                     model: str | None = None) -> Path:
+    """Write `user_curves_figure` as a PNG at ``path``; returns the path."""
+    from ringsim.plots.common import save_figure
+
+    return save_figure(user_curves_figure(curves, title, model), path, dpi=120)
+
+
+def user_curves_figure(curves: Sequence[Curve], title: str, model: str | None = None):
     """One panel: epsilon against impact speed (in the figures' speed unit, mm/s), a line
-    per radius; writes a PNG."""
-    from ringsim.plots.common import SPEED_SCALE, SPEED_UNIT, pyplot, save_figure
+    per radius, the speeds ``model`` was measured at shaded (a matplotlib Figure)."""
+    from ringsim.plots.common import SPEED_SCALE, SPEED_UNIT, pyplot, set_readable_axis
+    from ringsim.plots.laws import shade_measured_speeds
 
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 5.0))
     for curve in curves:
         ax.plot(curve.v / SPEED_SCALE, curve.epsilon, label=curve.label)
-    ax.set_xscale("log")
+    if model is not None:
+        shade_measured_speeds(ax, model)
+    set_readable_axis(ax, "x", np.concatenate([c.v for c in curves]) / SPEED_SCALE, log=True,
+                      pad=0.0)
     ax.set_ylim(0.0, 1.02)
     ax.set_xlabel(f"normal impact speed v [{SPEED_UNIT}]")
-    ax.set_ylabel("coefficient of restitution ε")
+    ax.set_ylabel("coefficient of restitution ε [dimensionless]")
     ax.set_title(title, fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, loc="lower left")
-    return save_figure(fig, path, dpi=120)
+    return fig

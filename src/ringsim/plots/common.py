@@ -40,13 +40,18 @@ def pyplot():
     return plt
 
 
+def lay_out(fig) -> None:
+    """Lay out ``fig`` as it is saved: its own layout engine, or else ``tight_layout``."""
+    if not fig.get_layout_engine():
+        fig.tight_layout()
+
+
 def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
     """Lay out ``fig``, write it as a PNG (creating the folder) and close it."""
     plt = pyplot()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    if not fig.get_layout_engine():
-        fig.tight_layout()
+    lay_out(fig)
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return path
@@ -97,10 +102,19 @@ def _log_ticks(lo: float, hi: float, max_ticks: int) -> list[float]:
     sets = [[m * 10.0 ** e for e in range(e_lo, e_hi + 1) for m in subs
              if lo * (1 - 1e-9) <= m * 10.0 ** e <= hi * (1 + 1e-9)]
             for subs in _LOG_MANTISSAS]
-    for least in (3, 2):
-        for ticks in sets:
-            if least <= len(ticks) <= max_ticks:
-                return ticks
+    for ticks in sets:
+        if 3 <= len(ticks) <= max_ticks:
+            return ticks
+    if decades < 1.0:   # under a decade: evenly spaced plain numbers, as on a linear axis
+        from matplotlib import ticker
+
+        even = [t for t in ticker.MaxNLocator(nbins=max_ticks - 1, steps=[1, 2, 2.5, 5, 10])
+                .tick_values(lo, hi) if lo * (1 - 1e-9) <= t <= hi * (1 + 1e-9)]
+        if len(even) >= 3:
+            return even
+    for ticks in sets:
+        if 2 <= len(ticks) <= max_ticks:
+            return ticks
     step = max(1, math.ceil(decades / (max_ticks - 1)))
     ticks = [10.0 ** e for e in range(e_lo, e_hi + 1) if e % step == 0
              and lo * (1 - 1e-9) <= 10.0 ** e <= hi * (1 + 1e-9)]
@@ -173,9 +187,12 @@ def readable_ticks(axis, lo: float, hi: float, log: bool, max_ticks: int = 6) ->
         axis.set_minor_formatter(ticker.NullFormatter())
         return
     span = hi - lo
-    locator = ticker.MaxNLocator(nbins=max_ticks - 1, steps=[1, 2, 2.5, 5, 10])
-    ticks = [t for t in locator.tick_values(lo, hi)
-             if lo - 1e-9 * span <= t <= hi + 1e-9 * span]
+    for nbins in range(max_ticks - 1, 2 * max_ticks):   # finer steps until 3 fall inside
+        locator = ticker.MaxNLocator(nbins=nbins, steps=[1, 2, 2.5, 5, 10])
+        ticks = [t for t in locator.tick_values(lo, hi)
+                 if lo - 1e-9 * span <= t <= hi + 1e-9 * span]
+        if len(ticks) >= 3:
+            break
     step = ticks[1] - ticks[0] if len(ticks) > 1 else span
     decimals = next((d for d in range(12) if abs(round(step, d) - step) <= 1e-6 * step), 12)
     biggest = max(abs(lo), abs(hi))
@@ -248,3 +265,29 @@ def wrapped(text: str, width: int = 100) -> str:
 def label_fontsize(n: int) -> float:
     """Legend font size for ``n`` entries."""
     return 8.0 if n <= 6 else 7.0 if n <= 10 else 6.0
+
+
+def short_run_labels(names: list[str]) -> tuple[list[str], str]:
+    """Legend labels of several runs and the one caption that holds what they share.
+
+    Run names made by a sweep or a study join the base name and the point's values with
+    ``_`` (``tutorial-kappa_restitution.kappa=0.1``).  The labels keep the parts that differ
+    between the runs, a dotted key shortened to its last part (``kappa=0.1``); the caption
+    gives the shared parts once (``tutorial-kappa``).  Names that share nothing, or whose
+    short forms would coincide, are returned unchanged with an empty caption.
+    """
+    parts = [name.split("_") for name in names]
+    if len(names) < 2 or len({len(p) for p in parts}) != 1:
+        return list(names), ""
+    shared = [i for i in range(len(parts[0])) if len({p[i] for p in parts}) == 1]
+    if not shared:
+        return list(names), ""
+
+    def short(part: str) -> str:
+        key, equals, value = part.partition("=")
+        return f"{key.rsplit('.', 1)[-1]}={value}" if equals else part
+
+    labels = [", ".join(short(p[i]) for i in range(len(p)) if i not in shared) for p in parts]
+    if len(set(labels)) != len(labels) or not all(labels):
+        return list(names), ""
+    return labels, ", ".join(parts[0][i] for i in shared)

@@ -45,14 +45,18 @@ def _fitted_values(result: dict) -> dict[str, float]:
 
 
 def plot_fits(data: RestitutionData, results: Sequence[dict], path: str | Path) -> Path:
+    """Write `fit_figure` as a PNG at ``path``; returns the path."""
+    return common.save_figure(fit_figure(data, results), path)  # looked up when called
+
+
+def fit_figure(data: RestitutionData, results: Sequence[dict]):
     """Data (with error bars if sigma is known) against impact speed and each fitted curve,
-    one panel per (R_bar, M_bar) group of the data; writes a PNG.
+    one panel per (R_bar, M_bar) group of the data (a matplotlib Figure).
 
     Parameters
     ----------
     data : RestitutionData
     results : fits (``analysis.fit.fit_model`` dicts), drawn in order
-    path : PNG file
     """
     plt = pyplot()
     panels, shared = _panels(data)
@@ -89,4 +93,4 @@ def plot_fits(data: RestitutionData, results: Sequence[dict], path: str | Path) 
         ax.set_visible(False)
     axes.flat[0].legend(fontsize=7, loc="lower left")
     fig.suptitle(f"Restitution fits to {Path(data.source).name}")
-    return common.save_figure(fig, path)    # looked up when called: it may be replaced
+    return fig

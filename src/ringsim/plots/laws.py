@@ -89,6 +89,17 @@ def paper_curves(v: np.ndarray | None = None) -> list[Curve]:
     return curves
 
 
+def shade_measured_speeds(ax, model: str) -> None:
+    """Shade the impact speeds at which ``model``'s parameters were measured (declared with
+    the law in ``physics.restitution``); nothing for a law without a measured range."""
+    measured = rs.RESTITUTION[model].measured
+    if measured.speeds is None:
+        return
+    lo, hi = (speed / SPEED_SCALE for speed in measured.speeds)
+    ax.axvspan(lo, hi, facecolor="0.92", edgecolor="0.75", zorder=0,
+               label=f"speeds the {model} law was measured at ({lo:g}-{hi:g} {SPEED_UNIT})")
+
+
 def plot_epsilon_curves(curves: list[Curve], path: str | Path) -> Path:
     """Draw epsilon against impact speed, one panel per figure of the paper; write a PNG.
 
@@ -113,6 +124,7 @@ def epsilon_figure(curves: list[Curve]):
             colour = colours[labels.index(curve.label.split(",")[0]) % len(colours)]
             ax.plot(curve.v / SPEED_SCALE, curve.epsilon, linestyle=curve.style, color=colour,
                     label=curve.label)
+        shade_measured_speeds(ax, "dilley")   # every panel compares with those data
         set_readable_axis(ax, "x", np.concatenate([c.v for c in members]) / SPEED_SCALE,
                           log=True, pad=0.0)
         ax.set_ylim(0.0, 1.02)

@@ -6,7 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from ringsim.analysis.gravitating import snapshot_wakes
-from ringsim.plots.common import run_style, save_figure
+from ringsim.plots.common import run_style, save_figure, short_run_labels
+from ringsim.plots.compare_extras import extra_comparison_figures
 from ringsim.plots.spins import spin_figure
 from ringsim.plots.structure import (
     epsilon_histogram_figure,
@@ -62,8 +63,10 @@ def _wake_figure(run, eq: dict, snap: dict):
 
 def comparison_figures(runs, equilibria: list[dict]) -> dict:
     """File name -> matplotlib Figure of every overlay figure of several runs."""
+    labels, caption = short_run_labels([eq["name"] for eq in equilibria])
+    equilibria = [dict(eq, name=label) for eq, label in zip(equilibria, labels, strict=True)]
     entries = _entries(runs, equilibria)
-    names = " vs ".join(eq["name"] for eq in equilibria)
+    names = " vs ".join(labels) + (f" (runs {caption})" if caption else "")
     figures = {"compare_timeseries.png": timeseries_figure(entries, names),
                "compare_ellipsoid.png": ellipsoid_figure(entries)}
     if any(eq["per_size_bin"] for eq in equilibria):
@@ -71,6 +74,7 @@ def comparison_figures(runs, equilibria: list[dict]) -> dict:
     figures["compare_velocity_distribution.png"] = velocity_distribution_figure(entries)
     figures["compare_vertical_profile.png"] = vertical_profile_figure(entries)
     figures["compare_epsilon_histogram.png"] = epsilon_histogram_figure(entries)
+    figures.update(extra_comparison_figures(entries))
     return figures
 
 

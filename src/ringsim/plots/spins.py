@@ -3,17 +3,18 @@
 Left: E_rot/E_tr against time, with the equilibrium window shaded, its mean, and the
 collisional-balance closed form for constant beta (``physics.friction.
 collisional_spin_ratio``; identical spheres only, where it applies).  Right: the
-distribution of the spins in units of Omega over the snapshots of the window, |w| per size
-bin (log axis), and the mean w_z per size bin with the kinematic marks (synchronous
+distribution of the spins in units of Omega over the snapshots of the window, |ω| per size
+bin (log axis), and the mean ω_z per size bin with the kinematic marks (synchronous
 rotation 0; turning with the mean shear flow -3/4; not rotating in inertial space -1).
-Spins are relative to the rotating frame of the sheet.
+Spins are relative to the rotating frame of the sheet.  Spins are ω, peculiar velocities w
+(``structure``): the symbols never share a letter.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ringsim.plots.common import equilibrium_start, pyplot
+from ringsim.plots.common import equilibrium_start, pyplot, set_readable_axis
 
 
 def _window_spins(run, t_start: float):
@@ -35,7 +36,7 @@ def spin_figure(run, eq: dict):
     period = run.scenario.orbital_period
     spin = eq["spin"]
     start = equilibrium_start(eq)
-    fig, (ax_t, ax_w, ax_z) = plt.subplots(1, 3, figsize=(15, 4.6))
+    fig, (ax_t, ax_w, ax_z) = plt.subplots(1, 3, figsize=(15, 5.6))
     ax_t.plot(ts["orbits"][1:], ts["rotational_energy_ratio"][1:], color="C0", lw=1.0,
               label="E_rot / E_tr")
     frac = spin["rotational_energy_fraction"]
@@ -49,10 +50,9 @@ def spin_figure(run, eq: dict):
                      label=f"collisional balance (closed form) "
                            f"{spin['collisional_spin_ratio']:.3f}")
     ax_t.set_xlabel("time [orbits]")
-    ax_t.set_ylabel("E_rot / E_tr (E_tr relative to the shear flow)")
+    ax_t.set_ylabel("E_rot / E_tr (E_tr relative to the shear flow)\n[dimensionless]")
     ax_t.set_title(f"{eq['name']}: rotational / translational energy", fontsize=10)
     ax_t.legend(fontsize=8, loc="lower right")
-
     w, wz, radius, n_snaps = _window_spins(run, (start or 0.0) * period)
     edges = np.asarray(ts.get("size_bin_edges", [radius.min(), radius.max() * (1 + 1e-12)]))
     positive = w[w > 0] / Omega
@@ -64,12 +64,13 @@ def spin_figure(run, eq: dict):
             if members.any():
                 ax_w.hist(w[members] / Omega, bins=bins, histtype="step", lw=1.2,
                           label=f"r = {edges[b]:.3g}-{edges[b + 1]:.3g} m")
-        ax_w.set_xscale("log")
-    ax_w.set_xlabel("|w| / Omega (rotating frame)")
+        set_readable_axis(ax_w, "x", bins, log=True, pad=0.0)
+    ax_w.set_xlabel("spin rate |ω| / Ω (rotating frame) [dimensionless]")
     ax_w.set_ylabel(f"particles (summed over {n_snaps} snapshots)")
-    ax_w.set_title(f"spin rates per size bin; rms {spin['rms_spin']['mean']:.3g} Omega",
+    ax_w.set_title(f"spin rates per size bin; rms {spin['rms_spin']['mean']:.3g} Ω",
                    fontsize=10)
-    ax_w.legend(fontsize=7)
+    below = {"loc": "upper center", "bbox_to_anchor": (0.5, -0.16), "frameon": False}
+    ax_w.legend(fontsize=7, ncols=2, **below)   # below the panels: their data fill them
 
     index = np.clip(np.searchsorted(edges, radius, side="right") - 1, 0, edges.size - 2)
     centres, means, errors = [], [], []
@@ -82,7 +83,7 @@ def spin_figure(run, eq: dict):
             errors.append(float(np.std(wz[members])) / Omega
                           / np.sqrt(members.sum() / n_snaps))
     ax_z.errorbar(centres, means, yerr=errors, fmt="o", color="C3",
-                  label="mean w_z per size bin (± std / sqrt(n per snapshot))")
+                  label="mean ω_z per size bin (± std / sqrt(n per snapshot))")
     for value, text, style in ((0.0, "synchronous (0)", "-"),
                                (-0.75, "turning with the mean shear flow (-3/4)", "--"),
                                (-1.0, "not rotating in inertial space (-1)", ":")):
@@ -91,10 +92,10 @@ def spin_figure(run, eq: dict):
                  label=f"all particles {spin['mean_spin_z']['mean']:.3f} ± "
                        f"{spin['mean_spin_z']['stderr']:.2g}")
     if len(centres) > 1:
-        ax_z.set_xscale("log")
+        set_readable_axis(ax_z, "x", edges, log=True, pad=0.0)
     ax_z.set_xlabel("particle radius [m]")
-    ax_z.set_ylabel("mean w_z / Omega (rotating frame, > 0 prograde)")
+    ax_z.set_ylabel("mean spin ω_z / Ω (rotating frame, > 0 prograde)\n[dimensionless]")
     ax_z.set_title("mean z-spin per size bin", fontsize=10)
-    ax_z.legend(fontsize=7)
+    ax_z.legend(fontsize=7, **below)
     fig.tight_layout()
     return fig

@@ -44,6 +44,19 @@ def window_snapshots(run, eq: dict) -> tuple[list[dict], str]:
     return [last], f"last snapshot only, orbit {last['t'] / period:.3g} ({why})"
 
 
+def _equipartition_line(ax, radii: np.ndarray, c: np.ndarray) -> None:
+    """Equipartition of random kinetic energy, c ∝ m^-1/2 (∝ r^-3/2 at one density),
+    drawn through the point of the largest radius across the radii shown.
+
+    radii : array [m], increasing; c : array of the bins' dispersions [figure speed unit]
+    """
+    if radii.size < 2 or not np.isfinite(c[-1]):
+        return
+    r = np.geomspace(radii.min(), radii.max(), 50)
+    ax.plot(r, c[-1] * (r / radii[-1]) ** -1.5, color="0.45", linestyle="--", linewidth=1.0,
+            label="equipartition c ∝ m$^{-1/2}$ (through the largest size)")
+
+
 def size_bin_figure(entries):
     """Equilibrium c and H of each size bin against the mean radius of its particles.
 
@@ -74,6 +87,9 @@ def size_bin_figure(entries):
                                             " (NOT in equilibrium)"))
             ys[tag].append(np.concatenate([mean - err, mean + err])[np.tile(has, 2)])
         xs.append(edges if continuous else r_at[has])
+        if run is entries[0][0]:   # one reference line, through the first run's points
+            c_bins = np.array([b["velocity_dispersion"]["mean"] for b in bins]) / SPEED_SCALE
+            _equipartition_line(ax_c, r_at[has], c_bins[has])
     if xs:
         for ax, tag in ((ax_c, "c"), (ax_h, "h")):
             set_readable_axis(ax, "x", np.concatenate(xs))
@@ -133,7 +149,7 @@ def velocity_distribution_figure(entries):
     dispersion measured from the same samples (log density: tails show)."""
     plt = pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.6))
-    notes, floor = [], []
+    notes, floor, peak = [], [], []
     for run, eq, style in entries:
         snapshots, what = window_snapshots(run, eq)
         notes.append(f"{eq['name']}: {what}")
@@ -145,24 +161,23 @@ def velocity_distribution_figure(entries):
             density, _ = np.histogram(comp, bins=edges, density=False)
             density = density / (comp.size * np.diff(edges))
             floor.append(1.0 / (comp.size * np.diff(edges)[0]))  # one particle in a bin
+            peak.append(max(float(density.max()), 1.0 / (sigma * np.sqrt(2 * np.pi))))
+            outside = np.mean(np.abs(comp) > 5.0 * sigma)
+            beyond = f"; {outside:.1%} beyond ±5σ" if outside > 0 else ""
             ax.stairs(np.where(density > 0, density, np.nan), edges, color=style["color"],
-                      linewidth=1.2, label=f"{eq['name']}: σ = {sigma:.3g} {SPEED_UNIT}")
+                      linewidth=1.2, label=f"{eq['name']}: σ = {sigma:.3g} {SPEED_UNIT}{beyond}")
             v = np.linspace(edges[0], edges[-1], 300)
             ax.plot(v, np.exp(-0.5 * (v / sigma) ** 2) / (sigma * np.sqrt(2 * np.pi)),
                     color=style["color"], linestyle=":", linewidth=1.0)
-            outside = np.mean(np.abs(comp) > 5.0 * sigma)
-            if outside > 0:
-                ax.text(0.02, 0.02 + 0.06 * len(notes), f"{outside:.1%} beyond ±5σ",
-                        transform=ax.transAxes, fontsize=7, color=style["color"])
             ax.set_xlabel(f"{name} [{SPEED_UNIT}]")
     for ax in axes:
         lo, hi = ax.get_xlim()
         set_readable_axis(ax, "x", [lo, hi], log=False, pad=0.0)
-        ax.set_yscale("log")
-        ax.set_ylim(bottom=0.3 * min(floor))
+        set_readable_axis(ax, "y", [0.3 * min(floor), 1.5 * max(peak)], log=True, pad=0.0)
         ax.set_ylabel(f"probability density [1/({SPEED_UNIT})]")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="lower center")
+        # below the panel: the histograms fill the axes from the tails to the peak
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), frameon=False)
     fig.suptitle("Velocity distributions relative to the shear flow (dotted: Gaussian of the "
                  "measured dispersion σ)\n" + "; ".join(notes), fontsize=9)
     return fig
@@ -172,8 +187,8 @@ def vertical_profile_figure(entries):
     """Number- and mass-weighted vertical density profiles of the particle centres against
     Gaussians of the measured (rms) thickness."""
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(8.5, 5))
-    notes, extent = [], []
+    fig, ax = plt.subplots(figsize=(11, 5))
+    notes, extent, floor, peak = [], [], [], []
     for run, eq, style in entries:
         snapshots, what = window_snapshots(run, eq)
         notes.append(f"{eq['name']}: {what}")
@@ -185,7 +200,10 @@ def vertical_profile_figure(entries):
             edges = np.linspace(-4.0 * h, 4.0 * h, n_bins + 1)
             counts, _ = np.histogram(z, bins=edges, weights=weights)
             total = z.size if weights is None else float(np.sum(weights))
-            ax.stairs(counts / (total * np.diff(edges)), edges, color=style["color"],
+            profile = counts / (total * np.diff(edges))
+            floor.append(float(np.min(profile[profile > 0], initial=np.inf)))
+            peak.append(max(float(profile.max()), 1.0 / (h * np.sqrt(2 * np.pi))))
+            ax.stairs(np.where(profile > 0, profile, np.nan), edges, color=style["color"],
                       linestyle=linestyle, linewidth=1.2,
                       label=f"{eq['name']}, {kind}-weighted: H = {h:.3g} m")
             zz = np.linspace(edges[0], edges[-1], 300)
@@ -193,11 +211,13 @@ def vertical_profile_figure(entries):
                     color=style["color"], linestyle=":", linewidth=0.9)
             extent.append(edges[[0, -1]])
     set_readable_axis(ax, "x", np.concatenate(extent), log=False, pad=0.0)
-    ax.set_ylim(bottom=0.0)
+    # log density: a cold, thin profile and a hot, thick one both show, tails included
+    set_readable_axis(ax, "y", [0.5 * min(floor), 2.0 * max(peak)], log=True, pad=0.0)
     ax.set_xlabel("height above the mean plane z [m]")
     ax.set_ylabel("density of particle centres [1/m]\n(normalised to 1)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=label_fontsize(2 * len(entries)), loc="upper right")
+    ax.legend(fontsize=label_fontsize(2 * len(entries)), loc="upper left",
+              bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     ax.set_title(wrapped("Vertical profile (dotted: Gaussians of the measured rms thickness "
                          "H)\n" + "; ".join(notes), width=80), fontsize=9)
     return fig

@@ -90,7 +90,7 @@ def _common_scale(values: list[float]) -> float | None:
     return None
 
 
-def _panel(ax, entries, series, label, secondary=None, log=None):
+def time_panel(ax, entries, series, label, secondary=None, log=None):
     """One quantity of every run against time, with equilibrium windows and means."""
     everything = []
     for run, eq, style in entries:
@@ -118,13 +118,13 @@ def timeseries_figure(entries, title: str):
     r_omega = _common_scale([eq["mean_radius"] * run.scenario.orbital_frequency
                              for run, eq, _ in entries])
     r_mean = _common_scale([eq["mean_radius"] for _run, eq, _ in entries])
-    _panel(axes[0], entries, lambda run: run.timeseries["velocity_dispersion"] / SPEED_SCALE,
+    time_panel(axes[0], entries, lambda run: run.timeseries["velocity_dispersion"] / SPEED_SCALE,
            axis_label("velocity_dispersion"),
            None if r_omega is None else (r_omega / SPEED_SCALE, "c / (⟨r⟩Ω) [dimensionless]"))
-    _panel(axes[1], entries, lambda run: run.timeseries["thickness"], axis_label("thickness"),
+    time_panel(axes[1], entries, lambda run: run.timeseries["thickness"], axis_label("thickness"),
            None if r_mean is None else (r_mean, "H / ⟨r⟩ [dimensionless]"))
-    _panel(axes[2], entries, collision_rate, "collision rate\n[per particle per orbit]")
-    _panel(axes[3], entries, lambda run: run.timeseries["filling_factor"],
+    time_panel(axes[2], entries, collision_rate, "collision rate\n[per particle per orbit]")
+    time_panel(axes[3], entries, lambda run: run.timeseries["filling_factor"],
            axis_label("filling_factor", "\n"), log=False)
     orbits = np.concatenate([run.timeseries["orbits"] for run, _eq, _s in entries])
     set_readable_axis(axes[3], "x", orbits, log=False, pad=0.0, include_zero=True, max_ticks=8)
@@ -174,10 +174,11 @@ def ellipsoid_figure(entries):
     for ax in (ax_r, ax_t):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=label_fontsize(3 * len(entries)), loc="best")
-    fig.suptitle("Velocity ellipsoid: principal rms speeds in the x-y plane and vertical; "
-                 "tilt = ½ atan2(2σxy, σxx − σyy)\n"
-                 f"(means ± standard errors over the equilibrium window; "
-                 f"{equilibrium_note([eq for _r, eq, _s in entries])})", fontsize=9)
+    fig.suptitle(wrapped("Velocity ellipsoid: principal rms speeds in the x-y plane and "
+                         "vertical; tilt = ½ atan2(2σxy, σxx − σyy)\n(means ± standard errors "
+                         "over the equilibrium window; "
+                         f"{equilibrium_note([eq for _r, eq, _s in entries])})", width=105),
+                 fontsize=9)
     return fig
 
 
