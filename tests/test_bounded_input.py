@@ -297,12 +297,20 @@ def test_degenerate_intervals_exit_2_naming_the_key(capsys, tmp_path, changes, k
     assert "orbits" in line
 
 
-def test_an_interval_of_one_step_is_accepted():
-    sc = scenario_from_text(_text(**{"output.timeseries_every": AUTO_DT_MAX_ORBITS}))
-    assert sc.output.timeseries_every == AUTO_DT_MAX_ORBITS
+def test_an_interval_of_a_few_steps_is_accepted_and_a_shorter_one_refused():
+    """Issue 43, D7: output intervals at least MIN_OUTPUT_STEPS (3) steps long."""
+    from ringsim.config.intervals import MIN_OUTPUT_STEPS
+
+    assert MIN_OUTPUT_STEPS == 3
+    every = MIN_OUTPUT_STEPS * AUTO_DT_MAX_ORBITS
+    sc = scenario_from_text(_text(**{"output.timeseries_every": every}))
+    assert sc.output.timeseries_every == every
     sc = scenario_from_text(_text(**{"integration.dt": 2e-3,
-                                     "output.timeseries_every": 2e-3}))
-    assert sc.output.timeseries_every == sc.integration.dt == 2e-3
+                                     "output.timeseries_every": 6e-3}))
+    assert sc.output.timeseries_every == 6e-3
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_text(_text(**{"integration.dt": 2e-3, "output.timeseries_every": 5e-3}))
+    assert info.value.key == "output.timeseries_every"
 
 
 def test_a_billion_particles_are_refused_before_any_allocation(capsys, tmp_path):

@@ -213,6 +213,8 @@ def _line(dt, detection="line", Omega=2.0e-4):
     doc = copy.deepcopy(SCENARIO)
     doc["planet"] = {"Omega": Omega}
     doc["integration"] = {"orbits": 1.0, "dt": dt, "collision_detection": detection}
+    # outputs at least three of the longest step apart (config.intervals)
+    doc["output"] = {**doc.get("output", {}), "timeseries_every": 0.5, "snapshot_every": 1.0}
     return doc
 
 

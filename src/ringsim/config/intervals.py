@@ -5,9 +5,10 @@ value inside a key's own range makes a run that never ends or writes without bou
 
 * ``integration.dt`` (a fixed step) gives at most `MAX_STEPS` steps over
   ``integration.orbits``;
-* ``output.timeseries_every`` and ``output.snapshot_every`` hold at least one whole step
-  (`MIN_OUTPUT_STEPS`; ``dt: auto`` counts with its longest step, `AUTO_DT_MAX_ORBITS`):
-  outputs fall on step ends, so a shorter interval repeats the same time in several rows;
+* ``output.timeseries_every`` and ``output.snapshot_every`` hold at least a few whole
+  steps (`MIN_OUTPUT_STEPS`; ``dt: auto`` counts with its longest step,
+  `AUTO_DT_MAX_ORBITS`): outputs fall on step ends, so an interval shorter than a step
+  repeats the same time in several rows, and one of a step or two samples the step itself;
 * the run has at most `MAX_TIMESERIES_ROWS` time-series rows and `MAX_SNAPSHOTS`
   snapshots.
 
@@ -22,7 +23,7 @@ from ringsim.config.sections import Integration, Output
 #: Longest step of ``dt: auto`` [orbits] (the run's ``engine.timestep`` takes it from here).
 AUTO_DT_MAX_ORBITS = 1e-3
 #: Fewest steps in an output interval.
-MIN_OUTPUT_STEPS = 1
+MIN_OUTPUT_STEPS = 3
 #: Most steps of a run with a fixed ``dt`` (far beyond any run ringsim is made for).
 MAX_STEPS = 10**9
 #: Most time-series rows of a run (about 1 GB of rows).
