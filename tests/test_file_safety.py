@@ -356,3 +356,21 @@ def test_a_good_checkpoint_passes_every_check(good):
     """The checks accept what ringsim writes (read_checkpoint runs all of them)."""
     checkpoint = runfile.read_checkpoint(good["path"])
     assert checkpoint is not None and checkpoint.state["n_particles"] == 60
+
+
+@pytest.mark.parametrize("command, text", [
+    ("sweep", "base: s.yaml\ngrid:\n  seed: [1, 2]\n"),
+    ("study", "name: t\nbase: s.yaml\nseeds: [1]\ncases: {a: {}}\n")])
+@pytest.mark.parametrize("option", ["--out", "--plots"])
+def test_a_sweep_or_study_never_writes_its_folders_over_its_file(tmp_path, capsys, command,
+                                                                  text, option):
+    if command == "study" and option == "--plots":
+        pytest.skip("a study has no --plots")
+    (tmp_path / "s.yaml").write_text("name: s\n")
+    source = tmp_path / f"{command}.yaml"
+    source.write_text(text)
+    before = source.read_bytes()
+    assert main([command, str(source), option, str(source)]) == 2
+    line = _bad_input(capsys, 2, option)
+    assert "is an input" in line or "not a folder" in line
+    assert source.read_bytes() == before

@@ -20,7 +20,7 @@ from ringsim import __version__
 from ringsim.cli_examples import add_examples
 from ringsim.cli_io import ClosedPipeSafeStdout, Parser
 from ringsim.errors import InputError, clip
-from ringsim.store.paths import check_outputs
+from ringsim.store.paths import check_output, check_outputs
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 
@@ -266,15 +266,25 @@ def _cmd_export(args) -> int:
     return EXIT_OK
 
 
+def _check_folders(args, source: str) -> None:
+    """A sweep's or study's ``--out`` and ``--plots`` folders are folders, never its file."""
+    for option in ("--out", "--plots"):
+        folder = getattr(args, option[2:], None)
+        if folder:
+            check_output(folder, option, [source], True, folder=True)
+
+
 def _cmd_sweep(args) -> int:
     from ringsim.sweep import sweep_command
 
+    _check_folders(args, args.sweep)
     return sweep_command(args)
 
 
 def _cmd_study(args) -> int:
     from ringsim.study import study_command
 
+    _check_folders(args, args.study)
     return study_command(args)
 
 
