@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
 import traceback
 from pathlib import Path
@@ -465,6 +466,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     if argv is None and not isinstance(sys.stdout, ClosedPipeSafeStdout):
         sys.stdout = ClosedPipeSafeStdout(sys.stdout)
+        if hasattr(signal, "SIGXFSZ"):   # a file-size limit fails the write (EFBIG), which
+            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)   # ends in one line, not a kill
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv  # accepted anywhere on the line
     argv = [a for a in argv if a != "--debug"]

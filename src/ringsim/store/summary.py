@@ -163,31 +163,36 @@ def write_summary(out_dir: str | os.PathLike, sweep, results: Sequence[Any]
     csv_path, h5_path = out_dir / "summary.csv", out_dir / "summary.h5"
 
     tmp_csv = csv_path.with_name(".summary.csv.tmp")
-    with open(tmp_csv, "w", newline="", encoding="utf-8") as f:
-        writer = csv.writer(f)
-        writer.writerow(columns)
-        for row in rows:
-            writer.writerow([_csv_cell(row[c]) for c in columns])
-    os.replace(tmp_csv, csv_path)
-
     tmp_h5 = h5_path.with_name(".summary.h5.tmp")
-    with guarded.h5_file(tmp_h5, "w") as f:   # a full disk: an OSError, not a crash
-        f.attrs["sweep_yaml"] = sweep.source_text or ""
-        f.attrs["sweep_file"] = str(sweep.source)
-        f.attrs["base_scenario_yaml"] = sweep.base.yaml_text
-        f.attrs["grid_keys"] = np.array(list(sweep.keys), dtype=h5py.string_dtype())
-        f.attrs["ringsim_version"] = __version__
-        f.attrs["units"] = "SI"
-        f.attrs["created_utc"] = _dt.datetime.now(_dt.timezone.utc).isoformat(
-            timespec="seconds")
-        f.attrs["n_points"] = len(rows)
-        f.attrs["n_failed"] = sum(row["status"] != "finished" for row in rows)
-        params = f.create_group("parameters")
-        for key in sweep.keys:
-            ds = params.create_dataset(key, data=_column_array([row[key] for row in rows]))
-            ds.attrs["units"] = _parameter_units(key)
-        for column, unit in units.items():
-            ds = f.create_dataset(column, data=_column_array([row[column] for row in rows]))
-            ds.attrs["units"] = unit
-    os.replace(tmp_h5, h5_path)
+    try:
+        with open(tmp_csv, "w", newline="", encoding="utf-8") as f:
+            writer = csv.writer(f)
+            writer.writerow(columns)
+            for row in rows:
+                writer.writerow([_csv_cell(row[c]) for c in columns])
+        os.replace(tmp_csv, csv_path)
+
+        with guarded.h5_file(tmp_h5, "w") as f:   # a full disk: an OSError, not a crash
+            f.attrs["sweep_yaml"] = sweep.source_text or ""
+            f.attrs["sweep_file"] = str(sweep.source)
+            f.attrs["base_scenario_yaml"] = sweep.base.yaml_text
+            f.attrs["grid_keys"] = np.array(list(sweep.keys), dtype=h5py.string_dtype())
+            f.attrs["ringsim_version"] = __version__
+            f.attrs["units"] = "SI"
+            f.attrs["created_utc"] = _dt.datetime.now(_dt.timezone.utc).isoformat(
+                timespec="seconds")
+            f.attrs["n_points"] = len(rows)
+            f.attrs["n_failed"] = sum(row["status"] != "finished" for row in rows)
+            params = f.create_group("parameters")
+            for key in sweep.keys:
+                ds = params.create_dataset(key, data=_column_array([row[key] for row in rows]))
+                ds.attrs["units"] = _parameter_units(key)
+            for column, unit in units.items():
+                ds = f.create_dataset(column, data=_column_array([row[column] for row in rows]))
+                ds.attrs["units"] = unit
+        os.replace(tmp_h5, h5_path)
+    except OSError:   # a full disk: no partial temporary file is left behind
+        tmp_csv.unlink(missing_ok=True)
+        tmp_h5.unlink(missing_ok=True)
+        raise
     return csv_path, h5_path
