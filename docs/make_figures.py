@@ -96,9 +96,10 @@ def build(workdir: Path, out: Path, reuse: bool = False) -> list[Path]:
                                 force=True, progress=False)
         print(f"run {key}: {time.perf_counter() - start:.1f} s", flush=True)
     for key, path in runs.items():
-        _cli("analyze", str(path), "--plots", str(out / f"analyze-{key}"))
+        _cli("analyze", str(path), "--plots", str(out / f"analyze-{key}"), "--force")
     for folder, (first, second) in COMPARES.items():
-        _cli("compare", str(runs[first]), str(runs[second]), "--plots", str(out / folder))
+        _cli("compare", str(runs[first]), str(runs[second]), "--plots", str(out / folder),
+             "--force")
 
     base = workdir / "sweep-base.yaml"
     base.write_text(yaml.safe_dump(_scenario(*SWEEP_BASE).to_dict(), sort_keys=False))

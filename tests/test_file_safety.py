@@ -374,3 +374,17 @@ def test_a_sweep_or_study_never_writes_its_folders_over_its_file(tmp_path, capsy
     line = _bad_input(capsys, 2, option)
     assert "is an input" in line or "not a folder" in line
     assert source.read_bytes() == before
+
+
+def test_a_plots_folder_with_figures_needs_force(good, tmp_path, capsys):
+    """D1/D4: --plots DIR is a target like --json: a folder that holds figures already is
+    written into only with --force, and the figures are left as they were without it."""
+    figs = tmp_path / "figs"
+    assert main(["analyze", str(good["path"]), "--plots", str(figs)]) == 0
+    capsys.readouterr()
+    before = _snapshot_of(figs)
+    assert before, "analyze wrote figures"
+    _bad_input(capsys, main(["analyze", str(good["path"]), "--plots", str(figs)]), "--plots",
+               "--force")
+    assert _snapshot_of(figs) == before
+    assert main(["analyze", str(good["path"]), "--plots", str(figs), "--force"]) == 0

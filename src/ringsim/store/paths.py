@@ -131,7 +131,8 @@ def check_output(path: str | os.PathLike, option: str, inputs: Iterable[str | os
     """InputError (exit status 2) unless ringsim may write the output ``path`` of command-
     line ``option``: not the same file as any of ``inputs`` (same inode, whatever the
     name), and, when it exists, replaced only with ``force``.  ``folder`` outputs
-    (``--plots DIR``) must be folders when they exist and may exist without ``force``."""
+    (``--plots DIR``) must be folders when they exist, and one that holds figures (PNG
+    files) already is written into only with ``force``."""
     path = Path(path)
     for source in inputs:
         if _same(path, Path(source)):
@@ -143,6 +144,9 @@ def check_output(path: str | os.PathLike, option: str, inputs: Iterable[str | os
         if not path.is_dir():
             raise InputError(str(path), option, "exists and is not a folder: give a "
                              "folder for the figures")
+        if not force and any(path.glob("*.png")):
+            raise InputError(str(path), option, "holds figures already; replace them with "
+                             "--force, or give another folder")
         return
     if path.is_dir():
         raise InputError(str(path), option, "is a folder: give a file name")
