@@ -358,14 +358,15 @@ def test_a_good_checkpoint_passes_every_check(good):
     assert checkpoint is not None and checkpoint.state["n_particles"] == 60
 
 
-@pytest.mark.parametrize("command, text", [
-    ("sweep", "base: s.yaml\ngrid:\n  seed: [1, 2]\n"),
-    ("study", "name: t\nbase: s.yaml\nseeds: [1]\ncases: {a: {}}\n")])
-@pytest.mark.parametrize("option", ["--out", "--plots"])
+SWEEP_TEXT = "base: s.yaml\ngrid:\n  seed: [1, 2]\n"
+STUDY_TEXT = "name: t\nbase: s.yaml\nseeds: [1]\ncases: {a: {}}\n"
+
+
+@pytest.mark.parametrize("command, text, option", [
+    ("sweep", SWEEP_TEXT, "--out"), ("sweep", SWEEP_TEXT, "--plots"),
+    ("study", STUDY_TEXT, "--out")])   # a study has no --plots
 def test_a_sweep_or_study_never_writes_its_folders_over_its_file(tmp_path, capsys, command,
                                                                   text, option):
-    if command == "study" and option == "--plots":
-        pytest.skip("a study has no --plots")
     (tmp_path / "s.yaml").write_text("name: s\n")
     source = tmp_path / f"{command}.yaml"
     source.write_text(text)
