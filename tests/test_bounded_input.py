@@ -4,7 +4,7 @@ that fails inside the loop leaves its file ``failed`` with the reason.
 
 Each case here hung ringsim, exhausted its memory or ended in exit status 1 with a
 traceback's last line before `config.bounds`, `config.intervals`, `engine.memory`,
-`engine.failure`, `store.run_checks` and `store.output_paths` existed.
+`engine.failure`, `store.run_checks` and the output checks of `store.paths` existed.
 """
 
 from __future__ import annotations

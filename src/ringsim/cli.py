@@ -434,16 +434,6 @@ def _fit_arguments(sub) -> None:
     p.set_defaults(func=_cmd_fit)
 
 
-def _check_targets(args) -> None:
-    """Every output option names a usable file or folder, before the command does any work
-    (``store.output_paths``)."""
-    from ringsim.store.output_paths import check_file_target, check_folder_target
-
-    for name in ("json", "csv", "rebound", "plot", "write_restitution"):
-        check_file_target(getattr(args, name, None), "--" + name.replace("_", "-"))
-    check_folder_target(getattr(args, "plots", None), "--plots")
-
-
 #: The subcommands, in the order ``ringsim --help`` lists them: each adds its parser.
 _SUBCOMMANDS = (_epsilon_arguments, _export_arguments, _run_arguments, _analyze_arguments,
                 _observe_arguments, _compare_arguments, _sweep_arguments, _study_arguments,
@@ -477,7 +467,6 @@ def main(argv: list[str] | None = None) -> int:
             parser.print_help()
             return EXIT_OK
         args = parser.parse_args(argv)
-        _check_targets(args)
         return int(args.func(args) or 0)
     except InputError as exc:
         if debug:

@@ -11,7 +11,8 @@ and ``O_EXCL``, and only part files of ringsim's own names are removed from the 
 
 The other outputs (``--json``, ``--csv``, ``--plots``, ``--rebound``, ...) go through
 `check_output`: never the same file as an input of the command, never over an existing
-file without ``--force``, and a folder only where a folder is asked for.
+file without ``--force``, never below something that is not a folder, and a folder only
+where a folder is asked for.
 
 Each refusal is an InputError (exit status 2) naming the file, before anything is written.
 """
@@ -126,6 +127,14 @@ def _same(a: Path, b: Path) -> bool:
         return False
 
 
+def _blocking_parent(path: Path) -> Path | None:
+    """The nearest existing ancestor of ``path`` if it is not a folder, else None."""
+    for parent in path.parents:
+        if os.path.lexists(parent):
+            return None if parent.is_dir() else parent
+    return None
+
+
 def check_output(path: str | os.PathLike, option: str, inputs: Iterable[str | os.PathLike],
                  force: bool, folder: bool = False) -> None:
     """InputError (exit status 2) unless ringsim may write the output ``path`` of command-
@@ -138,6 +147,9 @@ def check_output(path: str | os.PathLike, option: str, inputs: Iterable[str | os
         if _same(path, Path(source)):
             raise InputError(str(path), option, f"is an input of this command ({source}); "
                              "ringsim never writes over its input: choose another file")
+    blocking = _blocking_parent(path)
+    if blocking is not None:
+        raise InputError(str(path), option, f"{blocking} is not a folder")
     if not os.path.lexists(path):
         return
     if folder:
