@@ -447,9 +447,7 @@ def sweep_command(args) -> int:
     def echo(line: str) -> None:
         print(line, flush=True)
 
-    plots = getattr(args, "plots", None)
-    if plots is not None and Path(plots).exists() and not Path(plots).is_dir():
-        raise InputError(str(plots), "--plots", "exists and is not a directory")
+    plots = getattr(args, "plots", None)    # a folder, not the sweep file: checked by the cli
     result = run_sweep(args.sweep, out=args.out, workers=args.workers,
                        scheduler=args.scheduler, echo=echo, threads=args.threads)
     if plots is not None:
