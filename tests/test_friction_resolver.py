@@ -204,7 +204,7 @@ def _probes(par: Parameter) -> list[float]:
 
 
 def _c_accepts(code: int, packed: list[float], k: float) -> bool:
-    address = native._LIB.rs_resolver_create(2, 0.5, 0.0, 0.0, 0, 1)
+    address = native._LIB.rs_resolver_create(2, 0.5, 0.0, 0.0, 0.0, 0, 1)
     try:
         return bool(native._LIB.rs_resolver_set_friction(address, code, *packed, k))
     finally:

@@ -16,8 +16,10 @@ import rebound
 from rebound.simulation import CollisionS
 from rebound.vectors import Vec6d
 
+from ringsim.config.scenario import scenario_from_dict, with_overrides
 from ringsim.engine.resolver import install_resolver
 from ringsim.physics import restitution as rs
+from ringsim.study.runs import run_id
 
 ICE = 900.0          # [kg/m^3]
 SPEED = 0.01         # [m/s] normal impact speed, Dilley's reference speed
@@ -29,14 +31,16 @@ def sphere_mass(radius: float, density: float = ICE) -> float:
     return density * 4.0 / 3.0 * math.pi * radius**3
 
 
-def applied_epsilon(kappa: float, R1: float, R2: float, M1: float, M2: float) -> float:
+def applied_epsilon(kappa: float, R1: float, R2: float, M1: float, M2: float,
+                    **law: float) -> float:
     """eps the C resolver applies to a head-on impact at `SPEED` of spheres R1, R2 [m] of
-    masses M1, M2 [kg]: minus the ratio of the normal relative speeds after and before."""
+    masses M1, M2 [kg]: minus the ratio of the normal relative speeds after and before.
+    ``law``: other Dilley parameters (xi0 0.16 and p 0.65 unless given)."""
     sim = rebound.Simulation()
     gap = 0.999 * (R1 + R2)          # touching, slightly overlapping: a collision
     sim.add(m=M1, r=R1, x=gap, vx=-SPEED * M2 / (M1 + M2))
     sim.add(m=M2, r=R2, x=0.0, vx=SPEED * M1 / (M1 + M2))
-    install_resolver(sim, {"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": kappa})
+    install_resolver(sim, {"model": "dilley", "xi0": 0.16, "p": 0.65, "kappa": kappa, **law})
     before = sim.particles[0].vx - sim.particles[1].vx
     collision = CollisionS(p1=0, p2=1, gb=Vec6d(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), ri=0)
     sim._collision_resolve(ctypes.byref(sim), collision)
@@ -79,3 +83,42 @@ def test_at_60_g_kappa_changes_nothing():
     eps = [applied_epsilon(k, 0.05, 0.05, M1, M2) for k in (0.0, 0.1)]
     assert rs.reduced_mass(M1, M2) == pytest.approx(M_REF, rel=1e-12)
     np.testing.assert_allclose(eps[1], eps[0], rtol=1e-9)
+
+
+# --- the reference mass M_ref (Dilley 1993 sect. 2, 5: the pendulum's effective mass) -------
+
+@pytest.mark.parametrize("name, R1, R2, M1, M2", LIGHT + HEAVY, ids=[p[0] for p in LIGHT + HEAVY])
+def test_a_600_g_reference_mass_is_xi0_times_ten_to_the_kappa(name, R1, R2, M1, M2):
+    # (M_bar / 0.6 kg)^-kappa = 10^kappa (M_bar / 60 g)^-kappa: the same law as xi0 10^kappa
+    # with the 60 g reference, to round-off of the powers (rel 1e-9 as above)
+    kappa = 0.1
+    eps_ref = applied_epsilon(kappa, R1, R2, M1, M2, reference_mass=0.6)
+    eps_xi0 = applied_epsilon(kappa, R1, R2, M1, M2, xi0=0.16 * 10.0**kappa)
+    R_bar, M_bar = rs.reduced_radius(R1, R2), rs.reduced_mass(M1, M2)
+    assert eps_ref == pytest.approx(eps_xi0, rel=1e-9)
+    assert eps_ref == pytest.approx(rs.dilley_epsilon(SPEED, R_bar, M_bar, kappa=kappa,
+                                                      reference_mass=0.6), rel=1e-9)
+    # a heavier reference makes every pair less elastic for kappa > 0
+    assert eps_ref < applied_epsilon(kappa, R1, R2, M1, M2) - 0.005
+
+
+def test_at_the_reference_mass_kappa_changes_nothing_whatever_it_is():
+    M2 = 10.0
+    M1 = 0.6 * M2 / (M2 - 0.6)        # M_bar = 600 g
+    eps = [applied_epsilon(k, 0.05, 0.05, M1, M2, reference_mass=0.6) for k in (0.0, 0.1)]
+    np.testing.assert_allclose(eps[1], eps[0], rtol=1e-9)
+
+
+def test_the_default_reference_mass_leaves_a_scenario_and_its_run_identity_unchanged():
+    # runs made before M_ref was a parameter are found again by their hash
+    base = scenario_from_dict({
+        "name": "m-ref", "seed": 1, "planet": {"Omega": 2.0e-4},
+        "particles": {"size_distribution": {"kind": "monodisperse", "radius": 1.0}},
+        "restitution": {"model": "dilley", "kappa": 0.1}})
+    explicit = with_overrides(base, {"restitution.reference_mass": M_REF})
+    heavier = with_overrides(base, {"restitution.reference_mass": 0.6})
+    assert base.restitution.reference_mass == M_REF
+    assert "reference_mass" not in base.to_dict()["restitution"]
+    assert explicit.to_dict() == base.to_dict() and run_id(explicit) == run_id(base)
+    assert heavier.to_dict()["restitution"]["reference_mass"] == 0.6
+    assert run_id(heavier) != run_id(base)

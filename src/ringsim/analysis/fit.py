@@ -128,13 +128,20 @@ def _search_parameter(par: Parameter) -> _Parameter:
     return _Parameter(par.name, par.unit, lo, hi, log=log)
 
 
+def _fitted(model: str) -> tuple[Parameter, ...]:
+    """The declared parameters a fit varies: all but those declared ``implicit_at_default``
+    (a reference scale such as Dilley's M_ref, degenerate with the amplitude, stays at its
+    default and is not reported)."""
+    return tuple(par for par in RESTITUTION[model].parameters if not par.implicit_at_default)
+
+
 def _fit_parameters(model: str) -> tuple[_Parameter, ...]:
-    return tuple(_search_parameter(par) for par in RESTITUTION[model].parameters)
+    return tuple(_search_parameter(par) for par in _fitted(model))
 
 
 def _typical(model: str) -> dict[str, float]:
     """The declared typical values (defaults, or examples of required parameters)."""
-    return {par.name: par.typical for par in RESTITUTION[model].parameters}
+    return {par.name: par.typical for par in _fitted(model)}
 
 
 def _evaluate(model: str, values: Mapping[str, float], data: RestitutionData) -> np.ndarray:

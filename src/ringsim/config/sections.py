@@ -16,6 +16,7 @@ from typing import Any
 from ringsim.config.initial_state import InitialStateFile, sheet_dict_with_file
 from ringsim.physics.friction import SOLID_SPHERE_INERTIA
 from ringsim.physics.gravity_solvers import SOLVER_PARAMETERS
+from ringsim.physics.restitution import RESTITUTION
 from ringsim.physics.sizes import SizeDistribution
 
 # --- the frozen scenario ----------------------------------------------------------------------
@@ -194,8 +195,10 @@ class Restitution:
                              f"{self.__dict__.get('model')!r} has no attribute {name!r}")
 
     def to_dict(self) -> dict[str, Any]:
-        """{"model": ..., parameter: value, ...} as the resolver and epsilon_for_pair take."""
-        return {"model": self.model, **dict(self.parameters)}
+        """{"model": ..., parameter: value, ...} as the resolver and epsilon_for_pair take
+        (parameters declared ``implicit_at_default`` left out at their default)."""
+        return {"model": self.model,
+                **RESTITUTION[self.model].explicit(dict(self.parameters))}
 
 
 @dataclass(frozen=True)

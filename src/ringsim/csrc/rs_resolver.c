@@ -28,7 +28,8 @@
  *
  * Restitution laws (u = v / v_c):
  *
- *   dilley    xi  = xi0 (R_bar/0.025 m)^-0.2 (M_bar/0.060 kg)^-kappa (v/0.01 m/s)^p
+ *   dilley    xi  = xi0 (R_bar/0.025 m)^-0.2 (M_bar/M_ref)^-kappa (v/0.01 m/s)^p,
+ *             M_ref = 0.060 kg by default
  *                                                  (5.14)-(5.16)
  *             eps = exp(-pi xi / sqrt(1 - xi^2)) for xi < 1, else 0      (5.9)
  *   bridges   eps = min(1, u^-exponent)            (Bridges et al. 1984)
@@ -49,6 +50,7 @@
  * param[0]      double    dilley           xi0, damping ratio at reference   -
  * param[1]      double    dilley           p, speed exponent                 -
  * param[2]      double    dilley           kappa, reduced-mass exponent      -
+ * param[3]      double    dilley           M_ref, reference reduced mass     kg
  * param[0]      double    bridges          v_c, elastic below this speed     m/s
  * param[1]      double    bridges          exponent of the power law         -
  * param[0]      double    constant         epsilon                           -
@@ -172,9 +174,9 @@ enum RS_MODEL {
     RS_MODEL_TABOR = 4,
 };
 
-/* Reference scales of the Dilley law (eqs 5.14, 5.16 and the speed unit of 5.8). */
+/* Reference scales of the Dilley law (eq 5.14 and the speed unit of 5.8); the reference mass
+ * of eq 5.16 is the law's parameter param[3]. */
 #define RS_DILLEY_R_REF 0.025   /* [m] */
-#define RS_DILLEY_M_REF 0.060   /* [kg] */
 #define RS_DILLEY_V_REF 0.01    /* [m/s] */
 #define RS_DILLEY_RADIUS_EXPONENT 0.2
 #define RS_PI 3.14159265358979323846   /* M_PI is not part of C99 */
@@ -214,15 +216,13 @@ int rs_histogram_bins(int which){
 /* Restitution laws (the Python twin in ringsim/testing/twins.py calls these through     */
 /* rs_epsilon_array; ringsim/physics/restitution.py holds the numpy versions).           */
 
-static double rs_dilley_xi(double v, double R_bar, double M_bar,
-                           double xi0, double p, double kappa){
-    return xi0 * pow(R_bar / RS_DILLEY_R_REF, -RS_DILLEY_RADIUS_EXPONENT)
-           * pow(M_bar / RS_DILLEY_M_REF, -kappa) * pow(v / RS_DILLEY_V_REF, p);
+static double rs_dilley_xi(double v, double R_bar, double M_bar, const double* param){
+    return param[0] * pow(R_bar / RS_DILLEY_R_REF, -RS_DILLEY_RADIUS_EXPONENT)
+           * pow(M_bar / param[3], -param[2]) * pow(v / RS_DILLEY_V_REF, param[1]);
 }
 
-static double rs_dilley_epsilon(double v, double R_bar, double M_bar,
-                                double xi0, double p, double kappa){
-    const double xi = rs_dilley_xi(v, R_bar, M_bar, xi0, p, kappa);
+static double rs_dilley_epsilon(double v, double R_bar, double M_bar, const double* param){
+    const double xi = rs_dilley_xi(v, R_bar, M_bar, param);
     if (!(xi < 1.0)){
         return 0.0;     /* critically damped or overdamped: no rebound */
     }
@@ -299,8 +299,7 @@ static double rs_law_epsilon(const struct rs_resolver* res, double v, double R_b
                              double M_bar){
     switch (res->model){
         case RS_MODEL_DILLEY:
-            return rs_dilley_epsilon(v, R_bar, M_bar, res->param[0], res->param[1],
-                                     res->param[2]);
+            return rs_dilley_epsilon(v, R_bar, M_bar, res->param);
         case RS_MODEL_BRIDGES:
             return rs_bridges_epsilon(v, res->param[0], res->param[1]);
         case RS_MODEL_CONSTANT:
@@ -328,14 +327,14 @@ void rs_epsilon_array(const struct rs_resolver* res, int64_t n, const double* v,
 /* A guard repeating the ranges declared in ringsim/physics/restitution.py (RESTITUTION);
  * tests/test_parameters.py checks both accept and refuse exactly at every bound. */
 static int rs_parameters_valid(int32_t model, const double* param){
-    for (int i = 0; i < 3; i++){
+    for (int i = 0; i < RS_LAW_PARAMS; i++){
         if (!isfinite(param[i])){
             return 0;
         }
     }
     switch (model){
         case RS_MODEL_DILLEY:
-            return param[0] > 0.0 && param[1] > 0.0;
+            return param[0] > 0.0 && param[1] > 0.0 && param[3] > 0.0;
         case RS_MODEL_BRIDGES:
             return param[0] > 0.0 && param[1] > 0.0;
         case RS_MODEL_CONSTANT:
@@ -351,9 +350,9 @@ static int rs_parameters_valid(int32_t model, const double* param){
 
 /* Returns a new resolver, or NULL for invalid parameters or failed allocation. */
 struct rs_resolver* rs_resolver_create(int32_t model, double param0, double param1,
-                                       double param2, int64_t log_capacity,
+                                       double param2, double param3, int64_t log_capacity,
                                        int64_t log_every){
-    const double param[3] = {param0, param1, param2};
+    const double param[RS_LAW_PARAMS] = {param0, param1, param2, param3};
     if (!rs_parameters_valid(model, param) || log_capacity < 0 || log_every < 1){
         return NULL;
     }
@@ -477,8 +476,7 @@ static void rs_record(struct rs_resolver* res, double t, double v_n, double R_ba
     s->masses_below += (M_bar < res->measured_masses[0]);
     s->masses_above += (M_bar > res->measured_masses[1]);
     if (eps == 0.0 && res->model == RS_MODEL_DILLEY
-        && !(rs_dilley_xi(v_n, R_bar, M_bar, res->param[0], res->param[1], res->param[2])
-             < 1.0)){
+        && !(rs_dilley_xi(v_n, R_bar, M_bar, res->param) < 1.0)){
         s->critically_damped++;     /* xi >= 1: critically damped or overdamped */
     }
 

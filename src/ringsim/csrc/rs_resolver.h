@@ -16,6 +16,7 @@
 
 /* Histogram layout (documented in ringsim/engine/native.py as well). */
 #define RS_VN_NBINS 90          /* log10 v from -7 to 2, 10 bins per decade */
+#define RS_LAW_PARAMS 4         /* param[] slots of a restitution law (RESTITUTION.n_slots) */
 #define RS_EPS_NBINS 40         /* log10(1 - eps) from -4 to 0, 10 bins per decade */
 
 struct rs_log_entry {
@@ -78,7 +79,7 @@ struct rs_resolver {
     uint64_t magic;
     int32_t model;
     int32_t reserved;
-    double param[3];
+    double param[RS_LAW_PARAMS];   /* the law's parameters by slot (restitution.py) */
     int64_t log_capacity;
     int64_t log_every;
     struct rs_log_entry* log;

@@ -23,7 +23,7 @@ from ringsim.physics.restitution import RESTITUTION
 
 #: Integer codes of the restitution laws in the C struct (enum RS_MODEL), from the declaration.
 MODEL_CODES = {law.name: law.code for law in RESTITUTION}
-#: Order in which each law's parameters fill the C struct's ``param[3]`` (their slots).
+#: Order in which each law's parameters fill the C struct's ``param[4]`` (their slots).
 PARAMETER_ORDER = {law.name: tuple(p.name for p in sorted(law.parameters, key=lambda p: p.slot))
                    for law in RESTITUTION}
 
@@ -81,7 +81,7 @@ class _Resolver(ctypes.Structure):
         ("magic", ctypes.c_uint64),
         ("model", ctypes.c_int32),
         ("reserved", ctypes.c_int32),
-        ("param", ctypes.c_double * 3),
+        ("param", ctypes.c_double * 4),
         ("log_capacity", ctypes.c_int64),
         ("log_every", ctypes.c_int64),
         ("log", ctypes.c_void_p),
@@ -136,7 +136,8 @@ def _declare_resolver(lib: ctypes.CDLL) -> None:
     lib.rs_histogram_bins.argtypes = [ctypes.c_int]
     lib.rs_resolver_create.restype = ctypes.c_void_p
     lib.rs_resolver_create.argtypes = [ctypes.c_int32, ctypes.c_double, ctypes.c_double,
-                                       ctypes.c_double, ctypes.c_int64, ctypes.c_int64]
+                                       ctypes.c_double, ctypes.c_double, ctypes.c_int64,
+                                       ctypes.c_int64]
     lib.rs_resolver_free.restype = None
     lib.rs_resolver_free.argtypes = [ctypes.c_void_p]
     lib.rs_resolver_set_friction.restype = ctypes.c_int

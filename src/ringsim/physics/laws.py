@@ -68,6 +68,11 @@ class Parameter:
     auto : str
         What the value ``"auto"`` means where the key accepts it (the scenario reader's
         ``number_or_auto``); "" : numbers only.
+    implicit_at_default : bool
+        The resolved scenario leaves the parameter out while it has its default: a
+        parameter whose default is the law as it was before the parameter existed, so that
+        runs made then keep their identity (a study finds them by the hash of the resolved
+        scenario).
     """
 
     name: str
@@ -82,6 +87,7 @@ class Parameter:
     slot: int = 0
     example: float | None = None
     auto: str = ""
+    implicit_at_default: bool = False
 
     def __post_init__(self) -> None:
         if not self.lower < self.upper:
@@ -250,6 +256,13 @@ class Law:
             else:
                 out[par.name] = par.check(values[par.name])
         return out
+
+    def explicit(self, values: Mapping[str, float]) -> dict[str, float]:
+        """``values`` without the parameters declared ``implicit_at_default`` that have
+        their default: what a resolved scenario records."""
+        implicit = {p.name for p in self.parameters
+                    if p.implicit_at_default and values.get(p.name) == p.default}
+        return {k: v for k, v in values.items() if k not in implicit}
 
     def pack(self, values: Mapping[str, float], n_slots: int) -> tuple[float, ...]:
         """The C struct's ``param[n_slots]``: each value in its slot, unused slots 0."""

@@ -200,10 +200,11 @@ def _parameters(model: str, **values: float) -> tuple[float, ...]:
 
 
 def dilley_xi(v: ArrayLike, R_bar: ArrayLike, M_bar: ArrayLike, xi0: float = DILLEY_XI0,
-              p: float = DILLEY_P, kappa: float = DILLEY_KAPPA) -> FloatArray | float:
+              p: float = DILLEY_P, kappa: float = DILLEY_KAPPA,
+              reference_mass: float = M_REF) -> FloatArray | float:
     """Damping ratio of the viscous-dissipation model, eqs. (5.14)-(5.16).
 
-    xi = xi0 (R_bar / 2.5 cm)^-0.2 (M_bar / 60 g)^-kappa (|v| / 1 cm/s)^p
+    xi = xi0 (R_bar / 2.5 cm)^-0.2 (M_bar / M_ref)^-kappa (|v| / 1 cm/s)^p, M_ref = 60 g
 
     Parameters
     ----------
@@ -219,17 +220,23 @@ def dilley_xi(v: ArrayLike, R_bar: ArrayLike, M_bar: ArrayLike, xi0: float = DIL
         Speed exponent, > 0 (0.65 fits Hatzes et al. 1988).
     kappa : float [dimensionless]
         Mass exponent, unconstrained by experiment (the paper discusses 0 and 0.1).
+    reference_mass : float [kg]
+        M_ref, the reduced mass at which the mass factor is 1, > 0: 60 g, the 2.5 cm ice
+        sphere (eq. 5.16); the pendulum's effective mass in the experiments may have been
+        up to 600 g (sect. 2, 5), which changes xi by (M_ref / 60 g)^kappa.
     """
-    xi0, p, kappa = _parameters("dilley", xi0=xi0, p=p, kappa=kappa)
+    xi0, p, kappa, m_ref = _parameters("dilley", xi0=xi0, p=p, kappa=kappa,
+                                       reference_mass=reference_mass)
     speed = _speed(v)
     r = _array("R_bar", R_bar, positive=True)
     m = _array("M_bar", M_bar, positive=True)
-    xi = xi0 * (r / R_REF) ** -RADIUS_EXPONENT * (m / M_REF) ** -kappa * (speed / V_REF) ** p
+    xi = xi0 * (r / R_REF) ** -RADIUS_EXPONENT * (m / m_ref) ** -kappa * (speed / V_REF) ** p
     return _result(xi)
 
 
 def dilley_epsilon(v: ArrayLike, R_bar: ArrayLike, M_bar: ArrayLike, xi0: float = DILLEY_XI0,
-                   p: float = DILLEY_P, kappa: float = DILLEY_KAPPA) -> FloatArray | float:
+                   p: float = DILLEY_P, kappa: float = DILLEY_KAPPA,
+                   reference_mass: float = M_REF) -> FloatArray | float:
     """Coefficient of restitution of the viscous-dissipation model, eq. (5.9) with (5.15).
 
     eps = exp(-pi xi / sqrt(1 - xi^2)) with xi from :func:`dilley_xi`.  Above the speed
@@ -246,8 +253,11 @@ def dilley_epsilon(v: ArrayLike, R_bar: ArrayLike, M_bar: ArrayLike, xi0: float 
         Reduced mass of the pair, > 0.
     xi0, p, kappa : float [dimensionless]
         See :func:`dilley_xi`.
+    reference_mass : float [kg]
+        See :func:`dilley_xi`.
     """
-    return epsilon_from_xi(dilley_xi(v, R_bar, M_bar, xi0=xi0, p=p, kappa=kappa))
+    return epsilon_from_xi(dilley_xi(v, R_bar, M_bar, xi0=xi0, p=p, kappa=kappa,
+                                     reference_mass=reference_mass))
 
 
 def dilley_f(delta: ArrayLike, kappa: float) -> FloatArray | float:
@@ -270,7 +280,8 @@ def dilley_f(delta: ArrayLike, kappa: float) -> FloatArray | float:
 def dilley_xi_equal_density(v: ArrayLike, R1: ArrayLike, delta: ArrayLike,
                             xi0: float = DILLEY_XI0, p: float = DILLEY_P,
                             kappa: float = DILLEY_KAPPA,
-                            density: float = RHO_REF) -> FloatArray | float:
+                            density: float = RHO_REF,
+                            reference_mass: float = M_REF) -> FloatArray | float:
     """xi for two spheres of one density, in the paper's reformulation, eqs. (5.17)-(5.21).
 
     xi = xi0 f(delta, kappa) r1^(-3 kappa - 0.2) (rho/rho_ref)^-kappa (|v|/1 cm/s)^p with
@@ -289,13 +300,17 @@ def dilley_xi_equal_density(v: ArrayLike, R1: ArrayLike, delta: ArrayLike,
         See :func:`dilley_xi`.
     density : float [kg/m^3]
         Material density of both spheres.
+    reference_mass : float [kg]
+        M_ref of :func:`dilley_xi`; rho_ref is that of a 2.5 cm sphere of mass M_ref.
     """
-    xi0, p, kappa = _parameters("dilley", xi0=xi0, p=p, kappa=kappa)
+    xi0, p, kappa, m_ref = _parameters("dilley", xi0=xi0, p=p, kappa=kappa,
+                                       reference_mass=reference_mass)
+    rho_ref = RHO_REF if m_ref == M_REF else m_ref / (4.0 / 3.0 * np.pi * R_REF**3)
     rho = _scalar("density", density, low=0.0)
     speed = _speed(v)
     r1 = _array("R1", R1, positive=True) / R_REF
     f = dilley_f(delta, kappa)
-    xi = (xi0 * f * r1 ** (-3.0 * kappa - RADIUS_EXPONENT) * (rho / RHO_REF) ** -kappa
+    xi = (xi0 * f * r1 ** (-3.0 * kappa - RADIUS_EXPONENT) * (rho / rho_ref) ** -kappa
           * (speed / V_REF) ** p)
     return _result(xi)
 
@@ -442,16 +457,16 @@ _FIG1A_COMPARISON = MeasuredRange(
 
 #: The restitution laws a scenario's ``restitution`` section can choose, and the only
 #: declaration of their parameters (see ringsim.physics.laws).  The C library's
-#: ``struct rs_resolver`` has ``param[3]``.
-RESTITUTION = LawTable("restitution", n_slots=3, laws=[
+#: ``struct rs_resolver`` has ``param[4]`` (RS_LAW_PARAMS).
+RESTITUTION = LawTable("restitution", n_slots=4, laws=[
     Law("dilley", code=0, function=dilley_epsilon, uses_pair=True,
         formula="ε = exp(−πξ/√(1−ξ²)) for ξ < 1, else 0; ξ = xi0 (R̄/2.5 cm)^−0.2 "
-                "(M̄/60 g)^−κ (v/1 cm/s)^p",
+                "(M̄/M_ref)^−κ (v/1 cm/s)^p, M_ref = 60 g",
         source=f"{_D93} eqs. (5.9), (5.14)-(5.16)", measured=_HATZES,
         parameters=(
             Parameter("xi0", DIMENSIONLESS, default=DILLEY_XI0, lower=0.0, slot=0,
                       meaning="damping ratio ξ of the reference pair (R̄ = 2.5 cm, "
-                              "M̄ = 60 g) at v = 1 cm/s",
+                              "M̄ = M_ref) at v = 1 cm/s",
                       source=f"{_D93} eq. (5.11), fit to Hatzes et al. (1988)"),
             Parameter("p", DIMENSIONLESS, default=DILLEY_P, lower=0.0, slot=1,
                       meaning="speed exponent: ξ ∝ v^p (p > 0: dissipation grows with "
@@ -461,6 +476,12 @@ RESTITUTION = LawTable("restitution", n_slots=3, laws=[
                       meaning="extra mass exponent: ξ ∝ M̄^−κ",
                       source=f"{_D93} eq. (5.16); not constrained by the data "
                              "(the paper discusses 0 and 0.1)"),
+            Parameter("reference_mass", "kg", default=M_REF, lower=0.0, slot=3,
+                      implicit_at_default=True,
+                      meaning="reduced mass M_ref at which the mass factor (M̄/M_ref)^−κ is "
+                              "1; 600 g gives the pendulum's largest effective mass",
+                      source=f"{_D93} eq. (5.16) and sect. 2, 5: the 60 g 2.5 cm sphere; the "
+                             "pendulum's effective mass may have been up to 600 g"),
         )),
     Law("bridges", code=1, function=bridges_epsilon,
         formula="ε = min(1, (v/v_c)^−exponent)",
