@@ -12,10 +12,10 @@ law                        formula                                     paper
 =========================  ==========================================  ==============
 reduced mass / radius      M1 M2/(M1+M2),  R1 R2/(R1+R2)               (3.2), (3.4)
 viscous dissipation        eps = exp(-pi xi / sqrt(1 - xi^2))          (5.9)
-  (Dilley)                 xi = xi0 (R/2.5 cm)^-0.2 (M/60 g)^-kappa    (5.14)-(5.16)
+  (Dilley)                 xi = xi0 (R/2.5 cm)^-0.2 (M/M_ref)^-kappa   (5.14)-(5.16)
                                 (v/1 cm/s)^p
 inverse                    xi = |ln eps| / sqrt(pi^2 + ln^2 eps)       (5.10)
-equal-density pairs        xi = xi0 f(delta, kappa) r1^(-3 kappa-0.2)  (5.17)-(5.21)
+equal-density pairs        (ringsim.physics.dilley_spheres)             (5.17)-(5.21)
 Andrews plastic model      eps^2 = [-2 + sqrt(30 u^2 - 5)] / (3 u^2)   (4.3)
 generalized Tabor          eps = u^-(1-2q) ((1 - q eps^2)/(1 - q))^q   (4.10), (4.8)
 Bridges et al. (1984)      eps = min(1, (v/v_c)^-0.234)                Nature 309, 333
@@ -258,61 +258,6 @@ def dilley_epsilon(v: ArrayLike, R_bar: ArrayLike, M_bar: ArrayLike, xi0: float 
     """
     return epsilon_from_xi(dilley_xi(v, R_bar, M_bar, xi0=xi0, p=p, kappa=kappa,
                                      reference_mass=reference_mass))
-
-
-def dilley_f(delta: ArrayLike, kappa: float) -> FloatArray | float:
-    """Size-ratio factor f(delta, kappa) = (1 + delta)^0.2 (1 + delta^3)^kappa, eq. (5.20).
-
-    Parameters
-    ----------
-    delta : array [dimensionless]
-        R1/R2 <= 1, the radius of the smaller sphere over that of the larger (eq. 5.18).
-    kappa : float [dimensionless]
-        Mass exponent.
-    """
-    kappa = RESTITUTION["dilley"]["kappa"].check(kappa)
-    d = _array("delta", delta)
-    if np.any(d > 1):
-        raise ValueError("delta must be <= 1 (R1 is the smaller radius)")
-    return _result((1.0 + d) ** RADIUS_EXPONENT * (1.0 + d**3) ** kappa)
-
-
-def dilley_xi_equal_density(v: ArrayLike, R1: ArrayLike, delta: ArrayLike,
-                            xi0: float = DILLEY_XI0, p: float = DILLEY_P,
-                            kappa: float = DILLEY_KAPPA,
-                            density: float = RHO_REF,
-                            reference_mass: float = M_REF) -> FloatArray | float:
-    """xi for two spheres of one density, in the paper's reformulation, eqs. (5.17)-(5.21).
-
-    xi = xi0 f(delta, kappa) r1^(-3 kappa - 0.2) (rho/rho_ref)^-kappa (|v|/1 cm/s)^p with
-    r1 = R1 / 2.5 cm.  The paper writes it for the density of its 60 g, 2.5 cm reference
-    sphere (rho_ref = 916.7 kg/m^3), where the density factor is 1.
-
-    Parameters
-    ----------
-    v : array [m/s]
-        Normal impact speed.
-    R1 : array [m]
-        Radius of the smaller sphere, > 0.
-    delta : array [dimensionless]
-        R1/R2 in [0, 1]; 0 is a sphere against a massive brick, 1 equal spheres.
-    xi0, p, kappa : float [dimensionless]
-        See :func:`dilley_xi`.
-    density : float [kg/m^3]
-        Material density of both spheres.
-    reference_mass : float [kg]
-        M_ref of :func:`dilley_xi`; rho_ref is that of a 2.5 cm sphere of mass M_ref.
-    """
-    xi0, p, kappa, m_ref = _parameters("dilley", xi0=xi0, p=p, kappa=kappa,
-                                       reference_mass=reference_mass)
-    rho_ref = RHO_REF if m_ref == M_REF else m_ref / (4.0 / 3.0 * np.pi * R_REF**3)
-    rho = _scalar("density", density, low=0.0)
-    speed = _speed(v)
-    r1 = _array("R1", R1, positive=True) / R_REF
-    f = dilley_f(delta, kappa)
-    xi = (xi0 * f * r1 ** (-3.0 * kappa - RADIUS_EXPONENT) * (rho / rho_ref) ** -kappa
-          * (speed / V_REF) ** p)
-    return _result(xi)
 
 
 # --- velocity-only laws ---------------------------------------------------------------------

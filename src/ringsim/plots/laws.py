@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ringsim.physics import dilley_spheres
 from ringsim.physics import restitution as rs
 from ringsim.plots.common import SPEED_SCALE, SPEED_UNIT, pyplot, save_figure, set_readable_axis
 
@@ -68,7 +69,7 @@ def paper_curves(v: np.ndarray | None = None) -> list[Curve]:
         for r1_cm, name in ((0.25, "0.25 cm"), (2.5, "2.5 cm"), (25.0, "25 cm"),
                             (250.0, "2.5 m")):
             for delta, style in ((0.0, "-"), (1.0, "--")):
-                xi = rs.dilley_xi_equal_density(v, r1_cm * CM, delta, kappa=kappa)
+                xi = dilley_spheres.dilley_xi_equal_density(v, r1_cm * CM, delta, kappa=kappa)
                 kind = "vs brick" if delta == 0 else "equal spheres"
                 curves.append(Curve(f"fig5_kappa{kappa:g}",
                                     f"R1 = {name}, δ = {delta:g} ({kind})", v,

@@ -19,6 +19,7 @@ from ringsim import __version__, quantities
 from ringsim.analysis import budget
 from ringsim.analysis.compare import ratio
 from ringsim.analysis.equilibrium import NOT_IN_EQUILIBRIUM, QUANTITIES
+from ringsim.study.by_size import by_size_report
 
 #: What a particle weighting of ``ringsim.quantities`` counts equally.
 _WEIGHTINGS = {"number": "number: every particle counts once",
@@ -183,4 +184,11 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
         "ratios": [ratio_entry(runs, pair, q, variants, mode.variant_seeds)
                    for pair in study.ratios for q in quantities],
         "warnings": _warnings(study, mode, runs),
+        **_by_size(study, runs),
     }
+
+
+def _by_size(study, runs: Runs) -> dict:
+    """``{"by_size": ...}`` when a case has runs of more than one radius, else {}."""
+    section = by_size_report({case: runs.of(case) for case, _ in study.cases}, study.ratios)
+    return {"by_size": section} if section["cases"] else {}

@@ -33,6 +33,7 @@ import yaml
 from ringsim.batch import LabelledStream, existing_action, run_to_file
 from ringsim.config.scenario import SPEED_ONLY_KEYS, with_overrides, without_keys
 from ringsim.errors import InputError
+from ringsim.study.by_size import size_summary
 
 #: Scenario keys left out of a run's identity: its labels and the thread count change no
 #: result, and a run asked for with more ``integration.orbits`` is the same run lengthened.
@@ -165,6 +166,7 @@ def make_summary(rid: str, run, eq: Mapping, quantities: Iterable[str],
     equilibrium (``ringsim.equilibrium``); ``cost``: ``cpu_time_s`` and
     ``run_wall_time_s``."""
     kept = [*quantities, "equilibrium_from_orbit"]
+    sizes = size_summary(eq)
     return {"format": SUMMARY_FORMAT, "run": rid,
             "ringsim_version": str(run.attrs.get("ringsim_version", "")),
             "scenario": summary_scenario(run.scenario),
@@ -175,7 +177,8 @@ def make_summary(rid: str, run, eq: Mapping, quantities: Iterable[str],
             "orbits": float(eq["orbits"]), "n_particles": int(eq["n_particles"]),
             "mean_radius": float(eq["mean_radius"]),
             "optical_depth": float(eq["optical_depth"]),
-            "units": dict(SUMMARY_UNITS), "cost": dict(cost)}
+            "units": dict(SUMMARY_UNITS), "cost": dict(cost),
+            **({"by_size": sizes} if sizes is not None else {})}
 
 
 # --- the plan -----------------------------------------------------------------------------------

@@ -1,0 +1,203 @@
+"""A study's numbers by particle size: what a run's summary keeps of them, and the report's
+section that compares them between cases.
+
+For a run of more than one radius the summary keeps (`size_summary`) each size bin's
+velocity dispersion and thickness over the equilibrium window with the bin edges, the
+thickness under each weighting (by number, by mass, by optical depth), the thickness of the
+small- and the large-particle layer, and the shares of the impacts outside the speeds,
+reduced radii and reduced masses the restitution law was measured over.  The report
+(`by_size_report`) gives, per ratio of two cases with the same size bins, the ratio of c and
+H in every bin; per case the thicknesses, the shares of impacts, and whether the ring is as
+thin as Saturn's dense rings (`SATURN_FULL_THICKNESS`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+
+from ringsim.analysis import budget
+
+#: Full vertical thickness of Saturn's dense rings [m]: "a few to about ten metres"; the
+#: A ring's self-gravity wakes have height/width 0.15-0.37 (Colwell et al. 2006, GRL 33,
+#: L07201) and H ~ 6 m for wakes ~60 m apart (Hedman et al. 2007, AJ 133, 2624).
+SATURN_FULL_THICKNESS = 10.0
+#: Full thickness of a uniform layer of rms height H: 2 sqrt(3) H.
+FULL_PER_RMS = 2.0 * math.sqrt(3.0)
+#: The thicknesses kept, by weighting: summary key -> (equilibrium key, what it counts).
+WEIGHTINGS = {"number": ("thickness", "every particle alike"),
+              "mass": ("thickness_mass_weighted", "each particle by its mass"),
+              "optical_depth": ("thickness_cross_section_weighted",
+                                "each particle by its cross section, as an occultation")}
+#: The law-range shares kept (fractions of the equilibrium window's impacts).
+LAW_SHARES = ("outside_speeds", "speeds_below", "speeds_above", "outside_sizes",
+              "sizes_below", "sizes_above", "outside_masses", "masses_below", "masses_above",
+              "critically_damped")
+
+
+def _number(x) -> float:
+    return math.nan if x is None else float(x)
+
+
+def _kept(value: Mapping | None) -> dict | None:
+    if not value:
+        return None
+    return {"mean": _number(value.get("mean")), "stderr": _number(value.get("stderr")),
+            "units": value.get("units", "")}
+
+
+def size_summary(eq: Mapping) -> dict | None:
+    """The ``by_size`` entry of a run's summary from its equilibrium
+    (``analysis.equilibrium.equilibrium``); None for a run of one radius."""
+    bins = eq.get("per_size_bin") or []
+    segregation = eq.get("vertical_segregation")
+    if len(bins) < 2 or segregation is None:
+        return None
+    law = eq.get("law_range") or {}
+    return {
+        "bins": [{"r_low": b["r_low"], "r_high": b["r_high"], "n": b["n"],
+                  "mean_mass": _number(b["mean_mass"]["mean"]),
+                  "velocity_dispersion": _kept(b["velocity_dispersion"]),
+                  "thickness": _kept(b["thickness"])} for b in bins],
+        "thickness": {w: _kept(eq.get(key)) for w, (key, _) in WEIGHTINGS.items()},
+        "layers": {name: {"r_low": segregation[name]["r_low"],
+                          "r_high": segregation[name]["r_high"],
+                          "thickness": _kept(segregation[name]["thickness"])}
+                   for name in ("small", "large")},
+        "law_range": {key: _number(law.get(key)) for key in LAW_SHARES} if law else None,
+        "law_masses": law.get("masses") if law else None,
+        "units": {"r_low": "m", "r_high": "m", "n": "count", "mean_mass": "kg",
+                  "law_range": "fraction of impacts", "law_masses": "kg"},
+    }
+
+
+def _seed_mean(values: Sequence[Mapping | None]) -> dict | None:
+    read = [_kept(v) for v in values]      # a summary's null is NaN
+    kept = [v for v in read if v is not None and math.isfinite(v["mean"])]
+    return budget.replica_mean(kept) if kept else None
+
+
+def _ratio(a: Mapping | None, b: Mapping | None) -> dict | None:
+    if a is None or b is None or not b["mean"]:
+        return None
+    mean = a["mean"] / b["mean"]
+    rel = math.hypot(a["stderr"] / a["mean"] if a["mean"] else 0.0, b["stderr"] / b["mean"])
+    return {"mean": mean, "stat": abs(mean) * rel, "units": "dimensionless"}
+
+
+def case_by_size(summaries: Sequence[Mapping]) -> dict | None:
+    """The seed means of a case's ``by_size`` entries; None if a run has none or the runs'
+    size bins differ."""
+    found = [s.get("by_size") for s in summaries]
+    entries: list[Mapping] = [e for e in found if e is not None]
+    if not entries or len(entries) < len(found):
+        return None
+    edges = [[(b["r_low"], b["r_high"]) for b in e["bins"]] for e in entries]
+    if any(e != edges[0] for e in edges):
+        return None
+    bins = []
+    for k, (low, high) in enumerate(edges[0]):
+        bins.append({"r_low": low, "r_high": high,
+                     "mean_mass": entries[0]["bins"][k]["mean_mass"],
+                     **{q: _seed_mean([e["bins"][k][q] for e in entries])
+                        for q in ("velocity_dispersion", "thickness")}})
+    law = [e["law_range"] for e in entries if e["law_range"]]
+    return {
+        "bins": bins,
+        "thickness": {w: _seed_mean([e["thickness"][w] for e in entries]) for w in WEIGHTINGS},
+        "layers": {name: _seed_mean([e["layers"][name]["thickness"] for e in entries])
+                   for name in ("small", "large")},
+        "law_range": ({key: sum(_number(x[key]) for x in law) / len(law) for key in LAW_SHARES}
+                      if law else None),
+        "law_masses": entries[0].get("law_masses"),
+    }
+
+
+def by_size_report(cases: Mapping[str, Sequence[Mapping]],
+                   ratios: Sequence[Sequence[str]]) -> dict:
+    """The report's ``by_size``: per case its `case_by_size` and whether it is as thin as
+    Saturn's rings; per ratio the ratio of c and H in every size bin (cases with the same
+    bins only)."""
+    per_case = {case: case_by_size(summaries) for case, summaries in cases.items()}
+    for entry in per_case.values():
+        if entry is None:
+            continue
+        tau = entry["thickness"]["optical_depth"]
+        full = FULL_PER_RMS * tau["mean"] if tau else math.nan
+        entry["full_thickness_optical_depth"] = {"mean": full, "units": "m"}
+        entry["as_thin_as_saturn"] = bool(full <= SATURN_FULL_THICKNESS)
+    out_ratios = []
+    for num, den in ratios:
+        a, b = per_case.get(num), per_case.get(den)
+        if a is None or b is None or [(x["r_low"], x["r_high"]) for x in a["bins"]] != \
+                [(x["r_low"], x["r_high"]) for x in b["bins"]]:
+            continue
+        out_ratios.append({"numerator": num, "denominator": den, "bins": [
+            {"r_low": x["r_low"], "r_high": x["r_high"],
+             **{q: _ratio(x[q], y[q]) for q in ("velocity_dispersion", "thickness")}}
+            for x, y in zip(a["bins"], b["bins"], strict=True)]})
+    return {"cases": {c: e for c, e in per_case.items() if e is not None},
+            "ratios": out_ratios,
+            "saturn": {"full_thickness_m": SATURN_FULL_THICKNESS,
+                       "rule": "as thin as Saturn's dense rings when the full thickness of "
+                               "a uniform layer of the run's optical-depth-weighted rms "
+                               "height, 2 sqrt(3) H, is at most 10 m",
+                       "source": "Colwell et al. 2006 (GRL 33, L07201): wake height/width "
+                                 "0.15-0.37; Hedman et al. 2007 (AJ 133, 2624): H ~ 6 m"}}
+
+
+def _pm(value: Mapping | None, scale: float = 1.0, digits: int = 3) -> str:
+    if value is None or not math.isfinite(value["mean"]):
+        return "–"
+    error = value.get("stderr", value.get("stat", math.nan))
+    return f"{value['mean'] * scale:.{digits}g} ± {error * scale:.2g}"
+
+
+def _share(x: float) -> str:
+    return "–" if not math.isfinite(x) else f"{100.0 * x:.1f} %"
+
+
+def by_size_lines(section: Mapping) -> list[str]:
+    """The report's Markdown section "By size" (nothing when no case has size bins)."""
+    cases = section.get("cases") or {}
+    if not cases:
+        return []
+    saturn = section["saturn"]
+    lines = ["## By size", "",
+             "Thickness H (rms z [m]) of each case under each weighting, of its small- and "
+             "large-particle layers (lowest and highest third of the radius range in log r), "
+             "and the full thickness 2√3 H of a uniform layer with the optical-depth-weighted "
+             f"H, against Saturn's dense rings ({saturn['rule']}; {saturn['source']}).", ""]
+    lines += ["| case | H by number [m] | H by mass [m] | H by optical depth [m] | small layer "
+              "[m] | large layer [m] | 2√3 H (optical depth) [m] | as thin as Saturn's |",
+              "|---|---|---|---|---|---|---|---|"]
+    for case, e in cases.items():
+        t, layers = e["thickness"], e["layers"]
+        full = e["full_thickness_optical_depth"]["mean"]
+        lines.append(f"| {case} | {_pm(t['number'])} | {_pm(t['mass'])} | "
+                     f"{_pm(t['optical_depth'])} | {_pm(layers['small'])} | "
+                     f"{_pm(layers['large'])} | {full:.3g} | "
+                     f"{'yes' if e['as_thin_as_saturn'] else 'no'} |")
+    lines += ["", "Impacts of the equilibrium window outside what the restitution law was "
+              "measured over (fractions of impacts; reduced masses below the measured range "
+              "are the pairs lighter than its reference mass, where κ > 0 makes collisions "
+              "less elastic, not more):", "",
+              "| case | speeds below / above | sizes below / above | masses below / above | "
+              "ξ ≥ 1 (ε = 0) |", "|---|---|---|---|---|"]
+    for case, e in cases.items():
+        law = e["law_range"]
+        if law is None:
+            lines.append(f"| {case} | – | – | – | – |")
+            continue
+        lines.append(f"| {case} | {_share(law['speeds_below'])} / {_share(law['speeds_above'])}"
+                     f" | {_share(law['sizes_below'])} / {_share(law['sizes_above'])} | "
+                     f"{_share(law['masses_below'])} / {_share(law['masses_above'])} | "
+                     f"{_share(law['critically_damped'])} |")
+    for ratio in section.get("ratios", []):
+        lines += ["", f"Ratio {ratio['numerator']} / {ratio['denominator']} in each size bin "
+                  "(statistical errors):", "",
+                  "| size bin [m] | c ratio | H ratio |", "|---|---|---|"]
+        for b in ratio["bins"]:
+            lines.append(f"| {b['r_low']:.3g}–{b['r_high']:.3g} | "
+                         f"{_pm(b['velocity_dispersion'])} | {_pm(b['thickness'])} |")
+    return lines + [""]
