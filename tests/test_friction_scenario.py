@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from ringsim.config.scenario import ScenarioError, scenario_from_text
+from ringsim.config.scenario import ScenarioError, scenario_from_text, with_overrides
 from ringsim.engine import sheet
 from ringsim.physics.friction import FRICTION
 
@@ -40,6 +40,15 @@ def test_no_section_is_smooth_spheres():
     assert "friction" not in sc.to_dict()
     assert "inertia_factor" not in sc.to_dict()["particles"]
     assert sc.particles.inertia_factor == 0.4
+
+
+def test_a_null_section_is_smooth_spheres_and_the_same_scenario():
+    # how a study case removes the friction of its base (``friction: null``)
+    plain = scenario_from_text(BASE % "")
+    null = scenario_from_text(BASE % "" + "friction: null\n")
+    rough = scenario_from_text(BASE % "" + "friction: {model: coulomb, mu: 0.5}\n")
+    assert null.friction is None and null.to_dict() == plain.to_dict()
+    assert with_overrides(rough, {"friction": None}).to_dict() == plain.to_dict()
 
 
 def test_section_defaults_round_trip_and_reach_the_resolver():

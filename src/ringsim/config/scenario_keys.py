@@ -254,8 +254,10 @@ def read_restitution(top: Section) -> Restitution:
 
 
 def read_friction(top: Section) -> Friction | None:
-    """The optional friction section, validated against the declaration `FRICTION`."""
-    if not top.has("friction"):
+    """The optional friction section, validated against the declaration `FRICTION`; absent
+    or null (``friction: null``, how a study case removes a base's friction): smooth
+    spheres."""
+    if not top.has("friction") or top.mapping["friction"] is None:
         return None
     sec = top.section("friction")
     model = sec.string("model", choices=FRICTION.names)
