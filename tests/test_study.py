@@ -324,6 +324,19 @@ def test_bad_study_file_is_bad_input(tmp_path, capsys, line, key, words):
     assert not out.exists() and not (tmp_path / "summaries").exists(), "nothing written"
 
 
+def test_overrides_valid_only_together_are_accepted_and_a_bad_one_is_named(tmp_path, capsys):
+    # 5 particles alone make a box narrower than a 5 m particle; with r_max 1 m they do not
+    together = "quick: {sheet.n_particles: 5, particles.size_distribution.r_max: 1.0}\n"
+    study = load_study(write_study(tmp_path / "ok", _replace_key(STUDY, together)))
+    (spec, *_) = study.specs(quick=True)
+    assert spec.scenario.sheet.n_particles == 5
+    assert spec.scenario.particles.size_distribution.r_max == 1.0
+    alone = "quick: {sheet.n_particles: 5}\n"
+    assert main(["study", str(write_study(tmp_path / "bad", _replace_key(STUDY, alone))),
+                 "--quick"]) == 2
+    assert "study.yaml: quick.sheet.n_particles:" in capsys.readouterr().err
+
+
 def test_quick_without_a_quick_section_and_bad_options_are_bad_input(tmp_path, capsys):
     study = write_study(tmp_path, STUDY.split("quick:")[0] + "report: prose.md\n")
     assert main(["study", str(study), "--quick"]) == 2

@@ -212,18 +212,23 @@ def _length(sec: Section, key: str) -> dict:
 
 
 def _check_overrides(sec: Section, key: str, base: Scenario, before: Mapping) -> dict:
-    """A mapping of dotted scenario overrides, each valid on ``base`` with ``before``
-    applied, and valid together."""
+    """A mapping of dotted scenario overrides, valid together on ``base`` with ``before``
+    applied.  When they are not, the first override invalid on its own is named, else the
+    combination; overrides valid only together (a smaller box with smaller particles)
+    are accepted."""
     allowed = "a mapping of dotted scenario keys -> values, e.g. {restitution.kappa: 0.1}"
     value = sec.get(key, None, allowed)
     if not isinstance(value, Mapping):
         raise sec.error(key, f"got {show(value)}", allowed)
     here = Section(sec.file, sec.key(key), value)
-    for dotted, item in value.items():
-        _check_override(here, str(dotted), item, base, before)
+    for dotted in value:
+        if str(dotted) in RESERVED_KEYS:
+            _check_override(here, str(dotted), value[dotted], base, before)
     try:
         with_overrides(base, {**before, **value})
     except ScenarioError as exc:
+        for dotted, item in value.items():
+            _check_override(here, str(dotted), item, base, before)
         raise sec.error(key, f"together these give an invalid scenario: {exc.key}: "
                         f"{exc.problem}", exc.allowed) from None
     return {str(k): v for k, v in value.items()}
