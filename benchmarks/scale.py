@@ -11,6 +11,8 @@ For each N (one fresh process per N, so that its peak memory is its own):
   final checkpoint) from the built sheet, with ``integration.threads`` 1 and 2 alternately
   on copies of the same state, ``--repeat`` times; wall and CPU time; the ratio 2 threads /
   1 thread per pair (same process, same state: the figure least disturbed by other jobs);
+* **REBOUND's own step** [ns per particle-step], N <= 1e5: its tree collision search and
+  its SEI step without collisions, on the same sheet in the same process (the baseline);
 * **memory** [bytes per particle]: the process's peak resident set after all of the above,
   less its resident set before the set-up (after a warm-up run of 200 particles has
   imported and allocated what any run needs), over N.
@@ -140,6 +142,37 @@ def _timed_loop(built, scenario, threads: int, steps: int, directory: Path) -> d
     return {"wall_ns": wall * per, "cpu_ns": cpu * per}
 
 
+#: Largest N at which REBOUND's tree baseline is timed (it costs ~1 s per step at 1e5).
+TREE_MAX_N = 100_000
+
+
+def _rebound_baseline(scenario, repeat: int) -> dict:
+    """Wall time per particle-step [ns] of REBOUND's own step on the same sheet (the same
+    seed, so the same particles), median of ``repeat`` timings: with its tree collision
+    search (ringsim's C resolver on the overlaps it reports, as ``collision_detection:
+    tree`` runs) and without collisions (its SEI step with the shear boundary: the floor
+    of any collision search)."""
+    from ringsim.config.scenario import with_overrides
+    from ringsim.engine.sheet import build_sheet
+
+    sc = with_overrides(scenario, {"integration.collision_detection": "tree",
+                                   "integration.threads": 1})
+    built = build_sheet(sc)
+    sim = built.sim
+    steps = max(2, int(2e6 // sim.N))
+    out: dict = {}
+    for label, collision in (("tree", "tree"), ("none", "none")):
+        sim.collision = collision
+        sim.steps(1)
+        times = []
+        for _ in range(repeat):
+            wall = time.perf_counter()
+            sim.steps(steps)
+            times.append((time.perf_counter() - wall) * 1e9 / (steps * sim.N))
+        out[label] = statistics.median(times)
+    return out
+
+
 def measure_one(n: int, repeat: int) -> dict:
     """All measurements at N = n, in this process."""
     from ringsim.config.scenario import load_scenario, with_overrides
@@ -165,7 +198,11 @@ def measure_one(n: int, repeat: int) -> dict:
                 loops[threads].append(_timed_loop(built, scenario, threads, steps, Path(tmp)))
     ratios = [two["wall_ns"] / one["wall_ns"] for one, two in zip(loops[1], loops[2],
                                                                    strict=True)]
+    # the memory is taken before the baseline builds a second sheet
+    bytes_per_particle = (_peak_rss_bytes() - rss_before) / n
+    rebound_ns = _rebound_baseline(scenario, repeat) if n <= TREE_MAX_N else None
     return {
+        "rebound_ns": rebound_ns,
         "n": n, "steps": steps, "repeat": repeat,
         "setup_wall_s": setup_wall, "setup_cpu_s": setup_cpu,
         "snapshot_write_s": snapshot_s, "snapshot_bytes": snapshot_bytes,
@@ -175,7 +212,7 @@ def measure_one(n: int, repeat: int) -> dict:
         "cpu_ns": {str(k): statistics.median(x["cpu_ns"] for x in v)
                    for k, v in loops.items()},
         "thread_ratio": statistics.median(ratios), "thread_ratios": ratios,
-        "bytes_per_particle": (_peak_rss_bytes() - rss_before) / n,
+        "bytes_per_particle": bytes_per_particle,
         "load_average": [load_before, os.getloadavg()[0]],
     }
 
@@ -311,6 +348,7 @@ def section(results: list[dict], command: str, note: str, when: str) -> str:
         verdict.append(f"2 threads / 1 thread at N = 1e5: {at_1e5['thread_ratio']:.2f} "
                        f"(target <= {TARGET_THREAD_RATIO})")
     note = f"\n{note}\n" if note else ""
+    baseline = _baseline_table(results)
     verdict.append("memory: " + ", ".join(f"{r['bytes_per_particle']:.0f} B at "
                                           f"{r['n']:.0e}" for r in results)
                    + f" per particle (target <= {TARGET_BYTES:.0f})")
@@ -337,11 +375,33 @@ the set-up, per particle.  Set-up and snapshot write are part A's (`build_sheet`
 {rows}
 {note}
 {chr(10).join("- " + v for v in verdict)}
-
+{baseline}
 ![cost per particle-step against N](figures/scale.png)
 
 {MARKER}
 """
+
+
+def _baseline_table(results: list[dict]) -> str:
+    """The side-by-side table of ringsim's whole loop against REBOUND's own step on the same
+    sheet in the same process (empty for results without the baseline)."""
+    rows = [r for r in results if r.get("rebound_ns")]
+    if not rows:
+        return ""
+    lines = [f"| {r['n']:.0e} | {r['wall_ns']['1']:.0f} | {r['rebound_ns']['tree']:.0f} | "
+             f"{r['rebound_ns']['none']:.0f} | "
+             f"{r['wall_ns']['1'] / r['rebound_ns']['tree']:.3f} | "
+             f"{r['wall_ns']['1'] / r['rebound_ns']['none']:.1f} | "
+             f"{r['thread_ratio']:.2f} |" for r in rows]
+    return ("\n**Against REBOUND, same sheet, same process** (1 thread, wall time, median of "
+            "the repeats; REBOUND's figures are its step alone, ringsim's the whole run loop "
+            "with its outputs): REBOUND's tree collision search with ringsim's resolver on "
+            "the overlaps it reports (`collision_detection: tree`), and REBOUND's SEI step "
+            "with the shear boundary and no collisions, the floor of any collision search."
+            "\n\n| N | ringsim line, whole loop [ns] | REBOUND tree step [ns] | REBOUND "
+            "no-collision step [ns] | ringsim / REBOUND tree | ringsim / no-collision floor | "
+            "ringsim 2 / 1 threads |\n|---|---|---|---|---|---|---|\n"
+            + "\n".join(lines) + "\n")
 
 
 def write_doc(results: list[dict], command: str, note: str = "", when: str = "") -> None:
@@ -389,6 +449,7 @@ def main() -> None:
              else list(QUICK_SIZES if args.quick else SIZES))
     print(TABLE_HEAD)
     results = measure(sizes, args.repeat, args.passes)
+    print(_baseline_table(results))
     if args.write_doc:
         flags = " ".join(a for a in sys.argv[1:])
         write_doc(results, f"`python benchmarks/scale.py {flags}`".replace("  ", " "))

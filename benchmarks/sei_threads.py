@@ -58,18 +58,44 @@ def measure(n: int, steps: int, repeats: int) -> dict[tuple[str, int], float]:
     return {key: float(np.median(values)) for key, values in times.items()}
 
 
+#: Core counts at which the serial fraction's speed-up is stated.
+CORES = (16, 64)
+
+
+def serial_fraction(ratio: float) -> float:
+    """Amdahl's serial fraction s from the time on 2 threads over the time on 1:
+    ratio = s + (1 - s) / 2, so s = 2 ratio - 1 (an upper bound: thread overheads and the
+    memory bandwidth two threads share count as serial)."""
+    return 2.0 * ratio - 1.0
+
+
+def speedup(s: float, cores: int) -> float:
+    """Amdahl's speed-up on ``cores`` of a step whose serial fraction is ``s``."""
+    return 1.0 / (s + (1.0 - s) / cores)
+
+
 def table(n: int, steps: int, repeats: int) -> str:
     t = measure(n, steps, repeats)
     when = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    rows = [f"| {label} | {t[(label, 1)] * 1e9:.0f} | {t[(label, 2)] * 1e9:.0f} | "
-            f"{t[(label, 2)] / t[(label, 1)]:.2f} |" for label in ("REBOUND sei", "ringsim_sei")]
+    rows = []
+    for label in ("REBOUND sei", "ringsim_sei"):
+        ratio = t[(label, 2)] / t[(label, 1)]
+        s = serial_fraction(ratio)
+        rows.append(f"| {label} | {t[(label, 1)] * 1e9:.0f} | {t[(label, 2)] * 1e9:.0f} | "
+                    f"{ratio:.2f} | {s:.2f} | "
+                    + " / ".join(f"{speedup(s, c):.1f}" for c in CORES) + " |")
     return (f"## The SEI step on threads\n\n`python benchmarks/sei_threads.py --n {n} "
             f"--steps {steps} --repeats {repeats} --write-doc`, {when}, {platform.machine()} "
             f"{platform.system()}, {os.cpu_count()} cores, load average "
             f"{os.getloadavg()[0]:.1f}: the same sheet in one process, each integrator on "
             "1 and 2 threads in turn (the line detector's threads alike), wall time, median "
-            "of the repeats.\n\n| integrator | 1 thread [ns per particle-step] | 2 threads "
-            "[ns] | 2 / 1 threads |\n|---|---|---|---|\n" + "\n".join(rows) + "\n")
+            "of the repeats.  The serial fraction s is Amdahl's, from the two: 2 / 1 threads "
+            "= s + (1 - s) / 2 (an upper bound: thread overheads and the memory bandwidth the "
+            "threads share count as serial), and the speed-up it implies on "
+            + " and ".join(str(c) for c in CORES) + " cores is 1 / (s + (1 - s) / cores)."
+            "\n\n| integrator | 1 thread [ns per particle-step] | 2 threads [ns] | 2 / 1 "
+            "threads | serial fraction s | speed-up on " + " / ".join(str(c) for c in CORES)
+            + " cores |\n|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n")
 
 
 def main() -> None:
