@@ -150,7 +150,8 @@ def _pm(value: Mapping | None, scale: float = 1.0, digits: int = 3) -> str:
     if value is None or not math.isfinite(value["mean"]):
         return "–"
     error = value.get("stderr", value.get("stat", math.nan))
-    return f"{value['mean'] * scale:.{digits}g} ± {error * scale:.2g}"
+    shown = f"{value['mean'] * scale:.{digits}g}"
+    return shown + (f" ± {error * scale:.2g}" if math.isfinite(error) else " (no error)")
 
 
 def _share(x: float) -> str:
