@@ -79,3 +79,37 @@ def test_cases_without_sizes_or_with_other_bins_give_no_ratio(reference):  # noq
         s["by_size"]["bins"][0]["r_high"] *= 1.01
     assert by_size_report({"k01": k01, "k0": shifted}, [["k01", "k0"]])["ratios"] == []
     assert by_size_lines({}) == []
+
+
+def _constructed(eps, counts):
+    """A summary's by_size of two size bins with the given pair eps and counts."""
+    value = {"mean": 1.0, "stderr": 0.1, "units": "m"}
+    return {"by_size": {
+        "bins": [{"r_low": 0.025, "r_high": 0.1, "n": 90, "mean_mass": 0.01,
+                  "velocity_dispersion": value, "thickness": value},
+                 {"r_low": 0.1, "r_high": 1.0, "n": 10, "mean_mass": 1.0,
+                  "velocity_dispersion": value, "thickness": value}],
+        "thickness": {w: value for w in ("number", "mass", "optical_depth")},
+        "layers": {"small": {"r_low": 0.025, "r_high": 0.1, "thickness": value},
+                   "large": {"r_low": 0.3, "r_high": 1.0, "thickness": value}},
+        "law_range": None, "law_masses": None,
+        "pair_epsilon": {"mean": eps, "counts": counts}}}
+
+
+def test_pair_eps_is_pooled_by_collisions_and_divided_where_both_sampled_enough():
+    # seed 1: 0.5 over 100 collisions, seed 2: 0.8 over 300 -> (50 + 240) / 400 = 0.725
+    k0 = [_constructed([[0.5, 0.6], [None, 0.9]], [[100, 30], [0, 40]]),
+          _constructed([[0.8, 0.6], [None, 0.9]], [[300, 30], [0, 40]])]
+    k01 = [_constructed([[0.29, 0.66], [None, 0.99]], [[200, 10], [0, 40]])]
+    pooled = case_by_size(k0)["pair_epsilon"]
+    assert pooled["mean"][0][0] == pytest.approx(0.725, rel=1e-12)
+    assert pooled["counts"] == [[400, 60], [0, 80]]
+    assert math.isnan(pooled["mean"][1][0])
+    (ratio,) = by_size_report({"k01": k01, "k0": k0}, [["k01", "k0"]])["ratios"]
+    table = ratio["pair_epsilon"]
+    assert table[0][0] == pytest.approx(0.29 / 0.725, rel=1e-12)
+    assert math.isnan(table[0][1]), "10 sampled collisions are too few"
+    assert math.isnan(table[1][0]) and table[1][1] == pytest.approx(1.1, rel=1e-12)
+    text = "\n".join(by_size_lines(by_size_report({"k01": k01, "k0": k0},
+                                                  [["k01", "k0"]])))
+    assert "| 0.025–0.1 | 0.400 | – |" in text

@@ -66,9 +66,19 @@ def size_summary(eq: Mapping) -> dict | None:
                    for name in ("small", "large")},
         "law_range": {key: _number(law.get(key)) for key in LAW_SHARES} if law else None,
         "law_masses": law.get("masses") if law else None,
+        "pair_epsilon": _pair_epsilon(eq.get("pair_epsilon")),
         "units": {"r_low": "m", "r_high": "m", "n": "count", "mean_mass": "kg",
-                  "law_range": "fraction of impacts", "law_masses": "kg"},
+                  "law_range": "fraction of impacts", "law_masses": "kg",
+                  "pair_epsilon": "dimensionless (mean), count"},
     }
+
+
+def _pair_epsilon(pair: Mapping | None) -> dict | None:
+    """The law's mean eps and the sampled collisions of each pair of size bins (row: the
+    smaller partner's bin), or None when the run sampled no collisions."""
+    if not pair or pair.get("status") != "on":
+        return None
+    return {"mean": pair["mean_epsilon"], "counts": pair["counts"]}
 
 
 def _seed_mean(values: Sequence[Mapping | None]) -> dict | None:
@@ -110,7 +120,35 @@ def case_by_size(summaries: Sequence[Mapping]) -> dict | None:
         "law_range": ({key: sum(_number(x[key]) for x in law) / len(law) for key in LAW_SHARES}
                       if law else None),
         "law_masses": entries[0].get("law_masses"),
+        "pair_epsilon": _pooled_pairs([e.get("pair_epsilon") for e in entries]),
     }
+
+
+def _pooled_pairs(pairs: Sequence[Mapping | None]) -> dict | None:
+    """The seeds' mean eps per pair of size bins, each seed weighted by its sampled
+    collisions; None unless every seed sampled collisions."""
+    given = [p for p in pairs if p is not None]
+    if not given or len(given) < len(pairs):
+        return None
+    counts = [[sum(p["counts"][i][j] for p in given) for j in range(len(row))]
+              for i, row in enumerate(given[0]["counts"])]
+    means = [[sum(_number(p["mean"][i][j]) * p["counts"][i][j] for p in given
+                  if p["counts"][i][j]) / n if n else math.nan
+              for j, n in enumerate(row)] for i, row in enumerate(counts)]
+    return {"mean": means, "counts": counts}
+
+
+#: Fewest sampled collisions of a pair of size bins in each case for its eps ratio.
+MIN_PAIR_COLLISIONS = 20
+
+
+def _pair_ratio(a: Mapping | None, b: Mapping | None) -> list | None:
+    if a is None or b is None:
+        return None
+    return [[x / y if n >= MIN_PAIR_COLLISIONS and m >= MIN_PAIR_COLLISIONS and y else
+             math.nan for x, y, n, m in zip(ra, rb, na, nb, strict=True)]
+            for ra, rb, na, nb in zip(a["mean"], b["mean"], a["counts"], b["counts"],
+                                      strict=True)]
 
 
 def by_size_report(cases: Mapping[str, Sequence[Mapping]],
@@ -135,7 +173,8 @@ def by_size_report(cases: Mapping[str, Sequence[Mapping]],
         out_ratios.append({"numerator": num, "denominator": den, "bins": [
             {"r_low": x["r_low"], "r_high": x["r_high"],
              **{q: _ratio(x[q], y[q]) for q in ("velocity_dispersion", "thickness")}}
-            for x, y in zip(a["bins"], b["bins"], strict=True)]})
+            for x, y in zip(a["bins"], b["bins"], strict=True)],
+            "pair_epsilon": _pair_ratio(a.get("pair_epsilon"), b.get("pair_epsilon"))})
     return {"cases": {c: e for c, e in per_case.items() if e is not None},
             "ratios": out_ratios,
             "saturn": {"full_thickness_m": SATURN_FULL_THICKNESS,
@@ -201,4 +240,24 @@ def by_size_lines(section: Mapping) -> list[str]:
         for b in ratio["bins"]:
             lines.append(f"| {b['r_low']:.3g}–{b['r_high']:.3g} | "
                          f"{_pm(b['velocity_dispersion'])} | {_pm(b['thickness'])} |")
+        lines += _pair_lines(ratio)
     return lines + [""]
+
+
+def _pair_lines(ratio: Mapping) -> list[str]:
+    """The eps ratio per pair of size bins: below 1 where the numerator's law makes the
+    pair less elastic (pairs lighter than the reference mass for kappa > 0)."""
+    table = ratio.get("pair_epsilon")
+    if table is None:
+        return []
+    labels = [f"{b['r_low']:.3g}–{b['r_high']:.3g}" for b in ratio["bins"]]
+    lines = ["", f"The law's mean ε, {ratio['numerator']} / {ratio['denominator']}, for "
+             "pairs of size bins (row: the smaller partner's bin [m], column: the larger's; "
+             f"sampled collisions, '–' where either case has fewer than "
+             f"{MIN_PAIR_COLLISIONS}; below 1: less elastic):", "",
+             "| smaller \\ larger | " + " | ".join(labels) + " |",
+             "|---|" + "---|" * len(labels)]
+    for label, row in zip(labels, table, strict=True):
+        lines.append(f"| {label} | " + " | ".join(
+            "–" if not math.isfinite(x) else f"{x:.3f}" for x in row) + " |")
+    return lines
