@@ -98,6 +98,41 @@ def ratios_section(report: Mapping, figure: str | None) -> list[str]:
     return lines
 
 
+def _cassini_cell(entry: Mapping, quantity: str) -> str:
+    if not entry["gravity"]:
+        return "-"
+    value = entry.get(quantity)
+    return "not measured" if value is None else _pm(value)
+
+
+def cassini_section(report: Mapping) -> list[str]:
+    """The synthetic occultations of the gravitating cases beside the published Cassini
+    values (``report.json``'s ``against_cassini``; none without one)."""
+    cassini = report.get("against_cassini")
+    if not cassini:
+        return []
+    b = f"{cassini['asymmetry_elevation_deg']:g}°"
+    header = ["case", "κ", "size distribution", "friction", "seeds measured", "H/W",
+              "gap τ", "wake angle from radial [deg]", f"asymmetry of τ_n at B = {b}",
+              f"peak T at B = {b}", "geometric τ", "consistent with"]
+    quantities = ("height_over_width", "gap_optical_depth", "wake_angle_from_radial_deg",
+                  "asymmetry_amplitude", "peak_transmission", "geometric_optical_depth")
+    rows = [[case, _num(e["kappa"]), e["size_distribution"], e["friction"],
+             str(e["seeds_measured"]) if e["gravity"] else "-"]
+            + [_cassini_cell(e, q) for q in quantities] + [f"**{e['verdict']}**"]
+            for case, e in cassini["cases"].items()]
+    published = [[p["ring"], p["quantity"], p["text"], p["source"]]
+                 for p in cassini["published"].values()]
+    return (["## Against Cassini", "",
+             f"What a stellar occultation would measure of each case: {cassini['geometry']}. "
+             "Mean ± standard error over the seeds whose summary holds the occultations "
+             "(the larger of the propagated error and the seed-to-seed one); \"not "
+             "measured\": summaries made before they kept the occultations. "
+             f"Rule: {cassini['rule']}.", ""]
+            + _table(header, rows) + ["", "The published values:", ""]
+            + _table(["ring", "quantity", "published", "source"], published) + [""])
+
+
 def runs_section(report: Mapping) -> list[str]:
     rows = []
     groups = [(case, "", entry["runs"]) for case, entry in report["cases"].items()]
@@ -156,6 +191,7 @@ def report_markdown(report: Mapping, summaries: Mapping[str, dict], prose: str,
         lines += [prose.strip(), ""]
     lines += setup_section(report) + equilibria_section(report)
     lines += ratios_section(report, figure) + by_size_lines(report.get("by_size", {}))
+    lines += cassini_section(report)
     lines += runs_section(report) + cost_section(report, summaries)
     if report["warnings"]:
         lines += ["## Warnings", ""] + [f"- {w}" for w in report["warnings"]] + [""]

@@ -6,8 +6,10 @@ case is the mean over its seeds (``analysis.budget.replica_mean``: the error is 
 of the propagated one and the seed-to-seed standard error of the mean); a ratio is
 ``analysis.compare.ratio`` of two cases (first-order propagated statistical error); the
 systematic part adds the variants' relative parts in quadrature
-(``analysis.budget.systematic``).  The report holds no time, path or CPU time, so that
-identical summaries give byte-identical ``report.json`` (``runs.json_text``).
+(``analysis.budget.systematic``).  A study with self-gravitating cases also holds them
+against the published Cassini wake parameters (``study.cassini``).  The report holds no
+time, path or CPU time, so that identical summaries give byte-identical ``report.json``
+(``runs.json_text``).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from ringsim.analysis import budget
 from ringsim.analysis.compare import ratio
 from ringsim.analysis.equilibrium import NOT_IN_EQUILIBRIUM, QUANTITIES
 from ringsim.study.by_size import by_size_report
+from ringsim.study.cassini import against_cassini
 
 #: What a particle weighting of ``ringsim.quantities`` counts equally.
 _WEIGHTINGS = {"number": "number: every particle counts once",
@@ -168,6 +171,7 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
     runs = Runs(specs, ids, summaries)
     quantities = list(study.quantities or QUANTITIES)
     variants = [name for name, _ in mode.variants]
+    cassini = against_cassini({case: runs.of(case) for case, _ in study.cases})
     return {
         "study": study.name, "description": study.description,
         "form": "quick" if quick else "full", "ringsim_version": __version__,
@@ -185,6 +189,7 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
                    for pair in study.ratios for q in quantities],
         "warnings": _warnings(study, mode, runs),
         **_by_size(study, runs),
+        **({"against_cassini": cassini} if cassini is not None else {}),
     }
 
 

@@ -9,9 +9,12 @@ path are set from the id (`labelled`), so that every study writes the same file 
 
 The summary (`make_summary`) is the small JSON that outlives the run file: the run's
 scenario, stop reason, length reached, equilibrium with errors and units, the ringsim
-version that made the run and, apart in ``cost``, its CPU and wall time.  A summary is
-written by the worker as soon as its run is finished; a run whose summary matches the
-scenario asked is not run again, even when its run file is gone.
+version that made the run and, apart in ``cost``, its CPU and wall time; a self-gravitating
+run's also keeps its synthetic occultations (``occultation``, ``study.cassini``).  A summary
+is written by the worker as soon as its run is finished; a run whose summary matches the
+scenario asked is not run again, even when its run file is gone.  A gravitating run's
+summary without ``occultation`` (made before summaries kept it) is completed from its run
+file when that is there and finished, keeping its ``cost``.
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ from ringsim.batch import LabelledStream, existing_action, run_to_file
 from ringsim.config.scenario import SPEED_ONLY_KEYS, with_overrides, without_keys
 from ringsim.errors import InputError
 from ringsim.study.by_size import size_summary
+from ringsim.study.cassini import lacks_occultation, occultation_summary
 
 #: Scenario keys left out of a run's identity: its labels and the thread count change no
 #: result, and a run asked for with more ``integration.orbits`` is the same run lengthened.
@@ -164,10 +168,13 @@ def make_summary(rid: str, run, eq: Mapping, quantities: Iterable[str],
                  cost: Mapping) -> dict:
     """The summary of the finished run ``rid`` (``ringsim.open_run``) from its
     equilibrium (``ringsim.equilibrium``); ``cost``: ``cpu_time_s`` and
-    ``run_wall_time_s``."""
+    ``run_wall_time_s``.  A self-gravitating run's also holds ``occultation``
+    (``study.cassini.occultation_summary``)."""
     kept = [*quantities, "equilibrium_from_orbit"]
     sizes = size_summary(eq)
-    return {"format": SUMMARY_FORMAT, "run": rid,
+    extra = ({"occultation": occultation_summary(run, eq.get("wake_significant"))}
+             if run.scenario.sheet.gravity else {})
+    return {**extra, "format": SUMMARY_FORMAT, "run": rid,
             "ringsim_version": str(run.attrs.get("ringsim_version", "")),
             "scenario": summary_scenario(run.scenario),
             "status": str(run.attrs.get("status")),
@@ -200,6 +207,9 @@ class RunTask:
     cpu_before : float or None [s]
         CPU time of the sessions that made the run before (from the summary of its shorter
         form), added to this session's.
+    cost : dict or None
+        The ``cost`` of a summary being completed (``occultation`` added from the finished
+        run file), kept as it is.
     """
 
     run_id: str
@@ -209,6 +219,7 @@ class RunTask:
     action: str
     labels: tuple[str, ...]
     cpu_before: float | None = None
+    cost: dict | None = None
 
 
 def _cpu_of(summary: Mapping | None) -> float | None:
@@ -227,7 +238,7 @@ def plan_run(run: StudyRun, runs_dir: Path, summaries_dir: Path) -> RunTask | No
     state = summary_state(summary, run.scenario)
     advice = "delete it (and its summary) or choose another --out"
     if state == "same":
-        return None
+        return _completion(run, path, summary_path, summary)
     if state in ("other", "longer"):
         orbits = summary["scenario"]["integration"]["orbits"] if summary else None
         why = ("a different scenario" if state == "other" else
@@ -240,6 +251,23 @@ def plan_run(run: StudyRun, runs_dir: Path, summaries_dir: Path) -> RunTask | No
     return RunTask(run.run_id, run.scenario, str(path.absolute()),
                    str(summary_path.absolute()), action, tuple(run.labels),
                    _cpu_of(summary) if state == "shorter" and action != "run" else None)
+
+
+def _completion(run: StudyRun, path: Path, summary_path: Path,
+                summary: Mapping | None) -> RunTask | None:
+    """The task that adds ``occultation`` to a gravitating run's summary from its finished
+    run file (None when the summary has it, or the run file is not there finished)."""
+    from ringsim.store.runfile import open_run
+
+    if summary is None or not lacks_occultation(summary) or not path.exists():
+        return None
+    with contextlib.suppress(InputError):
+        if (existing_action(path, run.scenario, extend=True, asker="the study") == "reuse"
+                and open_run(path).attrs.get("status") == "finished"):
+            return RunTask(run.run_id, run.scenario, str(path.absolute()),
+                           str(summary_path.absolute()), "reuse", tuple(run.labels),
+                           cost=dict(summary.get("cost", {})))
+    return None
 
 
 @dataclass
@@ -285,8 +313,9 @@ def _run_task(task: RunTask) -> TaskResult:
         cpu = (None if task.action == "reuse"
                else time.process_time() - cpu0 + (task.cpu_before or 0.0))
         wall = run.attrs.get("wall_time_s", 0.0)
-        cost = {"cpu_time_s": cpu,
-                "run_wall_time_s": float(wall) if isinstance(wall, (int, float)) else None}
+        cost = task.cost if task.cost is not None else {
+            "cpu_time_s": cpu,
+            "run_wall_time_s": float(wall) if isinstance(wall, (int, float)) else None}
         write_json(task.summary, make_summary(task.run_id, run, eq, QUANTITIES, cost))
     elif status == "stopped":
         result.error = "stopped before the end; start the study again to continue it"

@@ -1,0 +1,287 @@
+"""The rings against Cassini in the study reports (``ringsim.study.cassini``).
+
+* the summary's ``occultation`` from views of the bar model itself: the fit returns the
+  model's H/W, gap tau and wake angle, and the asymmetry is the model's, by hand;
+* the rule of "consistent with" on constructed summaries (A ring, B ring, both, excluded,
+  no wake, not measured, no self-gravity);
+* a study with a tiny gravitating case: its summary holds the occultations, report.json and
+  report.md the table with units, ``--report-only`` gives the same bytes, a summary without
+  the occultations still renders ("not measured") and is completed from the run file with
+  its cost kept;
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ringsim.analysis import wake_model
+from ringsim.config.study import load_study
+from ringsim.study import cassini, run_study
+from ringsim.study.runs import SUMMARY_FORMAT, collect
+
+ROOT = Path(__file__).resolve().parent.parent
+#: The bar model's parameters of the constructed views: S/lambda, H/lambda, tau_G, phi_W
+#: [deg]; H/W = 0.04 / (1 - 0.8) = 0.2, wake angle from radial 180 - 112 = 68 deg; at
+#: B = 3.45 deg across the bars 0.8 - 0.04 / tan B = 0.14 of the light still passes.
+BARS = (0.8, 0.04, 0.25, 112.0)
+ELEVATIONS = (3.45, 10.0, 20.0, 45.0, 90.0)
+AZIMUTHS = tuple(float(a) for a in range(0, 360, 15))
+
+
+def _bar_views(noise: float = 0.0) -> list[dict]:
+    """Views of the bar model at the observe defaults, tau_n with a 1 % standard error (and
+    ``noise`` times that as seeded Gaussian noise)."""
+    rng = np.random.default_rng(4)
+    views = []
+    for b in ELEVATIONS:
+        for a in AZIMUTHS:
+            T = float(wake_model.bar_transmission(b, a, *BARS))
+            tau = -math.sin(math.radians(b)) * math.log(T)
+            err = 0.01 * tau
+            views.append({"elevation_deg": b, "azimuth_deg": a, "transmission": T,
+                          "transmission_stderr": T * err / math.sin(math.radians(b)),
+                          "normal_optical_depth": tau + noise * err * rng.normal(),
+                          "normal_optical_depth_stderr": err})
+    return views
+
+
+def _observation(views: list[dict]) -> dict:
+    """What ``analysis.observe.observe`` returns, as far as `cassini.condense` reads it."""
+    fit = wake_model.fit_bar_model(*(np.array([v[k] for v in views]) for k in (
+        "elevation_deg", "azimuth_deg", "normal_optical_depth",
+        "normal_optical_depth_stderr")))
+    return {"snapshots": [3, 4], "snapshot_orbits": [1.5, 2.0], "views": views,
+            "precision": 0.01, "geometric_optical_depth": 0.5, "bar_model": fit}
+
+
+def test_condensed_occultation_returns_the_bar_models_numbers():
+    """Views of the bar model (1 % noise): the fit gives H/W = 0.2 and the wake angle 68 deg
+    within 4 standard errors; the asymmetry at B = 3.45 deg is (max - min) / mean of the
+    model's own tau_n over the 24 azimuths, and the peak transmission the model's T at the
+    azimuth of the grid nearest the bars, 105 deg, 7 deg off them: (S/lambda - (H/lambda)
+    sin 7 deg / tan B) exp(-tau_G / sin B) (exact: no noise on T)."""
+    occ = cassini.condense(_observation(_bar_views(noise=1.0)), wake_significant=True)
+    assert occ["fitted"] and occ["wake_significant"] and occ["azimuths"] == 24
+    assert occ["elevations_deg"] == list(ELEVATIONS)
+    hw, angle = occ["height_over_width"], occ["wake_angle_from_radial_deg"]
+    assert hw["units"] == "dimensionless" and angle["units"] == "deg"
+    assert abs(hw["mean"] - 0.2) < 4 * hw["stderr"] and hw["stderr"] < 0.05
+    assert abs(angle["mean"] - 68.0) < 4 * angle["stderr"] and angle["stderr"] < 2.0
+    assert abs(occ["gap_optical_depth"]["mean"] - 0.25) < 4 * occ["gap_optical_depth"]["stderr"]
+    low = occ["asymmetry"][0]
+    assert low["elevation_deg"] == 3.45
+    exact = [v for v in _bar_views() if v["elevation_deg"] == 3.45]
+    tau = np.array([v["normal_optical_depth"] for v in exact])
+    noisy = [v for v in _bar_views(noise=1.0) if v["elevation_deg"] == 3.45]
+    noisy_tau = np.array([v["normal_optical_depth"] for v in noisy])
+    amplitude = low["asymmetry_amplitude"]
+    assert amplitude["mean"] == pytest.approx(
+        (noisy_tau.max() - noisy_tau.min()) / noisy_tau.mean(), rel=1e-12)
+    assert abs(amplitude["mean"] - (tau.max() - tau.min()) / tau.mean()) < 4 * amplitude["stderr"]
+    b = math.radians(3.45)
+    peak = (0.8 - 0.04 * math.sin(math.radians(7.0)) / math.tan(b)) * math.exp(
+        -0.25 / math.sin(b))
+    assert low["peak_transmission"]["mean"] == pytest.approx(peak, rel=1e-12)
+    assert low["peak_transmission_azimuth_deg"] == 105.0
+
+
+def test_an_opaque_view_leaves_the_asymmetry_unmeasured():
+    """A view with no ray through (T = 0, tau_n infinite) gives no amplitude, not a
+    number made of a lower bound."""
+    views = _bar_views()
+    views[0] = {**views[0], "transmission": 0.0, "normal_optical_depth": math.inf,
+                "normal_optical_depth_stderr": math.nan}
+    occ = cassini.condense(_observation(views), wake_significant=True)
+    assert math.isnan(occ["asymmetry"][0]["asymmetry_amplitude"]["mean"])
+    assert math.isfinite(occ["asymmetry"][1]["asymmetry_amplitude"]["mean"])
+
+
+def _value(mean: float, stderr: float, units: str = "dimensionless") -> dict:
+    return {"mean": mean, "stderr": stderr, "units": units}
+
+
+def _summary(gravity: bool = True, hw=(0.25, 0.02), angle=(68.0, 1.0), gap=(0.3, 0.02),
+             wake: bool = True, occultation: bool = True) -> dict:
+    """A summary as far as the table reads it."""
+    scenario = {"sheet": {"gravity": gravity, "optical_depth": 0.5},
+                "particles": {"size_distribution": {"kind": "monodisperse", "radius": 1.0}},
+                "restitution": {"kappa": 0.1}}
+    out: dict = {"scenario": scenario}
+    if gravity and occultation:
+        out["occultation"] = {
+            "height_over_width": _value(*hw), "gap_optical_depth": _value(*gap),
+            "wake_angle_from_radial_deg": _value(*angle, "deg"),
+            "geometric_optical_depth": _value(0.5, 0.0), "fitted": True,
+            "wake_significant": wake,
+            "asymmetry": [{"elevation_deg": 3.45, "asymmetry_amplitude": _value(0.9, 0.05),
+                           "peak_transmission": _value(0.05, 0.005),
+                           "peak_transmission_azimuth_deg": 105.0}]}
+    return out
+
+
+@pytest.mark.parametrize("summaries, verdict", [
+    ([_summary(), _summary(hw=(0.27, 0.02))], "A ring"),
+    ([_summary(hw=(0.05, 0.01), angle=(30.0, 2.0), gap=(0.2, 0.02))] * 2, "B ring"),
+    # 0.12 +- 2 x 0.02 reaches both 0.15 (A) and 0.1 (B)
+    ([_summary(hw=(0.12, 0.02), angle=(68.0, 1.0), gap=(0.3, 0.02))], "A ring and B ring"),
+    ([_summary(hw=(0.6, 0.05), angle=(45.0, 2.0), gap=(0.8, 0.02))] * 2, "excluded"),
+    # the A ring's H/W but the angle 3 sigma off 64-72 deg; gap 0.8 excludes the B ring
+    ([_summary(angle=(78.0, 2.0), gap=(0.8, 0.02))], "excluded"),
+    ([_summary(), _summary(wake=False)], "no significant wake"),
+    ([_summary(occultation=False)] * 2, "not measured"),
+    ([_summary(gravity=False)] * 2, "no wakes (no self-gravity)"),
+])
+def test_the_rule_of_consistent_with(summaries, verdict):
+    """The 2-sigma rule of `cassini.RULE` against the published ranges of `PUBLISHED`."""
+    table = cassini.against_cassini({"case": summaries, "other": [_summary()]})
+    assert table is not None and table["cases"]["case"]["verdict"] == verdict
+
+
+def test_seed_mean_and_a_seed_without_occultations():
+    """The case is the mean over the seeds that have the occultations (budget.replica_mean);
+    a seed whose summary lacks them is left out and counted."""
+    table = cassini.against_cassini({"c": [_summary(hw=(0.2, 0.01)), _summary(hw=(0.3, 0.01)),
+                                           _summary(occultation=False)]})
+    assert table is not None
+    entry = table["cases"]["c"]
+    assert entry["seeds_measured"] == 2
+    hw = entry["height_over_width"]
+    assert hw["mean"] == pytest.approx(0.25) and hw["units"] == "dimensionless"
+    assert hw["stderr"] == pytest.approx(0.05), "the seed scatter, larger than 0.007"
+    assert cassini.against_cassini({"c": [_summary(gravity=False)]}) is None
+
+
+# --- a study with a gravitating case -------------------------------------------------------
+
+SCENARIO = """\
+name: tinygrav
+seed: 1
+planet: {GM: 3.7931e16, a: 1.0e8}
+particles:
+  density: 900.0
+  size_distribution: {kind: monodisperse, radius: 1.0}
+sheet: {optical_depth: 0.2, n_particles: 200}
+restitution: {model: dilley, xi0: 0.16, p: 0.65, kappa: 0.0}
+integration: {orbits: 0.2}
+output: {timeseries_every: 0.05, snapshot_every: 0.1}
+"""
+STUDY = """\
+name: tiny-gravity
+base: tiny.yaml
+seeds: [1]
+cases:
+  plain: {}
+  gravity: {sheet.gravity: true}
+length: {orbits: 0.2}
+"""
+COMMAND = "ringsim study study.yaml"
+
+
+def _write(folder: Path) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "tiny.yaml").write_text(SCENARIO)
+    (folder / "study.yaml").write_text(STUDY)
+    return folder / "study.yaml"
+
+
+@pytest.fixture(scope="module")
+def grav_study(tmp_path_factory):
+    """The tiny study run once: one run without and one with self-gravity."""
+    folder = tmp_path_factory.mktemp("gstudy")
+    path = _write(folder)
+    result = run_study(path, workers=1, echo=None, command=COMMAND)
+    assert len(result.results) == 2 and not result.n_failed
+    specs = load_study(path).specs(False)
+    runs, ids = collect(specs)
+    by_case = {s.case: rid for s, rid in zip(specs, ids, strict=True)}
+    out = folder / "study.report"
+    return {"folder": folder, "study": path, "out": out, "ids": by_case,
+            "json": (out / "report.json").read_bytes(), "md": (out / "report.md").read_text()}
+
+
+def test_gravitating_summary_holds_the_occultations_and_the_report_its_table(grav_study):
+    summaries = grav_study["folder"] / "summaries"
+    grav = json.loads((summaries / f"{grav_study['ids']['gravity']}.json").read_text())
+    plain = json.loads((summaries / f"{grav_study['ids']['plain']}.json").read_text())
+    assert "occultation" not in plain, "no wakes to observe without self-gravity"
+    occ = grav["occultation"]
+    assert occ["elevations_deg"] == list(ELEVATIONS) and occ["azimuths"] == 24
+    assert occ["geometric_optical_depth"]["mean"] == pytest.approx(0.2, rel=1e-9)
+    assert occ["units"]["snapshot_orbits"] == "orbits"
+    assert occ["wake_angle_from_radial_deg"]["units"] == "deg"
+    # tau = 0.2 of spheres: face on, T lies between the monolayer's 1 - 0.2 and the thick
+    # layer's exp(-0.2) = 0.819 (docs/observe.md), within 1 % errors of the largest of
+    # 24 views
+    face_on = occ["asymmetry"][-1]["peak_transmission"]["mean"]
+    assert 0.79 < face_on < 0.83, face_on
+    assert len(json.dumps(grav)) < 12_000, "summaries stay small"
+    report = json.loads(grav_study["json"])
+    table = report["against_cassini"]
+    assert set(table["cases"]) == {"plain", "gravity"}
+    assert table["cases"]["plain"]["verdict"] == "no wakes (no self-gravity)"
+    entry = table["cases"]["gravity"]
+    assert entry["seeds_measured"] == 1 and entry["gravity"] is True
+    assert entry["height_over_width"]["units"] == "dimensionless"
+    assert entry["wake_angle_from_radial_deg"]["units"] == "deg"
+    assert entry["geometric_optical_depth"]["mean"] == pytest.approx(0.2, rel=1e-9)
+    # no wake forms in 0.2 orbit from a random start (analyze's verdict)
+    assert entry["verdict"] == "no significant wake"
+    assert table["published"]["A_height_over_width"]["low"] == 0.15
+    md = grav_study["md"]
+    assert "## Against Cassini" in md and "Colwell et al. 2006" in md
+    assert "| gravity | 0 | kind monodisperse, radius 1.0 | none | 1 |" in md
+    assert "**no significant wake** |" in md and "**no wakes (no self-gravity)** |" in md
+
+
+def test_report_only_gives_the_same_report(grav_study, tmp_path):
+    path = _write(tmp_path / "copy")
+    shutil.copytree(grav_study["folder"] / "summaries", tmp_path / "copy" / "summaries")
+    run_study(path, report_only=True, echo=None, command=COMMAND)
+    out = tmp_path / "copy" / "study.report"
+    assert (out / "report.json").read_bytes() == grav_study["json"]
+    assert (out / "report.md").read_text() == grav_study["md"]
+
+
+def test_old_summary_renders_and_is_completed_from_its_run_file(grav_study, tmp_path):
+    """A gravitating summary without ``occultation`` (an older ringsim's): the report says
+    "not measured"; with the finished run file the study adds the occultations, keeps the
+    summary's cost and gives the report of the full summaries."""
+    path = _write(tmp_path / "old")
+    summaries = tmp_path / "old" / "summaries"
+    shutil.copytree(grav_study["folder"] / "summaries", summaries)
+    rid = grav_study["ids"]["gravity"]
+    full = json.loads((summaries / f"{rid}.json").read_text())
+    old = copy.deepcopy(full)
+    del old["occultation"]
+    old["cost"] = {"cpu_time_s": 123.0, "run_wall_time_s": 45.0}
+    (summaries / f"{rid}.json").write_text(json.dumps(old))
+    run_study(path, report_only=True, echo=None, command=COMMAND)
+    out = tmp_path / "old" / "study.report"
+    report = json.loads((out / "report.json").read_text())
+    entry = report["against_cassini"]["cases"]["gravity"]
+    assert entry["verdict"] == "not measured" and entry["height_over_width"] is None
+    assert "| not measured |" in (out / "report.md").read_text()
+    shutil.copytree(grav_study["out"] / "runs", out / "runs")
+    result = run_study(path, workers=1, echo=None, command=COMMAND)
+    assert [(r.run_id, r.action, r.status) for r in result.results] == \
+        [(rid, "reuse", "finished")]
+    done = json.loads((summaries / f"{rid}.json").read_text())
+    assert done.pop("cost") == old["cost"]
+    full.pop("cost")
+    assert done == full
+    assert (out / "report.json").read_bytes() == grav_study["json"]
+
+
+def test_summary_without_occultation_keeps_its_format():
+    """Old summaries load: the format is unchanged and the field optional."""
+    assert SUMMARY_FORMAT == "ringsim study summary 1"
+    assert cassini.lacks_occultation(_summary(occultation=False))
+    assert not cassini.lacks_occultation(_summary(gravity=False))
+
