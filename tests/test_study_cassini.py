@@ -8,6 +8,7 @@
   report.md the table with units, ``--report-only`` gives the same bytes, a summary without
   the occultations still renders ("not measured") and is completed from the run file with
   its cost kept;
+* the committed quick report of studies/kappa-selfgravity comes back from its summaries.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import ringsim
 from ringsim.analysis import wake_model
 from ringsim.config.study import load_study
 from ringsim.study import cassini, run_study
@@ -284,4 +286,20 @@ def test_summary_without_occultation_keeps_its_format():
     assert SUMMARY_FORMAT == "ringsim study summary 1"
     assert cassini.lacks_occultation(_summary(occultation=False))
     assert not cassini.lacks_occultation(_summary(gravity=False))
+
+
+def test_bundled_selfgravity_quick_report_comes_back_from_its_summaries(tmp_path):
+    """studies/kappa-selfgravity: --report-only rewrites the committed quick report, with
+    its "Against Cassini" section, from the committed summaries (but for the version)."""
+    study = ROOT / "studies" / "kappa-selfgravity" / "study.yaml"
+    committed = study.parent / "study.quick.report"
+    run_study(study, out=tmp_path, quick=True, report_only=True, echo=None,
+              command="ringsim study studies/kappa-selfgravity/study.yaml --quick")
+    old = json.loads((committed / "report.json").read_text())
+    new = json.loads((tmp_path / "report.json").read_text())
+    assert new.pop("ringsim_version") == ringsim.__version__
+    version = old.pop("ringsim_version")
+    assert new == old and "against_cassini" in new
+    assert (tmp_path / "report.md").read_text() == (committed / "report.md").read_text(
+        ).replace(f"ringsim {version} ", f"ringsim {ringsim.__version__} ")
 

@@ -127,7 +127,8 @@ def cassini_section(report: Mapping) -> list[str]:
              f"What a stellar occultation would measure of each case: {cassini['geometry']}. "
              "Mean ± standard error over the seeds whose summary holds the occultations "
              "(the larger of the propagated error and the seed-to-seed one); \"not "
-             "measured\": summaries made before they kept the occultations. "
+             "measured\": summaries made before they kept the occultations; n/a: no "
+             "number (an asymmetry of views some of which let no ray through). "
              f"Rule: {cassini['rule']}.", ""]
             + _table(header, rows) + ["", "The published values:", ""]
             + _table(["ring", "quantity", "published", "source"], published) + [""])
