@@ -7,6 +7,7 @@ import math
 from collections.abc import Mapping, Sequence
 
 from ringsim.analysis.equilibrium import TABLE_ROWS
+from ringsim.study.references import references_section
 
 
 def _num(x: float | None, digits: int = 4) -> str:
@@ -154,6 +155,7 @@ def report_markdown(report: Mapping, summaries: Mapping[str, dict], prose: str,
     if prose.strip():
         lines += [prose.strip(), ""]
     lines += setup_section(report) + equilibria_section(report)
+    lines += references_section(report.get("references", []))
     lines += ratios_section(report, figure)
     lines += runs_section(report) + cost_section(report, summaries)
     if report["warnings"]:

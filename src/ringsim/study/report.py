@@ -19,6 +19,7 @@ from ringsim import __version__, quantities
 from ringsim.analysis import budget
 from ringsim.analysis.compare import ratio
 from ringsim.analysis.equilibrium import NOT_IN_EQUILIBRIUM, QUANTITIES
+from ringsim.study.references import RULE, reference_entries
 
 #: What a particle weighting of ``ringsim.quantities`` counts equally.
 _WEIGHTINGS = {"number": "number: every particle counts once",
@@ -167,7 +168,7 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
     runs = Runs(specs, ids, summaries)
     quantities = list(study.quantities or QUANTITIES)
     variants = [name for name, _ in mode.variants]
-    return {
+    report = {
         "study": study.name, "description": study.description,
         "form": "quick" if quick else "full", "ringsim_version": __version__,
         "base": study.base_file, "overrides": dict(study.overrides),
@@ -184,3 +185,7 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
                    for pair in study.ratios for q in quantities],
         "warnings": _warnings(study, mode, runs),
     }
+    if study.references:
+        report["references"] = reference_entries(study.references, report["cases"])
+        report["references_rule"] = RULE
+    return report
