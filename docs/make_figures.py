@@ -113,7 +113,7 @@ def build(workdir: Path, out: Path, reuse: bool = False) -> list[Path]:
          "--plot", str(out / "epsilon-kappa0.1.png"), "--force")
     report = ROOT / "studies" / "kappa-powerlaw" / "study.quick.report" / "report.json"
     plot_ratios(json.loads(report.read_text()), out / "study")
-    _cli("fit", str(ROOT / "analysis" / "data" / "hatzes_like.csv"), "--model", "all",
+    _cli("fit", str(ROOT / "docs" / "data" / "hatzes_like.csv"), "--model", "all",
          "--plot", str(out / "fit.png"), "--force")
     return sorted(out.rglob("*.png"))
 

@@ -114,7 +114,7 @@ def workdir(tmp_path, monkeypatch) -> Path:
     shutil.copytree(ROOT / "scenarios", full)
     study = tmp_path / "studies" / "kappa-powerlaw" / "study.yaml"
     study.write_text(study.read_text().replace("../../scenarios/", "../../full-scenarios/"))
-    shutil.copytree(ROOT / "analysis" / "data", tmp_path / "analysis" / "data")
+    shutil.copytree(ROOT / "docs" / "data", tmp_path / "docs" / "data")
     monkeypatch.chdir(tmp_path)
     return tmp_path
 

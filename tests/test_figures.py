@@ -311,7 +311,7 @@ def _all_figures(runs, batch_figures):
     figures["epsilon --restitution"] = user_curves_figure(user_curves(law, density, radii),
                                                           law_title(law, density),
                                                           law["model"])
-    data = read_data(ROOT / "analysis" / "data" / "hatzes_like.csv")
+    data = read_data(ROOT / "docs" / "data" / "hatzes_like.csv")
     figures["fit.png"] = fit_figure(data, [fit_model(data, m) for m in ("dilley", "bridges")])
     yield from figures.items()
 

@@ -12,6 +12,7 @@ from ringsim.analysis.fit import RestitutionData, fit_model, read_data
 from ringsim.cli import main
 from ringsim.config.scenario import scenario_from_dict
 from ringsim.physics import restitution as rs
+from ringsim.testing import hatzes_like_csv, write_hatzes_like
 
 ROOT = Path(__file__).resolve().parent.parent
 RADII = np.array([0.025, 0.05, 0.10, 0.20])  # [m] the radii of Hatzes et al. (1988)
@@ -134,13 +135,29 @@ def test_kappa_is_fixed_when_the_mass_never_changes(tmp_path):
     assert fit["parameters"]["p"]["value"] == pytest.approx(0.65, rel=1e-6)
 
 
+HATZES_LIKE = ROOT / "docs" / "data" / "hatzes_like.csv"
+
+
 def test_synthetic_hatzes_like_file_gives_dilleys_fit():
-    """analysis/data/hatzes_like.csv was made from xi0 = 0.16, p = 0.65 with noise."""
-    fit = fit_model(read_data(ROOT / "analysis" / "data" / "hatzes_like.csv"), "dilley")
+    """docs/data/hatzes_like.csv was made from xi0 = 0.16, p = 0.65 with noise."""
+    fit = fit_model(read_data(HATZES_LIKE), "dilley")
     for name, value in (("xi0", 0.16), ("p", 0.65)):
         entry = fit["parameters"][name]
         assert abs(entry["value"] - value) < 3 * entry["stderr"], name
     assert fit["parameters"]["kappa"]["fixed"]
+
+
+def test_synthetic_hatzes_like_file_is_regenerated_byte_for_byte(tmp_path):
+    """The committed example is what its generator writes (same seed, same text), and the
+    generator's rows are Dilley's law: an unseeded change of either shows here."""
+    written = write_hatzes_like(tmp_path / "sub" / "hatzes_like.csv")
+    assert written.read_bytes() == HATZES_LIKE.read_bytes()
+    assert hatzes_like_csv() == HATZES_LIKE.read_text()
+    data = read_data(written)
+    assert len(data.v) == 96     # 4 radii x 12 speeds x 2 repeats
+    exact = rs.dilley_epsilon(data.v, data.R_bar, data.M_bar)
+    # the noise's sigma is at most 0.04 (0.01 + 0.03 (1 - eps)); 5 sigma bounds every row
+    assert np.all(np.abs(data.epsilon - exact) <= 5 * data.sigma)
 
 
 @pytest.mark.parametrize("true_model", ["dilley", "bridges"])

@@ -16,8 +16,8 @@ from validation import friction_ring
 
 #: |E_rot/E_tr / closed form - 1| allowed: the offset measured in docs/validation.md
 #: ("Rough particles in a ring patch": +7.8 % at beta = 0 and +7.9 % at beta = 0.5, the
-#: power-law rings of analysis/kappa_friction.md +5 % to +11 %), rounded up to 10 %, plus
-#: 3 standard errors.
+#: power-law rings of studies/kappa-friction +5 % to +11 %), rounded up to 10 %, plus 3
+#: standard errors.
 OFFSET = 0.10
 
 

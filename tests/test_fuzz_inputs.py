@@ -27,7 +27,7 @@ from hypothesis import strategies as st
 from ringsim.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
-FIT_DATA = ROOT / "analysis" / "data" / "hatzes_like.csv"
+FIT_DATA = ROOT / "docs" / "data" / "hatzes_like.csv"
 
 #: A tiny ring: 40 particles of 1-2 m, 0.02 orbit (a run takes about a second).
 TINY = {

@@ -147,7 +147,7 @@ def test_case6_dilley_figures_in_the_running_resolver(tmp_path):
 
 
 def test_line_mode_section_is_rendered_from_its_stored_numbers():
-    summary = json.loads((ROOT / "analysis" / "data" / "line_mode_validation.json").read_text())
+    summary = json.loads((ROOT / "docs" / "data" / "line_mode_validation.json").read_text())
     section = line_mode_markdown(summary, replicas=6)
     assert section.startswith("## Line-mode collision detection")
     assert section.strip() in (ROOT / "docs" / "validation.md").read_text(), \

@@ -53,7 +53,7 @@ from validation.encounters import (
 from validation.render import LINE_MODE_HEADING, line_mode_markdown, scales
 
 FIGURES = ROOT / "docs" / "figures" / "line_mode"
-SUMMARY = ROOT / "analysis" / "data" / "line_mode_validation.json"
+SUMMARY = ROOT / "docs" / "data" / "line_mode_validation.json"
 
 #: Fixed steps of the dt-convergence runs [orbits].
 LINE_STEPS = (1e-3, 2e-3, 5e-3)

@@ -1,7 +1,7 @@
 """One worked example per ``ringsim`` subcommand, shown at the end of its ``--help``.
 
 Every example is a command a user can paste from the repository root: the files it names
-are bundled (``scenarios/``, ``studies/``, ``analysis/data/``) or written by the example
+are bundled (``scenarios/``, ``studies/``, ``docs/data/``) or written by the example
 before it (``runs/kappa0.h5`` by the ``run`` example).
 """
 
@@ -32,7 +32,7 @@ EXAMPLES: dict[str, str] = {
         "ringsim study studies/kappa-powerlaw/study.yaml --quick --report-only\n"
         "                              # the report again from the committed summaries"),
     "fit": (
-        "ringsim fit analysis/data/hatzes_like.csv --model all --plot fit.png"),
+        "ringsim fit docs/data/hatzes_like.csv --model all --plot fit.png"),
 }
 
 

@@ -10,8 +10,8 @@ A ratio of two equilibria (``ringsim compare``) carries
   autocorrelation analysis misses is not hidden;
 * a **systematic** uncertainty: how much the ratio moves when the method changes
   (collision detection line vs tree, time step, particle number, box size).  These are
-  measured by dedicated runs (``analysis/kappa_comparison.py --systematics``) and stored
-  in a budget file (JSON, format below); ``ringsim compare --systematics FILE`` adds them
+  measured by dedicated runs (a study's ``variants``, ``ringsim study``) and stored in a
+  budget file (JSON, format below); ``ringsim compare --systematics FILE`` adds them
   in quadrature.  Without a budget the systematic part is reported as "not measured"
   (NaN), never guessed.
 

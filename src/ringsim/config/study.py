@@ -28,10 +28,12 @@ from ringsim.config.schema import (
     read_text,
     show,
 )
+from ringsim.config.study_references import Reference, read_references
 
 #: Keys of a study file.
 STUDY_KEYS = ("name", "description", "base", "seeds", "overrides", "cases", "ratios",
-              "quantities", "variants", "variant_seeds", "length", "quick", "report")
+              "quantities", "variants", "variant_seeds", "length", "quick", "report",
+              "references")
 #: Keys of the ``quick`` section besides dotted scenario overrides.
 QUICK_KEYS = ("length", "seeds", "variant_seeds", "variants", "report")
 #: Keys of a ``length`` section.
@@ -115,6 +117,8 @@ class Study:
     quick_report : str or None
         Prose of the quick form only (``quick.report``), added after ``report`` in the
         quick form's report.
+    references : tuple of Reference
+        The values the cases are checked against (``config.study_references``).
     """
 
     name: str
@@ -130,6 +134,7 @@ class Study:
     quick_mode: Mode | None
     report: str | None
     quick_report: str | None = None
+    references: tuple[Reference, ...] = ()
 
     @property
     def folder(self) -> Path:
@@ -411,6 +416,7 @@ def load_study(path: str | PathLike, quantities: Sequence[str] | None = None) ->
                   quick_mode=_quick_mode(top, base, full),
                   report=_report(top, Path(source).parent),
                   quick_report=(_report(top.section("quick"), Path(source).parent)
-                                if top.has("quick") else None))
+                                if top.has("quick") else None),
+                  references=read_references(top, [case for case, _ in cases], quantities))
     _check_runs(study)
     return study

@@ -8,6 +8,7 @@ from collections.abc import Mapping, Sequence
 
 from ringsim.analysis.equilibrium import TABLE_ROWS
 from ringsim.study.by_size import by_size_lines
+from ringsim.study.references import references_section
 
 
 def _num(x: float | None, digits: int = 4) -> str:
@@ -191,6 +192,7 @@ def report_markdown(report: Mapping, summaries: Mapping[str, dict], prose: str,
     if prose.strip():
         lines += [prose.strip(), ""]
     lines += setup_section(report) + equilibria_section(report)
+    lines += references_section(report.get("references", []))
     lines += ratios_section(report, figure) + by_size_lines(report.get("by_size", {}))
     lines += cassini_section(report)
     lines += runs_section(report) + cost_section(report, summaries)

@@ -23,6 +23,7 @@ from ringsim.analysis.compare import ratio
 from ringsim.analysis.equilibrium import NOT_IN_EQUILIBRIUM, QUANTITIES
 from ringsim.study.by_size import by_size_report
 from ringsim.study.cassini import against_cassini
+from ringsim.study.references import RULE, reference_entries
 
 #: What a particle weighting of ``ringsim.quantities`` counts equally.
 _WEIGHTINGS = {"number": "number: every particle counts once",
@@ -172,7 +173,7 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
     quantities = list(study.quantities or QUANTITIES)
     variants = [name for name, _ in mode.variants]
     cassini = against_cassini({case: runs.of(case) for case, _ in study.cases})
-    return {
+    report = {
         "study": study.name, "description": study.description,
         "form": "quick" if quick else "full", "ringsim_version": __version__,
         "base": study.base_file, "overrides": dict(study.overrides),
@@ -191,6 +192,10 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
         **_by_size(study, runs),
         **({"against_cassini": cassini} if cassini is not None else {}),
     }
+    if study.references:
+        report["references"] = reference_entries(study.references, report["cases"])
+        report["references_rule"] = RULE
+    return report
 
 
 def _by_size(study, runs: Runs) -> dict:

@@ -5,7 +5,9 @@
   the outputs (`count_overlaps_numpy`), and `run_file_datasets`, with which tests compare
   run files bit for bit;
 * ``gravity``: the self-gravity harness, random sheets in REBOUND with the tree or P3M,
-  their accelerations and their errors against the converged image sum.
+  their accelerations and their errors against the converged image sum;
+* ``synthetic_restitution``: the synthetic restitution measurements of the bundled
+  ``ringsim fit`` example (`hatzes_like_csv`, `write_hatzes_like`).
 
 Every name is importable from ``ringsim.testing`` itself.
 """
@@ -21,6 +23,7 @@ from ringsim.testing.gravity import (
     tree_accelerations,
     tree_simulation,
 )
+from ringsim.testing.synthetic_restitution import hatzes_like_csv, write_hatzes_like
 from ringsim.testing.twins import (
     OVERLAP_CHUNK,
     PythonReferenceResolver,
@@ -36,10 +39,12 @@ __all__ = [
     "accelerations",
     "count_overlaps_numpy",
     "force_errors",
+    "hatzes_like_csv",
     "p3m_simulation",
     "random_sheet",
     "reference_for",
     "run_file_datasets",
     "tree_accelerations",
     "tree_simulation",
+    "write_hatzes_like",
 ]
