@@ -190,6 +190,29 @@ def test_rerun_reproduces_the_summaries_except_their_cost(reference, tmp_path):
         assert new == old
 
 
+def test_resummarise_remakes_summaries_from_run_files_and_keeps_their_cost(reference,
+                                                                           tmp_path):
+    """A summary tampered with (as one made by an older analysis) comes back as the run
+    file gives it with --resummarise, its cost kept; without the flag it is left alone."""
+    study = copy_study(reference, tmp_path / "re", runs=True)
+    folder = tmp_path / "re" / "summaries"
+    victim = sorted(folder.iterdir())[0]
+    true = json.loads(victim.read_text())
+    stale = dict(true, in_equilibrium=not true["in_equilibrium"], reason="older finder")
+    stale["cost"] = {"cpu_time_s": 123.0, "run_wall_time_s": 45.0}
+    victim.write_text(json.dumps(stale, sort_keys=True, indent=1) + "\n")
+    result = run_study(study, quick=True, workers=1, echo=None, command=COMMAND)
+    assert result.results == [] and json.loads(victim.read_text()) == stale
+    result = run_study(study, quick=True, workers=2, echo=None, command=COMMAND,
+                       resummarise=True)
+    assert len(result.results) == N_RUNS and not result.n_failed
+    assert {r.action for r in result.results} == {"reuse"}
+    again = json.loads(victim.read_text())
+    assert again.pop("cost") == stale["cost"]
+    true.pop("cost")
+    assert again == true
+
+
 def _running_with_checkpoint(runs: Path) -> list[Path]:
     """Run files whose status is running and that hold a checkpoint before their end."""
     found = []

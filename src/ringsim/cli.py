@@ -405,6 +405,8 @@ def _study_arguments(sub) -> None:
                    "particles and length)")
     p.add_argument("--report-only", action="store_true", help="write the report from the "
                    "summaries alone; run nothing")
+    p.add_argument("--resummarise", action="store_true", help="remake the summary of every "
+                   "finished run file in DIR/runs with today's analysis (cost kept)")
     _add_threads_option(p)
     p.set_defaults(func=_cmd_study)
 

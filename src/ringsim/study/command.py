@@ -124,6 +124,7 @@ def _execute(tasks: list, workers: int | None, scheduler: str | None,
 def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = None,
               workers: int | None = None, scheduler: str | None = None, quick: bool = False,
               report_only: bool = False, threads: int | None = None,
+              resummarise: bool = False,
               echo: Callable[[str], None] | None = print,
               command: str | None = None) -> StudyResult:
     """Run a study (docs/studies.md) and write ``report.json``, ``report.md`` and
@@ -137,6 +138,8 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
     scheduler : address of a Dask scheduler (``pip install ringsim[dask]``)
     quick : run the study's ``quick`` form
     report_only : write the report from the summaries alone; run nothing
+    resummarise : remake the summary of every run whose finished run file is in
+        ``out/runs/`` from that file (today's analysis of the same run; its ``cost`` kept)
     threads : ``integration.threads`` of every run (changes the speed, never a result)
     echo : receives the progress lines (None: quiet)
     command : the command line the report names as the one that regenerates it
@@ -158,7 +161,8 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
     summaries_dir = study.folder / SUMMARIES
     result = StudyResult(out_dir)
     if not report_only:
-        tasks = [task for task in (plan_run(run, out_dir / "runs", summaries_dir)
+        tasks = [task for task in (plan_run(run, out_dir / "runs", summaries_dir,
+                                            resummarise)
                                    for run in runs.values()) if task is not None]
         result.results = _execute(tasks, workers, scheduler, say, lambda where: _plan_line(
             study_path, len(runs), tasks, out_dir, where))
@@ -205,7 +209,7 @@ def _shown(path: str) -> str:
 
 def study_command(args) -> int:
     """``ringsim study STUDY.yaml [--out DIR] [--workers N] [--scheduler ADDRESS] [--quick]
-    [--report-only] [--threads N]``.
+    [--report-only] [--resummarise] [--threads N]``.
 
     Returns 0 when the report is written, 1 when a run failed, 130 when a run was
     interrupted (InputError for bad input propagates: exit status 2).
@@ -217,7 +221,8 @@ def study_command(args) -> int:
                + (f" --out {_shown(args.out)}" if args.out else ""))
     result = run_study(args.study, out=args.out, workers=args.workers,
                        scheduler=args.scheduler, quick=args.quick,
-                       report_only=args.report_only, threads=args.threads, echo=echo,
+                       report_only=args.report_only, threads=args.threads,
+                       resummarise=args.resummarise, echo=echo,
                        command=command)
     if result.n_failed or result.n_stopped:
         bad = [f"{r.run_id} ({'; '.join(r.labels)}): {r.status}" for r in result.results

@@ -227,8 +227,11 @@ def _cpu_of(summary: Mapping | None) -> float | None:
     return float(value) if isinstance(value, (int, float)) else None
 
 
-def plan_run(run: StudyRun, runs_dir: Path, summaries_dir: Path) -> RunTask | None:
-    """What to do for one run: None when its summary is of the run asked, else a task.
+def plan_run(run: StudyRun, runs_dir: Path, summaries_dir: Path,
+             resummarise: bool = False) -> RunTask | None:
+    """What to do for one run: None when its summary is of the run asked, else a task
+    (with ``resummarise``, a summary of the run asked is remade from its finished run
+    file when that is there).
 
     Raises InputError for a summary or run file of another scenario, of a run longer than
     asked, or a run file that cannot be read or is being written (``batch``)."""
@@ -238,7 +241,7 @@ def plan_run(run: StudyRun, runs_dir: Path, summaries_dir: Path) -> RunTask | No
     state = summary_state(summary, run.scenario)
     advice = "delete it (and its summary) or choose another --out"
     if state == "same":
-        return _completion(run, path, summary_path, summary)
+        return _completion(run, path, summary_path, summary, resummarise)
     if state in ("other", "longer"):
         orbits = summary["scenario"]["integration"]["orbits"] if summary else None
         why = ("a different scenario" if state == "other" else
@@ -254,12 +257,13 @@ def plan_run(run: StudyRun, runs_dir: Path, summaries_dir: Path) -> RunTask | No
 
 
 def _completion(run: StudyRun, path: Path, summary_path: Path,
-                summary: Mapping | None) -> RunTask | None:
-    """The task that adds ``occultation`` to a gravitating run's summary from its finished
-    run file (None when the summary has it, or the run file is not there finished)."""
+                summary: Mapping | None, always: bool = False) -> RunTask | None:
+    """The task that remakes a run's summary from its finished run file, keeping its
+    ``cost``: when the summary of a gravitating run lacks ``occultation``, or ``always``
+    (None when the run file is not there finished)."""
     from ringsim.store.runfile import open_run
 
-    if summary is None or not lacks_occultation(summary) or not path.exists():
+    if summary is None or not path.exists() or not (always or lacks_occultation(summary)):
         return None
     with contextlib.suppress(InputError):
         if (existing_action(path, run.scenario, extend=True, asker="the study") == "reuse"
