@@ -75,7 +75,8 @@ def test_momentum_of_a_gravitating_sheet_without_collisions():
 
 @pytest.mark.parametrize("name, keywords", [("tree", {"opening_angle": 0.5}),
                                             ("p3m", {"p3m_setting": (3.0, True),
-                                                     "p3m_pair_min_radius": 0.25}),
+                                                     "p3m_pair_min_radius": 0.25,
+                                                     "p3m_tail_fraction": 0.04}),
                                             ("slab", {})])
 def test_each_declared_solver_installs_and_recognises_itself(name, keywords):
     """The registry holds one solver per declaration, in the declarations' order; each

@@ -124,6 +124,9 @@ class SheetConfig:
         without P3M.
     p3m_pair_min_radius : float [m] or None
         P3M's field-only particles are those smaller than this (0: none); None without P3M.
+    p3m_tail_fraction : float [-] or None
+        Fraction of the particles P3M's mesh may leave beyond its layers (0: none); None
+        without P3M.
     z_box : float [mean radii] or "auto"
         Initial vertical height of the box.
     initial_state : InitialStateFile or None
@@ -142,6 +145,7 @@ class SheetConfig:
     gravity_solver: str | None = None
     p3m_split: float | str | None = None
     p3m_pair_min_radius: float | None = None
+    p3m_tail_fraction: float | None = None
 
     def gravity_dict(self) -> dict[str, Any]:
         """The self-gravity keys as a scenario gives them ({} without gravity; no softening
@@ -149,9 +153,10 @@ class SheetConfig:
         if not self.gravity:
             return {}
         d: dict[str, Any] = {"gravity_solver": self.gravity_solver}
-        for key in SOLVER_PARAMETERS:       # the solvers' keys, None where not used
-            if getattr(self, key) is not None:
-                d[key] = getattr(self, key)
+        for key, par in SOLVER_PARAMETERS.items():   # the solvers' keys, None where not used
+            value = getattr(self, key)
+            if value is not None and not (par.implicit_at_default and value == par.default):
+                d[key] = value
         return d
 
     def to_dict(self) -> dict[str, Any]:

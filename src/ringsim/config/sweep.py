@@ -12,6 +12,7 @@ from typing import Any
 
 from ringsim.config.scenario import Scenario, load_scenario, with_overrides
 from ringsim.config.schema import ScenarioError, Section, parse_yaml, read_text, show
+from ringsim.errors import clip
 
 
 @dataclass(frozen=True)
@@ -85,9 +86,10 @@ def load_sweep(path: str | PathLike) -> Sweep:
             try:
                 with_overrides(base, {key: value})
             except ScenarioError as exc:
+                # the base file's message inside the sweep's, kept to one short line
                 raise grid_sec.error(str(key), f"value {show(value)} is invalid for "
                                      f"{exc.file}: {exc.key}: {exc.problem}",
-                                     exc.allowed) from None
+                                     clip(exc.allowed, 160)) from None
         grid.append((str(key), tuple(values)))
     sweep = Sweep(base=base, base_path=str(base_path), grid=tuple(grid), source=source,
                   source_text=text)

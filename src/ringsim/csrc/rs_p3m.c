@@ -6,7 +6,7 @@
  * | effect     | self-gravity of a shear-periodic sheet, particle-particle particle-mesh  |
  * |------------|--------------------------------------------------------------------------|
  * | installed  | ringsim.gravity.p3m.install_p3m: a Python additional_forces that calls     |
- * |            | (rs_p3m_height_span for `p3m_split: auto`), rs_p3m_prepare, rs_p3m_assign, |
+ * |            | rs_p3m_height_span (rs_p3m_heights), rs_p3m_prepare(_core), rs_p3m_assign, |
  * |            | (numpy FFT), rs_p3m_interpolate, rs_p3m_short; REBOUND's gravity "none"  |
  * | parameters | struct rs_p3m: split scale r_s [m], cutoff r_c [m], Plummer softening b   |
  * |            | [m], mesh nx x ny, layer spacing dz [m]; G, Omega, box and t from the sim |
@@ -30,7 +30,11 @@
  *
  * Mesh.  Cloud-in-cell onto nx x ny x nz nodes in sheared coordinates (x, y' = y + alpha x,
  * alpha = s / Lx; the box is doubly periodic there) and horizontal layers z0 + l dz that span
- * the particles' z range (rs_p3m_prepare sets z0 and nz at each call).
+ * the particles' z range (rs_p3m_prepare sets z0 and nz at each call), or only the heights
+ * [zlo, zhi] of the ring's dense core (rs_p3m_prepare_core, `sheet.p3m_tail_fraction`):
+ * a particle beyond them is on the mesh at the nearer limit, its weights damped as the
+ * slowest horizontal mode decays over its distance beyond (rs_p3m_cic); its pair sum and
+ * the mean vertical field (rs_p3m_mean_vertical, over all particles) stay exact.
  *
  * Field-only pairs.  Two particles both smaller than pair_min_radius (0: none) interact
  * through the mesh only: the short-range rest of their pair is left out (every other pair
@@ -67,6 +71,8 @@ struct rs_p3m {
     double shift;          /* shear offset s [m] at the call's time (rs_p3m_prepare) */
     double alpha;          /* s / Lx */
     double pair_min_radius;   /* [m]: pairs of two smaller particles are mesh-only */
+    double zlo, zhi;       /* heights [m] the mesh spans (set by rs_p3m_prepare*): a particle
+                              beyond them is on the mesh at the nearer of the two */
     double table[RS_P3M_TABLE + 2];   /* L(r)/r^3 [1/m^3] at r^2 = k rc^2 / RS_P3M_TABLE */
 };
 
@@ -153,7 +159,35 @@ int rs_p3m_prepare(struct reb_simulation* const r, struct rs_p3m* p){
     const double l0 = floor(zmin / p->dz);
     p->z0 = l0 * p->dz;
     p->nz = (int)(floor(zmax / p->dz) - l0) + 2;
+    p->zlo = zmin;
+    p->zhi = zmax;
     return p->nz;
+}
+
+/* Set shift, alpha, z0 and nz for a mesh that spans the heights [zlo, zhi] [m] only (the
+ * dense core of a ring whose heights have a sparse tail); returns nz.  A particle beyond
+ * them is assigned to and interpolated from the mesh at the nearer of zlo and zhi (the same
+ * stencil both ways: the mesh forces still sum to zero). */
+int rs_p3m_prepare_core(struct reb_simulation* const r, struct rs_p3m* p, double zlo,
+                        double zhi){
+    const double Lx = r->root_size * (double)r->N_root_x;
+    const double Ly = r->root_size * (double)r->N_root_y;
+    p->shift = rs_p3m_shift(r->OMEGA, Lx, Ly, r->t);
+    p->alpha = p->shift / Lx;
+    const double l0 = floor(zlo / p->dz);
+    p->z0 = l0 * p->dz;
+    p->nz = (int)(floor(zhi / p->dz) - l0) + 2;
+    p->zlo = zlo;
+    p->zhi = zhi;
+    return p->nz;
+}
+
+/* The particles' heights z [m] into out (N values, REBOUND's order). */
+void rs_p3m_heights(const struct reb_simulation* const r, double* out){
+    const size_t n = r->N - r->N_var;
+    for (size_t k = 0; k < n; k++){
+        out[k] = r->particles[k].z;
+    }
 }
 
 /* The cloud-in-cell stencil of one particle: its two node columns in x and y (periodic),
@@ -166,13 +200,31 @@ struct rs_cic {
     double wx[2], wy[2], wz[2];
 };
 
+/* The height [m] at which a particle at z is on the mesh, and in *fade the factor of its
+ * mesh weights: z and 1 within [zlo, zhi]; beyond, the nearer limit and exp(-k1 d) (d its
+ * distance beyond, k1 = 2 pi / max(Lx, Ly) the smallest horizontal wave number): the
+ * slowest decay of the horizontal modes over d, applied to its assignment and its
+ * interpolation alike, and undone within r_c by the pair sum (rs_p3m_pairs). */
+static double rs_p3m_on_mesh(const struct rs_p3m* p, double z, double Lx, double Ly,
+                             double* fade){
+    *fade = 1.0;
+    if (z <= p->zhi && z >= p->zlo){
+        return z;
+    }
+    const double limit = z > p->zhi ? p->zhi : p->zlo;
+    *fade = exp(-6.283185307179586 / fmax(Lx, Ly) * fabs(z - limit));
+    return limit;
+}
+
 static struct rs_cic rs_p3m_cic(const struct rs_p3m* p, const struct reb_particle* q,
                                 double Lx, double Ly){
     double gx = (q->x + 0.5 * Lx) / Lx;
     double gy = (q->y + p->alpha * q->x + 0.5 * Ly) / Ly;
     gx = (gx - floor(gx)) * (double)p->nx;
     gy = (gy - floor(gy)) * (double)p->ny;
-    double gz = (q->z - p->z0) / p->dz;
+    double fade;
+    const double z = rs_p3m_on_mesh(p, q->z, Lx, Ly, &fade);
+    double gz = (z - p->z0) / p->dz;
     int i0 = (int)floor(gx);
     int j0 = (int)floor(gy);
     int l0 = (int)floor(gz);
@@ -191,7 +243,7 @@ static struct rs_cic rs_p3m_cic(const struct rs_p3m* p, const struct reb_particl
     c.l0 = (size_t)l0;
     c.wx[0] = 1.0 - fx; c.wx[1] = fx;
     c.wy[0] = 1.0 - fy; c.wy[1] = fy;
-    c.wz[0] = 1.0 - fz; c.wz[1] = fz;
+    c.wz[0] = (1.0 - fz) * fade; c.wz[1] = fz * fade;
     return c;
 }
 
@@ -335,14 +387,26 @@ void rs_p3m_mean_vertical(struct reb_simulation* const r, struct rs_p3m* p){
     free(mass);
 }
 
-/* Short-range acceleration [m/s^2] on (xi, yi, zi) from the sorted sources [b, e), each at
- * (x_j + offx, y_j + offy, z_j). */
-static void rs_p3m_pairs(const struct rs_p3m* p, const double* sx, const double* sy,
-                         const double* sz, const double* sm, size_t b, size_t e, double xi,
-                         double yi, double zi, double offx, double offy, double inv_step,
-                         double* acc){
+/* A cell list of the pair sum: the particles' wrapped positions and masses sorted by cell
+ * (x-major), the first slot of each cell in start[0..cells] and each slot's particle; sc
+ * and sw are each slot's height on the mesh [m] and the damping of its mesh weights
+ * (rs_p3m_on_mesh), and clamped says whether any particle lies beyond the mesh. */
+struct rs_p3m_list {
+    size_t n;
+    size_t* start;
+    size_t* order;
+    double *sx, *sy, *sz, *sm, *sc, *sw;
+    int clamped;
+};
+
+/* Short-range acceleration [m/s^2] on (xi, yi, zi) from the sorted sources [b, e) of src,
+ * each at (x_j + offx, y_j + offy, z_j). */
+static void rs_p3m_pairs(const struct rs_p3m* p, const struct rs_p3m_list* src, size_t b,
+                         size_t e, double xi, double yi, double zi, double offx, double offy,
+                         double inv_step, double* acc){
     const double rc2 = p->cutoff * p->cutoff, b2 = p->softening * p->softening;
     const double xs = xi - offx, ys = yi - offy;
+    const double *sx = src->sx, *sy = src->sy, *sz = src->sz, *sm = src->sm;
     for (size_t j = b; j < e; j++){
         const double dx = xs - sx[j];
         const double dy = ys - sy[j];
@@ -359,19 +423,76 @@ static void rs_p3m_pairs(const struct rs_p3m* p, const double* sx, const double*
     }
 }
 
-/* Short-range acceleration [m/s^2] on (xi, yi, zi) from all n sources, each at every image
- * within r_c (boxes too small for the cell list; r_c < min(Lx, Ly): 3 x 3 images suffice). */
-static void rs_p3m_all_images(const struct rs_p3m* p, const double* sx, const double* sy,
-                              const double* sz, const double* sm, size_t n, double xi,
-                              double yi, double zi, double Lx, double Ly, double s,
-                              double inv_step, double* acc){
-    for (size_t j = 0; j < n; j++){
-        const double n0 = round((xi - sx[j]) / Lx);
+/* The correction [m/s^2] to rs_p3m_pairs of the pairs with a particle beyond the mesh:
+ * the target (xi, yi, zi) is on the mesh at zci with weight wi, source j at sc[j] with
+ * sw[j] (rs_p3m_on_mesh).  Such a pair got from the mesh the long-range force of its
+ * positions on the mesh times wi sw[j]; where those lie within r_c its force here becomes
+ * the Plummer force of the true positions minus exactly that, so that mesh and pair sum
+ * give the Plummer force; rs_p3m_pairs' term of the pair is taken back.  Antisymmetric in
+ * the pair: momentum is conserved. */
+static void rs_p3m_fixes(const struct rs_p3m* p, const struct rs_p3m_list* src, size_t b,
+                         size_t e, double xi, double yi, double zi, double zci, double wi,
+                         double offx, double offy, double inv_step, double* acc){
+    const double rc2 = p->cutoff * p->cutoff, b2 = p->softening * p->softening;
+    const double xs = xi - offx, ys = yi - offy;
+    const int target_beyond = zci != zi;
+    for (size_t j = b; j < e; j++){
+        if (!target_beyond && src->sc[j] == src->sz[j]){
+            continue;
+        }
+        const double dx = xs - src->sx[j];
+        const double dy = ys - src->sy[j];
+        const double dz = zi - src->sz[j];
+        const double dzc = zci - src->sc[j];
+        const double r2 = dx * dx + dy * dy + dz * dz;
+        const double r2c = dx * dx + dy * dy + dzc * dzc;
+        if (r2 == 0.0 || (r2c >= rc2 && r2 >= rc2)){
+            continue;
+        }
+        const double s2 = r2 + b2;
+        const double plummer = 1.0 / (s2 * sqrt(s2));
+        double fn = 0.0, fl = 0.0, fo = 0.0;       /* new Plummer, new mesh part, old */
+        if (r2c < rc2){
+            fn = plummer;
+            fl = wi * src->sw[j] * rs_p3m_lookup(p, r2c, inv_step);
+        }
+        if (r2 < rc2){
+            fo = plummer - rs_p3m_lookup(p, r2, inv_step);
+        }
+        const double f = src->sm[j] * (fn - fo);
+        const double g = src->sm[j] * fl;
+        acc[0] -= (f - g) * dx;
+        acc[1] -= (f - g) * dy;
+        acc[2] -= f * dz - g * dzc;
+    }
+}
+
+/* One run of sources [b, e) at the offsets: rs_p3m_pairs, or with fixes rs_p3m_fixes. */
+static void rs_p3m_run(const struct rs_p3m* p, const struct rs_p3m_list* src, size_t b,
+                       size_t e, const double* target, int fixes, double offx, double offy,
+                       double inv_step, double* acc){
+    if (fixes){
+        rs_p3m_fixes(p, src, b, e, target[0], target[1], target[2], target[3], target[4],
+                     offx, offy, inv_step, acc);
+    }else{
+        rs_p3m_pairs(p, src, b, e, target[0], target[1], target[2], offx, offy, inv_step,
+                     acc);
+    }
+}
+
+/* Short-range acceleration [m/s^2] (or with fixes its correction) on the target (x, y, z,
+ * height on the mesh, mesh weight) from all sources of src, each at every image within r_c
+ * (boxes too small for the cell list; r_c < min(Lx, Ly): 3 x 3 images suffice). */
+static void rs_p3m_all_images(const struct rs_p3m* p, const struct rs_p3m_list* src,
+                              const double* target, int fixes, double Lx, double Ly,
+                              double s, double inv_step, double* acc){
+    for (size_t j = 0; j < src->n; j++){
+        const double n0 = round((target[0] - src->sx[j]) / Lx);
         for (double nimg = n0 - 1.0; nimg <= n0 + 1.0; nimg += 1.0){
-            const double m0 = round((yi - sy[j] + nimg * s) / Ly);
+            const double m0 = round((target[1] - src->sy[j] + nimg * s) / Ly);
             for (double m = m0 - 1.0; m <= m0 + 1.0; m += 1.0){
-                rs_p3m_pairs(p, sx, sy, sz, sm, j, j + 1, xi, yi, zi, nimg * Lx,
-                             -nimg * s + m * Ly, inv_step, acc);
+                rs_p3m_run(p, src, j, j + 1, target, fixes, nimg * Lx, -nimg * s + m * Ly,
+                           inv_step, acc);
             }
         }
     }
@@ -380,14 +501,15 @@ static void rs_p3m_all_images(const struct rs_p3m* p, const double* sx, const do
 /* Cells per cutoff of the pair sum's cell list (cells of at least r_c / 2). */
 #define RS_P3M_CELLS_PER_CUTOFF 2
 
-/* Short-range acceleration [m/s^2] on target (xi, yi, zi) (wrapped into the box) from the
- * cell list: cells [x-range] x [y-range] within r_c, each with its image offsets; the cells
- * of one column and one y image are contiguous in the sorted arrays (one run each). */
-static void rs_p3m_cells(const struct rs_p3m* p, const double* sx, const double* sy,
-                         const double* sz, const double* sm, const size_t* start, int ncx,
-                         int ncy, double Lx, double Ly, double s, double xi, double yi,
-                         double zi, double inv_step, double* acc){
+/* Short-range acceleration [m/s^2] (or with fixes its correction) on the target (x, y, z,
+ * height on the mesh, mesh weight; wrapped into the box) from the cell list: cells
+ * [x-range] x [y-range] within r_c, each with its image offsets; the cells of one column
+ * and one y image are contiguous in the sorted arrays (one run each). */
+static void rs_p3m_cells(const struct rs_p3m* p, const struct rs_p3m_list* src, int ncx,
+                         int ncy, double Lx, double Ly, double s, const double* target,
+                         int fixes, double inv_step, double* acc){
     const double rc = p->cutoff, hx = Lx / ncx, hy = Ly / ncy;
+    const double xi = target[0], yi = target[1];
     const int xlo = (int)floor((xi - rc + 0.5 * Lx) / hx);
     const int xhi = (int)floor((xi + rc + 0.5 * Lx) / hx);
     for (int qx = xlo; qx <= xhi; qx++){
@@ -400,21 +522,12 @@ static void rs_p3m_cells(const struct rs_p3m* p, const double* sx, const double*
             const int wy = (int)floor((double)q0 / (double)ncy);   /* y image of this run */
             const int q1 = yhi < (wy + 1) * ncy - 1 ? yhi : (wy + 1) * ncy - 1;
             const size_t c0 = col + (size_t)(q0 - wy * ncy), c1 = col + (size_t)(q1 - wy * ncy);
-            rs_p3m_pairs(p, sx, sy, sz, sm, start[c0], start[c1 + 1], xi, yi, zi,
-                         nimg * Lx, -nimg * s + wy * Ly, inv_step, acc);
+            rs_p3m_run(p, src, src->start[c0], src->start[c1 + 1], target, fixes, nimg * Lx,
+                       -nimg * s + wy * Ly, inv_step, acc);
             q0 = q1 + 1;
         }
     }
 }
-
-/* A cell list of the pair sum: the particles' wrapped positions and masses sorted by cell
- * (x-major), the first slot of each cell in start[0..cells] and each slot's particle. */
-struct rs_p3m_list {
-    size_t n;
-    size_t* start;
-    size_t* order;
-    double *sx, *sy, *sz, *sm;
-};
 
 static void rs_p3m_list_free(struct rs_p3m_list* l){
     free(l->start);
@@ -425,8 +538,9 @@ static void rs_p3m_list_free(struct rs_p3m_list* l){
 /* Sort the particles of radius >= r_min (all for r_min = 0) into a cell list of ncx x ncy
  * cells, positions wrapped into the box with the shear offset s.  Returns 0 if memory ran
  * out. */
-static int rs_p3m_list_build(struct rs_p3m_list* l, const struct reb_particle* ps, size_t n,
-                             double r_min, int ncx, int ncy, double Lx, double Ly, double s){
+static int rs_p3m_list_build(struct rs_p3m_list* l, const struct rs_p3m* p,
+                             const struct reb_particle* ps, size_t n, double r_min, int ncx,
+                             int ncy, double Lx, double Ly, double s){
     const size_t cells = (size_t)ncx * (size_t)ncy;
     size_t m = 0;
     for (size_t k = 0; k < n; k++){
@@ -435,7 +549,7 @@ static int rs_p3m_list_build(struct rs_p3m_list* l, const struct reb_particle* p
     l->n = m;
     l->start = calloc(cells + 1, sizeof(size_t));
     l->order = malloc((m + 1) * sizeof(size_t));
-    l->sx = malloc((4 * m + 1) * sizeof(double));
+    l->sx = malloc((6 * m + 1) * sizeof(double));
     size_t* cell_of = malloc((n + 1) * sizeof(size_t));
     double* wrapped = malloc((2 * n + 1) * sizeof(double));
     if (l->start == NULL || l->order == NULL || l->sx == NULL || cell_of == NULL
@@ -447,6 +561,9 @@ static int rs_p3m_list_build(struct rs_p3m_list* l, const struct reb_particle* p
     l->sy = l->sx + m;
     l->sz = l->sx + 2 * m;
     l->sm = l->sx + 3 * m;
+    l->sc = l->sx + 4 * m;
+    l->sw = l->sx + 5 * m;
+    l->clamped = 0;
     const double hx = Lx / ncx, hy = Ly / ncy;
     for (size_t k = 0; k < n; k++){   /* wrap, then counting sort into cells (x-major) */
         if (ps[k].r < r_min){
@@ -478,6 +595,8 @@ static int rs_p3m_list_build(struct rs_p3m_list* l, const struct reb_particle* p
         l->sy[slot] = wrapped[2 * k + 1];
         l->sz[slot] = ps[k].z;
         l->sm[slot] = ps[k].m;
+        l->sc[slot] = rs_p3m_on_mesh(p, ps[k].z, Lx, Ly, &l->sw[slot]);
+        l->clamped |= l->sc[slot] != ps[k].z;
     }
     for (size_t c = cells; c > 0; c--){   /* restore the starts */
         l->start[c] = l->start[c - 1];
@@ -511,9 +630,9 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
         ncy = 1;
     }
     struct rs_p3m_list all = {0}, large = {0};
-    int ok = rs_p3m_list_build(&all, ps, n, 0.0, ncx, ncy, Lx, Ly, s);
+    int ok = rs_p3m_list_build(&all, p, ps, n, 0.0, ncx, ncy, Lx, Ly, s);
     if (ok && r_pair > 0.0){
-        ok = rs_p3m_list_build(&large, ps, n, r_pair, ncx, ncy, Lx, Ly, s);
+        ok = rs_p3m_list_build(&large, p, ps, n, r_pair, ncx, ncy, Lx, Ly, s);
     }
     if (!ok){
         rs_p3m_list_free(&all);
@@ -528,12 +647,17 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
         struct reb_particle* const q = &ps[all.order[slot]];
         const struct rs_p3m_list* src = q->r < r_pair ? &large : &all;
         double acc[3] = {0.0, 0.0, 0.0};
-        if (all_pairs){
-            rs_p3m_all_images(p, src->sx, src->sy, src->sz, src->sm, src->n, all.sx[slot],
-                              all.sy[slot], all.sz[slot], Lx, Ly, s, inv_step, acc);
-        }else{
-            rs_p3m_cells(p, src->sx, src->sy, src->sz, src->sm, src->start, ncx, ncy, Lx, Ly,
-                         s, all.sx[slot], all.sy[slot], all.sz[slot], inv_step, acc);
+        const double target[5] = {all.sx[slot], all.sy[slot], all.sz[slot], all.sc[slot],
+                                   all.sw[slot]};
+        /* a pair with a particle beyond the mesh has its target beyond the mesh or within
+         * r_c of its limits: only those targets take the correction */
+        const int fixes = all.clamped && (target[2] > p->zhi - rc || target[2] < p->zlo + rc);
+        for (int pass = 0; pass <= fixes; pass++){
+            if (all_pairs){
+                rs_p3m_all_images(p, src, target, pass, Lx, Ly, s, inv_step, acc);
+            }else{
+                rs_p3m_cells(p, src, ncx, ncy, Lx, Ly, s, target, pass, inv_step, acc);
+            }
         }
         q->ax += G * acc[0];
         q->ay += G * acc[1];

@@ -358,6 +358,8 @@ class P3MStruct(ctypes.Structure):
         ("shift", ctypes.c_double),
         ("alpha", ctypes.c_double),
         ("pair_min_radius", ctypes.c_double),
+        ("zlo", ctypes.c_double),
+        ("zhi", ctypes.c_double),
         ("table", ctypes.c_double * (P3M_TABLE + 2)),
     ]
 
@@ -368,6 +370,9 @@ def _declare_p3m(lib: ctypes.CDLL) -> None:
     double_p = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
     for name, args, res in (("rs_p3m_init", [p3m_p], None),
                             ("rs_p3m_prepare", [sim_p, p3m_p], ctypes.c_int),
+                            ("rs_p3m_prepare_core", [sim_p, p3m_p, ctypes.c_double,
+                                                     ctypes.c_double], ctypes.c_int),
+                            ("rs_p3m_heights", [sim_p, double_p], None),
                             ("rs_p3m_assign", [sim_p, p3m_p, double_p], None),
                             ("rs_p3m_interpolate", [sim_p, p3m_p, double_p, double_p, double_p],
                              None),

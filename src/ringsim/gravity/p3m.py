@@ -35,14 +35,19 @@ from ringsim.engine.native import (
 from ringsim.gravity.base import GravitySolver
 from ringsim.physics.constants import G_SI
 from ringsim.physics.gravity_solvers import P3M
-from ringsim.physics.p3m_mesh import P3MMesh
+from ringsim.physics.p3m_mesh import P3MMesh, core_heights
 from ringsim.physics.p3m_scales import (
     P3M_CELL_SPLITS,
     P3M_CUTOFF_SPLITS,
     P3M_LAYER_SPLITS,
+    P3M_TAIL_MARGIN_SCALES,
+    P3M_TAIL_MARGIN_SPLITS,
     layer_bucket,
     p3m_auto_split,
 )
+
+#: Interquartile range of a unit Gaussian: (q3 - q1) / GAUSSIAN_IQR is a robust sigma.
+GAUSSIAN_IQR = 1.349
 
 #: Installed solvers by the address of their callback (REBOUND keeps the callback object in
 #: ``sim._afp``, and the callback keeps its solver alive).
@@ -75,7 +80,8 @@ def p3m_parameters(Lx, Ly, split, cutoff=None, cell=None, dz=None) -> dict:
             "nx": _even_cells(Lx, cell), "ny": _even_cells(Ly, cell)}
 
 
-def describe(Lx, Ly, softening, split, auto=False, pair_min_radius=0.0) -> dict:
+def describe(Lx, Ly, softening, split, auto=False, pair_min_radius=0.0,
+             tail_fraction=0.0) -> dict:
     """Root attributes of a run file for the P3M solver at its defaults, each with
     ``units_<name>`` beside it; with ``auto`` the split, cutoff, mesh and layers given are
     those of the first rung, and ``p3m_split_auto`` says that the split follows the height
@@ -87,6 +93,8 @@ def describe(Lx, Ly, softening, split, auto=False, pair_min_radius=0.0) -> dict:
     auto : bool
     pair_min_radius : float [m]
         Particles below it are field-only (0: none).
+    tail_fraction : float [-]
+        Fraction of the particles the mesh may leave beyond its layers (0: none).
     """
     p = p3m_parameters(Lx, Ly, split)
     largest = p3m_auto_split(split, math.inf, 1, Lx, Ly) if auto else p["split"]
@@ -102,6 +110,9 @@ def describe(Lx, Ly, softening, split, auto=False, pair_min_radius=0.0) -> dict:
             "p3m_layer_spacing": p["dz"], "units_p3m_layer_spacing": "m",
             "p3m_pair_min_radius": float(pair_min_radius), "units_p3m_pair_min_radius":
                 "m (smaller particles are field-only: mesh, no pair sum; 0: none)",
+            "p3m_tail_fraction": float(tail_fraction), "units_p3m_tail_fraction":
+                "1 (fraction of the particles the mesh's layers may leave beyond them, "
+                "half above, half below; 0: the layers span every particle)",
             "softening": float(softening), "units_softening": "m"}
 
 
@@ -147,12 +158,20 @@ class P3MSolver:
     pair_min_radius : float [m]
         Particles smaller than this are field-only (``sheet.p3m_pair_min_radius``): on the
         mesh, not in the pair sum; 0: every particle in the pair sum.
+    tail_fraction : float [-]
+        ``sheet.p3m_tail_fraction``: the mesh's layers span only the heights that hold all
+        but this fraction of the particles (``physics.p3m_mesh.core_heights``), widened by
+        a margin (`_prepare`); a particle beyond them is on the mesh at the nearer limit
+        with damped weights, its pair forces within r_c and its mean vertical field are
+        exact.  The split of ``auto`` still follows the whole height span.  0: the layers
+        span every particle.
     """
 
     def __init__(self, Lx: float, Ly: float, softening: float, split: float,
                  cutoff: float | None = None, cell: float | None = None,
                  dz: float | None = None, G: float = G_SI, workers: int = 1,
-                 auto: bool = False, pair_min_radius: float = 0.0) -> None:
+                 auto: bool = False, pair_min_radius: float = 0.0,
+                 tail_fraction: float = 0.0) -> None:
         if not HAS_P3M:
             raise ImportError("ringsim._resolver was built without rs_p3m.c; rebuild the "
                               "extension (`python setup.py build_ext --inplace`)")
@@ -163,6 +182,9 @@ class P3MSolver:
         self.softening, self.workers, self.threads = float(softening), workers, 1
         self.first_split, self.auto = float(split), bool(auto)
         self.pair_min_radius = float(pair_min_radius)
+        if not 0.0 <= tail_fraction < 1.0:
+            raise ValueError(f"P3M tail fraction {tail_fraction} must be in [0, 1)")
+        self.tail_fraction = float(tail_fraction)
         self._explicit = (cutoff, cell, dz)
         self._rungs: dict[float, tuple[P3MStruct, P3MMesh]] = {}
         self.error: BaseException | None = None
@@ -202,16 +224,37 @@ class P3MSolver:
             params.threads = self.threads
             mesh.workers = self.threads
 
+    def _prepare(self, sim_address: int) -> P3MStruct:
+        """Choose the split (``auto``: from the particles' whole height span) and the
+        layers (all particles, or with ``tail_fraction`` the core of `core_heights`
+        widened on each side by the larger of P3M_TAIL_MARGIN_SPLITS r_s and
+        P3M_TAIL_MARGIN_SCALES robust scales of the heights, within the particles'
+        heights) for the state at ``sim_address``; returns the parameters made current."""
+        count = ctypes.c_int(0)
+        span = _LIB.rs_p3m_height_span(sim_address, ctypes.byref(count))
+        if self.auto:
+            self._use(p3m_auto_split(self.first_split, span, count.value, self.Lx, self.Ly))
+        p = self.params
+        if self.tail_fraction > 0.0 and count.value > 0:
+            heights = np.empty(count.value)
+            _LIB.rs_p3m_heights(sim_address, heights)
+            zlo, zhi = core_heights(heights, self.tail_fraction)
+            q1, q3 = core_heights(heights, 0.5)      # the quartiles: a robust scale
+            margin = max(P3M_TAIL_MARGIN_SPLITS * p.split,
+                         P3M_TAIL_MARGIN_SCALES * (q3 - q1) / GAUSSIAN_IQR)
+            nz = _LIB.rs_p3m_prepare_core(sim_address, ctypes.byref(p),
+                                          max(zlo - margin, float(heights.min())),
+                                          min(zhi + margin, float(heights.max())))
+        else:
+            nz = _LIB.rs_p3m_prepare(sim_address, ctypes.byref(p))
+        # padded to a fixed ladder of layer counts: a few kernel tables serve the whole run
+        p.nz = layer_bucket(nz)
+        return p
+
     def apply(self, sim_address: int) -> None:
         """Add the P3M accelerations [m/s^2] to the simulation at ``sim_address``."""
         lap = _Laps(self.profile)
-        if self.auto:
-            count = ctypes.c_int(0)
-            span = _LIB.rs_p3m_height_span(sim_address, ctypes.byref(count))
-            self._use(p3m_auto_split(self.first_split, span, count.value, self.Lx, self.Ly))
-        p = self.params
-        # padded to a fixed ladder of layer counts: a few kernel tables serve the whole run
-        p.nz = layer_bucket(_LIB.rs_p3m_prepare(sim_address, ctypes.byref(p)))
+        p = self._prepare(sim_address)
         lap("split and layers")
         mass = np.empty((p.nz, p.nx, p.ny))
         _LIB.rs_p3m_assign(sim_address, ctypes.byref(p), mass)
@@ -273,37 +316,42 @@ def set_threads(sim: rebound.Simulation, threads: int) -> None:
 
 
 def install(sim: rebound.Simulation, *, p3m_setting: tuple[float, bool],
-            p3m_pair_min_radius: float = 0.0) -> None:
+            p3m_pair_min_radius: float = 0.0, p3m_tail_fraction: float = 0.0) -> None:
     """A `P3MSolver` of ``sim``'s box and softening with ``p3m_setting`` = (split scale
-    [m], auto: the split follows the height span from there up) and the field-only radius
-    ``p3m_pair_min_radius`` [m], the other parameters at their defaults
-    (``physics.p3m_scales.P3M_*``)."""
+    [m], auto: the split follows the height span from there up), the field-only radius
+    ``p3m_pair_min_radius`` [m] and the tail fraction ``p3m_tail_fraction`` [-], the other
+    parameters at their defaults (``physics.p3m_scales.P3M_*``)."""
     split, auto = p3m_setting
     Lx = sim.root_size * sim.N_root_x
     Ly = sim.root_size * sim.N_root_y
     install_p3m(sim, P3MSolver(Lx, Ly, sim.softening, split, G=G_SI, auto=auto,
-                               pair_min_radius=p3m_pair_min_radius))
+                               pair_min_radius=p3m_pair_min_radius,
+                               tail_fraction=p3m_tail_fraction))
 
 
 def arguments(scenario) -> dict:
-    """``p3m_setting`` (split [m], auto) and ``p3m_pair_min_radius`` [m] of a scenario's
-    P3M solver."""
+    """``p3m_setting`` (split [m], auto), ``p3m_pair_min_radius`` [m] and
+    ``p3m_tail_fraction`` [-] of a scenario's P3M solver."""
+    tail = scenario.sheet.p3m_tail_fraction
     return {"p3m_setting": scenario.p3m_setting,
-            "p3m_pair_min_radius": float(scenario.sheet.p3m_pair_min_radius or 0.0)}
+            "p3m_pair_min_radius": float(scenario.sheet.p3m_pair_min_radius or 0.0),
+            "p3m_tail_fraction": 0.0 if tail is None else float(tail)}
 
 
 def recognise(sim: rebound.Simulation) -> dict | None:
     """`arguments` of the P3M solver installed in ``sim`` (None: none)."""
     solver = installed_solver(sim)
     return None if solver is None else {"p3m_setting": solver.setting,
-                                        "p3m_pair_min_radius": solver.pair_min_radius}
+                                        "p3m_pair_min_radius": solver.pair_min_radius,
+                                        "p3m_tail_fraction": solver.tail_fraction}
 
 
 def attributes(keywords: dict, geometry) -> dict:
     """`describe` of the solver in ``geometry``'s box (Lx, Ly [m])."""
     split, auto = keywords["p3m_setting"]
     return describe(geometry.Lx, geometry.Ly, keywords["softening"], split, auto,
-                    pair_min_radius=keywords.get("p3m_pair_min_radius", 0.0))
+                    pair_min_radius=keywords.get("p3m_pair_min_radius", 0.0),
+                    tail_fraction=keywords.get("p3m_tail_fraction", 0.0))
 
 
 SOLVER = GravitySolver(P3M, install=install, arguments=arguments, recognise=recognise,

@@ -19,8 +19,15 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ringsim.physics.laws import AUTO, Parameter
-from ringsim.physics.p3m_scales import P3M_CUTOFF_SPLITS, P3M_SPLIT_RADII, p3m_first_split
+from ringsim.physics.laws import AUTO, DIMENSIONLESS, Parameter
+from ringsim.physics.p3m_scales import (
+    P3M_CUTOFF_SPLITS,
+    P3M_SPLIT_RADII,
+    P3M_TAIL_FRACTION,
+    P3M_TAIL_MARGIN_SCALES,
+    P3M_TAIL_MARGIN_SPLITS,
+    p3m_first_split,
+)
 
 #: Softening used by ``sheet.softening: auto``, as a fraction of the smallest particle
 #: radius (REBOUND's shearing-sheet example: 0.1 m for 1 m particles).
@@ -51,6 +58,20 @@ P3M_PAIR_MIN_RADIUS = Parameter(
             "P3M_SPLIT_RADII x the larger of the mean radius and this radius",
     source="docs/gravity.md, section \"Field-only small particles\" (the force error it "
            "introduces, measured against the full solver)")
+
+P3M_TAIL = Parameter(
+    "p3m_tail_fraction", DIMENSIONLESS, default=0.0, lower=0.0, upper=0.5,
+    lower_closed=True, implicit_at_default=True,
+    meaning="fraction of the particles P3M's mesh may leave beyond its layers (the sparse "
+            "high tail of the heights, half above and half below; the layers then span the "
+            f"rest widened by the larger of {P3M_TAIL_MARGIN_SPLITS:g} r_s and "
+            f"{P3M_TAIL_MARGIN_SCALES:g} robust sigma of the heights on each side): a "
+            "particle beyond is on the mesh at its top or bottom, its pair forces within "
+            "the cutoff and the mean vertical field stay exact; 0: the layers span every "
+            f"particle; {P3M_TAIL_FRACTION:g} saves a quarter of the step of a thick ring "
+            "at the same force error (the Saturn presets)",
+    source="docs/gravity.md, section 4b, \"The sparse high tail apart\" (force error "
+           "against the direct sum; benchmarks/p3m_thick.py)")
 
 
 @dataclass(frozen=True)
@@ -120,7 +141,7 @@ TREE = SolverDeclaration(
     implied_by=("opening_angle",))
 P3M = SolverDeclaration(
     "p3m", "ringsim's shear-periodic P3M: a layered mesh with scipy.fft plus a pair sum in C",
-    (SOFTENING, P3M_SPLIT, P3M_PAIR_MIN_RADIUS), check_box=_p3m_box)
+    (SOFTENING, P3M_SPLIT, P3M_PAIR_MIN_RADIUS, P3M_TAIL), check_box=_p3m_box)
 SLAB = SolverDeclaration(
     "slab", "the vertical field of the horizontally averaged layer only (hot rings)",
     lacks="no pair forces")

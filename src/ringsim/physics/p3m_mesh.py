@@ -47,6 +47,31 @@ def long_range_fraction(r, split):
     return scipy.special.erf(u) - 2.0 / np.sqrt(np.pi) * u * np.exp(-u * u)
 
 
+def core_heights(z, tail_fraction):
+    """The heights (zlo, zhi) [m] a mesh with the sparse tail apart spans: the order
+    statistics k and N - 1 - k of the particles' heights, k = floor(tail_fraction N / 2),
+    so that at most ``tail_fraction`` of the particles lie beyond them (half above, half
+    below); (min z, max z) if k = 0.  Exact order statistics (numpy's partition): a pure
+    function of the state, independent of the particles' order.
+
+    Parameters
+    ----------
+    z : array [m]
+        The particles' heights.
+    tail_fraction : float [-]
+        The fraction of particles the mesh may leave beyond its layers, in [0, 1).
+    """
+    z = np.asarray(z, dtype=float)
+    n = z.size
+    if n == 0:
+        return 0.0, 0.0
+    k = int(np.floor(tail_fraction * n / 2.0))
+    if k == 0:
+        return float(z.min()), float(z.max())
+    part = np.partition(z, (k, n - 1 - k))
+    return float(part[k]), float(part[n - 1 - k])
+
+
 def split_layer_kernels(k, d, split, G=G_SI):
     """Long-range potential and vertical field of a horizontal sheet mode, per unit Sigma_k.
 

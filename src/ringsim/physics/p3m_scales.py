@@ -41,6 +41,18 @@ P3M_CELL_LIST_CUTOFFS = 2.5
 #: (docs/gravity.md, 4b, "Layer counts on a fixed ladder").
 P3M_LAYER_BUCKET = 1.25
 P3M_MIN_LAYERS = 8
+#: ``sheet.p3m_tail_fraction`` (the default): the mesh's layers span only the heights that
+#: hold all but this fraction of the particles (half above, half below), widened on each
+#: side by the larger of P3M_TAIL_MARGIN_SPLITS r_s and P3M_TAIL_MARGIN_SCALES robust
+#: scales of the heights (interquartile range / 1.349, sigma for a Gaussian); the particles
+#: beyond are on the mesh at its limits (their pair forces within r_c and the mean vertical
+#: field stay exact).  A ring's heights have a long sparse tail, so the mesh is then a
+#: fraction of the layers that span every particle, at the same force error; the margin in
+#: scales keeps a ring with a Gaussian, dense edge (the B-ring preset) at its error
+#: (docs/gravity.md, 4b, "The sparse high tail apart").
+P3M_TAIL_FRACTION = 0.08
+P3M_TAIL_MARGIN_SPLITS = 4.0
+P3M_TAIL_MARGIN_SCALES = 1.5
 #: Kernel tables a mesh keeps (least recently used dropped): 2 x 8193 x about 2 nz doubles each,
 #: 105 MB at nz = 400.
 P3M_TABLES = 4
