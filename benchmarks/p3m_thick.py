@@ -5,7 +5,7 @@ the dense core (``sheet.p3m_tail_fraction``, docs/gravity.md 4b "The sparse high
 Rings: a constructed production-like ring (``--n`` particles, 0.5-5 m, q = 3, solid ice at
 tau = 0.5, a = 1.3e8 m, Dilley's law with kappa = 0, line detection) whose heights are a
 Gaussian of rms ``--sigmas`` [m] with ``--tail`` of the particles moved to 3-6 sigma (half
-above, half below), as the production rings of analysis/kappa_selfgravity.md (rms 44 m,
+above, half below), as the production rings of studies/kappa-selfgravity/earlier_runs.md (rms 44 m,
 99 % within 133 m, the highest at 268 m; the hot kappa = 0.1 ring rms 183 m); and the
 B-ring preset (scenarios/saturn-b-ring.yaml) at its initial state.  For each: CPU time per
 particle-step of ``--steps`` whole steps after two warm-up steps (one thread), without
