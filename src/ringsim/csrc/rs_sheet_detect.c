@@ -194,6 +194,15 @@
 #ifndef RS_CELL_DIVISIONS
 #define RS_CELL_DIVISIONS 4
 #endif
+/* Reach classes at most (Method 2a), their ratio of reaches, and the cells per s_k of a
+ * class grid (each class looks into a grid of reaches like its own or larger). */
+#define RS_MAX_CLASSES 8
+#ifndef RS_CLASS_RATIO
+#define RS_CLASS_RATIO 3.0
+#endif
+#ifndef RS_CLASS_DIVISIONS
+#define RS_CLASS_DIVISIONS 2
+#endif
 
 /* A particle's state before the resolution, as the exact tests read it.  Made from
  * r->particles and the particle's rs_sheet_point when a test needs it (rs_state), and saved
@@ -257,8 +266,21 @@ struct rs_sheet_grid {
     double reach_max;       /* [m] */
     double slack;           /* [m] widening of the wrapped-coordinate pre-test (rs_cell_report) */
     double kick_time;       /* [s] back time of the step's kick (Method 1a), 0: no kick */
-    int64_t nx, ny, nz;
     int half_shell;         /* 1: each pair of one box looked at from one side (Method 3) */
+};
+
+/* The cells of one reach class (Method 2a; the one grid of all particles without classes):
+ * its cells are d->cell_start[cell_base ...], its particles consecutive in d->points. */
+struct rs_cell_grid {
+    double sx, sy, sz;      /* [m] cell sides (sz infinite with one layer) */
+    double z_min;           /* [m] bottom of the lowest layer */
+    double z_range;         /* [m] height of the class's range */
+    double reach_max;       /* [m] largest reach in the class */
+    int64_t nx, ny, nz;
+    int64_t cell_base;      /* index of its first cell in d->cell_start */
+    int64_t n;              /* particles */
+    double side;            /* [m] least side of a cell */
+    int half_shell;         /* 1: each pair of the class in one box looked at from one side */
 };
 
 struct rs_sheet_detector {
@@ -286,6 +308,11 @@ struct rs_sheet_detector {
     int64_t n_events;
     struct rs_event* events;        /* binary heap, earliest contact at the root */
     struct rs_sheet_grid grid;
+    int class_limit;                /* reach classes at most (Method 2a), 1: one grid */
+    int n_classes;                  /* classes of the last search (1: one grid) */
+    struct rs_cell_grid cells[RS_MAX_CLASSES];      /* by class, largest reaches first */
+    uint8_t* class_of;              /* each particle's class, by index (n_classes > 1) */
+    int64_t class_capacity;
     const struct reb_particle* particles;   /* r->particles of the last search (kicks) */
     double deviation_max;           /* [m] largest D of this step */
     int64_t serial;                 /* collisions resolved in this step */
@@ -314,6 +341,7 @@ static void rs_sheet_detector_free(struct rs_sheet_detector* d){
     free(d->track);
     free(d->cell_of);
     free(d->cell_start);
+    free(d->class_of);
     free(d->counts);
     free(d->collisions);
     for (int64_t k = 0; k < d->list_capacity; k++){
@@ -579,7 +607,8 @@ struct rs_image {
     int64_t cell_y;
 };
 
-static struct rs_image rs_image_of(const struct rs_sheet_grid* g, double yw, int64_t box_x){
+static struct rs_image rs_image_of(const struct rs_sheet_grid* g, const struct rs_cell_grid* c,
+                                   double yw, int64_t box_x){
     struct rs_image im;
     im.x = -(double)box_x * g->Lx;
     im.vy = (double)box_x * g->box_speed;
@@ -588,7 +617,7 @@ static struct rs_image rs_image_of(const struct rs_sheet_grid* g, double yw, int
     const double wrap_y = floor((yq + 0.5 * g->Ly) / g->Ly);
     yq -= wrap_y * g->Ly;
     im.y = image_y - wrap_y * g->Ly;
-    im.cell_y = rs_cell_coordinate(yq, -0.5 * g->Ly, g->sy, g->ny);
+    im.cell_y = rs_cell_coordinate(yq, -0.5 * g->Ly, c->sy, c->ny);
     return im;
 }
 
@@ -683,10 +712,27 @@ static int rs_path_touches(double dx, double dy, double dz, double dvx, double d
     return rs_line_touches(b.dx, b.dy, b.dz, b.dvx, b.dvy, b.dvz, sum_radii, dt - kick_time);
 }
 
+/* The ghost-box offset of the pair (lo, hi), lo of lower index, as the search from lo
+ * computes it (rs_scan, rs_cell_report) when hi has found the pair through the box box_x
+ * [boxes in x] (Method 2a: a pair across the radial boundary is looked for from its
+ * particle of the smaller class, which may have the higher index).  lo looks through the
+ * box -box_x; its y box is the one that brings hi nearest, the only one within reach in a
+ * box wider than two spans of the widest search (yw_lo, yw_hi [m]: wrapped y). */
+static struct reb_vec6d rs_offset_of_lower(const struct rs_sheet_grid* g,
+                                           const struct rs_cell_grid* c,
+                                           const struct rs_sheet_particle* lo,
+                                           const struct rs_sheet_particle* hi, int64_t box_x){
+    const struct rs_image im = rs_image_of(g, c, lo->yw, -box_x);
+    const double box_y = nearbyint((lo->yw + im.y - hi->yw) / g->Ly);
+    const double gy = im.y - box_y * g->Ly;
+    return rs_image_offset(lo, hi, im.x, gy, im.vy);
+}
+
 /* Method 3-4 in the cells [first, end) of the sorted particles (a run of cells of one
  * row) for particle pi (image
- * offsets image_x, gy_i, image_vy): every partner j > i within the bound of Method 1 whose
- * straight relative path touched pi's within the step goes to `out`.
+ * offsets image_x, gy_i, image_vy of the box box_x): every partner j > i (every partner j
+ * with `all`) within the bound of Method 1 whose straight relative path touched pi's
+ * within the step goes to `out`, as the search from the particle of lower index sees it.
  *
  * The bound is first tested on the compact points in wrapped coordinates, widened by
  * g->slack (1e-9 of the box) so that it passes every pair the exact test below passes:
@@ -696,8 +742,9 @@ static int rs_path_touches(double dx, double dy, double dz, double dvx, double d
  * j > i condition joins it without a branch of its own).  Returns 0 if memory ran out. */
 static int rs_cell_report(const struct rs_sheet_grid* g, const struct rs_sheet_detector* d,
                           const struct rs_sheet_point* p, int64_t first, int64_t end,
+                          const struct rs_cell_grid* c, int64_t box_x,
                           double image_x, double gy_i, double image_vy,
-                          struct rs_pair_list* out, int by_index){
+                          struct rs_pair_list* out, int all){
     const struct rs_sheet_point* const points = d->points;
     const double xi = p->xw + image_x;
     const double yi = p->yw + gy_i;
@@ -710,18 +757,21 @@ static int rs_cell_report(const struct rs_sheet_grid* g, const struct rs_sheet_d
         const double wide = reach_i + q->reach + g->shear_step * fabs(dxw);
         const int near = dxw * dxw + dyw * dyw + dzw * dzw <= wide * wide;
         const int later = q->index > p->index;
-        if (!(near & (later | !by_index))){
+        if (!(near & (later | all))){
             continue;
         }
         /* the pair as the search from its particle of lower index sees it: p1 < p2, gb of
-         * p1; in the primary box (!by_index) the other side's y offset is -gy_i, exactly
-         * (gy_i is a whole number of box lengths there), with the sign of a zero kept */
+         * p1; in the primary box the other side's y offset is -gy_i, exactly (gy_i is a
+         * whole number of box lengths there), with the sign of a zero kept; across the
+         * radial boundary the other side's image is found again (rs_offset_of_lower) */
         const struct rs_sheet_particle si = rs_state(d, later ? p->index : q->index);
         const struct rs_sheet_particle sj = rs_state(d, later ? q->index : p->index);
         const struct rs_sheet_particle* const pi = &si;
         const struct rs_sheet_particle* const pj = &sj;
         const double gy = later || gy_i == 0.0 ? gy_i : -gy_i;
-        const struct reb_vec6d gb = rs_image_offset(pi, pj, image_x, gy, image_vy);
+        const struct reb_vec6d gb = later || box_x == 0
+            ? rs_image_offset(pi, pj, image_x, gy, image_vy)
+            : rs_offset_of_lower(g, c, pi, pj, box_x);
         const double dx = pi->x + gb.x - pj->x;
         const double dy = pi->y + gb.y - pj->y;
         const double dz = pi->z - pj->z;
@@ -791,55 +841,57 @@ static int rs_cell_recheck(const struct reb_simulation* const r, struct rs_sheet
 enum RS_SCAN {
     RS_SCAN_REPORT = 0,     /* Method 3-4: partners j > i, report swept contacts (to out) */
     RS_SCAN_RECHECK = 1,    /* Method 6-7: partners j != i, queue their next contacts */
+    RS_SCAN_LARGER = 2,     /* Method 2a: all partners of a class of larger reaches, report */
 };
 
-/* Looks at every cell within `distance` [m] of particle pi (state before the resolution)
- * in x, y and z, each image of the shear-periodic box once.  The cells of one row (same y,
- * z) that belong to one box are consecutive in the sorted particles, so a row is one run:
- * the cost is per particle looked at, hardly per cell.  REPORT mode reads the detector only
- * and writes to `out` (threads may scan different particles at once); RECHECK queues
- * contacts within the last `window` of the step.  Returns 0 if memory ran out. */
+/* Looks at every cell of the grid c within `distance` [m] of particle pi (state before the
+ * resolution) in x, y and z, each image of the shear-periodic box once.  The cells of one
+ * row (same y, z) that belong to one box are consecutive in the sorted particles, so a row
+ * is one run: the cost is per particle looked at, hardly per cell.  REPORT and LARGER
+ * read the detector only and write to `out` (threads may scan different particles at
+ * once); RECHECK queues contacts within the last `window` of the step.  Returns 0 if
+ * memory ran out. */
 static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detector* d,
-                   const struct rs_sheet_point* pi, double distance, int mode,
-                   double window, struct rs_pair_list* out){
+                   const struct rs_cell_grid* c, const struct rs_sheet_point* pi,
+                   double distance, int mode, double window, struct rs_pair_list* out){
     const struct rs_sheet_grid* const g = &d->grid;
-    const int64_t* const start = d->cell_start;
+    const int64_t* const start = d->cell_start + c->cell_base;
     /* at most one box on each side (a box narrower than 2 s is outside the validity
      * limits: images further away are not looked at, as before the cells were split) */
-    const int64_t span_x = rs_span(distance, g->sx) < g->nx ? rs_span(distance, g->sx) : g->nx;
-    const int64_t span_y = rs_span(distance, g->sy) < g->ny ? rs_span(distance, g->sy) : g->ny;
-    const int64_t span_z = g->nz > 1 ? rs_span(distance, g->sz) : 0;
-    const int64_t cx = rs_cell_coordinate(pi->xw, -0.5 * g->Lx, g->sx, g->nx);
-    const int64_t cz = g->nz > 1 ? rs_cell_coordinate(pi->z, g->z_min, g->sz, g->nz) : 0;
+    const int64_t span_x = rs_span(distance, c->sx) < c->nx ? rs_span(distance, c->sx) : c->nx;
+    const int64_t span_y = rs_span(distance, c->sy) < c->ny ? rs_span(distance, c->sy) : c->ny;
+    const int64_t span_z = c->nz > 1 ? rs_span(distance, c->sz) : 0;
+    const int64_t cx = rs_cell_coordinate(pi->xw, -0.5 * g->Lx, c->sx, c->nx);
+    const int64_t cz = c->nz > 1 ? rs_cell_coordinate(pi->z, c->z_min, c->sz, c->nz) : 0;
     const int64_t layer_low = cz - span_z < 0 ? 0 : cz - span_z;
-    const int64_t layer_high = cz + span_z >= g->nz ? g->nz - 1 : cz + span_z;
+    const int64_t layer_high = cz + span_z >= c->nz ? c->nz - 1 : cz + span_z;
     /* Method 3's half shell: in the primary box each pair is looked at from one side only,
      * the particle whose row (y cell of the grid, then layer) comes first, or within a row
      * the earlier slot; across the radial boundary, from the particle of lower index */
-    const int half = mode == RS_SCAN_REPORT && g->half_shell;
-    const int64_t cy = half ? rs_cell_coordinate(pi->yw, -0.5 * g->Ly, g->sy, g->ny) : 0;
+    const int half = mode == RS_SCAN_REPORT && c->half_shell;
+    const int64_t cy = half ? rs_cell_coordinate(pi->yw, -0.5 * g->Ly, c->sy, c->ny) : 0;
     const int64_t slot = half ? (int64_t)(pi - d->points) : 0;
     for (int64_t kx = -span_x; kx <= span_x;){
         /* the run of columns from cx + kx to the box's last column or cx + span_x */
-        const int64_t box_x = rs_floor_div(cx + kx, g->nx);
-        const int64_t first_x = cx + kx - box_x * g->nx;
-        const int64_t count = span_x - kx + 1 < g->nx - first_x ? span_x - kx + 1
-                                                               : g->nx - first_x;
-        const struct rs_image im = rs_image_of(g, pi->yw, box_x);
+        const int64_t box_x = rs_floor_div(cx + kx, c->nx);
+        const int64_t first_x = cx + kx - box_x * c->nx;
+        const int64_t count = span_x - kx + 1 < c->nx - first_x ? span_x - kx + 1
+                                                               : c->nx - first_x;
+        const struct rs_image im = rs_image_of(g, c, pi->yw, box_x);
         for (int64_t ky = -span_y; ky <= span_y; ky++){
-            const int64_t box_y = rs_floor_div(im.cell_y + ky, g->ny);
-            const int64_t column_y = im.cell_y + ky - box_y * g->ny;
+            const int64_t box_y = rs_floor_div(im.cell_y + ky, c->ny);
+            const int64_t column_y = im.cell_y + ky - box_y * c->ny;
             const double gy_i = im.y - (double)box_y * g->Ly;
             for (int64_t layer = layer_low; layer <= layer_high; layer++){
-                const int64_t row = (layer * g->ny + column_y) * g->nx;
+                const int64_t row = (layer * c->ny + column_y) * c->nx;
                 int64_t first = start[row + first_x];
                 const int64_t end = start[row + first_x + count];
-                const int by_index = !(half && box_x == 0);
-                if (!by_index){
+                const int shell = half && box_x == 0;
+                if (shell){
                     /* rows of the grid from pi's (antisymmetric: the row is at -row_y
                      * from the partner's, as the box is wider than two spans) */
                     int64_t row_y = column_y - cy;
-                    row_y += 2 * row_y < -g->ny ? g->ny : (2 * row_y > g->ny ? -g->ny : 0);
+                    row_y += 2 * row_y < -c->ny ? c->ny : (2 * row_y > c->ny ? -c->ny : 0);
                     if (row_y < 0 || (row_y == 0 && layer < cz)){
                         continue;   /* the partners there look at pi */
                     }
@@ -847,9 +899,10 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
                         first = slot + 1;   /* pi's row: the slots after pi's */
                     }
                 }
-                const int ok = mode == RS_SCAN_REPORT
-                    ? rs_cell_report(g, d, pi, first, end, im.x, gy_i, im.vy, out, by_index)
-                    : rs_cell_recheck(r, d, pi, first, end, im.x, gy_i, im.vy, window);
+                const int ok = mode == RS_SCAN_RECHECK
+                    ? rs_cell_recheck(r, d, pi, first, end, im.x, gy_i, im.vy, window)
+                    : rs_cell_report(g, d, pi, first, end, c, box_x, im.x, gy_i, im.vy, out,
+                                     shell || mode == RS_SCAN_LARGER);
                 if (!ok){
                     return 0;
                 }
@@ -930,6 +983,7 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
     /* 32-bit cells and counts: half the bytes the random increments below touch */
     int32_t* const counts = d->counts;
     int32_t* const cell_of = d->cell_of;
+    const int classes = d->n_classes > 1;
 #pragma omp parallel num_threads(asked)
     {
         const int64_t team = rs_team_threads();
@@ -941,11 +995,12 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
         memset(mine, 0, (size_t)n_cells * sizeof(int32_t));
         for (int64_t i = i0; i < i1; i++){
             const struct rs_sheet_point* q = &d->wrapped[i];
-            const int64_t cx = rs_cell_coordinate(q->xw, -0.5 * g->Lx, g->sx, g->nx);
-            const int64_t cy = rs_cell_coordinate(q->yw, -0.5 * g->Ly, g->sy, g->ny);
-            const int64_t cz = g->nz > 1 ? rs_cell_coordinate(q->z, g->z_min, g->sz, g->nz)
+            const struct rs_cell_grid* c = &d->cells[classes ? d->class_of[i] : 0];
+            const int64_t cx = rs_cell_coordinate(q->xw, -0.5 * g->Lx, c->sx, c->nx);
+            const int64_t cy = rs_cell_coordinate(q->yw, -0.5 * g->Ly, c->sy, c->ny);
+            const int64_t cz = c->nz > 1 ? rs_cell_coordinate(q->z, c->z_min, c->sz, c->nz)
                                          : 0;
-            cell_of[i] = (int32_t)((cz * g->ny + cy) * g->nx + cx);
+            cell_of[i] = (int32_t)(c->cell_base + (cz * c->ny + cy) * c->nx + cx);
         }
         /* the counts and slots are read at random (particles in index order are scattered
          * over the sheet): their cache lines are asked for RS_SORT_AHEAD particles ahead */
@@ -991,20 +1046,18 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
     return 1;
 }
 
-/* Method 2: cells of at least s / RS_CELL_DIVISIONS on every side, and the particles sorted
- * into them by a
- * counting sort (stable: a cell holds its particles in index order) into
- * d->points.  Returns 0 if memory ran out. */
-static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
-    struct rs_sheet_grid* const g = &d->grid;
+/* The cells of grid c (its reach_max, z_min, z_range and n set): cells of at least
+ * s_c / divisions on each side, s_c [m] the largest distance of a pair of the grid's
+ * particles in reach (Method 1), at most RS_CELLS_PER_PARTICLE per particle; whether its
+ * pairs can be looked at from one side (Method 3's half shell: a box wider than two spans
+ * of the widest search into the grid, s_c).  Returns the number of cells. */
+static int64_t rs_cell_layout(const struct rs_sheet_grid* g, struct rs_cell_grid* c,
+                              double s, int divisions){
     const double Lx = g->Lx;
     const double Ly = g->Ly;
-    /* s: the largest distance at which two particles can touch within the step */
-    double s = 2.0 * g->reach_max / (1.0 - g->shear_step);
-    s = s * (1.0 + 1e-12) + DBL_MIN;
-    g->pair_reach = s;
-    const double side = s / RS_CELL_DIVISIONS;
-    const int64_t cell_cap = RS_CELLS_PER_PARTICLE * n + 64;
+    const double side = s / divisions;
+    c->side = side;
+    const int64_t cell_cap = RS_CELLS_PER_PARTICLE * c->n + 64;
     int64_t nx = Lx / side >= (double)cell_cap ? cell_cap : (int64_t)floor(Lx / side);
     int64_t ny = Ly / side >= (double)cell_cap ? cell_cap : (int64_t)floor(Ly / side);
     nx = nx < 1 ? 1 : nx;
@@ -1013,36 +1066,178 @@ static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
         nx = nx > 1 ? (nx + 1) / 2 : 1;
         ny = ny > 1 ? (ny + 1) / 2 : 1;
     }
-    const double z_range = g->z_range;
+    const double z_range = c->z_range;
     int64_t nz = z_range / side >= (double)cell_cap ? cell_cap
                                                     : (int64_t)floor(z_range / side) + 1;
     if (nx * ny * nz > cell_cap){
         nz = cell_cap / (nx * ny);
         nz = nz < 1 ? 1 : nz;
     }
-    g->nx = nx;
-    g->ny = ny;
-    g->nz = nz;
-    g->sx = Lx / (double)nx;
-    g->sy = Ly / (double)ny;
-    g->sz = nz > 1 ? fmax(side, z_range / (double)(nz - 1) * (1.0 + 1e-12)) : INFINITY;
-    /* round-off of coordinates of the box's size, far below any reach (rs_cell_report) */
-    g->slack = 1e-9 * (Lx + Ly + fabs(g->z_min) + z_range);
-    /* Method 3's half shell needs a box wider than two spans of the widest search */
+    c->nx = nx;
+    c->ny = ny;
+    c->nz = nz;
+    c->sx = Lx / (double)nx;
+    c->sy = Ly / (double)ny;
+    c->sz = nz > 1 ? fmax(side, z_range / (double)(nz - 1) * (1.0 + 1e-12)) : INFINITY;
     const double widest = s * (1.0 + 1e-12) + g->slack;
-    const int64_t span_x = rs_span(widest, g->sx), span_y = rs_span(widest, g->sy);
+    const int64_t span_x = rs_span(widest, c->sx), span_y = rs_span(widest, c->sy);
     const int64_t span = span_x > span_y ? span_x : span_y;
-    g->half_shell = nx >= 2 * span + 1 && ny >= 2 * span + 1;
-    const int64_t n_cells = nx * ny * nz;
+    c->half_shell = nx >= 2 * span + 1 && ny >= 2 * span + 1;
+    return nx * ny * nz;
+}
+
+/* s of Method 1 for particles of reaches up to reach_max [m]: the largest distance [m] at
+ * which two of them can touch within the step. */
+static double rs_pair_reach(const struct rs_sheet_grid* g, double reach_max){
+    const double s = 2.0 * reach_max / (1.0 - g->shear_step);
+    return s * (1.0 + 1e-12) + DBL_MIN;
+}
+
+/* Method 2a: each particle's reach class (d->class_of; class k holds the reaches in
+ * (reach_max / RS_CLASS_RATIO^(k+1), reach_max / RS_CLASS_RATIO^k], the last class all
+ * below) and each class's particles, largest reach and vertical range (d->cells).  The
+ * threads' shares are merged by sums, maxima and minima: the same result on any number of
+ * threads.  Returns the number of classes that hold particles. */
+static int rs_classify(struct rs_sheet_detector* d, int64_t n, int classes){
+    double limit[RS_MAX_CLASSES];
+    limit[0] = d->grid.reach_max / RS_CLASS_RATIO;
+    for (int k = 1; k < classes; k++){
+        limit[k] = limit[k - 1] / RS_CLASS_RATIO;
+    }
+    limit[classes - 1] = -INFINITY;
+    for (int k = 0; k < classes; k++){
+        d->cells[k] = (struct rs_cell_grid){.z_min = INFINITY, .z_range = -INFINITY};
+    }
+#pragma omp parallel num_threads(rs_team_size(d, n))
+    {
+        int64_t count[RS_MAX_CLASSES] = {0};
+        double top[RS_MAX_CLASSES], low[RS_MAX_CLASSES], high[RS_MAX_CLASSES];
+        for (int k = 0; k < classes; k++){
+            top[k] = 0.0;
+            low[k] = INFINITY;
+            high[k] = -INFINITY;
+        }
+#pragma omp for schedule(static)
+        for (int64_t i = 0; i < n; i++){
+            const struct rs_sheet_point* q = &d->wrapped[i];
+            int k = 0;
+            while (q->reach <= limit[k]){
+                k++;
+            }
+            d->class_of[i] = (uint8_t)k;
+            count[k]++;
+            top[k] = fmax(top[k], q->reach);
+            low[k] = fmin(low[k], q->z);
+            high[k] = fmax(high[k], q->z);
+        }
+#pragma omp critical (rs_classify_merge)
+        for (int k = 0; k < classes; k++){
+            struct rs_cell_grid* c = &d->cells[k];
+            c->n += count[k];
+            c->reach_max = fmax(c->reach_max, top[k]);
+            c->z_min = fmin(c->z_min, low[k]);
+            c->z_range = fmax(c->z_range, high[k]);    /* the top, until below */
+        }
+    }
+    int used = 0;
+    for (int k = 0; k < classes; k++){
+        struct rs_cell_grid* c = &d->cells[k];
+        c->z_range = c->n > 0 ? c->z_range - c->z_min : 0.0;
+        c->z_min = c->n > 0 ? c->z_min : 0.0;
+        used += c->n > 0;
+    }
+    return used;
+}
+
+/* Method 2a: a grid per reach class (d->cells, classes > 1), each cell of all classes one
+ * index of d->cell_start.  Returns the number of cells, 0 if the classes cannot be used:
+ * fewer than two hold particles, or a class grid is too narrow for its half shell (then a
+ * pair could be in reach through two images, and which image a class grid looks through
+ * would depend on its cells). */
+static int64_t rs_class_layout(struct rs_sheet_detector* d, int64_t n){
+    const int classes = d->class_limit < RS_MAX_CLASSES ? d->class_limit : RS_MAX_CLASSES;
+    if (classes < 2
+        || !rs_grow((void**)&d->class_of, &d->class_capacity, n, sizeof(uint8_t))
+        || rs_classify(d, n, classes) < 2){
+        return 0;
+    }
+    int64_t n_cells = 0;
+    for (int k = 0; k < classes; k++){
+        struct rs_cell_grid* c = &d->cells[k];
+        c->cell_base = n_cells;
+        if (c->n == 0){
+            c->nx = c->ny = c->nz = 1;
+            c->half_shell = 1;
+            n_cells += 1;
+            continue;
+        }
+        n_cells += rs_cell_layout(&d->grid, c, rs_pair_reach(&d->grid, c->reach_max),
+                                  RS_CLASS_DIVISIONS);
+        if (!c->half_shell){
+            return 0;
+        }
+    }
+    d->n_classes = classes;
+    return n_cells;
+}
+
+/* Method 2: the cells (one grid, or a grid per reach class: Method 2a) and the particles
+ * sorted into them by a counting sort (stable: a cell holds its particles in index order)
+ * into d->points.  Returns 0 if memory ran out. */
+static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
+    struct rs_sheet_grid* const g = &d->grid;
+    /* s: the largest distance at which two particles can touch within the step */
+    const double s = rs_pair_reach(g, g->reach_max);
+    g->pair_reach = s;
+    /* round-off of coordinates of the box's size, far below any reach (rs_cell_report) */
+    g->slack = 1e-9 * (g->Lx + g->Ly + fabs(g->z_min) + g->z_range);
+    d->n_classes = 1;
+    int64_t n_cells = rs_class_layout(d, n);
+    if (n_cells == 0){
+        struct rs_cell_grid* const c = &d->cells[0];
+        *c = (struct rs_cell_grid){.z_min = g->z_min, .z_range = g->z_range,
+                                   .reach_max = g->reach_max, .n = n};
+        d->n_classes = 1;
+        n_cells = rs_cell_layout(g, c, s, RS_CELL_DIVISIONS);
+    }
+    g->half_shell = d->cells[0].half_shell;
     int64_t capacity = d->cell_capacity;
     if (!rs_grow((void**)&d->cell_start, &capacity, n_cells + 1, sizeof(int64_t))){
         return 0;
     }
     d->cell_capacity = capacity;
     d->cells_last = n_cells;
-    d->cell_size_last = side;
-
+    d->cell_size_last = d->cells[0].side;
     return rs_counting_sort(d, n, n_cells);
+}
+
+/* Method 3-4 for particle pi: the grid of its class (Method 3's pairs), and with classes
+ * (Method 2a) the grids of the classes of larger reaches (all their partners), each over
+ * the distance (rho_i + largest rho of the grid) / (1 - 1.5 Omega dt).  Returns 0 if
+ * memory ran out. */
+static int rs_search_from(struct rs_sheet_detector* d, const struct rs_sheet_point* pi,
+                          struct rs_pair_list* out){
+    const struct rs_sheet_grid* const g = &d->grid;
+    if (d->n_classes == 1){
+        const double distance = (pi->reach + g->reach_max) / (1.0 - g->shear_step)
+                                * (1.0 + 1e-12) + g->slack;
+        return rs_scan(NULL, d, &d->cells[0], pi, distance,
+                       RS_SCAN_REPORT, 0.0, out);
+    }
+    const int own = d->class_of[pi->index];
+    for (int k = 0; k <= own; k++){
+        const struct rs_cell_grid* c = &d->cells[k];
+        if (c->n == 0){
+            continue;
+        }
+        const double distance = (pi->reach + c->reach_max) / (1.0 - g->shear_step)
+                                * (1.0 + 1e-12) + g->slack;
+        if (!rs_scan(NULL, d, c, pi, distance,
+                     k == own ? RS_SCAN_REPORT : RS_SCAN_LARGER, 0.0, out)){
+            return 0;
+        }
+    }
+    return 1;
 }
 
 /* Method 3-4 for all particles.  The particles are split over d->threads OpenMP threads in
@@ -1079,11 +1274,7 @@ static int rs_search(struct rs_sheet_detector* d, int64_t n){
         struct rs_pair_list list = d->lists[rs_thread_id()];
 #pragma omp for schedule(static)
         for (int64_t a = 0; a < n; a++){
-            const struct rs_sheet_point* pi = &d->points[a];
-            const double distance = (pi->reach + d->grid.reach_max)
-                                    / (1.0 - d->grid.shear_step) * (1.0 + 1e-12)
-                                    + d->grid.slack;
-            if (list.ok && !rs_scan(NULL, d, pi, distance, RS_SCAN_REPORT, 0.0, &list)){
+            if (list.ok && !rs_search_from(d, &d->points[a], &list)){
                 list.ok = 0;
             }
         }
@@ -1197,11 +1388,28 @@ static int rs_after_collision(const struct reb_simulation* const r, struct rs_sh
         d->span_limited += !(needed <= RS_MAX_SPAN * g->pair_reach);
     }
     d->rechecks++;
-    const double distance = fmin(needed, RS_MAX_SPAN * g->pair_reach) * (1.0 + 1e-12)
-                            + g->slack;
     const struct rs_sheet_point point = {before->xw, before->yw, before->z, before->reach,
                                          before->index};
-    return rs_scan(r, d, &point, distance, RS_SCAN_RECHECK, window, NULL);
+    if (d->n_classes == 1){
+        const double distance = fmin(needed, RS_MAX_SPAN * g->pair_reach) * (1.0 + 1e-12)
+                                + g->slack;
+        return rs_scan(r, d, &d->cells[0], &point, distance, RS_SCAN_RECHECK, window, NULL);
+    }
+    /* every class (Method 2a), each over the bound with its own largest reach */
+    for (int k = 0; k < d->n_classes; k++){
+        const struct rs_cell_grid* c = &d->cells[k];
+        if (c->n == 0){
+            continue;
+        }
+        const double reach = (before->reach + t->deviation + c->reach_max + d->deviation_max)
+                             / (1.0 - g->shear_step);
+        const double distance = fmin(reach, RS_MAX_SPAN * g->pair_reach) * (1.0 + 1e-12)
+                                + g->slack;
+        if (!rs_scan(r, d, c, &point, distance, RS_SCAN_RECHECK, window, NULL)){
+            return 0;
+        }
+    }
+    return 1;
 }
 
 static struct rs_sheet_detector* rs_detector_of(struct rs_resolver* res){
@@ -1211,6 +1419,7 @@ static struct rs_sheet_detector* rs_detector_of(struct rs_resolver* res){
             return NULL;
         }
         d->threads = 1;
+        d->class_limit = RS_MAX_CLASSES;
         res->detector = d;
         /* rs_resolver.c frees it through this pointer: no link-time dependency on this
          * file, so the resolver also builds and works without the detector */
@@ -1306,14 +1515,16 @@ int64_t rs_sheet_detect_pairs(struct reb_simulation* const r, int64_t capacity,
 }
 
 /* Counters since the detector was created: out[0] steps, out[1] candidate pairs whose path
- * was tested, out[2] pairs reported, out[3] cells of the last grid, out[4] last error,
- * out[5] 1 if the last search used Method 3's half shell; *cell_size [m] of the last
- * grid.  Returns 0 if the detector has not run yet. */
+ * was tested, out[2] pairs reported, out[3] cells of the last grid (of all its classes),
+ * out[4] last error, out[5] 1 if the last search used Method 3's half shell, out[6] reach
+ * classes of the last search (1: one grid; Method 2a); *cell_size [m] the least cell side
+ * of the last grid (of its class of the largest reaches).  Returns 0 if the detector has
+ * not run yet. */
 int rs_sheet_detector_counters(const struct rs_resolver* res, int64_t* out,
                                double* cell_size){
     const struct rs_sheet_detector* d = res->detector;
     if (d == NULL){
-        memset(out, 0, 6 * sizeof(int64_t));
+        memset(out, 0, 7 * sizeof(int64_t));
         *cell_size = 0.0;
         return 0;
     }
@@ -1323,6 +1534,7 @@ int rs_sheet_detector_counters(const struct rs_resolver* res, int64_t* out,
     out[3] = d->cells_last;
     out[4] = d->error;
     out[5] = d->grid.half_shell;
+    out[6] = d->n_classes;
     *cell_size = d->cell_size_last;
     return 1;
 }
@@ -1358,6 +1570,18 @@ int rs_sheet_set_threads(struct rs_resolver* res, int threads){
     }
     d->threads = threads >= 1 ? threads : 1;
     return d->threads;
+}
+
+/* Sets the most reach classes of the search (Method 2a), 1 to RS_MAX_CLASSES (outside:
+ * clipped); 1 searches all particles in one grid.  The contacts found and their resolution
+ * do not depend on it.  Returns the number set, or 0 if memory ran out. */
+int rs_sheet_set_classes(struct rs_resolver* res, int classes){
+    struct rs_sheet_detector* const d = rs_detector_of(res);
+    if (d == NULL){
+        return 0;
+    }
+    d->class_limit = classes < 1 ? 1 : (classes > RS_MAX_CLASSES ? RS_MAX_CLASSES : classes);
+    return d->class_limit;
 }
 
 /* Threads the last search of the resolver's detector ran on (0 before the first). */
