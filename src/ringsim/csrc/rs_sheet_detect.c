@@ -198,10 +198,10 @@
  * class grid (each class looks into a grid of reaches like its own or larger). */
 #define RS_MAX_CLASSES 8
 #ifndef RS_CLASS_RATIO
-#define RS_CLASS_RATIO 3.0
+#define RS_CLASS_RATIO 4.0
 #endif
-#ifndef RS_CLASS_DIVISIONS
-#define RS_CLASS_DIVISIONS 2
+#ifndef RS_CLASS_GAIN
+#define RS_CLASS_GAIN 8.0
 #endif
 
 /* A particle's state before the resolution, as the exact tests read it.  Made from
@@ -310,6 +310,7 @@ struct rs_sheet_detector {
     struct rs_sheet_grid grid;
     int class_limit;                /* reach classes at most (Method 2a), 1: one grid */
     int n_classes;                  /* classes of the last search (1: one grid) */
+    int classes_used;               /* of which held particles */
     struct rs_cell_grid cells[RS_MAX_CLASSES];      /* by class, largest reaches first */
     uint8_t* class_of;              /* each particle's class, by index (n_classes > 1) */
     int64_t class_capacity;
@@ -1052,10 +1053,9 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
  * pairs can be looked at from one side (Method 3's half shell: a box wider than two spans
  * of the widest search into the grid, s_c).  Returns the number of cells. */
 static int64_t rs_cell_layout(const struct rs_sheet_grid* g, struct rs_cell_grid* c,
-                              double s, int divisions){
+                              double s, double side){
     const double Lx = g->Lx;
     const double Ly = g->Ly;
-    const double side = s / divisions;
     c->side = side;
     const int64_t cell_cap = RS_CELLS_PER_PARTICLE * c->n + 64;
     int64_t nx = Lx / side >= (double)cell_cap ? cell_cap : (int64_t)floor(Lx / side);
@@ -1156,9 +1156,19 @@ static int rs_classify(struct rs_sheet_detector* d, int64_t n, int classes){
  * would depend on its cells). */
 static int64_t rs_class_layout(struct rs_sheet_detector* d, int64_t n){
     const int classes = d->class_limit < RS_MAX_CLASSES ? d->class_limit : RS_MAX_CLASSES;
-    if (classes < 2
-        || !rs_grow((void**)&d->class_of, &d->class_capacity, n, sizeof(uint8_t))
-        || rs_classify(d, n, classes) < 2){
+    if (classes < 2 || !rs_grow((void**)&d->class_of, &d->class_capacity, n, sizeof(uint8_t))){
+        return 0;
+    }
+    const int used = rs_classify(d, n, classes);
+    if (used < 2){
+        return 0;
+    }
+    /* the classes pay where most particles reach far less than the largest ones */
+    int most = 0;
+    for (int k = 1; k < classes; k++){
+        most = d->cells[k].n > d->cells[most].n ? k : most;
+    }
+    if (d->cells[most].reach_max * RS_CLASS_GAIN > d->grid.reach_max){
         return 0;
     }
     int64_t n_cells = 0;
@@ -1171,13 +1181,18 @@ static int64_t rs_class_layout(struct rs_sheet_detector* d, int64_t n){
             n_cells += 1;
             continue;
         }
-        n_cells += rs_cell_layout(&d->grid, c, rs_pair_reach(&d->grid, c->reach_max),
-                                  RS_CLASS_DIVISIONS);
+        /* cells just wider than the search from a smaller class (reaches <= below) */
+        const double below = k + 1 < classes ? d->grid.reach_max / pow(RS_CLASS_RATIO, k + 1)
+                                             : 0.0;
+        const double side = ((c->reach_max + below) / (1.0 - d->grid.shear_step)
+                             * (1.0 + 1e-12) + d->grid.slack) * (1.0 + 1e-9);
+        n_cells += rs_cell_layout(&d->grid, c, rs_pair_reach(&d->grid, c->reach_max), side);
         if (!c->half_shell){
             return 0;
         }
     }
     d->n_classes = classes;
+    d->classes_used = used;
     return n_cells;
 }
 
@@ -1192,13 +1207,15 @@ static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
     /* round-off of coordinates of the box's size, far below any reach (rs_cell_report) */
     g->slack = 1e-9 * (g->Lx + g->Ly + fabs(g->z_min) + g->z_range);
     d->n_classes = 1;
+    d->classes_used = 1;
     int64_t n_cells = rs_class_layout(d, n);
     if (n_cells == 0){
         struct rs_cell_grid* const c = &d->cells[0];
         *c = (struct rs_cell_grid){.z_min = g->z_min, .z_range = g->z_range,
                                    .reach_max = g->reach_max, .n = n};
         d->n_classes = 1;
-        n_cells = rs_cell_layout(g, c, s, RS_CELL_DIVISIONS);
+        d->classes_used = 1;
+        n_cells = rs_cell_layout(g, c, s, s / RS_CELL_DIVISIONS);
     }
     g->half_shell = d->cells[0].half_shell;
     int64_t capacity = d->cell_capacity;
@@ -1517,7 +1534,7 @@ int64_t rs_sheet_detect_pairs(struct reb_simulation* const r, int64_t capacity,
 /* Counters since the detector was created: out[0] steps, out[1] candidate pairs whose path
  * was tested, out[2] pairs reported, out[3] cells of the last grid (of all its classes),
  * out[4] last error, out[5] 1 if the last search used Method 3's half shell, out[6] reach
- * classes of the last search (1: one grid; Method 2a); *cell_size [m] the least cell side
+ * classes that held particles in the last search (1: one grid; Method 2a); *cell_size [m] the least cell side
  * of the last grid (of its class of the largest reaches).  Returns 0 if the detector has
  * not run yet. */
 int rs_sheet_detector_counters(const struct rs_resolver* res, int64_t* out,
@@ -1534,7 +1551,7 @@ int rs_sheet_detector_counters(const struct rs_resolver* res, int64_t* out,
     out[3] = d->cells_last;
     out[4] = d->error;
     out[5] = d->grid.half_shell;
-    out[6] = d->n_classes;
+    out[6] = d->classes_used;
     *cell_size = d->cell_size_last;
     return 1;
 }
