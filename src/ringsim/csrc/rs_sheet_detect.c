@@ -166,6 +166,7 @@
 #include <string.h>
 #include "rebound.h"
 #include "rs_resolver.h"
+#include "rs_sheet_classes.h"
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -178,8 +179,6 @@
 
 /* Largest 1.5 Omega dt accepted: the straight-path approximation needs Omega dt << 1. */
 #define RS_MAX_SHEAR_STEP 0.5
-/* Cells per particle at most (the z range of a few outliers must not blow the grid up). */
-#define RS_CELLS_PER_PARTICLE 4
 /* Contacts resolved per particle and step at most (cuts inelastic collapse). */
 #define RS_MAX_CONTACTS 32
 /* A re-check looks at most this many times s (Method 1) away. */
@@ -193,15 +192,6 @@
  * reach needs, so that small particles beside large ones look at fewer partners. */
 #ifndef RS_CELL_DIVISIONS
 #define RS_CELL_DIVISIONS 4
-#endif
-/* Reach classes at most (Method 2a), their ratio of reaches, and the cells per s_k of a
- * class grid (each class looks into a grid of reaches like its own or larger). */
-#define RS_MAX_CLASSES 8
-#ifndef RS_CLASS_RATIO
-#define RS_CLASS_RATIO 4.0
-#endif
-#ifndef RS_CLASS_GAIN
-#define RS_CLASS_GAIN 8.0
 #endif
 
 /* A particle's state before the resolution, as the exact tests read it.  Made from
@@ -217,15 +207,6 @@ struct rs_sheet_particle {
     double vx, vy, vz;      /* [m/s] current velocity */
     double radius;          /* [m] */
     double ox, oy, ovy;     /* [m], [m], [m/s] wrapped minus current coordinates */
-};
-
-/* What the search's first test reads of a particle, in cell order (d->points) and in index
- * order (d->wrapped): 40 bytes instead of the 128 of rs_sheet_particle, so that the cells
- * around a particle stay in the cache. */
-struct rs_sheet_point {
-    double xw, yw, z;       /* [m] position wrapped into the primary box */
-    double reach;           /* [m] */
-    int64_t index;          /* in r->particles */
 };
 
 /* A particle within the current step (indexed like r->particles). */
@@ -267,20 +248,6 @@ struct rs_sheet_grid {
     double slack;           /* [m] widening of the wrapped-coordinate pre-test (rs_cell_report) */
     double kick_time;       /* [s] back time of the step's kick (Method 1a), 0: no kick */
     int half_shell;         /* 1: each pair of one box looked at from one side (Method 3) */
-};
-
-/* The cells of one reach class (Method 2a; the one grid of all particles without classes):
- * its cells are d->cell_start[cell_base ...], its particles consecutive in d->points. */
-struct rs_cell_grid {
-    double sx, sy, sz;      /* [m] cell sides (sz infinite with one layer) */
-    double z_min;           /* [m] bottom of the lowest layer */
-    double z_range;         /* [m] height of the class's range */
-    double reach_max;       /* [m] largest reach in the class */
-    int64_t nx, ny, nz;
-    int64_t cell_base;      /* index of its first cell in d->cell_start */
-    int64_t n;              /* particles */
-    double side;            /* [m] least side of a cell */
-    int half_shell;         /* 1: each pair of the class in one box looked at from one side */
 };
 
 struct rs_sheet_detector {
@@ -622,12 +589,6 @@ static struct rs_image rs_image_of(const struct rs_sheet_grid* g, const struct r
     return im;
 }
 
-/* Cells a search over `distance` [m] must look at on each side along a side of `side` [m]. */
-static int64_t rs_span(double distance, double side){
-    const double cells = ceil(distance / side);
-    return cells >= 1.0 ? (cells < 1e9 ? (int64_t)cells : 1000000000) : 1;
-}
-
 /* How many box widths Lx [m] position x [m] lies beyond the primary box, [-Lx/2, Lx/2):
  * rs_wrap and rs_state both use it, so the wrap they find is the same to the bit. */
 static inline double rs_box_count(double x, double Lx){
@@ -859,9 +820,9 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
     const int64_t* const start = d->cell_start + c->cell_base;
     /* at most one box on each side (a box narrower than 2 s is outside the validity
      * limits: images further away are not looked at, as before the cells were split) */
-    const int64_t span_x = rs_span(distance, c->sx) < c->nx ? rs_span(distance, c->sx) : c->nx;
-    const int64_t span_y = rs_span(distance, c->sy) < c->ny ? rs_span(distance, c->sy) : c->ny;
-    const int64_t span_z = c->nz > 1 ? rs_span(distance, c->sz) : 0;
+    const int64_t span_x = rs_sheet_span(distance, c->sx) < c->nx ? rs_sheet_span(distance, c->sx) : c->nx;
+    const int64_t span_y = rs_sheet_span(distance, c->sy) < c->ny ? rs_sheet_span(distance, c->sy) : c->ny;
+    const int64_t span_z = c->nz > 1 ? rs_sheet_span(distance, c->sz) : 0;
     const int64_t cx = rs_cell_coordinate(pi->xw, -0.5 * g->Lx, c->sx, c->nx);
     const int64_t cz = c->nz > 1 ? rs_cell_coordinate(pi->z, c->z_min, c->sz, c->nz) : 0;
     const int64_t layer_low = cz - span_z < 0 ? 0 : cz - span_z;
@@ -1047,152 +1008,25 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
     return 1;
 }
 
-/* The cells of grid c (its reach_max, z_min, z_range and n set): cells of at least
- * s_c / divisions on each side, s_c [m] the largest distance of a pair of the grid's
- * particles in reach (Method 1), at most RS_CELLS_PER_PARTICLE per particle; whether its
- * pairs can be looked at from one side (Method 3's half shell: a box wider than two spans
- * of the widest search into the grid, s_c).  Returns the number of cells. */
-static int64_t rs_cell_layout(const struct rs_sheet_grid* g, struct rs_cell_grid* c,
-                              double s, double side){
-    const double Lx = g->Lx;
-    const double Ly = g->Ly;
-    c->side = side;
-    const int64_t cell_cap = RS_CELLS_PER_PARTICLE * c->n + 64;
-    int64_t nx = Lx / side >= (double)cell_cap ? cell_cap : (int64_t)floor(Lx / side);
-    int64_t ny = Ly / side >= (double)cell_cap ? cell_cap : (int64_t)floor(Ly / side);
-    nx = nx < 1 ? 1 : nx;
-    ny = ny < 1 ? 1 : ny;
-    while (nx * ny > cell_cap){
-        nx = nx > 1 ? (nx + 1) / 2 : 1;
-        ny = ny > 1 ? (ny + 1) / 2 : 1;
-    }
-    const double z_range = c->z_range;
-    int64_t nz = z_range / side >= (double)cell_cap ? cell_cap
-                                                    : (int64_t)floor(z_range / side) + 1;
-    if (nx * ny * nz > cell_cap){
-        nz = cell_cap / (nx * ny);
-        nz = nz < 1 ? 1 : nz;
-    }
-    c->nx = nx;
-    c->ny = ny;
-    c->nz = nz;
-    c->sx = Lx / (double)nx;
-    c->sy = Ly / (double)ny;
-    c->sz = nz > 1 ? fmax(side, z_range / (double)(nz - 1) * (1.0 + 1e-12)) : INFINITY;
-    const double widest = s * (1.0 + 1e-12) + g->slack;
-    const int64_t span_x = rs_span(widest, c->sx), span_y = rs_span(widest, c->sy);
-    const int64_t span = span_x > span_y ? span_x : span_y;
-    c->half_shell = nx >= 2 * span + 1 && ny >= 2 * span + 1;
-    return nx * ny * nz;
-}
-
-/* s of Method 1 for particles of reaches up to reach_max [m]: the largest distance [m] at
- * which two of them can touch within the step. */
-static double rs_pair_reach(const struct rs_sheet_grid* g, double reach_max){
-    const double s = 2.0 * reach_max / (1.0 - g->shear_step);
-    return s * (1.0 + 1e-12) + DBL_MIN;
-}
-
-/* Method 2a: each particle's reach class (d->class_of; class k holds the reaches in
- * (reach_max / RS_CLASS_RATIO^(k+1), reach_max / RS_CLASS_RATIO^k], the last class all
- * below) and each class's particles, largest reach and vertical range (d->cells).  The
- * threads' shares are merged by sums, maxima and minima: the same result on any number of
- * threads.  Returns the number of classes that hold particles. */
-static int rs_classify(struct rs_sheet_detector* d, int64_t n, int classes){
-    double limit[RS_MAX_CLASSES];
-    limit[0] = d->grid.reach_max / RS_CLASS_RATIO;
-    for (int k = 1; k < classes; k++){
-        limit[k] = limit[k - 1] / RS_CLASS_RATIO;
-    }
-    limit[classes - 1] = -INFINITY;
-    for (int k = 0; k < classes; k++){
-        d->cells[k] = (struct rs_cell_grid){.z_min = INFINITY, .z_range = -INFINITY};
-    }
-#pragma omp parallel num_threads(rs_team_size(d, n))
-    {
-        int64_t count[RS_MAX_CLASSES] = {0};
-        double top[RS_MAX_CLASSES], low[RS_MAX_CLASSES], high[RS_MAX_CLASSES];
-        for (int k = 0; k < classes; k++){
-            top[k] = 0.0;
-            low[k] = INFINITY;
-            high[k] = -INFINITY;
-        }
-#pragma omp for schedule(static)
-        for (int64_t i = 0; i < n; i++){
-            const struct rs_sheet_point* q = &d->wrapped[i];
-            int k = 0;
-            while (q->reach <= limit[k]){
-                k++;
-            }
-            d->class_of[i] = (uint8_t)k;
-            count[k]++;
-            top[k] = fmax(top[k], q->reach);
-            low[k] = fmin(low[k], q->z);
-            high[k] = fmax(high[k], q->z);
-        }
-#pragma omp critical (rs_classify_merge)
-        for (int k = 0; k < classes; k++){
-            struct rs_cell_grid* c = &d->cells[k];
-            c->n += count[k];
-            c->reach_max = fmax(c->reach_max, top[k]);
-            c->z_min = fmin(c->z_min, low[k]);
-            c->z_range = fmax(c->z_range, high[k]);    /* the top, until below */
-        }
-    }
-    int used = 0;
-    for (int k = 0; k < classes; k++){
-        struct rs_cell_grid* c = &d->cells[k];
-        c->z_range = c->n > 0 ? c->z_range - c->z_min : 0.0;
-        c->z_min = c->n > 0 ? c->z_min : 0.0;
-        used += c->n > 0;
-    }
-    return used;
-}
-
 /* Method 2a: a grid per reach class (d->cells, classes > 1), each cell of all classes one
- * index of d->cell_start.  Returns the number of cells, 0 if the classes cannot be used:
- * fewer than two hold particles, or a class grid is too narrow for its half shell (then a
- * pair could be in reach through two images, and which image a class grid looks through
- * would depend on its cells). */
+ * index of d->cell_start (rs_sheet_classes.c).  Returns the number of cells, 0 if the
+ * classes are not used (then the search uses one grid).  Returns 0 also if memory for the
+ * classes ran out: one grid needs none. */
 static int64_t rs_class_layout(struct rs_sheet_detector* d, int64_t n){
     const int classes = d->class_limit < RS_MAX_CLASSES ? d->class_limit : RS_MAX_CLASSES;
     if (classes < 2 || !rs_grow((void**)&d->class_of, &d->class_capacity, n, sizeof(uint8_t))){
         return 0;
     }
-    const int used = rs_classify(d, n, classes);
-    if (used < 2){
-        return 0;
+    const struct rs_sheet_grid* const g = &d->grid;
+    const int used = rs_sheet_classify(d->wrapped, n, rs_team_size(d, n), g->reach_max,
+                                       classes, d->class_of, d->cells);
+    const int64_t n_cells = used < 2 ? 0 : rs_sheet_class_layout(d->cells, classes, g->Lx,
+                                                                 g->Ly, g->slack,
+                                                                 g->shear_step, g->reach_max);
+    if (n_cells > 0){
+        d->n_classes = classes;
+        d->classes_used = used;
     }
-    /* the classes pay where most particles reach far less than the largest ones */
-    int most = 0;
-    for (int k = 1; k < classes; k++){
-        most = d->cells[k].n > d->cells[most].n ? k : most;
-    }
-    if (d->cells[most].reach_max * RS_CLASS_GAIN > d->grid.reach_max){
-        return 0;
-    }
-    int64_t n_cells = 0;
-    for (int k = 0; k < classes; k++){
-        struct rs_cell_grid* c = &d->cells[k];
-        c->cell_base = n_cells;
-        if (c->n == 0){
-            c->nx = c->ny = c->nz = 1;
-            c->half_shell = 1;
-            n_cells += 1;
-            continue;
-        }
-        /* cells just wider than the search from a smaller class (reaches <= below) */
-        const double below = k + 1 < classes ? d->grid.reach_max / pow(RS_CLASS_RATIO, k + 1)
-                                             : 0.0;
-        const double side = ((c->reach_max + below) / (1.0 - d->grid.shear_step)
-                             * (1.0 + 1e-12) + d->grid.slack) * (1.0 + 1e-9);
-        n_cells += rs_cell_layout(&d->grid, c, rs_pair_reach(&d->grid, c->reach_max), side);
-        if (!c->half_shell){
-            return 0;
-        }
-    }
-    d->n_classes = classes;
-    d->classes_used = used;
     return n_cells;
 }
 
@@ -1202,7 +1036,7 @@ static int64_t rs_class_layout(struct rs_sheet_detector* d, int64_t n){
 static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
     struct rs_sheet_grid* const g = &d->grid;
     /* s: the largest distance at which two particles can touch within the step */
-    const double s = rs_pair_reach(g, g->reach_max);
+    const double s = rs_sheet_pair_reach(g->reach_max, g->shear_step);
     g->pair_reach = s;
     /* round-off of coordinates of the box's size, far below any reach (rs_cell_report) */
     g->slack = 1e-9 * (g->Lx + g->Ly + fabs(g->z_min) + g->z_range);
@@ -1215,7 +1049,7 @@ static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
                                    .reach_max = g->reach_max, .n = n};
         d->n_classes = 1;
         d->classes_used = 1;
-        n_cells = rs_cell_layout(g, c, s, s / RS_CELL_DIVISIONS);
+        n_cells = rs_sheet_cell_layout(c, g->Lx, g->Ly, g->slack, s, s / RS_CELL_DIVISIONS);
     }
     g->half_shell = d->cells[0].half_shell;
     int64_t capacity = d->cell_capacity;

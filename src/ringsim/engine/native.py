@@ -219,7 +219,8 @@ def _declare_detector(lib: ctypes.CDLL) -> None:
 #: One function of each C source.  setup.py compiles every source into the one library, so
 #: a library without one of them is a broken build, refused when it is loaded.
 _ONE_SYMBOL_PER_SOURCE = ("rs_resolve", "rs_sheet_step", "rs_add_particles", "rs_ghost_field",
-                          "rs_p3m_short", "rs_sei_register", "rs_stop_arm")
+                          "rs_p3m_short", "rs_sei_register", "rs_stop_arm",
+                          "rs_sheet_classify")
 
 
 def _load_library() -> ctypes.CDLL:
