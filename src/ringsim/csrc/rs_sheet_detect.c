@@ -53,9 +53,25 @@
  *    into a grid of cells of at least s / RS_CELL_DIVISIONS on each side (x, y over the
  *    box; z over the particles' range, not periodic), by a counting sort: O(N) per step.
  *    The sort is stable, so a cell holds its particles in index order.
+ * 2a. Reach classes (rs_sheet_classes.c).  Where most particles reach far less than the
+ *    largest ones (a broad size distribution), the particles are sorted into classes of
+ *    reach (a factor RS_CLASS_RATIO apart), each class with a grid of its own whose cells
+ *    are set by the class's largest reach; all classes' cells are one counting sort, class
+ *    after class.  Particle i of class c looks into the grid of its own class (step 3's
+ *    pairs) and into the grids of all classes of larger reaches (every partner there),
+ *    each over d_ik = (rho_i + max rho of class k) / (1 - 1.5 Omega dt): every pair is
+ *    looked for once, from its particle of the smaller class, in the grid of the larger,
+ *    and a small particle no longer looks over the largest reach among small neighbours
+ *    (the multilevel search of Ogarko & Luding 2012, Comput. Phys. Commun. 183, 931).  A
+ *    pair across the radial boundary found from its particle of higher index is reported
+ *    with the offset the search from the other particle computes (rs_offset_of_lower), so
+ *    the reports are the same to the bit as with one grid; the classes are used only if
+ *    every class's grid is wide enough for the half shell (then a pair is in reach through
+ *    one image only).  rs_sheet_set_classes(res, 1) keeps one grid.
  * 3. Each particle i looks at the cells within d_i = (rho_i + max rho) / (1 - 1.5 Omega dt)
- *    of it (the bound of step 1 with rho_j <= max rho): a small particle beside large ones
- *    looks at fewer cells than the largest pair distance s would need.  The cells of one
+ *    of it (the bound of step 1 with rho_j <= max rho; with classes, step 2a's d_ik): a
+ *    small particle beside large ones looks at fewer cells than the largest pair distance
+ *    s would need.  The cells of one
  *    row (same y and z cell, one box) are consecutive in the sorted order, so a row is one
  *    run of particles.  Across the radial boundary the neighbouring columns belong to a
  *    ghost box sliding along y, so the particle's image is moved into that box's frame
@@ -93,8 +109,9 @@
  * 6. Re-check.  Every particle carries the serial number of its last collision in the
  *    step and every waiting contact the serials of its two particles when it was computed,
  *    so the contacts computed on a path that has since changed are dropped when they come
- *    up.  Both particles of the collision look around them again (step 3, all partners)
- *    and every partner within the bound of step 7 gets its contact on the new paths within
+ *    up.  Both particles of the collision look around them again (step 3, all partners;
+ *    with classes, in every class's grid) and every partner within the bound of step 7
+ *    gets its contact on the new paths within
  *    [now, end of step]: the entry time if it is after now, now itself if the pair touches
  *    now and approaches.  A particle deflected into a third one - on course before or not -
  *    is so resolved in the same step, at the contact on its new path, in time order.
@@ -107,7 +124,8 @@
  *        |dr_0| <= rho_i + rho_j + 1.5 Omega dt |dx_0| + D_i + D_j
  *    (dr_0, dx_0, rho at the start of the resolution, as in step 1); the re-check tests
  *    this with the current D of both particles, in as many cells around the particle as
- *    (rho_i + D_i + max rho + max D) / (1 - 1.5 Omega dt) needs (at most RS_MAX_SPAN s).
+ *    (rho_i + D_i + max rho + max D) / (1 - 1.5 Omega dt) needs (at most RS_MAX_SPAN s;
+ *    with classes, max rho of each class in its grid).
  *    D of a pair grows only when one of its particles collides, and that particle is then
  *    re-checked with the new D: no contact on the piecewise-straight paths is missed (but
  *    see the limits).
@@ -125,11 +143,12 @@
  * No shuffle and no random numbers: sim.rand_seed is not used and does not advance.
  *
  * Parameters: none beyond the simulation's (box, OMEGA, boundary, dt_last_done, t) and the
- * resolver's, and the number of threads of the search (rs_sheet_set_threads; the library
- * is compiled with OpenMP where the compiler has it, rs_sheet_openmp).  Counters
+ * resolver's, the number of threads of the search (rs_sheet_set_threads; the library
+ * is compiled with OpenMP where the compiler has it, rs_sheet_openmp) and the most reach
+ * classes (rs_sheet_set_classes; neither changes any result).  Counters
  * (rs_sheet_detector_counters): steps, candidates (pairs whose path was tested, also in
  * re-checks), reports, cells and cell size of the last step, whether it used the half
- * shell; of the time
+ * shell, the reach classes it used; of the time
  * order (rs_sheet_order_counters): contacts resolved, of which on a path changed earlier in
  * the step, re-checks, re-checks wider than s, re-checks cut at RS_MAX_SPAN s,
  * particles that reached RS_MAX_CONTACTS.
@@ -147,7 +166,9 @@
  * - A re-check looks at most RS_MAX_SPAN s away (counted when it would need more, i.e.
  *   when collisions within one step have moved particles off their first paths by several
  *   times the largest reach); contacts beyond are found in the next step, as overlaps or
- *   crossings (how often: docs/performance.md, "Hot rings: line vs tree").
+ *   crossings (how often: docs/performance.md, "Hot rings: line vs tree").  Such a cut
+ *   re-check, and one that reaches beyond half the box, looks at whole cells, which differ
+ *   between one grid and the class grids: only there can the two searches differ.
  * - A particle has at most RS_MAX_CONTACTS contacts resolved per step; further contacts of
  *   that step are left to the next step (counted).
  * - Pairs touching at the start of the step are resolved then if they approach (with
