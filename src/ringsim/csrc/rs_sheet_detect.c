@@ -67,7 +67,9 @@
  *    with the offset the search from the other particle computes (rs_offset_of_lower), so
  *    the reports are the same to the bit as with one grid; the classes are used only if
  *    every class's grid is wide enough for the half shell (then a pair is in reach through
- *    one image only).  rs_sheet_set_classes(res, 1) keeps one grid.
+ *    one image only).  Where the classes do not pay, the search keeps one grid for the
+ *    next RS_CLASS_RETRY steps before it weighs them again.  rs_sheet_set_classes(res, 1)
+ *    keeps one grid.
  * 3. Each particle i looks at the cells within d_i = (rho_i + max rho) / (1 - 1.5 Omega dt)
  *    of it (the bound of step 1 with rho_j <= max rho; with classes, step 2a's d_ik): a
  *    small particle beside large ones looks at fewer cells than the largest pair distance
@@ -202,6 +204,8 @@
 #define RS_MAX_SHEAR_STEP 0.5
 /* Contacts resolved per particle and step at most (cuts inelastic collapse). */
 #define RS_MAX_CONTACTS 32
+/* Steps in one grid after the classes did not pay, before they are weighed again. */
+#define RS_CLASS_RETRY 16
 /* A re-check looks at most this many times s (Method 1) away. */
 #define RS_MAX_SPAN 3
 /* Particles per thread at least: below, the threads' start and join cost more than they
@@ -299,6 +303,8 @@ struct rs_sheet_detector {
     int class_limit;                /* reach classes at most (Method 2a), 1: one grid */
     int n_classes;                  /* classes of the last search (1: one grid) */
     int classes_used;               /* of which held particles */
+    int one_grid_steps;             /* steps to search in one grid before classes are
+                                     * weighed again (Method 2a) */
     struct rs_cell_grid cells[RS_MAX_CLASSES];      /* by class, largest reaches first */
     uint8_t* class_of;              /* each particle's class, by index (n_classes > 1) */
     int64_t class_capacity;
@@ -1035,6 +1041,10 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
  * classes ran out: one grid needs none. */
 static int64_t rs_class_layout(struct rs_sheet_detector* d, int64_t n){
     const int classes = d->class_limit < RS_MAX_CLASSES ? d->class_limit : RS_MAX_CLASSES;
+    if (d->one_grid_steps > 0){
+        d->one_grid_steps--;
+        return 0;
+    }
     if (classes < 2 || !rs_grow((void**)&d->class_of, &d->class_capacity, n, sizeof(uint8_t))){
         return 0;
     }
@@ -1047,6 +1057,9 @@ static int64_t rs_class_layout(struct rs_sheet_detector* d, int64_t n){
     if (n_cells > 0){
         d->n_classes = classes;
         d->classes_used = used;
+    }else{
+        /* the size distribution changes slowly: look again in RS_CLASS_RETRY steps */
+        d->one_grid_steps = RS_CLASS_RETRY;
     }
     return n_cells;
 }
@@ -1453,6 +1466,7 @@ int rs_sheet_set_classes(struct rs_resolver* res, int classes){
         return 0;
     }
     d->class_limit = classes < 1 ? 1 : (classes > RS_MAX_CLASSES ? RS_MAX_CLASSES : classes);
+    d->one_grid_steps = 0;
     return d->class_limit;
 }
 
