@@ -80,6 +80,9 @@ int64_t rs_sheet_cell_layout(struct rs_cell_grid* c, double Lx, double Ly, doubl
     c->sx = Lx / (double)nx;
     c->sy = Ly / (double)ny;
     c->sz = nz > 1 ? fmax(side, z_range / (double)(nz - 1) * (1.0 + 1e-12)) : INFINITY;
+    c->ix = 1.0 / c->sx;
+    c->iy = 1.0 / c->sy;
+    c->iz = nz > 1 ? 1.0 / c->sz : 0.0;
     const double widest = s * (1.0 + 1e-12) + slack;
     const int64_t span_x = rs_sheet_span(widest, c->sx);
     const int64_t span_y = rs_sheet_span(widest, c->sy);

@@ -28,6 +28,7 @@ struct rs_sheet_point {
  * its cells are d->cell_start[cell_base ...], its particles consecutive in d->points. */
 struct rs_cell_grid {
     double sx, sy, sz;      /* [m] cell sides (sz infinite with one layer) */
+    double ix, iy, iz;      /* [1/m] their inverses (iz 0 with one layer) */
     double z_min;           /* [m] bottom of the lowest layer */
     double z_range;         /* [m] height of the class's range */
     double reach_max;       /* [m] largest reach in the class */

@@ -402,8 +402,8 @@ static inline int64_t rs_floor_div(int64_t a, int64_t b){
     return (a % b != 0 && a < 0) ? q - 1 : q;
 }
 
-static int64_t rs_cell_coordinate(double u, double low, double width, int64_t n){
-    const double c = floor((u - low) / width);
+static inline int64_t rs_cell_coordinate(double u, double low, double inverse, int64_t n){
+    const double c = floor((u - low) * inverse);
     if (!(c >= 0.0)){
         return 0;       /* also NaN */
     }
@@ -594,6 +594,25 @@ static int rs_recheck_pair(const struct reb_simulation* const r, struct rs_sheet
 /* ---------------------------------------------------------------------------------- */
 /* The search.                                                                        */
 
+/* How many box widths L [m] position x [m] lies beyond the primary box, [-L/2, L/2),
+ * floor((x + L / 2) / L): rs_wrap, rs_state and rs_image_of use it, so the wraps they find
+ * are the same to the bit.  Inside the box and the next one on either side, well away
+ * from their edges, the quotient cannot round across a whole number, and the answer is
+ * found without the division. */
+static inline double rs_box_count(double x, double L){
+    const double t = x + 0.5 * L;
+    if (t > 0.0 && t <= 0.99 * L){
+        return 0.0;
+    }
+    if (t >= L && t <= 1.99 * L){
+        return 1.0;
+    }
+    if (t >= -0.99 * L && t <= -1e-9 * L){
+        return -1.0;
+    }
+    return floor(t / L);
+}
+
 /* The image of particle pi in the frame of the box of index box_x (0: the primary box) in x:
  * its x, y offsets [m] and vy offset [m/s] (y wrapped back into the primary box's range:
  * y), and the y cell of the image. */
@@ -609,18 +628,20 @@ static struct rs_image rs_image_of(const struct rs_sheet_grid* g, const struct r
     im.vy = (double)box_x * g->box_speed;
     double image_y = (double)box_x * g->slide;
     double yq = yw + image_y;
-    const double wrap_y = floor((yq + 0.5 * g->Ly) / g->Ly);
+    const double wrap_y = rs_box_count(yq, g->Ly);
     yq -= wrap_y * g->Ly;
     im.y = image_y - wrap_y * g->Ly;
-    im.cell_y = rs_cell_coordinate(yq, -0.5 * g->Ly, c->sy, c->ny);
+    im.cell_y = rs_cell_coordinate(yq, -0.5 * g->Ly, c->iy, c->ny);
     return im;
 }
 
-/* How many box widths Lx [m] position x [m] lies beyond the primary box, [-Lx/2, Lx/2):
- * rs_wrap and rs_state both use it, so the wrap they find is the same to the bit. */
-static inline double rs_box_count(double x, double Lx){
-    return floor((x + 0.5 * Lx) / Lx);
+/* Cells a search over `distance` [m] looks at on each side along an axis of cells of
+ * 1 / inverse [m], at least 1 and at most n (one box either side). */
+static inline int64_t rs_span_of(double distance, double inverse, int64_t n){
+    const double cells = ceil(distance * inverse);
+    return cells >= 1.0 ? (cells < (double)n ? (int64_t)cells : n) : 1;
 }
+
 
 /* Particle i's state as rs_wrap found it: from d->particles (unchanged until the particle
  * first collides in the step) and its wrapped point, with the same operations as rs_wrap's
@@ -847,18 +868,18 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
     const int64_t* const start = d->cell_start + c->cell_base;
     /* at most one box on each side (a box narrower than 2 s is outside the validity
      * limits: images further away are not looked at, as before the cells were split) */
-    const int64_t span_x = rs_sheet_span(distance, c->sx) < c->nx ? rs_sheet_span(distance, c->sx) : c->nx;
-    const int64_t span_y = rs_sheet_span(distance, c->sy) < c->ny ? rs_sheet_span(distance, c->sy) : c->ny;
-    const int64_t span_z = c->nz > 1 ? rs_sheet_span(distance, c->sz) : 0;
-    const int64_t cx = rs_cell_coordinate(pi->xw, -0.5 * g->Lx, c->sx, c->nx);
-    const int64_t cz = c->nz > 1 ? rs_cell_coordinate(pi->z, c->z_min, c->sz, c->nz) : 0;
+    const int64_t span_x = rs_span_of(distance, c->ix, c->nx);
+    const int64_t span_y = rs_span_of(distance, c->iy, c->ny);
+    const int64_t span_z = c->nz > 1 ? rs_span_of(distance, c->iz, c->nz) : 0;
+    const int64_t cx = rs_cell_coordinate(pi->xw, -0.5 * g->Lx, c->ix, c->nx);
+    const int64_t cz = c->nz > 1 ? rs_cell_coordinate(pi->z, c->z_min, c->iz, c->nz) : 0;
     const int64_t layer_low = cz - span_z < 0 ? 0 : cz - span_z;
     const int64_t layer_high = cz + span_z >= c->nz ? c->nz - 1 : cz + span_z;
     /* Method 3's half shell: in the primary box each pair is looked at from one side only,
      * the particle whose row (y cell of the grid, then layer) comes first, or within a row
      * the earlier slot; across the radial boundary, from the particle of lower index */
     const int half = mode == RS_SCAN_REPORT && c->half_shell;
-    const int64_t cy = half ? rs_cell_coordinate(pi->yw, -0.5 * g->Ly, c->sy, c->ny) : 0;
+    const int64_t cy = half ? rs_cell_coordinate(pi->yw, -0.5 * g->Ly, c->iy, c->ny) : 0;
     const int64_t slot = half ? (int64_t)(pi - d->points) : 0;
     for (int64_t kx = -span_x; kx <= span_x;){
         /* the run of columns from cx + kx to the box's last column or cx + span_x */
@@ -985,9 +1006,9 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
         for (int64_t i = i0; i < i1; i++){
             const struct rs_sheet_point* q = &d->wrapped[i];
             const struct rs_cell_grid* c = &d->cells[classes ? d->class_of[i] : 0];
-            const int64_t cx = rs_cell_coordinate(q->xw, -0.5 * g->Lx, c->sx, c->nx);
-            const int64_t cy = rs_cell_coordinate(q->yw, -0.5 * g->Ly, c->sy, c->ny);
-            const int64_t cz = c->nz > 1 ? rs_cell_coordinate(q->z, c->z_min, c->sz, c->nz)
+            const int64_t cx = rs_cell_coordinate(q->xw, -0.5 * g->Lx, c->ix, c->nx);
+            const int64_t cy = rs_cell_coordinate(q->yw, -0.5 * g->Ly, c->iy, c->ny);
+            const int64_t cz = c->nz > 1 ? rs_cell_coordinate(q->z, c->z_min, c->iz, c->nz)
                                          : 0;
             cell_of[i] = (int32_t)(c->cell_base + (cz * c->ny + cy) * c->nx + cx);
         }
