@@ -23,7 +23,8 @@
  * - Class k's cells are at least (rho_max,k + rho_below) / (1 - 1.5 Omega dt) on a side
  *   (rho_max,k: its largest reach, rho_below: the largest reach a smaller class may hold),
  *   just wider than the search from a smaller class into it, so that such a search looks
- *   at three cells along each side; at most RS_CELLS_PER_PARTICLE per particle.
+ *   at three cells along each side; s_k / RS_NARROW_DIVISIONS where the box is too narrow
+ *   for the half shell with those; at most RS_CELLS_PER_PARTICLE per particle.
  * - The classes are used only where they pay: where the class holding the most particles
  *   reaches at most 1 / RS_CLASS_GAIN of the largest reach (else one grid costs less: the
  *   rows looked at in several grids cost more than the neighbours a finer grid spares),
@@ -44,6 +45,9 @@
 #ifndef RS_CLASS_RATIO
 #define RS_CLASS_RATIO 4.0
 #endif
+/* Cells per s_k of a class grid in a box too narrow for the half shell with the wider
+ * cells (as the one grid's RS_CELL_DIVISIONS). */
+#define RS_NARROW_DIVISIONS 4
 /* The classes are used where most particles reach at most 1 / RS_CLASS_GAIN of the
  * largest reach. */
 #ifndef RS_CLASS_GAIN
@@ -178,11 +182,16 @@ int64_t rs_sheet_class_layout(struct rs_cell_grid* cells, int classes, double Lx
         /* just wider than the search from a smaller class (reaches <= below) */
         const double side = ((c->reach_max + below) / (1.0 - shear_step) * (1.0 + 1e-12)
                              + slack) * (1.0 + 1e-9);
-        n_cells += rs_sheet_cell_layout(c, Lx, Ly, slack,
-                                        rs_sheet_pair_reach(c->reach_max, shear_step), side);
+        const double s = rs_sheet_pair_reach(c->reach_max, shear_step);
+        int64_t here = rs_sheet_cell_layout(c, Lx, Ly, slack, s, side);
+        if (!c->half_shell){
+            /* a narrow box: the finer cells of one grid need less width for the half shell */
+            here = rs_sheet_cell_layout(c, Lx, Ly, slack, s, s / RS_NARROW_DIVISIONS);
+        }
         if (!c->half_shell){
             return 0;
         }
+        n_cells += here;
     }
     return n_cells;
 }
