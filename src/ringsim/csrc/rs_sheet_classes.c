@@ -1,8 +1,9 @@
 /**
  * @file    rs_sheet_classes.c
  * @brief   The cell grids of the sheet detector (rs_sheet_detect.c, Method 2 and 2a):
- *          the layout of one grid, and the sorting of the particles into reach classes,
- *          each with a grid of its own (ringsim).
+ *          the layout of one grid, the sorting of the particles into reach classes, each
+ *          with a grid of its own, and the counting sort of the particles into the cells
+ *          (ringsim).
  *
  * Why
  * ---
@@ -39,8 +40,14 @@
 #include <float.h>
 #include <math.h>
 #include <stdint.h>
+#include <string.h>
 #include "rs_sheet_classes.h"
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
+/* Particles ahead whose cache lines the counting sort asks for (rs_sheet_counting_sort). */
+#define RS_SORT_AHEAD 16
 /* Ratio of the largest reaches of neighbouring classes. */
 #ifndef RS_CLASS_RATIO
 #define RS_CLASS_RATIO 4.0
@@ -194,4 +201,85 @@ int64_t rs_sheet_class_layout(struct rs_cell_grid* cells, int classes, double Lx
         n_cells += here;
     }
     return n_cells;
+}
+
+/* The counting sort of the n particles (`wrapped`, by index) into the cells of `cells`
+ * (one grid, or a grid per class with class_of their classes; NULL: one grid, cells[0]):
+ * `points` in cell order and `start`, each cell's first slot (n_cells + 1 entries), on
+ * `asked` OpenMP threads (box Lx x Ly [m]; work space: counts, asked (n_cells + 1) of
+ * them, and cell_of, n).  Stable: a cell holds its particles in index order, whatever the
+ * number of threads.  Thread t of T counts the particles of its share [n t / T,
+ * n (t + 1) / T) per cell; the slots of cell c are then handed out cell after cell and,
+ * within a cell, share after share (each thread does this for its share of the cells after
+ * the totals of the shares before it are known); last, each thread places its particles
+ * in index order.  So the order is the serial sort's: same seed, same bits with 1 and 2
+ * threads. */
+void rs_sheet_counting_sort(const struct rs_sheet_point* wrapped, struct rs_sheet_point* points,
+                            int64_t n, int asked, const struct rs_cell_grid* cells,
+                            const uint8_t* class_of, double Lx, double Ly, int32_t* counts,
+                            int32_t* cell_of, int64_t* start, int64_t n_cells){
+#pragma omp parallel num_threads(asked)
+    {
+#ifdef _OPENMP
+        const int64_t team = omp_get_num_threads();
+        const int64_t t = omp_get_thread_num();
+#else
+        const int64_t team = 1;
+        const int64_t t = 0;
+#endif
+        const int64_t i0 = n * t / team, i1 = n * (t + 1) / team;
+        const int64_t c0 = n_cells * t / team, c1 = n_cells * (t + 1) / team;
+        int32_t* const mine = counts + t * n_cells;
+        int32_t* const totals = counts + team * n_cells;   /* one per share of the cells */
+        memset(mine, 0, (size_t)n_cells * sizeof(int32_t));
+        for (int64_t i = i0; i < i1; i++){
+            const struct rs_sheet_point* q = &wrapped[i];
+            const struct rs_cell_grid* c = &cells[class_of != NULL ? class_of[i] : 0];
+            const int64_t cx = rs_cell_coordinate(q->xw, -0.5 * Lx, c->ix, c->nx);
+            const int64_t cy = rs_cell_coordinate(q->yw, -0.5 * Ly, c->iy, c->ny);
+            const int64_t cz = c->nz > 1 ? rs_cell_coordinate(q->z, c->z_min, c->iz, c->nz)
+                                         : 0;
+            cell_of[i] = (int32_t)(c->cell_base + (cz * c->ny + cy) * c->nx + cx);
+        }
+        /* the counts and slots are read at random (particles in index order are scattered
+         * over the sheet): their cache lines are asked for RS_SORT_AHEAD particles ahead */
+        for (int64_t i = i0; i < i1; i++){
+            if (i + RS_SORT_AHEAD < i1){
+                __builtin_prefetch(&mine[cell_of[i + RS_SORT_AHEAD]], 1);
+            }
+            mine[cell_of[i]]++;
+        }
+#pragma omp barrier
+        int64_t total = 0;
+        for (int64_t c = c0; c < c1; c++){
+            for (int64_t k = 0; k < team; k++){
+                total += counts[k * n_cells + c];
+            }
+        }
+        totals[t] = (int32_t)total;
+#pragma omp barrier
+        int64_t slot = 0;
+        for (int64_t k = 0; k < t; k++){
+            slot += totals[k];
+        }
+        for (int64_t c = c0; c < c1; c++){
+            start[c] = slot;
+            for (int64_t k = 0; k < team; k++){
+                const int64_t here = counts[k * n_cells + c];
+                counts[k * n_cells + c] = (int32_t)slot;    /* share k's next slot in c */
+                slot += here;
+            }
+        }
+#pragma omp barrier
+        for (int64_t i = i0; i < i1; i++){
+            if (i + RS_SORT_AHEAD < i1){
+                const int32_t ahead = mine[cell_of[i + RS_SORT_AHEAD]];
+                __builtin_prefetch(&points[ahead], 1);
+                __builtin_prefetch(&mine[cell_of[i + 2 * RS_SORT_AHEAD < i1
+                                                 ? i + 2 * RS_SORT_AHEAD : i]], 1);
+            }
+            points[mine[cell_of[i]]++] = wrapped[i];
+        }
+    }
+    start[n_cells] = n;
 }

@@ -53,6 +53,16 @@ static inline double rs_sheet_pair_reach(double reach_max, double shear_step){
     return s * (1.0 + 1e-12) + DBL_MIN;
 }
 
+/* The cell [0, n) of coordinate u [m] along an axis of cells of 1 / inverse [m] from low
+ * [m] (clamped at the ends; NaN: 0). */
+static inline int64_t rs_cell_coordinate(double u, double low, double inverse, int64_t n){
+    const double c = floor((u - low) * inverse);
+    if (!(c >= 0.0)){
+        return 0;       /* also NaN */
+    }
+    return c >= (double)n ? n - 1 : (int64_t)c;
+}
+
 int64_t rs_sheet_cell_layout(struct rs_cell_grid* c, double Lx, double Ly, double slack,
                              double s, double side);
 int rs_sheet_classify(const struct rs_sheet_point* wrapped, int64_t n, int threads,
@@ -60,5 +70,9 @@ int rs_sheet_classify(const struct rs_sheet_point* wrapped, int64_t n, int threa
                       struct rs_cell_grid* cells);
 int64_t rs_sheet_class_layout(struct rs_cell_grid* cells, int classes, double Lx, double Ly,
                               double slack, double shear_step, double reach_max);
+void rs_sheet_counting_sort(const struct rs_sheet_point* wrapped, struct rs_sheet_point* points,
+                            int64_t n, int asked, const struct rs_cell_grid* cells,
+                            const uint8_t* class_of, double Lx, double Ly, int32_t* counts,
+                            int32_t* cell_of, int64_t* start, int64_t n_cells);
 
 #endif

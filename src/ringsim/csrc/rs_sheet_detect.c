@@ -51,7 +51,8 @@
  * 2. Particles, wrapped into the primary box as REBOUND's shear boundary would wrap them
  *    (x - m Lx, y + m a, vy + 1.5 m Omega Lx with a = 1.5 Omega Lx t mod Ly), are sorted
  *    into a grid of cells of at least s / RS_CELL_DIVISIONS on each side (x, y over the
- *    box; z over the particles' range, not periodic), by a counting sort: O(N) per step.
+ *    box; z over the particles' range, not periodic), by a counting sort: O(N) per step
+ *    (rs_sheet_classes.c).
  *    The sort is stable, so a cell holds its particles in index order.
  * 2a. Reach classes (rs_sheet_classes.c).  Where most particles reach far less than the
  *    largest ones (a broad size distribution), the particles are sorted into classes of
@@ -211,8 +212,6 @@
 /* Particles per thread at least: below, the threads' start and join cost more than they
  * save (the search of 4096 particles takes about a millisecond). */
 #define RS_PARTICLES_PER_THREAD 4096
-/* Particles ahead whose cache lines the counting sort asks for (rs_counting_sort). */
-#define RS_SORT_AHEAD 16
 /* Cells per s (Method 1) along each side: each particle looks only as far as its own
  * reach needs, so that small particles beside large ones look at fewer partners. */
 #ifndef RS_CELL_DIVISIONS
@@ -400,14 +399,6 @@ static inline int64_t rs_floor_div(int64_t a, int64_t b){
     }
     const int64_t q = a / b;
     return (a % b != 0 && a < 0) ? q - 1 : q;
-}
-
-static inline int64_t rs_cell_coordinate(double u, double low, double inverse, int64_t n){
-    const double c = floor((u - low) * inverse);
-    if (!(c >= 0.0)){
-        return 0;       /* also NaN */
-    }
-    return c >= (double)n ? n - 1 : (int64_t)c;
 }
 
 static int rs_report(struct rs_pair_list* out, size_t p1, size_t p2, struct reb_vec6d gb){
@@ -971,14 +962,9 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
     return 1;
 }
 
-/* Method 2's counting sort of the particles into the grid's cells (d->points, and
- * d->cell_start: each cell's first slot, n_cells + 1 entries), stable: a cell holds its
- * particles in index order, whatever the number of threads.  Thread t of T counts the
- * particles of its share [n t / T, n (t + 1) / T) per cell; the slots of cell c are then
- * handed out cell after cell and, within a cell, share after share (each thread does
- * this for its share of the cells after the totals of the shares before it are known);
- * last, each thread places its particles in index order.  So the order is the serial
- * sort's: same seed, same bits with 1 and 2 threads.  Returns 0 if memory ran out. */
+/* Method 2's counting sort of the particles into the cells of d->cells (d->points, and
+ * d->cell_start: each cell's first slot, n_cells + 1 entries; rs_sheet_classes.c).
+ * Returns 0 if memory ran out. */
 static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_cells){
     const int asked = rs_team_size(d, n);
     int64_t capacity = d->count_capacity;
@@ -988,71 +974,9 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
         return 0;
     }
     d->count_capacity = capacity;
-    const struct rs_sheet_grid* const g = &d->grid;
-    int64_t* const start = d->cell_start;
-    /* 32-bit cells and counts: half the bytes the random increments below touch */
-    int32_t* const counts = d->counts;
-    int32_t* const cell_of = d->cell_of;
-    const int classes = d->n_classes > 1;
-#pragma omp parallel num_threads(asked)
-    {
-        const int64_t team = rs_team_threads();
-        const int64_t t = rs_thread_id();
-        const int64_t i0 = n * t / team, i1 = n * (t + 1) / team;
-        const int64_t c0 = n_cells * t / team, c1 = n_cells * (t + 1) / team;
-        int32_t* const mine = counts + t * n_cells;
-        int32_t* const totals = counts + team * n_cells;   /* one per share of the cells */
-        memset(mine, 0, (size_t)n_cells * sizeof(int32_t));
-        for (int64_t i = i0; i < i1; i++){
-            const struct rs_sheet_point* q = &d->wrapped[i];
-            const struct rs_cell_grid* c = &d->cells[classes ? d->class_of[i] : 0];
-            const int64_t cx = rs_cell_coordinate(q->xw, -0.5 * g->Lx, c->ix, c->nx);
-            const int64_t cy = rs_cell_coordinate(q->yw, -0.5 * g->Ly, c->iy, c->ny);
-            const int64_t cz = c->nz > 1 ? rs_cell_coordinate(q->z, c->z_min, c->iz, c->nz)
-                                         : 0;
-            cell_of[i] = (int32_t)(c->cell_base + (cz * c->ny + cy) * c->nx + cx);
-        }
-        /* the counts and slots are read at random (particles in index order are scattered
-         * over the sheet): their cache lines are asked for RS_SORT_AHEAD particles ahead */
-        for (int64_t i = i0; i < i1; i++){
-            if (i + RS_SORT_AHEAD < i1){
-                __builtin_prefetch(&mine[cell_of[i + RS_SORT_AHEAD]], 1);
-            }
-            mine[cell_of[i]]++;
-        }
-#pragma omp barrier
-        int64_t total = 0;
-        for (int64_t c = c0; c < c1; c++){
-            for (int64_t k = 0; k < team; k++){
-                total += counts[k * n_cells + c];
-            }
-        }
-        totals[t] = (int32_t)total;
-#pragma omp barrier
-        int64_t slot = 0;
-        for (int64_t k = 0; k < t; k++){
-            slot += totals[k];
-        }
-        for (int64_t c = c0; c < c1; c++){
-            start[c] = slot;
-            for (int64_t k = 0; k < team; k++){
-                const int64_t here = counts[k * n_cells + c];
-                counts[k * n_cells + c] = (int32_t)slot;    /* share k's next slot in c */
-                slot += here;
-            }
-        }
-#pragma omp barrier
-        for (int64_t i = i0; i < i1; i++){
-            if (i + RS_SORT_AHEAD < i1){
-                const int32_t ahead = mine[cell_of[i + RS_SORT_AHEAD]];
-                __builtin_prefetch(&d->points[ahead], 1);
-                __builtin_prefetch(&mine[cell_of[i + 2 * RS_SORT_AHEAD < i1
-                                                 ? i + 2 * RS_SORT_AHEAD : i]], 1);
-            }
-            d->points[mine[cell_of[i]]++] = d->wrapped[i];
-        }
-    }
-    start[n_cells] = n;
+    rs_sheet_counting_sort(d->wrapped, d->points, n, asked, d->cells,
+                           d->n_classes > 1 ? d->class_of : NULL, d->grid.Lx, d->grid.Ly,
+                           d->counts, d->cell_of, d->cell_start, n_cells);
     return 1;
 }
 
