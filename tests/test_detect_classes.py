@@ -11,8 +11,8 @@ straight paths <= R_i + R_j) and the contacts are resolved in a heap with a tota
   pairs across the radial boundary whose particle of lower index is the larger one (the
   offset the search from the smaller particle has to find again);
 * a colliding sheet of 1 cm - 2 m particles evolves to ``==`` particle states over 300
-  steps with classes (on 1 and 2 threads) and with one grid, with self-gravity's kicks
-  (P3M) too;
+  steps with classes (on 1 and 2 threads) and with one grid, and over 150 steps with
+  self-gravity's kicks (P3M);
 * a sheet of equal sizes is one class, and ``==`` as well.
 
 No tolerance anywhere: any difference is a missed or an extra pair.

@@ -633,7 +633,6 @@ static inline int64_t rs_span_of(double distance, double inverse, int64_t n){
     return cells >= 1.0 ? (cells < (double)n ? (int64_t)cells : n) : 1;
 }
 
-
 /* Particle i's state as rs_wrap found it: from d->particles (unchanged until the particle
  * first collides in the step) and its wrapped point, with the same operations as rs_wrap's
  * (the same bits). */
