@@ -217,7 +217,7 @@ int64_t rs_sheet_class_layout(struct rs_cell_grid* cells, int classes, double Lx
 void rs_sheet_counting_sort(const struct rs_sheet_point* wrapped, struct rs_sheet_point* points,
                             int64_t n, int asked, const struct rs_cell_grid* cells,
                             const uint8_t* class_of, double Lx, double Ly, int32_t* counts,
-                            int32_t* cell_of, int64_t* start, int64_t n_cells){
+                            int32_t* cell_of, int32_t* start, int64_t n_cells){
 #pragma omp parallel num_threads(asked)
     {
 #ifdef _OPENMP
@@ -263,7 +263,7 @@ void rs_sheet_counting_sort(const struct rs_sheet_point* wrapped, struct rs_shee
             slot += totals[k];
         }
         for (int64_t c = c0; c < c1; c++){
-            start[c] = slot;
+            start[c] = (int32_t)slot;
             for (int64_t k = 0; k < team; k++){
                 const int64_t here = counts[k * n_cells + c];
                 counts[k * n_cells + c] = (int32_t)slot;    /* share k's next slot in c */
@@ -281,5 +281,5 @@ void rs_sheet_counting_sort(const struct rs_sheet_point* wrapped, struct rs_shee
             points[mine[cell_of[i]]++] = wrapped[i];
         }
     }
-    start[n_cells] = n;
+    start[n_cells] = (int32_t)n;
 }

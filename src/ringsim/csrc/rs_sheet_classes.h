@@ -73,6 +73,6 @@ int64_t rs_sheet_class_layout(struct rs_cell_grid* cells, int classes, double Lx
 void rs_sheet_counting_sort(const struct rs_sheet_point* wrapped, struct rs_sheet_point* points,
                             int64_t n, int asked, const struct rs_cell_grid* cells,
                             const uint8_t* class_of, double Lx, double Ly, int32_t* counts,
-                            int32_t* cell_of, int64_t* start, int64_t n_cells);
+                            int32_t* cell_of, int32_t* start, int64_t n_cells);
 
 #endif

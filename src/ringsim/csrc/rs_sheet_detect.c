@@ -285,7 +285,7 @@ struct rs_sheet_detector {
     struct rs_sheet_track* track;           /* by particle index */
     int32_t* cell_of;               /* the sort's cell of each particle */
     int64_t cell_capacity;
-    int64_t* cell_start;            /* n_cells + 1 entries */
+    int32_t* cell_start;            /* n_cells + 1 entries (slots: n < INT32_MAX) */
     int32_t* counts;                /* the sort's per-thread cell counts, then totals */
     int64_t count_capacity;
     int64_t n_collisions;
@@ -855,7 +855,7 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
                    const struct rs_cell_grid* c, const struct rs_sheet_point* pi,
                    double distance, int mode, double window, struct rs_pair_list* out){
     const struct rs_sheet_grid* const g = &d->grid;
-    const int64_t* const start = d->cell_start + c->cell_base;
+    const int32_t* const start = d->cell_start + c->cell_base;
     /* at most one box on each side (a box narrower than 2 s is outside the validity
      * limits: images further away are not looked at, as before the cells were split) */
     const int64_t span_x = rs_span_of(distance, c->ix, c->nx);
@@ -1031,7 +1031,7 @@ static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
     }
     g->half_shell = d->cells[0].half_shell;
     int64_t capacity = d->cell_capacity;
-    if (!rs_grow((void**)&d->cell_start, &capacity, n_cells + 1, sizeof(int64_t))){
+    if (!rs_grow((void**)&d->cell_start, &capacity, n_cells + 1, sizeof(int32_t))){
         return 0;
     }
     d->cell_capacity = capacity;
