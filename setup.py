@@ -24,6 +24,7 @@ if not os.path.isfile(os.path.join(REBOUND_INCLUDE, "rebound.h")):
 SOURCES = [
     "src/ringsim/csrc/rs_resolver.c",
     "src/ringsim/csrc/rs_sheet_detect.c",
+    "src/ringsim/csrc/rs_sheet_classes.c",
     "src/ringsim/csrc/rs_gravity.c",
     "src/ringsim/csrc/rs_setup.c",
     "src/ringsim/csrc/rs_p3m.c",

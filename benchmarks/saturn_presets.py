@@ -1,33 +1,44 @@
-"""The Saturn presets' step: cost per particle-step with and without self-gravity.
+"""The Saturn presets' step: cost per particle-step with and without self-gravity, with the
+line detector's reach classes and with its one grid.
 
 Each preset of ``scenarios/saturn-*-ring.yaml`` (its own particles, friction, law and line
-detection, one thread) is built and stepped from its initial state: ``--steps`` steps after
-two warm-up steps without self-gravity (the baseline, the same sheet in the same process),
-then as the preset runs it (P3M with its field-only particles).  CPU time per
-particle-step, the ratio, and what an orbit costs at dt = 1e-3 orbit.  The initial state is
-cooler and thinner than an equilibrium; the figures are the set-up's, not the
-equilibrium's.  With ``--write-doc`` the table replaces the section "## The Saturn presets"
-of docs/performance.md.
+detection, one thread) is built and stepped from its initial state: two warm-up steps,
+then ``--repeats`` rounds of ``--steps`` steps with the detector's grid per reach class
+(rs_sheet_detect.c Method 2a, the default) and with its one grid in turn, on the same
+sheet in the same process (the pair of figures least disturbed by other jobs; the two
+searches find the same pairs, so the sheet evolves the same either way).  Once without
+self-gravity (the baseline) and once as the preset runs (P3M with its field-only
+particles).  CPU time per particle-step, median of the rounds; the ratios; what an orbit
+costs at dt = 1e-3 orbit.  The initial state is cooler and thinner than an equilibrium;
+the figures are the set-up's, not the equilibrium's.  With ``--write-doc`` the table
+replaces the section "## The Saturn presets" of docs/performance.md.
 
-Usage: python benchmarks/saturn_presets.py [--presets a b c] [--steps 5] [--write-doc]
+Usage: python benchmarks/saturn_presets.py [--presets a b c] [--steps 5] [--repeats 3]
+                                           [--write-doc]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import platform
+import statistics
 import time
 from datetime import datetime, timezone
 
 from ringsim.config.scenario import load_scenario, scenario_from_dict, with_overrides
+from ringsim.engine import detector
 from ringsim.engine.sheet import build_sheet
 from ringsim.report import replace_section
 
 STEPS_PER_ORBIT = 1000    # dt = 1e-3 orbit, the presets' dt: auto in line mode
+ONE_GRID = 1              # detector.set_classes: all particles in one grid
 
 
-def cost(path: str, gravity: bool, steps: int) -> tuple[float, int]:
-    """CPU seconds per particle-step of the preset at ``path`` and its particle count."""
+def cost(path: str, gravity: bool, steps: int, repeats: int) -> tuple[float, float, int]:
+    """CPU seconds per particle-step of the preset at ``path`` with the detector's reach
+    classes and with its one grid (medians of ``repeats`` alternating rounds), and its
+    particle count."""
     sc = load_scenario(path)
     if not gravity:
         d = sc.to_dict()
@@ -37,30 +48,45 @@ def cost(path: str, gravity: bool, steps: int) -> tuple[float, int]:
         d["sheet"]["gravity"] = False
         sc = scenario_from_dict(d, source=path)
     sc = with_overrides(sc, {"integration.threads": 1})
-    sim = build_sheet(sc).sim
+    built = build_sheet(sc)
+    sim = built.sim
     sim.steps(2)
-    t0 = time.process_time()
-    sim.steps(steps)
-    return (time.process_time() - t0) / steps / sim.N, sim.N
+    times: dict[int, list[float]] = {detector.MAX_CLASSES: [], ONE_GRID: []}
+    for _ in range(repeats):
+        for classes, found in times.items():
+            detector.set_classes(built.resolver.address, classes)
+            t0 = time.process_time()
+            sim.steps(steps)
+            found.append((time.process_time() - t0) / steps / sim.N)
+    return (statistics.median(times[detector.MAX_CLASSES]), statistics.median(times[ONE_GRID]),
+            sim.N)
 
 
-def table(presets: list[str], steps: int) -> str:
+def table(presets: list[str], steps: int, repeats: int) -> str:
     rows = []
     for name in presets:
         path = f"scenarios/saturn-{name}-ring.yaml"
-        base, n = cost(path, False, steps)
-        grav, _ = cost(path, True, steps)
-        rows.append(f"| {name.upper()} ring | {n} | {base * 1e9:.0f} | {grav * 1e9:.0f} | "
-                    f"{grav / base:.2f} | {grav * n * STEPS_PER_ORBIT / 60:.1f} |")
+        base, base_one, n = cost(path, False, steps, repeats)
+        grav, grav_one, _ = cost(path, True, steps, repeats)
+        rows.append(f"| {name.upper()} ring | {n} | {base * 1e9:.0f} | {base_one * 1e9:.0f} | "
+                    f"{base / base_one:.2f} | {grav * 1e9:.0f} | {grav_one * 1e9:.0f} | "
+                    f"{grav / grav_one:.2f} | {grav / base:.2f} | "
+                    f"{grav * n * STEPS_PER_ORBIT / 60:.1f} |")
     when = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    load = os.getloadavg()[0]
     head = (f"## The Saturn presets\n\n`python benchmarks/saturn_presets.py --steps {steps} "
-            f"--write-doc`, {when}, {platform.machine()} {platform.system()}, one thread, "
-            "CPU times (the machine shared).  Each preset from its initial state (cooler "
-            "and thinner than its equilibrium): the step without self-gravity (the baseline, "
-            "same sheet, same process) and as the preset runs (P3M, field-only particles "
-            "below `sheet.p3m_pair_min_radius`).\n\n"
-            "| preset | particles | no gravity [ns per particle-step] | with gravity [ns] "
-            "| gravity / no gravity | CPU-minutes per orbit |\n|---|---|---|---|---|---|\n")
+            f"--repeats {repeats} --write-doc`, {when}, {platform.machine()} "
+            f"{platform.system()}, one thread, CPU times, median of {repeats} rounds (the "
+            f"machine shared: load average {load:.1f} at the end).  Each preset from its "
+            "initial state (cooler and thinner than its equilibrium), the same sheet in one "
+            "process: the step without self-gravity (the baseline) and as the preset runs "
+            "(P3M, field-only particles below `sheet.p3m_pair_min_radius`), each with the "
+            "line detector's grid per reach class (the default) and with its one grid in "
+            "turn.\n\n"
+            "| preset | particles | no gravity [ns per particle-step] | one grid [ns] "
+            "| classes / one grid | with gravity [ns] | one grid [ns] | classes / one grid "
+            "| gravity / no gravity | CPU-minutes per orbit |\n"
+            "|---|---|---|---|---|---|---|---|---|---|\n")
     return head + "\n".join(rows) + "\n"
 
 
@@ -68,9 +94,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--presets", nargs="+", default=["a", "b", "c"])
     parser.add_argument("--steps", type=int, default=5)
+    parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--write-doc", action="store_true")
     args = parser.parse_args()
-    text = table(args.presets, args.steps)
+    text = table(args.presets, args.steps, args.repeats)
     print(text)
     if args.write_doc:
         replace_section("docs/performance.md", "## The Saturn presets", text, "Performance")

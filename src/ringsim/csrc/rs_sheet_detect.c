@@ -51,11 +51,30 @@
  * 2. Particles, wrapped into the primary box as REBOUND's shear boundary would wrap them
  *    (x - m Lx, y + m a, vy + 1.5 m Omega Lx with a = 1.5 Omega Lx t mod Ly), are sorted
  *    into a grid of cells of at least s / RS_CELL_DIVISIONS on each side (x, y over the
- *    box; z over the particles' range, not periodic), by a counting sort: O(N) per step.
+ *    box; z over the particles' range, not periodic), by a counting sort: O(N) per step
+ *    (rs_sheet_classes.c).
  *    The sort is stable, so a cell holds its particles in index order.
+ * 2a. Reach classes (rs_sheet_classes.c).  Where most particles reach far less than the
+ *    largest ones (a broad size distribution), the particles are sorted into classes of
+ *    reach (a factor RS_CLASS_RATIO apart), each class with a grid of its own whose cells
+ *    are set by the class's largest reach; all classes' cells are one counting sort, class
+ *    after class.  Particle i of class c looks into the grid of its own class (step 3's
+ *    pairs) and into the grids of all classes of larger reaches (every partner there),
+ *    each over d_ik = (rho_i + max rho of class k) / (1 - 1.5 Omega dt): every pair is
+ *    looked for once, from its particle of the smaller class, in the grid of the larger,
+ *    and a small particle no longer looks over the largest reach among small neighbours
+ *    (the multilevel search of Ogarko & Luding 2012, Comput. Phys. Commun. 183, 931).  A
+ *    pair across the radial boundary found from its particle of higher index is reported
+ *    with the offset the search from the other particle computes (rs_offset_of_lower), so
+ *    the reports are the same to the bit as with one grid; the classes are used only if
+ *    every class's grid is wide enough for the half shell (then a pair is in reach through
+ *    one image only).  Where the classes do not pay, the search keeps one grid for the
+ *    next RS_CLASS_RETRY steps before it weighs them again.  rs_sheet_set_classes(res, 1)
+ *    keeps one grid.
  * 3. Each particle i looks at the cells within d_i = (rho_i + max rho) / (1 - 1.5 Omega dt)
- *    of it (the bound of step 1 with rho_j <= max rho): a small particle beside large ones
- *    looks at fewer cells than the largest pair distance s would need.  The cells of one
+ *    of it (the bound of step 1 with rho_j <= max rho; with classes, step 2a's d_ik): a
+ *    small particle beside large ones looks at fewer cells than the largest pair distance
+ *    s would need.  The cells of one
  *    row (same y and z cell, one box) are consecutive in the sorted order, so a row is one
  *    run of particles.  Across the radial boundary the neighbouring columns belong to a
  *    ghost box sliding along y, so the particle's image is moved into that box's frame
@@ -93,8 +112,9 @@
  * 6. Re-check.  Every particle carries the serial number of its last collision in the
  *    step and every waiting contact the serials of its two particles when it was computed,
  *    so the contacts computed on a path that has since changed are dropped when they come
- *    up.  Both particles of the collision look around them again (step 3, all partners)
- *    and every partner within the bound of step 7 gets its contact on the new paths within
+ *    up.  Both particles of the collision look around them again (step 3, all partners;
+ *    with classes, in every class's grid) and every partner within the bound of step 7
+ *    gets its contact on the new paths within
  *    [now, end of step]: the entry time if it is after now, now itself if the pair touches
  *    now and approaches.  A particle deflected into a third one - on course before or not -
  *    is so resolved in the same step, at the contact on its new path, in time order.
@@ -107,7 +127,8 @@
  *        |dr_0| <= rho_i + rho_j + 1.5 Omega dt |dx_0| + D_i + D_j
  *    (dr_0, dx_0, rho at the start of the resolution, as in step 1); the re-check tests
  *    this with the current D of both particles, in as many cells around the particle as
- *    (rho_i + D_i + max rho + max D) / (1 - 1.5 Omega dt) needs (at most RS_MAX_SPAN s).
+ *    (rho_i + D_i + max rho + max D) / (1 - 1.5 Omega dt) needs (at most RS_MAX_SPAN s;
+ *    with classes, max rho of each class in its grid).
  *    D of a pair grows only when one of its particles collides, and that particle is then
  *    re-checked with the new D: no contact on the piecewise-straight paths is missed (but
  *    see the limits).
@@ -125,11 +146,12 @@
  * No shuffle and no random numbers: sim.rand_seed is not used and does not advance.
  *
  * Parameters: none beyond the simulation's (box, OMEGA, boundary, dt_last_done, t) and the
- * resolver's, and the number of threads of the search (rs_sheet_set_threads; the library
- * is compiled with OpenMP where the compiler has it, rs_sheet_openmp).  Counters
+ * resolver's, the number of threads of the search (rs_sheet_set_threads; the library
+ * is compiled with OpenMP where the compiler has it, rs_sheet_openmp) and the most reach
+ * classes (rs_sheet_set_classes; neither changes any result).  Counters
  * (rs_sheet_detector_counters): steps, candidates (pairs whose path was tested, also in
  * re-checks), reports, cells and cell size of the last step, whether it used the half
- * shell; of the time
+ * shell, the reach classes it used; of the time
  * order (rs_sheet_order_counters): contacts resolved, of which on a path changed earlier in
  * the step, re-checks, re-checks wider than s, re-checks cut at RS_MAX_SPAN s,
  * particles that reached RS_MAX_CONTACTS.
@@ -147,7 +169,9 @@
  * - A re-check looks at most RS_MAX_SPAN s away (counted when it would need more, i.e.
  *   when collisions within one step have moved particles off their first paths by several
  *   times the largest reach); contacts beyond are found in the next step, as overlaps or
- *   crossings (how often: docs/performance.md, "Hot rings: line vs tree").
+ *   crossings (how often: docs/performance.md, "Hot rings: line vs tree").  Such a cut
+ *   re-check, and one that reaches beyond half the box, looks at whole cells, which differ
+ *   between one grid and the class grids: only there can the two searches differ.
  * - A particle has at most RS_MAX_CONTACTS contacts resolved per step; further contacts of
  *   that step are left to the next step (counted).
  * - Pairs touching at the start of the step are resolved then if they approach (with
@@ -166,6 +190,7 @@
 #include <string.h>
 #include "rebound.h"
 #include "rs_resolver.h"
+#include "rs_sheet_classes.h"
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -178,17 +203,15 @@
 
 /* Largest 1.5 Omega dt accepted: the straight-path approximation needs Omega dt << 1. */
 #define RS_MAX_SHEAR_STEP 0.5
-/* Cells per particle at most (the z range of a few outliers must not blow the grid up). */
-#define RS_CELLS_PER_PARTICLE 4
 /* Contacts resolved per particle and step at most (cuts inelastic collapse). */
 #define RS_MAX_CONTACTS 32
+/* Steps in one grid after the classes did not pay, before they are weighed again. */
+#define RS_CLASS_RETRY 16
 /* A re-check looks at most this many times s (Method 1) away. */
 #define RS_MAX_SPAN 3
 /* Particles per thread at least: below, the threads' start and join cost more than they
  * save (the search of 4096 particles takes about a millisecond). */
 #define RS_PARTICLES_PER_THREAD 4096
-/* Particles ahead whose cache lines the counting sort asks for (rs_counting_sort). */
-#define RS_SORT_AHEAD 16
 /* Cells per s (Method 1) along each side: each particle looks only as far as its own
  * reach needs, so that small particles beside large ones look at fewer partners. */
 #ifndef RS_CELL_DIVISIONS
@@ -208,15 +231,6 @@ struct rs_sheet_particle {
     double vx, vy, vz;      /* [m/s] current velocity */
     double radius;          /* [m] */
     double ox, oy, ovy;     /* [m], [m], [m/s] wrapped minus current coordinates */
-};
-
-/* What the search's first test reads of a particle, in cell order (d->points) and in index
- * order (d->wrapped): 40 bytes instead of the 128 of rs_sheet_particle, so that the cells
- * around a particle stay in the cache. */
-struct rs_sheet_point {
-    double xw, yw, z;       /* [m] position wrapped into the primary box */
-    double reach;           /* [m] */
-    int64_t index;          /* in r->particles */
 };
 
 /* A particle within the current step (indexed like r->particles). */
@@ -257,7 +271,6 @@ struct rs_sheet_grid {
     double reach_max;       /* [m] */
     double slack;           /* [m] widening of the wrapped-coordinate pre-test (rs_cell_report) */
     double kick_time;       /* [s] back time of the step's kick (Method 1a), 0: no kick */
-    int64_t nx, ny, nz;
     int half_shell;         /* 1: each pair of one box looked at from one side (Method 3) */
 };
 
@@ -272,7 +285,7 @@ struct rs_sheet_detector {
     struct rs_sheet_track* track;           /* by particle index */
     int32_t* cell_of;               /* the sort's cell of each particle */
     int64_t cell_capacity;
-    int64_t* cell_start;            /* n_cells + 1 entries */
+    int32_t* cell_start;            /* n_cells + 1 entries (slots: n < INT32_MAX) */
     int32_t* counts;                /* the sort's per-thread cell counts, then totals */
     int64_t count_capacity;
     int64_t n_collisions;
@@ -286,6 +299,14 @@ struct rs_sheet_detector {
     int64_t n_events;
     struct rs_event* events;        /* binary heap, earliest contact at the root */
     struct rs_sheet_grid grid;
+    int class_limit;                /* reach classes at most (Method 2a), 1: one grid */
+    int n_classes;                  /* classes of the last search (1: one grid) */
+    int classes_used;               /* of which held particles */
+    int one_grid_steps;             /* steps to search in one grid before classes are
+                                     * weighed again (Method 2a) */
+    struct rs_cell_grid cells[RS_MAX_CLASSES];      /* by class, largest reaches first */
+    uint8_t* class_of;              /* each particle's class, by index (n_classes > 1) */
+    int64_t class_capacity;
     const struct reb_particle* particles;   /* r->particles of the last search (kicks) */
     double deviation_max;           /* [m] largest D of this step */
     int64_t serial;                 /* collisions resolved in this step */
@@ -314,6 +335,7 @@ static void rs_sheet_detector_free(struct rs_sheet_detector* d){
     free(d->track);
     free(d->cell_of);
     free(d->cell_start);
+    free(d->class_of);
     free(d->counts);
     free(d->collisions);
     for (int64_t k = 0; k < d->list_capacity; k++){
@@ -377,14 +399,6 @@ static inline int64_t rs_floor_div(int64_t a, int64_t b){
     }
     const int64_t q = a / b;
     return (a % b != 0 && a < 0) ? q - 1 : q;
-}
-
-static int64_t rs_cell_coordinate(double u, double low, double width, int64_t n){
-    const double c = floor((u - low) / width);
-    if (!(c >= 0.0)){
-        return 0;       /* also NaN */
-    }
-    return c >= (double)n ? n - 1 : (int64_t)c;
 }
 
 static int rs_report(struct rs_pair_list* out, size_t p1, size_t p2, struct reb_vec6d gb){
@@ -571,6 +585,25 @@ static int rs_recheck_pair(const struct reb_simulation* const r, struct rs_sheet
 /* ---------------------------------------------------------------------------------- */
 /* The search.                                                                        */
 
+/* How many box widths L [m] position x [m] lies beyond the primary box, [-L/2, L/2),
+ * floor((x + L / 2) / L): rs_wrap, rs_state and rs_image_of use it, so the wraps they find
+ * are the same to the bit.  Inside the box and the next one on either side, well away
+ * from their edges, the quotient cannot round across a whole number, and the answer is
+ * found without the division. */
+static inline double rs_box_count(double x, double L){
+    const double t = x + 0.5 * L;
+    if (t > 0.0 && t <= 0.99 * L){
+        return 0.0;
+    }
+    if (t >= L && t <= 1.99 * L){
+        return 1.0;
+    }
+    if (t >= -0.99 * L && t <= -1e-9 * L){
+        return -1.0;
+    }
+    return floor(t / L);
+}
+
 /* The image of particle pi in the frame of the box of index box_x (0: the primary box) in x:
  * its x, y offsets [m] and vy offset [m/s] (y wrapped back into the primary box's range:
  * y), and the y cell of the image. */
@@ -579,29 +612,25 @@ struct rs_image {
     int64_t cell_y;
 };
 
-static struct rs_image rs_image_of(const struct rs_sheet_grid* g, double yw, int64_t box_x){
+static struct rs_image rs_image_of(const struct rs_sheet_grid* g, const struct rs_cell_grid* c,
+                                   double yw, int64_t box_x){
     struct rs_image im;
     im.x = -(double)box_x * g->Lx;
     im.vy = (double)box_x * g->box_speed;
     double image_y = (double)box_x * g->slide;
     double yq = yw + image_y;
-    const double wrap_y = floor((yq + 0.5 * g->Ly) / g->Ly);
+    const double wrap_y = rs_box_count(yq, g->Ly);
     yq -= wrap_y * g->Ly;
     im.y = image_y - wrap_y * g->Ly;
-    im.cell_y = rs_cell_coordinate(yq, -0.5 * g->Ly, g->sy, g->ny);
+    im.cell_y = rs_cell_coordinate(yq, -0.5 * g->Ly, c->iy, c->ny);
     return im;
 }
 
-/* Cells a search over `distance` [m] must look at on each side along a side of `side` [m]. */
-static int64_t rs_span(double distance, double side){
-    const double cells = ceil(distance / side);
-    return cells >= 1.0 ? (cells < 1e9 ? (int64_t)cells : 1000000000) : 1;
-}
-
-/* How many box widths Lx [m] position x [m] lies beyond the primary box, [-Lx/2, Lx/2):
- * rs_wrap and rs_state both use it, so the wrap they find is the same to the bit. */
-static inline double rs_box_count(double x, double Lx){
-    return floor((x + 0.5 * Lx) / Lx);
+/* Cells a search over `distance` [m] looks at on each side along an axis of cells of
+ * 1 / inverse [m], at least 1 and at most n (one box either side). */
+static inline int64_t rs_span_of(double distance, double inverse, int64_t n){
+    const double cells = ceil(distance * inverse);
+    return cells >= 1.0 ? (cells < (double)n ? (int64_t)cells : n) : 1;
 }
 
 /* Particle i's state as rs_wrap found it: from d->particles (unchanged until the particle
@@ -683,10 +712,27 @@ static int rs_path_touches(double dx, double dy, double dz, double dvx, double d
     return rs_line_touches(b.dx, b.dy, b.dz, b.dvx, b.dvy, b.dvz, sum_radii, dt - kick_time);
 }
 
+/* The ghost-box offset of the pair (lo, hi), lo of lower index, as the search from lo
+ * computes it (rs_scan, rs_cell_report) when hi has found the pair through the box box_x
+ * [boxes in x] (Method 2a: a pair across the radial boundary is looked for from its
+ * particle of the smaller class, which may have the higher index).  lo looks through the
+ * box -box_x; its y box is the one that brings hi nearest, the only one within reach in a
+ * box wider than two spans of the widest search (yw_lo, yw_hi [m]: wrapped y). */
+static struct reb_vec6d rs_offset_of_lower(const struct rs_sheet_grid* g,
+                                           const struct rs_cell_grid* c,
+                                           const struct rs_sheet_particle* lo,
+                                           const struct rs_sheet_particle* hi, int64_t box_x){
+    const struct rs_image im = rs_image_of(g, c, lo->yw, -box_x);
+    const double box_y = nearbyint((lo->yw + im.y - hi->yw) / g->Ly);
+    const double gy = im.y - box_y * g->Ly;
+    return rs_image_offset(lo, hi, im.x, gy, im.vy);
+}
+
 /* Method 3-4 in the cells [first, end) of the sorted particles (a run of cells of one
  * row) for particle pi (image
- * offsets image_x, gy_i, image_vy): every partner j > i within the bound of Method 1 whose
- * straight relative path touched pi's within the step goes to `out`.
+ * offsets image_x, gy_i, image_vy of the box box_x): every partner j > i (every partner j
+ * with `all`) within the bound of Method 1 whose straight relative path touched pi's
+ * within the step goes to `out`, as the search from the particle of lower index sees it.
  *
  * The bound is first tested on the compact points in wrapped coordinates, widened by
  * g->slack (1e-9 of the box) so that it passes every pair the exact test below passes:
@@ -696,8 +742,9 @@ static int rs_path_touches(double dx, double dy, double dz, double dvx, double d
  * j > i condition joins it without a branch of its own).  Returns 0 if memory ran out. */
 static int rs_cell_report(const struct rs_sheet_grid* g, const struct rs_sheet_detector* d,
                           const struct rs_sheet_point* p, int64_t first, int64_t end,
+                          const struct rs_cell_grid* c, int64_t box_x,
                           double image_x, double gy_i, double image_vy,
-                          struct rs_pair_list* out, int by_index){
+                          struct rs_pair_list* out, int all){
     const struct rs_sheet_point* const points = d->points;
     const double xi = p->xw + image_x;
     const double yi = p->yw + gy_i;
@@ -710,18 +757,21 @@ static int rs_cell_report(const struct rs_sheet_grid* g, const struct rs_sheet_d
         const double wide = reach_i + q->reach + g->shear_step * fabs(dxw);
         const int near = dxw * dxw + dyw * dyw + dzw * dzw <= wide * wide;
         const int later = q->index > p->index;
-        if (!(near & (later | !by_index))){
+        if (!(near & (later | all))){
             continue;
         }
         /* the pair as the search from its particle of lower index sees it: p1 < p2, gb of
-         * p1; in the primary box (!by_index) the other side's y offset is -gy_i, exactly
-         * (gy_i is a whole number of box lengths there), with the sign of a zero kept */
+         * p1; in the primary box the other side's y offset is -gy_i, exactly (gy_i is a
+         * whole number of box lengths there), with the sign of a zero kept; across the
+         * radial boundary the other side's image is found again (rs_offset_of_lower) */
         const struct rs_sheet_particle si = rs_state(d, later ? p->index : q->index);
         const struct rs_sheet_particle sj = rs_state(d, later ? q->index : p->index);
         const struct rs_sheet_particle* const pi = &si;
         const struct rs_sheet_particle* const pj = &sj;
         const double gy = later || gy_i == 0.0 ? gy_i : -gy_i;
-        const struct reb_vec6d gb = rs_image_offset(pi, pj, image_x, gy, image_vy);
+        const struct reb_vec6d gb = later || box_x == 0
+            ? rs_image_offset(pi, pj, image_x, gy, image_vy)
+            : rs_offset_of_lower(g, c, pi, pj, box_x);
         const double dx = pi->x + gb.x - pj->x;
         const double dy = pi->y + gb.y - pj->y;
         const double dz = pi->z - pj->z;
@@ -791,55 +841,57 @@ static int rs_cell_recheck(const struct reb_simulation* const r, struct rs_sheet
 enum RS_SCAN {
     RS_SCAN_REPORT = 0,     /* Method 3-4: partners j > i, report swept contacts (to out) */
     RS_SCAN_RECHECK = 1,    /* Method 6-7: partners j != i, queue their next contacts */
+    RS_SCAN_LARGER = 2,     /* Method 2a: all partners of a class of larger reaches, report */
 };
 
-/* Looks at every cell within `distance` [m] of particle pi (state before the resolution)
- * in x, y and z, each image of the shear-periodic box once.  The cells of one row (same y,
- * z) that belong to one box are consecutive in the sorted particles, so a row is one run:
- * the cost is per particle looked at, hardly per cell.  REPORT mode reads the detector only
- * and writes to `out` (threads may scan different particles at once); RECHECK queues
- * contacts within the last `window` of the step.  Returns 0 if memory ran out. */
+/* Looks at every cell of the grid c within `distance` [m] of particle pi (state before the
+ * resolution) in x, y and z, each image of the shear-periodic box once.  The cells of one
+ * row (same y, z) that belong to one box are consecutive in the sorted particles, so a row
+ * is one run: the cost is per particle looked at, hardly per cell.  REPORT and LARGER
+ * read the detector only and write to `out` (threads may scan different particles at
+ * once); RECHECK queues contacts within the last `window` of the step.  Returns 0 if
+ * memory ran out. */
 static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detector* d,
-                   const struct rs_sheet_point* pi, double distance, int mode,
-                   double window, struct rs_pair_list* out){
+                   const struct rs_cell_grid* c, const struct rs_sheet_point* pi,
+                   double distance, int mode, double window, struct rs_pair_list* out){
     const struct rs_sheet_grid* const g = &d->grid;
-    const int64_t* const start = d->cell_start;
+    const int32_t* const start = d->cell_start + c->cell_base;
     /* at most one box on each side (a box narrower than 2 s is outside the validity
      * limits: images further away are not looked at, as before the cells were split) */
-    const int64_t span_x = rs_span(distance, g->sx) < g->nx ? rs_span(distance, g->sx) : g->nx;
-    const int64_t span_y = rs_span(distance, g->sy) < g->ny ? rs_span(distance, g->sy) : g->ny;
-    const int64_t span_z = g->nz > 1 ? rs_span(distance, g->sz) : 0;
-    const int64_t cx = rs_cell_coordinate(pi->xw, -0.5 * g->Lx, g->sx, g->nx);
-    const int64_t cz = g->nz > 1 ? rs_cell_coordinate(pi->z, g->z_min, g->sz, g->nz) : 0;
+    const int64_t span_x = rs_span_of(distance, c->ix, c->nx);
+    const int64_t span_y = rs_span_of(distance, c->iy, c->ny);
+    const int64_t span_z = c->nz > 1 ? rs_span_of(distance, c->iz, c->nz) : 0;
+    const int64_t cx = rs_cell_coordinate(pi->xw, -0.5 * g->Lx, c->ix, c->nx);
+    const int64_t cz = c->nz > 1 ? rs_cell_coordinate(pi->z, c->z_min, c->iz, c->nz) : 0;
     const int64_t layer_low = cz - span_z < 0 ? 0 : cz - span_z;
-    const int64_t layer_high = cz + span_z >= g->nz ? g->nz - 1 : cz + span_z;
+    const int64_t layer_high = cz + span_z >= c->nz ? c->nz - 1 : cz + span_z;
     /* Method 3's half shell: in the primary box each pair is looked at from one side only,
      * the particle whose row (y cell of the grid, then layer) comes first, or within a row
      * the earlier slot; across the radial boundary, from the particle of lower index */
-    const int half = mode == RS_SCAN_REPORT && g->half_shell;
-    const int64_t cy = half ? rs_cell_coordinate(pi->yw, -0.5 * g->Ly, g->sy, g->ny) : 0;
+    const int half = mode == RS_SCAN_REPORT && c->half_shell;
+    const int64_t cy = half ? rs_cell_coordinate(pi->yw, -0.5 * g->Ly, c->iy, c->ny) : 0;
     const int64_t slot = half ? (int64_t)(pi - d->points) : 0;
     for (int64_t kx = -span_x; kx <= span_x;){
         /* the run of columns from cx + kx to the box's last column or cx + span_x */
-        const int64_t box_x = rs_floor_div(cx + kx, g->nx);
-        const int64_t first_x = cx + kx - box_x * g->nx;
-        const int64_t count = span_x - kx + 1 < g->nx - first_x ? span_x - kx + 1
-                                                               : g->nx - first_x;
-        const struct rs_image im = rs_image_of(g, pi->yw, box_x);
+        const int64_t box_x = rs_floor_div(cx + kx, c->nx);
+        const int64_t first_x = cx + kx - box_x * c->nx;
+        const int64_t count = span_x - kx + 1 < c->nx - first_x ? span_x - kx + 1
+                                                               : c->nx - first_x;
+        const struct rs_image im = rs_image_of(g, c, pi->yw, box_x);
         for (int64_t ky = -span_y; ky <= span_y; ky++){
-            const int64_t box_y = rs_floor_div(im.cell_y + ky, g->ny);
-            const int64_t column_y = im.cell_y + ky - box_y * g->ny;
+            const int64_t box_y = rs_floor_div(im.cell_y + ky, c->ny);
+            const int64_t column_y = im.cell_y + ky - box_y * c->ny;
             const double gy_i = im.y - (double)box_y * g->Ly;
             for (int64_t layer = layer_low; layer <= layer_high; layer++){
-                const int64_t row = (layer * g->ny + column_y) * g->nx;
+                const int64_t row = (layer * c->ny + column_y) * c->nx;
                 int64_t first = start[row + first_x];
                 const int64_t end = start[row + first_x + count];
-                const int by_index = !(half && box_x == 0);
-                if (!by_index){
+                const int shell = half && box_x == 0;
+                if (shell){
                     /* rows of the grid from pi's (antisymmetric: the row is at -row_y
                      * from the partner's, as the box is wider than two spans) */
                     int64_t row_y = column_y - cy;
-                    row_y += 2 * row_y < -g->ny ? g->ny : (2 * row_y > g->ny ? -g->ny : 0);
+                    row_y += 2 * row_y < -c->ny ? c->ny : (2 * row_y > c->ny ? -c->ny : 0);
                     if (row_y < 0 || (row_y == 0 && layer < cz)){
                         continue;   /* the partners there look at pi */
                     }
@@ -847,9 +899,10 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
                         first = slot + 1;   /* pi's row: the slots after pi's */
                     }
                 }
-                const int ok = mode == RS_SCAN_REPORT
-                    ? rs_cell_report(g, d, pi, first, end, im.x, gy_i, im.vy, out, by_index)
-                    : rs_cell_recheck(r, d, pi, first, end, im.x, gy_i, im.vy, window);
+                const int ok = mode == RS_SCAN_RECHECK
+                    ? rs_cell_recheck(r, d, pi, first, end, im.x, gy_i, im.vy, window)
+                    : rs_cell_report(g, d, pi, first, end, c, box_x, im.x, gy_i, im.vy, out,
+                                     shell || mode == RS_SCAN_LARGER);
                 if (!ok){
                     return 0;
                 }
@@ -908,14 +961,9 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
     return 1;
 }
 
-/* Method 2's counting sort of the particles into the grid's cells (d->points, and
- * d->cell_start: each cell's first slot, n_cells + 1 entries), stable: a cell holds its
- * particles in index order, whatever the number of threads.  Thread t of T counts the
- * particles of its share [n t / T, n (t + 1) / T) per cell; the slots of cell c are then
- * handed out cell after cell and, within a cell, share after share (each thread does
- * this for its share of the cells after the totals of the shares before it are known);
- * last, each thread places its particles in index order.  So the order is the serial
- * sort's: same seed, same bits with 1 and 2 threads.  Returns 0 if memory ran out. */
+/* Method 2's counting sort of the particles into the cells of d->cells (d->points, and
+ * d->cell_start: each cell's first slot, n_cells + 1 entries; rs_sheet_classes.c).
+ * Returns 0 if memory ran out. */
 static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_cells){
     const int asked = rs_team_size(d, n);
     int64_t capacity = d->count_capacity;
@@ -925,124 +973,100 @@ static int rs_counting_sort(struct rs_sheet_detector* d, int64_t n, int64_t n_ce
         return 0;
     }
     d->count_capacity = capacity;
-    const struct rs_sheet_grid* const g = &d->grid;
-    int64_t* const start = d->cell_start;
-    /* 32-bit cells and counts: half the bytes the random increments below touch */
-    int32_t* const counts = d->counts;
-    int32_t* const cell_of = d->cell_of;
-#pragma omp parallel num_threads(asked)
-    {
-        const int64_t team = rs_team_threads();
-        const int64_t t = rs_thread_id();
-        const int64_t i0 = n * t / team, i1 = n * (t + 1) / team;
-        const int64_t c0 = n_cells * t / team, c1 = n_cells * (t + 1) / team;
-        int32_t* const mine = counts + t * n_cells;
-        int32_t* const totals = counts + team * n_cells;   /* one per share of the cells */
-        memset(mine, 0, (size_t)n_cells * sizeof(int32_t));
-        for (int64_t i = i0; i < i1; i++){
-            const struct rs_sheet_point* q = &d->wrapped[i];
-            const int64_t cx = rs_cell_coordinate(q->xw, -0.5 * g->Lx, g->sx, g->nx);
-            const int64_t cy = rs_cell_coordinate(q->yw, -0.5 * g->Ly, g->sy, g->ny);
-            const int64_t cz = g->nz > 1 ? rs_cell_coordinate(q->z, g->z_min, g->sz, g->nz)
-                                         : 0;
-            cell_of[i] = (int32_t)((cz * g->ny + cy) * g->nx + cx);
-        }
-        /* the counts and slots are read at random (particles in index order are scattered
-         * over the sheet): their cache lines are asked for RS_SORT_AHEAD particles ahead */
-        for (int64_t i = i0; i < i1; i++){
-            if (i + RS_SORT_AHEAD < i1){
-                __builtin_prefetch(&mine[cell_of[i + RS_SORT_AHEAD]], 1);
-            }
-            mine[cell_of[i]]++;
-        }
-#pragma omp barrier
-        int64_t total = 0;
-        for (int64_t c = c0; c < c1; c++){
-            for (int64_t k = 0; k < team; k++){
-                total += counts[k * n_cells + c];
-            }
-        }
-        totals[t] = (int32_t)total;
-#pragma omp barrier
-        int64_t slot = 0;
-        for (int64_t k = 0; k < t; k++){
-            slot += totals[k];
-        }
-        for (int64_t c = c0; c < c1; c++){
-            start[c] = slot;
-            for (int64_t k = 0; k < team; k++){
-                const int64_t here = counts[k * n_cells + c];
-                counts[k * n_cells + c] = (int32_t)slot;    /* share k's next slot in c */
-                slot += here;
-            }
-        }
-#pragma omp barrier
-        for (int64_t i = i0; i < i1; i++){
-            if (i + RS_SORT_AHEAD < i1){
-                const int32_t ahead = mine[cell_of[i + RS_SORT_AHEAD]];
-                __builtin_prefetch(&d->points[ahead], 1);
-                __builtin_prefetch(&mine[cell_of[i + 2 * RS_SORT_AHEAD < i1
-                                                 ? i + 2 * RS_SORT_AHEAD : i]], 1);
-            }
-            d->points[mine[cell_of[i]]++] = d->wrapped[i];
-        }
-    }
-    start[n_cells] = n;
+    rs_sheet_counting_sort(d->wrapped, d->points, n, asked, d->cells,
+                           d->n_classes > 1 ? d->class_of : NULL, d->grid.Lx, d->grid.Ly,
+                           d->counts, d->cell_of, d->cell_start, n_cells);
     return 1;
 }
 
-/* Method 2: cells of at least s / RS_CELL_DIVISIONS on every side, and the particles sorted
- * into them by a
- * counting sort (stable: a cell holds its particles in index order) into
- * d->points.  Returns 0 if memory ran out. */
+/* Method 2a: a grid per reach class (d->cells, classes > 1), each cell of all classes one
+ * index of d->cell_start (rs_sheet_classes.c).  Returns the number of cells, 0 if the
+ * classes are not used (then the search uses one grid).  Returns 0 also if memory for the
+ * classes ran out: one grid needs none. */
+static int64_t rs_class_layout(struct rs_sheet_detector* d, int64_t n){
+    const int classes = d->class_limit < RS_MAX_CLASSES ? d->class_limit : RS_MAX_CLASSES;
+    if (d->one_grid_steps > 0){
+        d->one_grid_steps--;
+        return 0;
+    }
+    if (classes < 2 || !rs_grow((void**)&d->class_of, &d->class_capacity, n, sizeof(uint8_t))){
+        return 0;
+    }
+    const struct rs_sheet_grid* const g = &d->grid;
+    const int used = rs_sheet_classify(d->wrapped, n, rs_team_size(d, n), g->reach_max,
+                                       classes, d->class_of, d->cells);
+    const int64_t n_cells = used < 2 ? 0 : rs_sheet_class_layout(d->cells, classes, g->Lx,
+                                                                 g->Ly, g->slack,
+                                                                 g->shear_step, g->reach_max);
+    if (n_cells > 0){
+        d->n_classes = classes;
+        d->classes_used = used;
+    }else{
+        /* the size distribution changes slowly: look again in RS_CLASS_RETRY steps */
+        d->one_grid_steps = RS_CLASS_RETRY;
+    }
+    return n_cells;
+}
+
+/* Method 2: the cells (one grid, or a grid per reach class: Method 2a) and the particles
+ * sorted into them by a counting sort (stable: a cell holds its particles in index order)
+ * into d->points.  Returns 0 if memory ran out. */
 static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
     struct rs_sheet_grid* const g = &d->grid;
-    const double Lx = g->Lx;
-    const double Ly = g->Ly;
     /* s: the largest distance at which two particles can touch within the step */
-    double s = 2.0 * g->reach_max / (1.0 - g->shear_step);
-    s = s * (1.0 + 1e-12) + DBL_MIN;
+    const double s = rs_sheet_pair_reach(g->reach_max, g->shear_step);
     g->pair_reach = s;
-    const double side = s / RS_CELL_DIVISIONS;
-    const int64_t cell_cap = RS_CELLS_PER_PARTICLE * n + 64;
-    int64_t nx = Lx / side >= (double)cell_cap ? cell_cap : (int64_t)floor(Lx / side);
-    int64_t ny = Ly / side >= (double)cell_cap ? cell_cap : (int64_t)floor(Ly / side);
-    nx = nx < 1 ? 1 : nx;
-    ny = ny < 1 ? 1 : ny;
-    while (nx * ny > cell_cap){
-        nx = nx > 1 ? (nx + 1) / 2 : 1;
-        ny = ny > 1 ? (ny + 1) / 2 : 1;
-    }
-    const double z_range = g->z_range;
-    int64_t nz = z_range / side >= (double)cell_cap ? cell_cap
-                                                    : (int64_t)floor(z_range / side) + 1;
-    if (nx * ny * nz > cell_cap){
-        nz = cell_cap / (nx * ny);
-        nz = nz < 1 ? 1 : nz;
-    }
-    g->nx = nx;
-    g->ny = ny;
-    g->nz = nz;
-    g->sx = Lx / (double)nx;
-    g->sy = Ly / (double)ny;
-    g->sz = nz > 1 ? fmax(side, z_range / (double)(nz - 1) * (1.0 + 1e-12)) : INFINITY;
     /* round-off of coordinates of the box's size, far below any reach (rs_cell_report) */
-    g->slack = 1e-9 * (Lx + Ly + fabs(g->z_min) + z_range);
-    /* Method 3's half shell needs a box wider than two spans of the widest search */
-    const double widest = s * (1.0 + 1e-12) + g->slack;
-    const int64_t span_x = rs_span(widest, g->sx), span_y = rs_span(widest, g->sy);
-    const int64_t span = span_x > span_y ? span_x : span_y;
-    g->half_shell = nx >= 2 * span + 1 && ny >= 2 * span + 1;
-    const int64_t n_cells = nx * ny * nz;
+    g->slack = 1e-9 * (g->Lx + g->Ly + fabs(g->z_min) + g->z_range);
+    d->n_classes = 1;
+    d->classes_used = 1;
+    int64_t n_cells = rs_class_layout(d, n);
+    if (n_cells == 0){
+        struct rs_cell_grid* const c = &d->cells[0];
+        *c = (struct rs_cell_grid){.z_min = g->z_min, .z_range = g->z_range,
+                                   .reach_max = g->reach_max, .n = n};
+        d->n_classes = 1;
+        d->classes_used = 1;
+        n_cells = rs_sheet_cell_layout(c, g->Lx, g->Ly, g->slack, s, s / RS_CELL_DIVISIONS);
+    }
+    g->half_shell = d->cells[0].half_shell;
     int64_t capacity = d->cell_capacity;
-    if (!rs_grow((void**)&d->cell_start, &capacity, n_cells + 1, sizeof(int64_t))){
+    if (!rs_grow((void**)&d->cell_start, &capacity, n_cells + 1, sizeof(int32_t))){
         return 0;
     }
     d->cell_capacity = capacity;
     d->cells_last = n_cells;
-    d->cell_size_last = side;
-
+    d->cell_size_last = d->cells[0].side;
     return rs_counting_sort(d, n, n_cells);
+}
+
+/* Method 3-4 for particle pi: the grid of its class (Method 3's pairs), and with classes
+ * (Method 2a) the grids of the classes of larger reaches (all their partners), each over
+ * the distance (rho_i + largest rho of the grid) / (1 - 1.5 Omega dt).  Returns 0 if
+ * memory ran out. */
+static int rs_search_from(struct rs_sheet_detector* d, const struct rs_sheet_point* pi,
+                          struct rs_pair_list* out){
+    const struct rs_sheet_grid* const g = &d->grid;
+    if (d->n_classes == 1){
+        const double distance = (pi->reach + g->reach_max) / (1.0 - g->shear_step)
+                                * (1.0 + 1e-12) + g->slack;
+        return rs_scan(NULL, d, &d->cells[0], pi, distance,
+                       RS_SCAN_REPORT, 0.0, out);
+    }
+    const int own = d->class_of[pi->index];
+    for (int k = 0; k <= own; k++){
+        const struct rs_cell_grid* c = &d->cells[k];
+        if (c->n == 0){
+            continue;
+        }
+        const double distance = (pi->reach + c->reach_max) / (1.0 - g->shear_step)
+                                * (1.0 + 1e-12) + g->slack;
+        if (!rs_scan(NULL, d, c, pi, distance,
+                     k == own ? RS_SCAN_REPORT : RS_SCAN_LARGER, 0.0, out)){
+            return 0;
+        }
+    }
+    return 1;
 }
 
 /* Method 3-4 for all particles.  The particles are split over d->threads OpenMP threads in
@@ -1079,11 +1103,7 @@ static int rs_search(struct rs_sheet_detector* d, int64_t n){
         struct rs_pair_list list = d->lists[rs_thread_id()];
 #pragma omp for schedule(static)
         for (int64_t a = 0; a < n; a++){
-            const struct rs_sheet_point* pi = &d->points[a];
-            const double distance = (pi->reach + d->grid.reach_max)
-                                    / (1.0 - d->grid.shear_step) * (1.0 + 1e-12)
-                                    + d->grid.slack;
-            if (list.ok && !rs_scan(NULL, d, pi, distance, RS_SCAN_REPORT, 0.0, &list)){
+            if (list.ok && !rs_search_from(d, &d->points[a], &list)){
                 list.ok = 0;
             }
         }
@@ -1197,11 +1217,28 @@ static int rs_after_collision(const struct reb_simulation* const r, struct rs_sh
         d->span_limited += !(needed <= RS_MAX_SPAN * g->pair_reach);
     }
     d->rechecks++;
-    const double distance = fmin(needed, RS_MAX_SPAN * g->pair_reach) * (1.0 + 1e-12)
-                            + g->slack;
     const struct rs_sheet_point point = {before->xw, before->yw, before->z, before->reach,
                                          before->index};
-    return rs_scan(r, d, &point, distance, RS_SCAN_RECHECK, window, NULL);
+    if (d->n_classes == 1){
+        const double distance = fmin(needed, RS_MAX_SPAN * g->pair_reach) * (1.0 + 1e-12)
+                                + g->slack;
+        return rs_scan(r, d, &d->cells[0], &point, distance, RS_SCAN_RECHECK, window, NULL);
+    }
+    /* every class (Method 2a), each over the bound with its own largest reach */
+    for (int k = 0; k < d->n_classes; k++){
+        const struct rs_cell_grid* c = &d->cells[k];
+        if (c->n == 0){
+            continue;
+        }
+        const double reach = (before->reach + t->deviation + c->reach_max + d->deviation_max)
+                             / (1.0 - g->shear_step);
+        const double distance = fmin(reach, RS_MAX_SPAN * g->pair_reach) * (1.0 + 1e-12)
+                                + g->slack;
+        if (!rs_scan(r, d, c, &point, distance, RS_SCAN_RECHECK, window, NULL)){
+            return 0;
+        }
+    }
+    return 1;
 }
 
 static struct rs_sheet_detector* rs_detector_of(struct rs_resolver* res){
@@ -1211,6 +1248,7 @@ static struct rs_sheet_detector* rs_detector_of(struct rs_resolver* res){
             return NULL;
         }
         d->threads = 1;
+        d->class_limit = RS_MAX_CLASSES;
         res->detector = d;
         /* rs_resolver.c frees it through this pointer: no link-time dependency on this
          * file, so the resolver also builds and works without the detector */
@@ -1306,14 +1344,16 @@ int64_t rs_sheet_detect_pairs(struct reb_simulation* const r, int64_t capacity,
 }
 
 /* Counters since the detector was created: out[0] steps, out[1] candidate pairs whose path
- * was tested, out[2] pairs reported, out[3] cells of the last grid, out[4] last error,
- * out[5] 1 if the last search used Method 3's half shell; *cell_size [m] of the last
- * grid.  Returns 0 if the detector has not run yet. */
+ * was tested, out[2] pairs reported, out[3] cells of the last grid (of all its classes),
+ * out[4] last error, out[5] 1 if the last search used Method 3's half shell, out[6] reach
+ * classes that held particles in the last search (1: one grid; Method 2a); *cell_size [m] the least cell side
+ * of the last grid (of its class of the largest reaches).  Returns 0 if the detector has
+ * not run yet. */
 int rs_sheet_detector_counters(const struct rs_resolver* res, int64_t* out,
                                double* cell_size){
     const struct rs_sheet_detector* d = res->detector;
     if (d == NULL){
-        memset(out, 0, 6 * sizeof(int64_t));
+        memset(out, 0, 7 * sizeof(int64_t));
         *cell_size = 0.0;
         return 0;
     }
@@ -1323,6 +1363,7 @@ int rs_sheet_detector_counters(const struct rs_resolver* res, int64_t* out,
     out[3] = d->cells_last;
     out[4] = d->error;
     out[5] = d->grid.half_shell;
+    out[6] = d->classes_used;
     *cell_size = d->cell_size_last;
     return 1;
 }
@@ -1358,6 +1399,19 @@ int rs_sheet_set_threads(struct rs_resolver* res, int threads){
     }
     d->threads = threads >= 1 ? threads : 1;
     return d->threads;
+}
+
+/* Sets the most reach classes of the search (Method 2a), 1 to RS_MAX_CLASSES (outside:
+ * clipped); 1 searches all particles in one grid.  The contacts found and their resolution
+ * do not depend on it.  Returns the number set, or 0 if memory ran out. */
+int rs_sheet_set_classes(struct rs_resolver* res, int classes){
+    struct rs_sheet_detector* const d = rs_detector_of(res);
+    if (d == NULL){
+        return 0;
+    }
+    d->class_limit = classes < 1 ? 1 : (classes > RS_MAX_CLASSES ? RS_MAX_CLASSES : classes);
+    d->one_grid_steps = 0;
+    return d->class_limit;
 }
 
 /* Threads the last search of the resolver's detector ran on (0 before the first). */

@@ -48,18 +48,43 @@ def search_counters(address: int) -> dict[str, Any]:
     -------
     dict with ``steps`` (searches run), ``candidates`` (pairs whose straight paths
     were tested), ``reports`` (pairs passed to the resolver), ``cells`` and
-    ``cell_size`` [m] of the last search's grid, ``error`` (text; "none" if the last
-    search succeeded) and ``half_shell`` (whether the last search looked at each pair
-    of the primary box from one side only, rs_sheet_detect.c Method 3).  All zero
-    before the first search or without ``collision_detection="line"``.
+    ``cell_size`` [m] of the last search's grid (all its classes' cells; the least
+    cell side of its class of the largest reaches), ``error`` (text; "none" if the last
+    search succeeded), ``half_shell`` (whether the last search looked at each pair
+    of the primary box from one side only, rs_sheet_detect.c Method 3) and ``classes``
+    (the reach classes of the last search, each with its own grid, Method 2a; 1: one
+    grid).  All zero before the first search or without ``collision_detection="line"``.
     """
-    counters = (ctypes.c_int64 * 6)()
+    counters = (ctypes.c_int64 * 7)()
     cell_size = ctypes.c_double()
     _LIB.rs_sheet_detector_counters(address, counters, ctypes.byref(cell_size))
     return {"steps": int(counters[0]), "candidates": int(counters[1]),
             "reports": int(counters[2]), "cells": int(counters[3]),
             "cell_size": float(cell_size.value), "half_shell": bool(counters[5]),
+            "classes": int(counters[6]),
             "error": DETECTOR_ERRORS.get(int(counters[4]), f"code {int(counters[4])}")}
+
+
+#: Most reach classes of the detector's search (RS_MAX_CLASSES in rs_sheet_detect.c).
+MAX_CLASSES = 8
+
+
+def set_classes(address: int, classes: int) -> int:
+    """Let the sheet detector of the resolver at ``address`` sort its particles into at
+    most ``classes`` reach classes, each with its own cell grid (rs_sheet_detect.c, Method
+    2a; the default is `MAX_CLASSES`); 1 searches all particles in one grid.
+
+    The pairs found and every result do not depend on it: it changes the cost only.
+    Returns the number set; ValueError outside 1 to `MAX_CLASSES`.
+    """
+    if (isinstance(classes, bool) or not isinstance(classes, (int, np.integer))
+            or not 1 <= classes <= MAX_CLASSES):
+        raise ValueError(f"classes: must be an integer from 1 to {MAX_CLASSES}, "
+                         f"got {classes!r}")
+    done = int(_LIB.rs_sheet_set_classes(address, int(classes)))
+    if done < 1:
+        raise MemoryError("could not allocate the sheet detector")
+    return done
 
 
 def detect_pairs(sim: rebound.Simulation) -> tuple[np.ndarray, np.ndarray]:

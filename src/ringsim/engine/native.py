@@ -209,6 +209,8 @@ def _declare_detector(lib: ctypes.CDLL) -> None:
     lib.rs_sheet_set_threads.argtypes = [ctypes.c_void_p, ctypes.c_int]
     lib.rs_sheet_openmp.restype = ctypes.c_int
     lib.rs_sheet_openmp.argtypes = []
+    lib.rs_sheet_set_classes.restype = ctypes.c_int
+    lib.rs_sheet_set_classes.argtypes = [ctypes.c_void_p, ctypes.c_int]
     lib.rs_sheet_threads_used.restype = ctypes.c_int
     lib.rs_sheet_threads_used.argtypes = [ctypes.c_void_p]
     lib.rs_sheet_particles_per_thread.restype = ctypes.c_int64
@@ -218,7 +220,8 @@ def _declare_detector(lib: ctypes.CDLL) -> None:
 #: One function of each C source.  setup.py compiles every source into the one library, so
 #: a library without one of them is a broken build, refused when it is loaded.
 _ONE_SYMBOL_PER_SOURCE = ("rs_resolve", "rs_sheet_step", "rs_add_particles", "rs_ghost_field",
-                          "rs_p3m_short", "rs_sei_register", "rs_stop_arm")
+                          "rs_p3m_short", "rs_sei_register", "rs_stop_arm",
+                          "rs_sheet_classify")
 
 
 def _load_library() -> ctypes.CDLL:
