@@ -467,8 +467,6 @@ def test_auto_split_in_a_thick_ring_is_within_one_percent_and_conserves_momentum
 def test_hot_p3m_run_with_auto_split_resumes_bit_for_bit(tmp_path, gravitating_scenario):
     """The split auto chooses is a function of the state alone, so a run stopped and
     resumed (its solver made anew) is the uninterrupted run, bit for bit."""
-    import ringsim
-    from ringsim.config.scenario import with_overrides
 
     sc = gravitating_scenario(source="<t>", **{"sheet.n_particles": 600,
                                                "sheet.initial_dispersion": 60.0,
@@ -478,12 +476,6 @@ def test_hot_p3m_run_with_auto_split_resumes_bit_for_bit(tmp_path, gravitating_s
     built.sim.steps(1)
     solver = p3m.installed_solver(built.sim)
     assert solver.params.split > 1.4 * solver.first_split     # a rung above the first
-    long = ringsim.run(sc, output=tmp_path / "long.h5", progress=False)
-    short = tmp_path / "short.h5"
-    ringsim.run(with_overrides(sc, {"integration.orbits": 0.1}), output=short, progress=False)
-    ringsim.run(sc, output=short, resume=True, progress=False)
-    a, b = ringsim.open_run(long), ringsim.open_run(short)
-    assert a.n_snapshots == b.n_snapshots == 3
-    for key in ("x", "y", "z", "vx", "vy", "vz"):
-        assert np.array_equal(a.snapshot(2)[key], b.snapshot(2)[key]), key
+    a, _ = testing.assert_resumes_bit_for_bit(sc, tmp_path, stop_orbits=0.1, snapshot=2)
+    assert a.n_snapshots == 3
     assert a.attrs["p3m_split_auto"] == 1 and a.attrs["p3m_split_largest"] > 3.0

@@ -146,8 +146,6 @@ def test_hot_run_with_the_tail_apart_resumes_bit_for_bit(tmp_path, gravitating_s
     """The core is a function of the state alone: a hot run whose mesh leaves a tail
     beyond its layers, stopped and resumed (its solver made anew), is the uninterrupted
     run, bit for bit."""
-    import ringsim
-    from ringsim.config.scenario import with_overrides
     from ringsim.engine import sheet
 
     sc = gravitating_scenario(source="<t>", **{"sheet.n_particles": 600,
@@ -160,14 +158,8 @@ def test_hot_run_with_the_tail_apart_resumes_bit_for_bit(tmp_path, gravitating_s
     par = p3m.installed_solver(built.sim).params
     z = np.array([p.z for p in built.sim.particles])
     assert np.sum((z > par.zhi) | (z < par.zlo)) > 0             # a tail apart
-    long = ringsim.run(sc, output=tmp_path / "long.h5", progress=False)
-    short = tmp_path / "short.h5"
-    ringsim.run(with_overrides(sc, {"integration.orbits": 0.1}), output=short, progress=False)
-    ringsim.run(sc, output=short, resume=True, progress=False)
-    a, b = ringsim.open_run(long), ringsim.open_run(short)
-    assert a.n_snapshots == b.n_snapshots == 3
-    for key in ("x", "y", "z", "vx", "vy", "vz"):
-        assert np.array_equal(a.snapshot(2)[key], b.snapshot(2)[key]), key
+    a, _ = testing.assert_resumes_bit_for_bit(sc, tmp_path, stop_orbits=0.1, snapshot=2)
+    assert a.n_snapshots == 3
 
 
 def test_tail_apart_gives_the_same_bits_on_one_and_two_threads():

@@ -6,6 +6,8 @@
   run files bit for bit;
 * ``gravity``: the self-gravity harness, random sheets in REBOUND with the tree or P3M,
   their accelerations and their errors against the converged image sum;
+* ``resume``: `assert_resumes_bit_for_bit`, a run in one go against the same run stopped
+  and resumed;
 * ``synthetic_restitution``: the synthetic restitution measurements of the bundled
   ``ringsim fit`` example (`hatzes_like_csv`, `write_hatzes_like`).
 
@@ -23,6 +25,7 @@ from ringsim.testing.gravity import (
     tree_accelerations,
     tree_simulation,
 )
+from ringsim.testing.resume import assert_resumes_bit_for_bit
 from ringsim.testing.synthetic_restitution import hatzes_like_csv, write_hatzes_like
 from ringsim.testing.twins import (
     OVERLAP_CHUNK,
@@ -37,6 +40,7 @@ __all__ = [
     "OVERLAP_CHUNK",
     "PythonReferenceResolver",
     "accelerations",
+    "assert_resumes_bit_for_bit",
     "count_overlaps_numpy",
     "force_errors",
     "hatzes_like_csv",
