@@ -133,7 +133,7 @@ def condense(obs: Mapping, wake_significant: bool | None) -> dict:
 
 def occultation_summary(run, wake_significant: bool | None) -> dict:
     """The ``occultation`` of a run's summary: ``ringsim observe``'s defaults over the
-    equilibrium window (``analysis.observe.observe``), `condense`d."""
+    equilibrium window (``analysis.observe.observe``), condensed by `condense`."""
     from ringsim.analysis.observe import observe
 
     return condense(observe(run), wake_significant)
