@@ -285,7 +285,7 @@ def plot(results: list[dict], path: Path) -> None:
     import matplotlib.pyplot as plt
 
     n = np.array([r["n"] for r in results], float)
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    fig, ax = plt.subplots(figsize=(6.4, 5.6))
     for threads, marker in (("1", "o"), ("2", "s")):
         median = np.array([r["wall_ns"][threads] for r in results])
         low = np.array([min(x["wall_ns"] for x in r["loops"][threads]) for r in results])
@@ -310,7 +310,12 @@ def plot(results: list[dict], path: Path) -> None:
     ax.set_xlabel("particles N")
     ax.set_ylabel("time per particle-step [ns]")
     ax.set_title("Whole run loop, line mode, tau = 0.25, 0.5-5 m")
-    ax.legend(fontsize=7, loc="upper left")
+    ticks = [100, 150, 200, 300, 500, 700, 1000]
+    ax.set_yticks(ticks)
+    ax.set_yticklabels([str(t) for t in ticks])
+    ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2,
+              frameon=False)
     ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
