@@ -70,3 +70,24 @@ def test_no_folder_of_bespoke_drivers():
         text = page.read_text()
         for path in re.findall(r"(?<![\w/])analysis/[\w./*-]+", text):
             assert (ROOT / path.rstrip(".")).exists() or path.endswith(".py"), (page, path)
+
+
+@pytest.mark.parametrize("study", STUDIES, ids=[s.name for s in STUDIES])
+def test_every_committed_summary_is_of_a_run_the_study_asks_for(study):
+    """No orphan summaries: each file of ``summaries/`` is the summary of a run of the study's
+    full or quick form (a summary left from a changed study file would be carried along
+    unseen)."""
+    import subprocess
+
+    from ringsim.config.study import load_study
+    from ringsim.study.runs import collect
+
+    spec = load_study(study / "study.yaml")
+    wanted = set(collect(spec.specs(False))[0])
+    if spec.quick_mode is not None:
+        wanted |= set(collect(spec.specs(True))[0])
+    tracked = subprocess.run(["git", "ls-files", "summaries"], cwd=study, text=True,
+                             capture_output=True, check=False).stdout.split()
+    names = ({Path(p).stem for p in tracked} if tracked else
+             {p.stem for p in (study / "summaries").glob("*.json")})
+    assert names <= wanted, sorted(names - wanted)
