@@ -103,6 +103,16 @@ def replica_groups(equilibria: Sequence[Mapping]) -> list[list[int]]:
     return list(groups.values())
 
 
+def replica_value(entry: Mapping) -> dict:
+    """One replica's ``{"mean", "stderr", "units"}`` as `replica_mean` takes it, from a JSON
+    entry whose non-finite numbers were written as null (read back as NaN)."""
+    def number(x) -> float:
+        return math.nan if x is None else float(x)
+
+    return {"mean": number(entry.get("mean")), "stderr": number(entry.get("stderr")),
+            "units": entry.get("units", "")}
+
+
 def replica_mean(values: Sequence[Mapping]) -> dict:
     """Mean of replica values ``{"mean", "stderr", "units"}`` with the larger of the
     propagated error and the seed-to-seed standard error of the mean."""

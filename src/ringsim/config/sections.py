@@ -155,7 +155,7 @@ class SheetConfig:
         d: dict[str, Any] = {"gravity_solver": self.gravity_solver}
         for key, par in SOLVER_PARAMETERS.items():   # the solvers' keys, None where not used
             value = getattr(self, key)
-            if value is not None and not (par.implicit_at_default and value == par.default):
+            if value is not None and not par.implied(value):
                 d[key] = value
         return d
 

@@ -103,6 +103,11 @@ class Parameter:
         if self.example is None and (self.default is None or self.default == AUTO):
             raise ValueError(f"{self.name}: without a numeric default it needs an example value")
 
+    def implied(self, value: Any) -> bool:
+        """Whether a resolved scenario leaves ``value`` out: the parameter is declared
+        ``implicit_at_default`` and ``value`` is its default."""
+        return self.implicit_at_default and value == self.default
+
     @property
     def required(self) -> bool:
         return self.default is None
@@ -260,9 +265,8 @@ class Law:
     def explicit(self, values: Mapping[str, float]) -> dict[str, float]:
         """``values`` without the parameters declared ``implicit_at_default`` that have
         their default: what a resolved scenario records."""
-        implicit = {p.name for p in self.parameters
-                    if p.implicit_at_default and values.get(p.name) == p.default}
-        return {k: v for k, v in values.items() if k not in implicit}
+        implied = {p.name for p in self.parameters if p.implied(values.get(p.name))}
+        return {k: v for k, v in values.items() if k not in implied}
 
     def pack(self, values: Mapping[str, float], n_slots: int) -> tuple[float, ...]:
         """The C struct's ``param[n_slots]``: each value in its slot, unused slots 0."""

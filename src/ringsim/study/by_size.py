@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 
-from ringsim.analysis import budget
+from ringsim.analysis import budget, compare
 
 #: Full vertical thickness of Saturn's dense rings [m]: "a few to about ten metres"; the
 #: A ring's self-gravity wakes have height/width 0.15-0.37 (Colwell et al. 2006, GRL 33,
@@ -24,11 +24,10 @@ from ringsim.analysis import budget
 SATURN_FULL_THICKNESS = 10.0
 #: Full thickness of a uniform layer of rms height H: 2 sqrt(3) H.
 FULL_PER_RMS = 2.0 * math.sqrt(3.0)
-#: The thicknesses kept, by weighting: summary key -> (equilibrium key, what it counts).
-WEIGHTINGS = {"number": ("thickness", "every particle alike"),
-              "mass": ("thickness_mass_weighted", "each particle by its mass"),
-              "optical_depth": ("thickness_cross_section_weighted",
-                                "each particle by its cross section, as an occultation")}
+#: The thicknesses kept, by weighting (every particle alike, by its mass, by its cross
+#: section as an occultation): summary key -> equilibrium key.
+WEIGHTINGS = {"number": "thickness", "mass": "thickness_mass_weighted",
+              "optical_depth": "thickness_cross_section_weighted"}
 #: The law-range shares kept (fractions of the equilibrium window's impacts).
 LAW_SHARES = ("outside_speeds", "speeds_below", "speeds_above", "outside_sizes",
               "sizes_below", "sizes_above", "outside_masses", "masses_below", "masses_above",
@@ -40,10 +39,7 @@ def _number(x) -> float:
 
 
 def _kept(value: Mapping | None) -> dict | None:
-    if not value:
-        return None
-    return {"mean": _number(value.get("mean")), "stderr": _number(value.get("stderr")),
-            "units": value.get("units", "")}
+    return budget.replica_value(value) if value else None
 
 
 def size_summary(eq: Mapping) -> dict | None:
@@ -59,7 +55,7 @@ def size_summary(eq: Mapping) -> dict | None:
                   "mean_mass": _number(b["mean_mass"]["mean"]),
                   "velocity_dispersion": _kept(b["velocity_dispersion"]),
                   "thickness": _kept(b["thickness"])} for b in bins],
-        "thickness": {w: _kept(eq.get(key)) for w, (key, _) in WEIGHTINGS.items()},
+        "thickness": {w: _kept(eq.get(key)) for w, key in WEIGHTINGS.items()},
         "layers": {name: {"r_low": segregation[name]["r_low"],
                           "r_high": segregation[name]["r_high"],
                           "thickness": _kept(segregation[name]["thickness"])}
@@ -88,11 +84,11 @@ def _seed_mean(values: Sequence[Mapping | None]) -> dict | None:
 
 
 def _ratio(a: Mapping | None, b: Mapping | None) -> dict | None:
+    """a / b (``analysis.compare.ratio``) with its error as ``stat``; None without both."""
     if a is None or b is None or not b["mean"]:
         return None
-    mean = a["mean"] / b["mean"]
-    rel = math.hypot(a["stderr"] / a["mean"] if a["mean"] else 0.0, b["stderr"] / b["mean"])
-    return {"mean": mean, "stat": abs(mean) * rel, "units": "dimensionless"}
+    r = compare.ratio(dict(a), dict(b))
+    return {"mean": r["mean"], "stat": r["stderr"], "units": r["units"]}
 
 
 def case_by_size(summaries: Sequence[Mapping]) -> dict | None:

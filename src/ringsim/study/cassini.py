@@ -158,9 +158,7 @@ def _seed_value(summary: Mapping, quantity: str) -> dict:
         entry = rows[0][quantity] if rows else None
     if entry is None:
         return _value(math.nan, math.nan, "dimensionless")
-    return {"mean": math.nan if entry["mean"] is None else float(entry["mean"]),
-            "stderr": math.nan if entry["stderr"] is None else float(entry["stderr"]),
-            "units": entry["units"]}
+    return budget.replica_value(entry)
 
 
 def _overlaps(value: Mapping, published: Mapping) -> bool:

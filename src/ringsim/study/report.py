@@ -60,18 +60,10 @@ SYSTEMATICS = ("each variant reruns the cases of the ratios with the variant see
                "null: no variant measured it")
 
 
-def _value(entry: Mapping) -> dict:
-    """A summary's ``{"mean", "stderr", "units"}`` with null read as NaN."""
-    def number(x) -> float:
-        return math.nan if x is None else float(x)
-
-    return {"mean": number(entry.get("mean")), "stderr": number(entry.get("stderr")),
-            "units": entry.get("units", "")}
-
-
 def seed_mean(summaries: Sequence[Mapping], quantity: str) -> dict:
     """The mean of one quantity over the runs of a case (``budget.replica_mean``)."""
-    return budget.replica_mean([_value(s["equilibrium"][quantity]) for s in summaries])
+    return budget.replica_mean([budget.replica_value(s["equilibrium"][quantity])
+                                for s in summaries])
 
 
 def _run_entry(seed: int, rid: str, summary: Mapping) -> dict:

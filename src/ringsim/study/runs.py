@@ -208,8 +208,8 @@ class RunTask:
         CPU time of the sessions that made the run before (from the summary of its shorter
         form), added to this session's.
     cost : dict or None
-        The ``cost`` of a summary being completed (``occultation`` added from the finished
-        run file), kept as it is.
+        The ``cost`` of a summary being remade from the finished run file (to add
+        ``occultation``, or with ``resummarise``), kept as it is.
     """
 
     run_id: str
