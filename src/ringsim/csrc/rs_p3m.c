@@ -127,41 +127,27 @@ static int rs_p3m_threads(const struct rs_p3m* p, size_t n){
     return most < (size_t)wanted ? (most > 1 ? (int)most : 1) : wanted;
 }
 
+/* Lowest and highest particle heights [m] (both 0 without particles). */
+static void rs_p3m_z_range(const struct reb_simulation* const r, double* zmin, double* zmax){
+    const size_t n = r->N - r->N_var;
+    const struct reb_particle* const ps = r->particles;
+    *zmin = 0.0;
+    *zmax = 0.0;
+    for (size_t k = 0; k < n; k++){
+        if (k == 0 || ps[k].z < *zmin) *zmin = ps[k].z;
+        if (k == 0 || ps[k].z > *zmax) *zmax = ps[k].z;
+    }
+}
+
 /* Height span zmax - zmin [m] of the particles (0 for fewer than two), and their number in
  * *count: what the layers must span, from which ringsim.gravity.p3m chooses the split scale
  * of `sheet.p3m_split: auto` (ringsim.physics.p3m_scales.p3m_auto_split) before
  * rs_p3m_prepare. */
 double rs_p3m_height_span(const struct reb_simulation* const r, int* count){
-    const size_t n = r->N - r->N_var;
-    *count = (int)n;
-    const struct reb_particle* const ps = r->particles;
-    double zmin = 0.0, zmax = 0.0;
-    for (size_t k = 0; k < n; k++){
-        if (k == 0 || ps[k].z < zmin) zmin = ps[k].z;
-        if (k == 0 || ps[k].z > zmax) zmax = ps[k].z;
-    }
+    *count = (int)(r->N - r->N_var);
+    double zmin, zmax;
+    rs_p3m_z_range(r, &zmin, &zmax);
     return zmax - zmin;
-}
-
-/* Set shift, alpha, z0 and nz for the current state; returns nz. */
-int rs_p3m_prepare(struct reb_simulation* const r, struct rs_p3m* p){
-    const size_t n = r->N - r->N_var;
-    const struct reb_particle* const ps = r->particles;
-    const double Lx = r->root_size * (double)r->N_root_x;
-    const double Ly = r->root_size * (double)r->N_root_y;
-    p->shift = rs_p3m_shift(r->OMEGA, Lx, Ly, r->t);
-    p->alpha = p->shift / Lx;
-    double zmin = 0.0, zmax = 0.0;
-    for (size_t k = 0; k < n; k++){
-        if (k == 0 || ps[k].z < zmin) zmin = ps[k].z;
-        if (k == 0 || ps[k].z > zmax) zmax = ps[k].z;
-    }
-    const double l0 = floor(zmin / p->dz);
-    p->z0 = l0 * p->dz;
-    p->nz = (int)(floor(zmax / p->dz) - l0) + 2;
-    p->zlo = zmin;
-    p->zhi = zmax;
-    return p->nz;
 }
 
 /* Set shift, alpha, z0 and nz for a mesh that spans the heights [zlo, zhi] [m] only (the
@@ -180,6 +166,14 @@ int rs_p3m_prepare_core(struct reb_simulation* const r, struct rs_p3m* p, double
     p->zlo = zlo;
     p->zhi = zhi;
     return p->nz;
+}
+
+/* Set shift, alpha, z0 and nz for the current state, the layers spanning every particle;
+ * returns nz. */
+int rs_p3m_prepare(struct reb_simulation* const r, struct rs_p3m* p){
+    double zmin, zmax;
+    rs_p3m_z_range(r, &zmin, &zmax);
+    return rs_p3m_prepare_core(r, p, zmin, zmax);
 }
 
 /* The particles' heights z [m] into out (N values, REBOUND's order). */
