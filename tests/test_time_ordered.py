@@ -299,3 +299,41 @@ def test_perfectly_inelastic_chain_is_cut_and_conserves_momentum():
     np.testing.assert_allclose(1e3 * state[:, 3].sum(), 1e3 * speed, rtol=1e-14)
     assert np.all(np.diff(state[:, 0]) >= 2.0 - 1e-9), "in order, not overlapping"
     assert handle.order_stats()["saturated"] == 1, "B reached the contact cap (once)"
+
+
+# --- a large particle among grains -----------------------------------------------------------
+
+def test_large_particle_meets_more_grains_than_the_cap_in_one_step():
+    """A 2 m boulder crosses a lattice of 1 cm grains at rest and meets about a hundred of
+    them in one step.  The contact cap counts only the contacts that deflect a particle
+    (a partner of at least a tenth of the pair's mass): the boulder, hardly turned by any
+    grain, keeps meeting them, and after the step no grain is left inside it (overlap at
+    most round-off, 1e-12 of the sum of the radii), momentum conserved to 1e-12 of
+    sum(m |v|).  Counting every contact, the boulder would stop at the cap and the grains
+    after it would pass into it."""
+    dt, speed = 100.0, 0.1                     # [s], [m/s]: the boulder moves 10 m
+    sim = empty_box(60.0, dt)
+    sim.add(m=1e7, r=2.0, x=-8.0, vx=speed)    # [kg], [m] ~ porous ice
+    grid = np.arange(-1.75, 1.76, 0.5)         # [m] grains across the boulder's path
+    for x in np.arange(-5.5, 7.0, 0.5):
+        for y in grid:
+            for z in grid:
+                sim.add(m=2e-3, r=0.01, x=x, y=y, z=z)
+    handle = install_resolver(sim, EPS_HALF, collision_detection="line")
+    state = phase_space(sim)
+    end = state.copy()
+    end[:, :3] += dt * state[:, 3:]            # the end of a step that started apart
+    sim.set_serialized_particle_data(xyz=np.ascontiguousarray(end[:, :3]))
+    masses = np.array([p.m for p in sim.particles])
+    radii = np.array([p.r for p in sim.particles])
+    momentum = masses @ end[:, 3:]
+
+    resolve_one_step(sim, handle)
+    after = phase_space(sim)
+    assert handle.stats()["count"] > 3 * 32, "more grains met than the cap"
+    scale = masses @ np.abs(end[:, 3:]).sum(axis=1)
+    np.testing.assert_allclose(masses @ after[:, 3:], momentum, rtol=0, atol=1e-12 * scale)
+    d = after[1:, :3] - after[0, :3]
+    depth = (radii[1:] + radii[0] - np.sqrt(np.sum(d * d, axis=1))) / (radii[1:] + radii[0])
+    assert depth.max() <= 1e-12, f"{np.sum(depth > 1e-12)} grains inside the boulder"
+    assert handle.order_stats()["saturated"] == 0

@@ -186,10 +186,6 @@ enum RS_MODEL {
 #define RS_EPS_LOG10_MIN (-4.0)
 #define RS_BINS_PER_DECADE 10.0
 
-/* A collision deflects a particle (for multi_encounters) when the partner carries at least
- * this share of the pair's mass (also MULTI_ENCOUNTER_MASS_SHARE in ringsim/engine/timestep.py). */
-#define RS_DEFLECTING_MASS_SHARE 0.1
-
 /* Round-off floor of the approach test, in units of the summed |velocity components|. */
 #define RS_ROUNDOFF_SPEED (64.0 * DBL_EPSILON)
 

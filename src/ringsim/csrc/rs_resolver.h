@@ -18,6 +18,10 @@
 #define RS_VN_NBINS 90          /* log10 v from -7 to 2, 10 bins per decade */
 #define RS_LAW_PARAMS 4         /* param[] slots of a restitution law (RESTITUTION.n_slots) */
 #define RS_EPS_NBINS 40         /* log10(1 - eps) from -4 to 0, 10 bins per decade */
+/* A collision deflects a particle when the partner carries at least this share of the
+ * pair's mass (multi_encounters; the sheet detector's contacts per step; also
+ * MULTI_ENCOUNTER_MASS_SHARE in ringsim/engine/timestep.py). */
+#define RS_DEFLECTING_MASS_SHARE 0.1
 
 struct rs_log_entry {
     double t;           /* [s] simulation time of the collision */

@@ -141,8 +141,13 @@
  *    takes the place of rs_resolver.c's per-step pair memory (one resolution per pair and
  *    step, REBOUND's searches) and keeps eps = 0 (grazing) pairs from resolving again and
  *    again.  Chains of contacts in one step, which for small eps can in
- *    principle be infinite (inelastic collapse), are cut: a particle with RS_MAX_CONTACTS
- *    resolved contacts in a step gets no more in that step.
+ *    principle be infinite (inelastic collapse), are cut: a particle deflected in
+ *    RS_MAX_CONTACTS contacts of a step gets no more in that step.  A contact deflects a
+ *    particle when its partner carries at least RS_DEFLECTING_MASS_SHARE of the pair's
+ *    mass (rs_resolver.h): a collapse needs particles of comparable mass turning each
+ *    other back, while a metre-sized particle in a layer of centimetre grains meets
+ *    hundreds of them in one step without being turned by any; were those counted, its
+ *    later grains would pass into it unresolved.
  * No shuffle and no random numbers: sim.rand_seed is not used and does not advance.
  *
  * Parameters: none beyond the simulation's (box, OMEGA, boundary, dt_last_done, t) and the
@@ -172,8 +177,8 @@
  *   crossings (how often: docs/performance.md, "Hot rings: line vs tree").  Such a cut
  *   re-check, and one that reaches beyond half the box, looks at whole cells, which differ
  *   between one grid and the class grids: only there can the two searches differ.
- * - A particle has at most RS_MAX_CONTACTS contacts resolved per step; further contacts of
- *   that step are left to the next step (counted).
+ * - A particle has at most RS_MAX_CONTACTS deflecting contacts resolved per step (Method
+ *   8); further contacts of that step are left to the next step (counted).
  * - Pairs touching at the start of the step are resolved then if they approach (with
  *   REBOUND's minimum_collision_velocity floor for overlaps), else left alone.
  * - Particles outside the box (not yet wrapped: detection runs before REBOUND's boundary
@@ -237,7 +242,7 @@ struct rs_sheet_particle {
 struct rs_sheet_track {
     double deviation;       /* [m] D of Method 7: bound on the distance from its first path */
     int64_t last;           /* serial of its last collision in this step, 0: none */
-    int64_t contacts;       /* collisions resolved in this step */
+    int64_t contacts;       /* collisions in this step that deflected it (Method 8) */
     int64_t saved;          /* 1 + its slot in d->saved, 0: not saved (not collided) */
 };
 
@@ -322,7 +327,8 @@ struct rs_sheet_detector {
     int64_t rechecks;               /* neighbour searches after a collision */
     int64_t wide_rechecks;          /* of which over more than s */
     int64_t span_limited;           /* of which cut at RS_MAX_SPAN s */
-    int64_t saturated;              /* particles that reached RS_MAX_CONTACTS in a step */
+    int64_t saturated;              /* particles that reached RS_MAX_CONTACTS deflecting
+                                     * contacts in a step */
 };
 
 static void rs_sheet_detector_free(struct rs_sheet_detector* d){
@@ -1189,10 +1195,11 @@ static int rs_sheet_find_pairs(struct reb_simulation* const r, struct rs_sheet_d
     return RS_DETECT_OK;
 }
 
-/* Method 6-7 after a collision of particle q: its deviation, then its new contacts within
- * the last `window` of the step.  Returns 0 if memory ran out. */
+/* Method 6-7 after a collision of particle q with `partner`: its deviation, its count of
+ * deflecting contacts (Method 8), then its new contacts within the last `window` of the
+ * step.  Returns 0 if memory ran out. */
 static int rs_after_collision(const struct reb_simulation* const r, struct rs_sheet_detector* d,
-                              int64_t q, double window){
+                              int64_t q, int64_t partner, double window){
     struct rs_sheet_track* t = &d->track[q];
     const struct rs_sheet_particle state = rs_before(d, q);
     const struct rs_sheet_particle* const before = &state;
@@ -1204,9 +1211,12 @@ static int rs_after_collision(const struct reb_simulation* const r, struct rs_sh
     t->deviation = fmax(t->deviation, deviation);
     d->deviation_max = fmax(d->deviation_max, t->deviation);
     t->last = d->serial;
-    t->contacts++;
+    const double m = r->particles[q].m;
+    const double m_partner = r->particles[partner].m;
+    const int deflected = m_partner >= RS_DEFLECTING_MASS_SHARE * (m + m_partner);
+    t->contacts += deflected;
     if (t->contacts >= RS_MAX_CONTACTS){
-        d->saturated += t->contacts == RS_MAX_CONTACTS;
+        d->saturated += deflected && t->contacts == RS_MAX_CONTACTS;
         return 1;
     }
     const struct rs_sheet_grid* g = &d->grid;
@@ -1306,8 +1316,8 @@ void rs_sheet_step(struct reb_simulation* const r){
         d->serial++;
         d->resolved++;
         d->rescheduled += e.last1 != 0 || e.last2 != 0;
-        if (!rs_after_collision(r, d, p1, e.back_time)
-            || !rs_after_collision(r, d, p2, e.back_time)){
+        if (!rs_after_collision(r, d, p1, p2, e.back_time)
+            || !rs_after_collision(r, d, p2, p1, e.back_time)){
             d->error = RS_DETECT_NO_MEMORY;
         }
     }
