@@ -13,6 +13,7 @@ import sys
 import threading
 import time
 
+import h5py
 import numpy as np
 import pytest
 
@@ -384,3 +385,59 @@ def test_study_killed_alone_leaves_no_process_and_the_rerun_finishes(tmp_path):
     assert main(["study", str(tmp_path / "study.yaml"), "--workers", "2",
                  "--out", str(out)]) == 0
     assert (out / "report.json").exists()
+
+
+#: Runs a scenario with checkpoints on wall time at every output (CHECKPOINT_WALL_INTERVAL
+#: 0 s instead of 600 s, so that the test needs no ten minutes).
+WALL_CHECKPOINT_SCRIPT = """
+import sys
+from ringsim.engine import runner
+from ringsim.cli import main
+runner.CHECKPOINT_WALL_INTERVAL = 0.0
+sys.exit(main(["run", sys.argv[1], "-o", sys.argv[2], "--no-progress"]))
+"""
+
+
+def _checkpoint_time(path) -> float:
+    """t [s] of the last checkpoint of a run file being written (-1 if none yet): read
+    past the writer's lock, which the atomic commits (copy and rename) allow."""
+    try:
+        with h5py.File(path, "r") as f:
+            return float(f["checkpoint"].attrs["t"]) if "checkpoint" in f else -1.0
+    except OSError:         # not there yet, or renamed in the moment
+        return -1.0
+
+
+def test_run_killed_without_signal_resumes_from_its_last_wall_time_checkpoint(
+        tmp_path, stops_scenario):
+    """SIGKILL (no final checkpoint) to a run whose only orbit-scheduled checkpoint is at its
+    start: with checkpoints on wall time the file keeps a checkpoint past its start, and
+    --resume finishes a run equal (==) to the uninterrupted one."""
+    sc = stops_scenario(**{"integration.orbits": 0.6, "sheet.n_particles": 100,
+                           "output.checkpoint_every": 10.0})
+    scenario_file = tmp_path / "s.yaml"
+    scenario_file.write_text(sc.to_yaml())
+    reference = ringsim.run(sc, output=tmp_path / "ref.h5", progress=False)
+    path = tmp_path / "killed.h5"
+    proc = subprocess.Popen([sys.executable, "-c", WALL_CHECKPOINT_SCRIPT, str(scenario_file),
+                             str(path)], cwd=tmp_path, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while proc.poll() is None and time.monotonic() < deadline:
+        if _checkpoint_time(path) > 0.1 * sc.orbital_period:
+            break
+        time.sleep(0.05)
+    assert proc.poll() is None, "the run ended before the kill"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=60)
+    kept = runfile.read_checkpoint(path)
+    assert kept is not None
+    assert 0.1 * sc.orbital_period < kept.state["t"] < 0.5 * sc.orbital_period, \
+        "a checkpoint within the run, not its final one"
+    assert ringsim.open_run(path).attrs["status"] == "running"
+    assert main(["run", str(scenario_file), "-o", str(path), "--resume",
+                 "--no-progress"]) == 0
+    ref, res = run_file_datasets(reference), run_file_datasets(path)
+    assert ref.keys() == res.keys()
+    for name in ref:
+        assert ref[name] == res[name], f"{name} differs from the uninterrupted run"

@@ -12,7 +12,8 @@ Order of work at every time-series output (every ``output.timeseries_every`` orb
    half z period; ``dt: auto`` re-chooses the step as the ring heats (a fixed step that
    breaks dt << r/v is reported); deep overlaps are counted;
 3. at every ``snapshot_every`` a snapshot, at every ``checkpoint_every`` a checkpoint
-   (``engine.checkpoint``, with the resolver's open-interval statistics); rows, guard
+   (``engine.checkpoint``, with the resolver's open-interval statistics), and one at the
+   first output after CHECKPOINT_WALL_INTERVAL of wall time without; rows, guard
    events, snapshot and checkpoint of an output are one atomic commit
    (``store.runfile.RunFileWriter``).
 
@@ -63,6 +64,10 @@ WRITE_INTERVAL = 2.0
 #: A commit copies the run file (crash consistency, ``store.runfile``): rows alone are
 #: written no more often than this share of wall time allows.
 COMMIT_COST_SHARE = 0.02
+#: A checkpoint is also written at the first output after this much wall time [s] since
+#: the last one, so that a run killed without a signal (SIGKILL, a machine's end) loses at
+#: most about this much work; where checkpoints fall changes no result (resumes are exact).
+CHECKPOINT_WALL_INTERVAL = 600.0
 
 
 def _interval_index(t: float, every: float) -> int:
@@ -99,6 +104,7 @@ class Runner:
         self.last_write = time.perf_counter()
         self.commit_cost = 0.0  # wall time [s] of the last commit
         self.wall_start = time.perf_counter()
+        self.last_checkpoint_wall = self.wall_start   # perf_counter() of the last checkpoint
         self.wall_before = 0.0  # wall time [s] of earlier sessions of this run
         # c and H so far (number- and mass-weighted), for until_equilibrium: orbits
         # [orbits], c [m/s], H [m]
@@ -315,10 +321,14 @@ class Runner:
             snap = (self.state.snapshots, t, arrays)
             self.state.snapshots += 1
         if first or _interval_index(t, self.ckpt_every) > _interval_index(
-                t - self.ts_every, self.ckpt_every):
+                t - self.ts_every, self.ckpt_every) or self._checkpoint_due():
             self.checkpoint(snapshot=snap)
         elif snap is not None or self._rows_due():
             self._commit(snapshot=snap)
+
+    def _checkpoint_due(self) -> bool:
+        """CHECKPOINT_WALL_INTERVAL of wall time passed since the last checkpoint."""
+        return time.perf_counter() - self.last_checkpoint_wall > CHECKPOINT_WALL_INTERVAL
 
     def _rows_due(self) -> bool:
         """Time to write the gathered rows: WRITE_INTERVAL passed, and at least
@@ -346,7 +356,8 @@ class Runner:
         """Commit the pending rows, events, ``snapshot`` and a checkpoint of the current
         state (REBOUND binary, loop counters, resolver statistics, momentum reference)."""
         attributes = dict(attributes or {})
-        attributes["wall_time_s"] = self.wall_before + time.perf_counter() - self.wall_start
+        self.last_checkpoint_wall = time.perf_counter()
+        attributes["wall_time_s"] = self.wall_before + self.last_checkpoint_wall - self.wall_start
         self._commit(snapshot=snapshot, attributes=attributes,
                      checkpoint=checkpoint_of(self.sim, self.state, self.geometry,
                                               self.n_particles, self.momentum, self.handle))
