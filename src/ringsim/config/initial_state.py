@@ -22,8 +22,9 @@ from ringsim.config.schema import Section, show
 INITIAL_STATE_SUFFIXES = {".h5": "run", ".hdf5": "run", ".csv": "csv"}
 #: Keys of ``sheet`` that the file replaces (radii, positions and velocities come from it;
 #: a run file also gives the box), by kind of file.
-_REPLACED_BY_FILE = {"run": ("optical_depth", "n_particles", "aspect", "initial_dispersion"),
-                     "csv": ("n_particles", "initial_dispersion")}
+_REPLACED_BY_FILE = {"run": ("optical_depth", "n_particles", "aspect", "initial_dispersion",
+                             "initial_toomre_q"),
+                     "csv": ("n_particles", "initial_dispersion", "initial_toomre_q")}
 
 
 @dataclass(frozen=True)

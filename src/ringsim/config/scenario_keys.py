@@ -64,7 +64,7 @@ SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "planet": ("Omega", "GM", "a"),
     "particles": ("density", "size_distribution", "inertia_factor"),
     "sheet": ("optical_depth", "n_particles", "aspect", "gravity", "gravity_solver",
-              *SOLVER_KEYS, "initial_dispersion", "z_box", "initial_state"),
+              *SOLVER_KEYS, "initial_dispersion", "initial_toomre_q", "z_box", "initial_state"),
     "integration": ("orbits", "dt", "dt_safety", "collision_detection", "until_equilibrium",
                     "threads"),
     "output": ("path", "timeseries_every", "snapshot_every", "checkpoint_every",
@@ -225,6 +225,15 @@ def read_sheet(top: Section) -> SheetConfig:
     d = DEFAULTS
     grav = read_gravity_keys(sec, d)
     initial_state = read_initial_state(sec)
+    initial_toomre_q = None
+    if sec.has("initial_toomre_q"):
+        if not grav["gravity"]:
+            raise sec.error("initial_toomre_q", "only used with self-gravity",
+                            "set sheet.gravity: true, or use sheet.initial_dispersion")
+        if sec.has("initial_dispersion"):
+            raise sec.error("initial_toomre_q", "given with sheet.initial_dispersion",
+                            "one of initial_toomre_q and initial_dispersion")
+        initial_toomre_q = sec.number("initial_toomre_q", unit="", gt=0.0)
     return SheetConfig(
         optical_depth=sec.number("optical_depth", d["sheet.optical_depth"], gt=0.0,
                                  le=MAX_OPTICAL_DEPTH),
@@ -232,6 +241,7 @@ def read_sheet(top: Section) -> SheetConfig:
         aspect=sec.number("aspect", d["sheet.aspect"], gt=0.0),
         initial_dispersion=sec.number("initial_dispersion", d["sheet.initial_dispersion"],
                                       unit="mean radius x Omega", ge=0.0),
+        initial_toomre_q=initial_toomre_q,
         z_box=sec.number_or_auto("z_box", d["sheet.z_box"], unit="mean radii", gt=0.0),
         initial_state=initial_state,
         **grav,

@@ -119,6 +119,9 @@ class SheetConfig:
         None without the tree.
     initial_dispersion : float [mean radius x Omega]
         Initial 1-D velocity dispersion relative to the shear flow.
+    initial_toomre_q : float [-] or None
+        With self-gravity: the initial 1-D velocity dispersion instead as Toomre's Q of the
+        sheet, c = Q 3.36 G Sigma / Omega (replaces initial_dispersion); None: not used.
     p3m_split : float [m] or "auto" or None
         Split scale of the P3M solver; "auto" follows the layer's height span; None
         without P3M.
@@ -142,6 +145,7 @@ class SheetConfig:
     initial_dispersion: float
     z_box: float | str
     initial_state: InitialStateFile | None = None
+    initial_toomre_q: float | None = None
     gravity_solver: str | None = None
     p3m_split: float | str | None = None
     p3m_pair_min_radius: float | None = None
@@ -166,7 +170,10 @@ class SheetConfig:
         if self.initial_state is not None:
             return sheet_dict_with_file(self, d)
         d.update(self.gravity_dict())
-        d["initial_dispersion"] = self.initial_dispersion
+        if self.initial_toomre_q is not None:
+            d["initial_toomre_q"] = self.initial_toomre_q
+        else:
+            d["initial_dispersion"] = self.initial_dispersion
         d["z_box"] = self.z_box
         return d
 

@@ -63,7 +63,8 @@ def continuation_scenario(run, index: int):
     """The run's scenario started from its snapshot ``index`` (``sheet.initial_state``)."""
     index = _snapshot_index(run, index)
     d = run.scenario.to_dict()
-    for key in ("optical_depth", "n_particles", "aspect", "initial_dispersion"):
+    for key in ("optical_depth", "n_particles", "aspect", "initial_dispersion",
+                "initial_toomre_q"):
         d["sheet"].pop(key, None)
     d["sheet"]["initial_state"] = {"file": str(Path(run.path).resolve()), "snapshot": index}
     return scenario_from_dict(d, source=str(run.path))

@@ -34,6 +34,7 @@ from ringsim.gravity.registry import (
     scenario_gravity_arguments,
 )
 from ringsim.physics.constants import SHEAR
+from ringsim.physics.gravity import toomre_dispersion
 from ringsim.physics.sizes import size_bin_edges
 
 #: A particle's vertical amplitude may reach this fraction of the half z period.
@@ -304,7 +305,7 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
         rng = np.random.default_rng(scenario.seed)
         radii = scenario.particles.size_distribution.draw_radii(sheet_cfg.n_particles, rng)
         masses = scenario.particles.density * 4.0 / 3.0 * np.pi * radii**3
-        dispersion = sheet_cfg.initial_dispersion * float(radii.mean()) * Omega
+        dispersion = initial_dispersion(sheet_cfg, radii, masses, Omega)
         geometry, t0, spins = None, 0.0, None
     z_half = initial_z_half_height(sheet_cfg, float(radii.mean()), dispersion, Omega,
                                    r_max=float(radii.max()),
@@ -400,6 +401,25 @@ def initial_z_half_height(sheet_cfg, r_mean: float, dispersion: float, Omega: fl
     return (max(50.0 * r_mean, 20.0 * r_max, 20.0 * dispersion / Omega,
                 EQUILIBRIUM_AMPLITUDES * expected_dispersion / Omega)
             / VERTICAL_GUARD_FRACTION)
+
+
+def initial_dispersion(sheet_cfg, radii: np.ndarray, masses: np.ndarray,
+                       Omega: float) -> float:
+    """Initial 1-D velocity dispersion relative to the shear flow [m/s] of a drawn sheet:
+    ``initial_toomre_q`` Q with the sheet's surface density Sigma = tau sum(m) /
+    sum(pi r^2) [kg/m^2] (the box holds the particles at the optical depth tau), else
+    ``initial_dispersion`` mean radii x Omega.
+
+    Parameters
+    ----------
+    radii : array [m]
+    masses : array [kg]
+    Omega : float [1/s]
+    """
+    if sheet_cfg.initial_toomre_q is not None:
+        Sigma = sheet_cfg.optical_depth * float(masses.sum()) / float(np.pi * np.sum(radii**2))
+        return float(toomre_dispersion(sheet_cfg.initial_toomre_q, Sigma, Omega))
+    return sheet_cfg.initial_dispersion * float(radii.mean()) * Omega
 
 
 def minimum_collision_velocity(radii: np.ndarray, Omega: float) -> float:

@@ -177,6 +177,19 @@ def toomre_q(sigma_x, Sigma, Omega, G: float = G_SI):
     return np.asarray(sigma_x) * np.asarray(Omega) / (TOOMRE_STELLAR * G * np.asarray(Sigma))
 
 
+def toomre_dispersion(Q, Sigma, Omega, G: float = G_SI):
+    """Radial velocity dispersion [m/s] at which a sheet has Toomre parameter Q (the inverse
+    of :func:`toomre_q`): sigma_x = Q 3.36 G Sigma / Omega.
+
+    Parameters
+    ----------
+    Q : array [dimensionless]
+    Sigma : array [kg/m^2]
+    Omega : array [1/s]
+    """
+    return np.asarray(Q) * TOOMRE_STELLAR * G * np.asarray(Sigma) / np.asarray(Omega)
+
+
 def escape_speed(radius, density, G: float = G_SI):
     """Escape speed sqrt(2 G m / r) from the surface of a sphere [m/s].
 

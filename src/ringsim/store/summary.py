@@ -57,6 +57,7 @@ _PARAMETER_UNITS: dict[str, str] = {
     "sheet.aspect": "dimensionless", "sheet.gravity": "boolean", "sheet.gravity_solver": "text",
     "sheet.softening": "m",
     "sheet.opening_angle": "rad", "sheet.initial_dispersion": "mean radius x Omega",
+    "sheet.initial_toomre_q": "dimensionless",
     "sheet.z_box": "mean radii",
     "restitution.model": "text",
     # every restitution parameter, with the unit of its declaration
