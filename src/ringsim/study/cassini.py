@@ -63,7 +63,8 @@ RULE = ("a case is consistent with a ring when analyze finds a significant wake 
         "values constrain overlaps the published range: for the A ring H/W and the wake "
         "angle from radial, for the B ring H/W and the gap optical depth; excluded when it "
         "is consistent with neither; the azimuthal asymmetry and the peak transmission are "
-        "shown beside them (no published range of the asymmetry's amplitude was checked)")
+        "shown beside them (no published amplitude of tau_n over azimuth was found: the "
+        "occultation papers publish the bar model's parameters and the peak transmission)")
 #: The viewing geometry, in words.
 GEOMETRY = ("ringsim observe's defaults through every snapshot of each run's equilibrium "
             "window: opening angles B = 3.45, 10, 20, 45, 90 deg, azimuths every 15 deg from "
