@@ -30,7 +30,7 @@ import rebound
 
 from ringsim import testing
 from ringsim.config.scenario import load_scenario, scenario_from_dict, with_overrides
-from ringsim.engine.sheet import build_sheet
+from ringsim.engine.sheet import build_sheet, without_gravity
 from ringsim.gravity import p3m
 from ringsim.physics import selfgravity as sg
 from ringsim.report import replace_section
@@ -51,16 +51,6 @@ def ring_scenario(n: int, gravity: bool):
         "integration": {"orbits": 1.0, "dt": 1.0e-3, "collision_detection": "line",
                         "threads": 1},
     }, source="<benchmark>")
-
-
-def without_gravity(sc):
-    """``sc`` with self-gravity off (the baseline: the same particles and law)."""
-    d = sc.to_dict()
-    d["sheet"] = {k: v for k, v in d["sheet"].items()
-                  if k not in ("gravity_solver", "softening", "p3m_split",
-                               "p3m_pair_min_radius", "p3m_tail_fraction")}
-    d["sheet"]["gravity"] = False
-    return scenario_from_dict(d, source="<benchmark>")
 
 
 def tailed_heights(n: int, sigma: float, tail: float, seed: int = 4) -> np.ndarray:

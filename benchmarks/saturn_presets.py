@@ -26,9 +26,9 @@ import statistics
 import time
 from datetime import datetime, timezone
 
-from ringsim.config.scenario import load_scenario, scenario_from_dict, with_overrides
+from ringsim.config.scenario import load_scenario, with_overrides
 from ringsim.engine import detector
-from ringsim.engine.sheet import build_sheet
+from ringsim.engine.sheet import build_sheet, without_gravity
 from ringsim.report import replace_section
 
 STEPS_PER_ORBIT = 1000    # dt = 1e-3 orbit, the presets' dt: auto in line mode
@@ -41,12 +41,7 @@ def cost(path: str, gravity: bool, steps: int, repeats: int) -> tuple[float, flo
     particle count."""
     sc = load_scenario(path)
     if not gravity:
-        d = sc.to_dict()
-        d["sheet"] = {k: v for k, v in d["sheet"].items()
-                      if k not in ("gravity_solver", "softening", "p3m_split",
-                                   "p3m_pair_min_radius")}
-        d["sheet"]["gravity"] = False
-        sc = scenario_from_dict(d, source=path)
+        sc = without_gravity(sc)
     sc = with_overrides(sc, {"integration.threads": 1})
     built = build_sheet(sc)
     sim = built.sim

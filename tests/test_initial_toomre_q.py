@@ -56,3 +56,15 @@ def test_drawn_sheet_starts_at_the_requested_toomre_q():
 def test_bad_initial_toomre_q_is_refused(keys, message):
     with pytest.raises(ScenarioError, match=message):
         scenario_from_dict(_with_sheet(**keys), source="bad")
+
+
+def test_the_same_sheet_without_gravity_starts_from_the_same_state():
+    """``engine.sheet.without_gravity`` (the baseline of gravitating benchmarks) turns the
+    Q start into the equal initial_dispersion of the same draw: the same bits."""
+    sc = scenario_from_dict(BASE, source="q-start")
+    plain = sheet.without_gravity(sc)
+    assert not plain.sheet.gravity and plain.sheet.initial_toomre_q is None
+    a = sheet.particle_arrays(sheet.new_simulation(sc)[0])
+    b = sheet.particle_arrays(sheet.new_simulation(plain)[0])
+    for key in ("x", "y", "z", "vx", "vy", "vz", "radius", "mass"):
+        assert np.array_equal(a[key], b[key]), key

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 import rebound
 
+from ringsim.config.gravity_keys import SOLVER_KEYS
+from ringsim.config.scenario import scenario_from_dict
 from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.box import SheetGeometry, box_geometry, configure_box
 from ringsim.engine.initial_file import read_initial_state, refuse_copies_alike
@@ -420,6 +422,27 @@ def initial_dispersion(sheet_cfg, radii: np.ndarray, masses: np.ndarray,
         Sigma = sheet_cfg.optical_depth * float(masses.sum()) / float(np.pi * np.sum(radii**2))
         return float(toomre_dispersion(sheet_cfg.initial_toomre_q, Sigma, Omega))
     return sheet_cfg.initial_dispersion * float(radii.mean()) * Omega
+
+
+def without_gravity(scenario):
+    """``scenario`` with self-gravity off and everything else alike: the baseline of a
+    gravitating step.  A start at a Toomre Q (``initial_toomre_q``, which needs gravity)
+    becomes the equal ``initial_dispersion`` of the same drawn radii, so both sheets start
+    from the same state."""
+    d = scenario.to_dict()
+    sheet_d = {k: v for k, v in d["sheet"].items()
+               if k not in ("gravity_solver", "initial_toomre_q", *SOLVER_KEYS)}
+    sheet_d["gravity"] = False
+    if scenario.sheet.initial_toomre_q is not None and scenario.sheet.initial_state is None:
+        rng = np.random.default_rng(scenario.seed)
+        radii = scenario.particles.size_distribution.draw_radii(scenario.sheet.n_particles,
+                                                                rng)
+        masses = scenario.particles.density * 4.0 / 3.0 * np.pi * radii**3
+        c = initial_dispersion(scenario.sheet, radii, masses, scenario.orbital_frequency)
+        sheet_d["initial_dispersion"] = c / (float(radii.mean())
+                                             * scenario.orbital_frequency)
+    d["sheet"] = sheet_d
+    return scenario_from_dict(d, source=scenario.name)
 
 
 def minimum_collision_velocity(radii: np.ndarray, Omega: float) -> float:
