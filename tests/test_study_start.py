@@ -6,6 +6,7 @@ from ``small``'s last snapshot tiled [1, 2] (a box twice as long in y) and runs 
 0.25 orbit of its clock.  Each run takes well under a second.
 """
 
+import importlib.util
 import json
 import shutil
 from pathlib import Path
@@ -121,6 +122,24 @@ def test_rerun_reuses_every_run_and_report_only_needs_no_run_file(reference, tmp
     run_study(copy, quick=True, report_only=True, echo=None)
     assert (tmp_path / "elsewhere" / "study.quick.report" / "report.json").read_bytes() \
         == reference["json"]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(importlib.util.find_spec("distributed") is None,
+                    reason="dask.distributed is not installed (pip install ringsim[dask])")
+def test_dask_cluster_runs_the_waves_and_gives_the_same_report(reference, tmp_path):
+    from dask.distributed import LocalCluster
+
+    study = write_study(tmp_path / "dask")
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        result = run_study(study, quick=True, scheduler=cluster.scheduler_address, echo=None)
+    assert [r.status for r in result.results] == ["finished"] * 4
+    labels, _ = ids_by_label(study)
+    first = {labels["small seed 1"], labels["small seed 2"]}
+    assert {r.run_id for r in result.results[:2]} == first, "the origins in the first wave"
+    out = tmp_path / "dask" / "study.quick.report"
+    assert (out / "report.json").read_bytes() == reference["json"]
 
 
 def test_an_origin_whose_file_is_gone_is_made_again_first(reference, tmp_path):
