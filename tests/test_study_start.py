@@ -124,6 +124,22 @@ def test_rerun_reuses_every_run_and_report_only_needs_no_run_file(reference, tmp
         == reference["json"]
 
 
+def test_a_started_gravitating_case_shows_its_runs_optical_depth():
+    """A started run's scenario has no sheet.optical_depth: "Against Cassini" describes the
+    case by the run's own optical depth (the summary's, as analyze gives it)."""
+    from ringsim.study.cassini import describe_case
+
+    summary = {"optical_depth": 0.4987,
+               "scenario": {"particles": {"size_distribution": {"kind": "monodisperse",
+                                                                "radius": 1.0}},
+                            "restitution": {"model": "bridges"},
+                            "sheet": {"gravity": True, "initial_state": {"file": "a.h5"}}}}
+    entry = describe_case(summary)
+    assert entry["optical_depth"] == 0.4987 and entry["gravity"] is True
+    summary["scenario"]["sheet"]["optical_depth"] = 0.5
+    assert describe_case(summary)["optical_depth"] == 0.5, "the scenario's, when it has one"
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(importlib.util.find_spec("distributed") is None,
                     reason="dask.distributed is not installed (pip install ringsim[dask])")
