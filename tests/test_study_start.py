@@ -124,6 +124,25 @@ def test_rerun_reuses_every_run_and_report_only_needs_no_run_file(reference, tmp
         == reference["json"]
 
 
+def test_run_files_moved_elsewhere_are_found_and_a_started_run_remade_there(reference,
+                                                                         tmp_path):
+    """Another folder and --out: the run files are compared by scenario (no path in
+    them), and a started run made again finds its start file beside it; the same
+    report."""
+    copy = write_study(tmp_path / "moved")
+    labels, _ = ids_by_label(copy)
+    gone = labels["long seed 1"]
+    shutil.copytree(reference["folder"] / "summaries", tmp_path / "moved" / "summaries")
+    (tmp_path / "moved" / "summaries" / f"{gone}.json").unlink()
+    out = tmp_path / "elsewhere"
+    shutil.copytree(reference["out"] / "runs", out / "runs")
+    (out / "runs" / f"{gone}.h5").unlink()
+    result = run_study(copy, out=out, quick=True, workers=1, echo=None)
+    assert [(r.run_id, r.action, r.status) for r in result.results] == \
+        [(gone, "run", "finished")]
+    assert (out / "report.json").read_bytes() == reference["json"]
+
+
 def test_a_started_gravitating_case_shows_its_runs_optical_depth():
     """A started run's scenario has no sheet.optical_depth: "Against Cassini" describes the
     case by the run's own optical depth (the summary's, as analyze gives it)."""
