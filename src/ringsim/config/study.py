@@ -6,7 +6,9 @@ study's ``length``, its ``overrides`` (of every run), the case's overrides, with
 the ``quick`` overrides, the variant's overrides, and the seed.  Overrides are dotted
 scenario keys, as in a sweep file (``ringsim.config.scenario.with_overrides``).  Every value
 is checked when the file is read, in both its full and its quick form, so that a bad key is
-bad input (one line naming the key) before anything runs.
+bad input (one line naming the key) before anything runs.  A case may start from another
+case's run instead of drawing its particles (the case key ``start``,
+``ringsim.config.study_start``).
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from __future__ import annotations
 import difflib
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
 from typing import Any
@@ -29,6 +31,15 @@ from ringsim.config.schema import (
     show,
 )
 from ringsim.config.study_references import Reference, read_references
+from ringsim.config.study_start import (
+    START_FILE,
+    Start,
+    check_case_keys,
+    check_cycles,
+    read_start,
+    started,
+    without_file_keys,
+)
 
 #: Keys of a study file.
 STUDY_KEYS = ("name", "description", "base", "seeds", "overrides", "cases", "ratios",
@@ -75,12 +86,17 @@ class Mode:
 
 @dataclass(frozen=True)
 class RunSpec:
-    """One run a study asks for: a case (or a variant of it) with one seed."""
+    """One run a study asks for: a case (or a variant of it) with one seed.
+
+    ``origin`` is the run it starts from (the case key ``start``), whose scenario's
+    ``sheet.initial_state.file`` is the placeholder `START_FILE` until the study names the
+    file after the origin's hash (``ringsim.study.runs.collect``)."""
 
     case: str
     variant: str | None
     seed: int
     scenario: Scenario
+    origin: RunSpec | None = None
 
     @property
     def label(self) -> str:
@@ -119,6 +135,8 @@ class Study:
         quick form's report.
     references : tuple of Reference
         The values the cases are checked against (``config.study_references``).
+    starts : dict of case name -> Start
+        The cases that start from another case's run (``config.study_start``).
     """
 
     name: str
@@ -135,6 +153,7 @@ class Study:
     report: str | None
     quick_report: str | None = None
     references: tuple[Reference, ...] = ()
+    starts: Mapping[str, Start] = field(default_factory=dict)
 
     @property
     def folder(self) -> Path:
@@ -160,22 +179,34 @@ class Study:
         """Every run of a form: each case with each seed, then each variant of each case
         of the ratios with each variant seed."""
         mode = self.mode(quick)
-        overrides = dict(self.cases)
-        out = [RunSpec(case, None, seed, _scenario(self, mode, overrides[case], {}, seed))
+        out = [self.spec(mode, case, None, seed)
                for case, _ in self.cases for seed in mode.seeds]
-        for variant, changes in mode.variants:
-            out += [RunSpec(case, variant, seed,
-                            _scenario(self, mode, overrides[case], changes, seed))
+        for variant, _ in mode.variants:
+            out += [self.spec(mode, case, variant, seed)
                     for case in self.ratio_cases() for seed in mode.variant_seeds]
         return out
 
+    def spec(self, mode: Mode, case: str, variant: str | None, seed: int) -> RunSpec:
+        """The run of a case (with a variant, or None) and a seed in a form; a case that
+        starts from another's run has that run, of the same variant, as its ``origin``."""
+        changes = dict(mode.variants)[variant] if variant else {}
+        start = self.starts.get(case)
+        scenario = _scenario(self, mode, dict(self.cases)[case], changes, seed, start)
+        origin = (self.spec(mode, start.case, variant, seed if start.seed is None
+                            else start.seed) if start is not None else None)
+        return RunSpec(case, variant, seed, scenario, origin)
+
 
 def _scenario(study: Study, mode: Mode, case: Mapping, variant: Mapping,
-              seed: int) -> Scenario:
+              seed: int, start: Start | None = None) -> Scenario:
     """The base with the length, the study's and the case's overrides, the quick
-    overrides, the variant and the seed."""
-    return with_overrides(study.base, {**mode.length, **study.overrides, **case,
-                                       **mode.overrides, **variant, "seed": seed})
+    overrides, the variant and the seed; with a start, without the keys the start file
+    replaces, from the placeholder file `START_FILE`."""
+    changes = {**mode.length, **study.overrides, **case, **mode.overrides, **variant,
+               "seed": seed}
+    if start is None:
+        return with_overrides(study.base, changes)
+    return started(with_overrides(study.base, without_file_keys(changes)), START_FILE, start)
 
 
 # --- reading ----------------------------------------------------------------------------------
@@ -252,17 +283,27 @@ def _check_override(sec: Section, dotted: str, value: Any, base: Scenario,
                         exc.allowed) from None
 
 
-def _cases(top: Section, base: Scenario, length: dict) -> tuple[tuple[str, dict], ...]:
+def _cases(top: Section, base: Scenario, length: dict
+           ) -> tuple[tuple[tuple[str, dict], ...], dict[str, Start]]:
+    """The cases' overrides, and the starts of the cases that start from another's run."""
     cases = top.section("cases", required=True, allowed="case name -> dotted overrides")
     if not cases.mapping:
         raise top.error("cases", "is empty", "case name -> dotted overrides (may be {})")
-    out = []
+    names = [str(key) for key in cases.mapping]
+    out, starts = [], {}
     for key in cases.mapping:
         name = _name(cases, str(key), key, "case")
-        if cases.mapping[key] is None:
+        value = cases.mapping[key]
+        if value is None:
             raise cases.error(name, "no value given", "a mapping of overrides ({} for none)")
-        out.append((name, _check_overrides(cases, name, base, length)))
-    return tuple(out)
+        if isinstance(value, Mapping) and "start" in value:
+            starts[name] = read_start(cases, name, value["start"], names)
+            value = {k: v for k, v in value.items() if k != "start"}
+            check_case_keys(cases, name, value)
+        here = Section(cases.file, cases.prefix, {name: value})
+        out.append((name, _check_overrides(here, name, base, length)))
+    check_cycles(cases, starts)
+    return tuple(out), starts
 
 
 def _ratios(top: Section, cases: Sequence[str]) -> tuple[tuple[str, str], ...]:
@@ -405,7 +446,7 @@ def load_study(path: str | PathLike, quantities: Sequence[str] | None = None) ->
     full = _full_mode(top, base)
     overrides = (_check_overrides(top, "overrides", base, full.length)
                  if top.has("overrides") else {})
-    cases = _cases(top, base, {**full.length, **overrides})
+    cases, starts = _cases(top, base, {**full.length, **overrides})
     ratios = _ratios(top, [case for case, _ in cases])
     if full.variants and not ratios:
         raise top.error("variants", "given without ratios", "variants measure the "
@@ -417,6 +458,7 @@ def load_study(path: str | PathLike, quantities: Sequence[str] | None = None) ->
                   report=_report(top, Path(source).parent),
                   quick_report=(_report(top.section("quick"), Path(source).parent)
                                 if top.has("quick") else None),
-                  references=read_references(top, [case for case, _ in cases], quantities))
+                  references=read_references(top, [case for case, _ in cases], quantities),
+                  starts=starts)
     _check_runs(study)
     return study

@@ -84,12 +84,15 @@ class FileState:
 
 
 def resolve_path(scenario) -> Path:
-    """The file of ``sheet.initial_state``: relative paths from the scenario file's folder
-    (from the working directory for a scenario not read from a file)."""
+    """The file of ``sheet.initial_state``: relative paths from the scenario file's folder,
+    or from the run file's folder for a scenario a run file holds (its source is that run
+    file; a study's started run names its start file beside it), else from the working
+    directory (a scenario not read from a file)."""
     path = Path(scenario.sheet.initial_state.file)
     source = Path(scenario.source)
-    if not path.is_absolute() and source.suffix.lower() in (".yaml", ".yml") \
-            and source.is_file():
+    suffix = source.suffix.lower()
+    if not path.is_absolute() and ((suffix in (".yaml", ".yml") and source.is_file())
+                                   or suffix in (".h5", ".hdf5")):
         path = source.parent / path
     return path
 

@@ -47,7 +47,8 @@ def ratio_figure(report: Mapping):
                     capsize=4)
         ax.errorbar(x, mean, yerr=stat, fmt=style["marker"], color=style["color"],
                     elinewidth=2.6, capsize=0, label=f"{num} / {den}")
-        shown += list(mean - total) + list(mean + total)
+        reach = np.nan_to_num(total)   # a ratio without an error (one seed) is still shown
+        shown += list(mean - reach) + list(mean + reach)
     ax.axhline(1.0, color="0.4", linestyle="--", linewidth=0.8, label="1 (no change)")
     positive = [v for v in shown if math.isfinite(v) and v > 0]
     set_readable_axis(ax, "y", positive if len(positive) == len(shown) else shown)

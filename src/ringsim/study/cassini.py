@@ -185,7 +185,9 @@ def verdict(entry: Mapping, measured: Sequence[Mapping]) -> str:
 
 
 def describe_case(summary: Mapping) -> dict:
-    """κ, size distribution and friction of a case, from one of its summaries' scenario."""
+    """κ, size distribution, friction and optical depth of a case, from one of its
+    summaries' scenario (the optical depth of a run started from a file, whose scenario
+    has none: the run's own, as ``ringsim analyze`` gives it)."""
     scenario = summary["scenario"]
     sizes = scenario["particles"]["size_distribution"]
     friction = scenario.get("friction")
@@ -193,7 +195,8 @@ def describe_case(summary: Mapping) -> dict:
             "size_distribution": ", ".join(f"{k} {v}" for k, v in sizes.items()),
             "friction": (", ".join(f"{k} {v}" for k, v in friction.items())
                          if friction else "none"),
-            "optical_depth": scenario["sheet"]["optical_depth"],
+            "optical_depth": scenario["sheet"].get("optical_depth",
+                                                   summary.get("optical_depth")),
             "gravity": is_gravitating(summary)}
 
 

@@ -24,12 +24,12 @@ from ringsim.study.runs import (
     TaskResult,
     collect,
     failed,
-    plan_run,
     read_summary,
     run_task,
     summary_state,
     write_json,
 )
+from ringsim.study.waves import plan_waves
 
 #: Folder of a study's run summaries, beside the study file.
 SUMMARIES = "summaries"
@@ -92,9 +92,12 @@ def _plan_line(path, n_runs: int, tasks: list, out: Path, where: str) -> str:
             f"{counts['reuse']} to summarise, {n_runs - len(tasks)} done already; {where})")
 
 
-def _execute(tasks: list, workers: int | None, scheduler: str | None,
+def _execute(waves: list[list], workers: int | None, scheduler: str | None,
              say: Callable[[str], None], plan: Callable[[str], str]) -> list[TaskResult]:
-    """Run the tasks locally or on Dask, reporting each result as it arrives."""
+    """Run the tasks locally or on Dask, wave after wave (a wave starts when the one before
+    has ended, and not after a run of it failed or stopped), reporting each result as it
+    arrives."""
+    tasks = [task for wave in waves for task in wave]
     client = dask_client(scheduler) if scheduler and tasks else None
     n_workers = max(1, min(workers or os.cpu_count() or 1, len(tasks) or 1))
     say(plan(f"Dask scheduler {scheduler}" if client is not None else
@@ -111,10 +114,13 @@ def _execute(tasks: list, workers: int | None, scheduler: str | None,
         say(line + (f": {result.error}" if result.error else ""))
 
     try:
-        if client is not None:
-            run_dask(client, run_task, tasks, report, failed)
-        elif tasks:
-            run_local(run_task, tasks, n_workers, report, failed)
+        for wave in waves:
+            if any(r.status != "finished" for r in results):
+                break
+            if client is not None:
+                run_dask(client, run_task, wave, report, failed)
+            else:
+                run_local(run_task, wave, min(n_workers, len(wave)), report, failed)
     finally:
         if client is not None:
             client.close()
@@ -161,10 +167,9 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
     summaries_dir = study.folder / SUMMARIES
     result = StudyResult(out_dir)
     if not report_only:
-        tasks = [task for task in (plan_run(run, out_dir / "runs", summaries_dir,
-                                            resummarise)
-                                   for run in runs.values()) if task is not None]
-        result.results = _execute(tasks, workers, scheduler, say, lambda where: _plan_line(
+        waves = plan_waves(runs, out_dir / "runs", summaries_dir, resummarise)
+        tasks = [task for wave in waves for task in wave]
+        result.results = _execute(waves, workers, scheduler, say, lambda where: _plan_line(
             study_path, len(runs), tasks, out_dir, where))
         if result.n_failed or result.n_stopped:
             return result

@@ -38,13 +38,22 @@ def _changes(overrides: Mapping) -> str:
                      for k, v in overrides.items()) or "none"
 
 
+def _start(start: Mapping | None) -> str:
+    """How a case's runs start, when from another case's run."""
+    if start is None:
+        return ""
+    seed = "the same seed" if start["seed"] is None else f"seed {start['seed']}"
+    return (f"; starts from snapshot {start['snapshot']} of case `{start['case']}`'s run of "
+            f"{seed} (same form and variant), tiled {start['tile'][0]} x {start['tile'][1]}")
+
+
 def setup_section(report: Mapping) -> list[str]:
     """What was run: the base, the changes of every run, the cases and the variants."""
     lines = ["## Set-up", "", f"Base scenario `{report['base']}`; every run: "
              f"{_changes({**report['length'], **report['overrides']})}"
              + (f"; the quick form then sets {_changes(report['quick_overrides'])}"
                 if report["form"] == "quick" else "") + f". Seeds {report['seeds']}.", ""]
-    lines += [f"- case `{case}`: {_changes(entry['overrides'])}"
+    lines += [f"- case `{case}`: {_changes(entry['overrides'])}" + _start(entry.get("start"))
               for case, entry in report["cases"].items()]
     lines += [f"- variant `{name}` (seeds {report['variant_seeds']}): "
               f"{_changes(v['overrides'])}" for name, v in report["variants"].items()]

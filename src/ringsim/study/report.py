@@ -184,6 +184,8 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
         **_by_size(study, runs),
         **({"against_cassini": cassini} if cassini is not None else {}),
     }
+    for case, start in study.starts.items():
+        report["cases"][case]["start"] = start.to_dict()
     if study.references:
         report["references"] = reference_entries(study.references, report["cases"])
         report["references_rule"] = RULE

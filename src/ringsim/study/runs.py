@@ -15,11 +15,18 @@ is written by the worker as soon as its run is finished; a run whose summary mat
 scenario asked is not run again, even when its run file is gone.  A gravitating run's
 summary without ``occultation`` (made before summaries kept it) is completed from its run
 file when that is there and finished, keeping its ``cost``.
+
+A run that starts from another run of the study (the case key ``start``) names that run's
+file by its hash alone (``sheet.initial_state.file: <origin>.h5``, found beside its own run
+file: ``engine.initial_file.resolve_path``), and its identity holds the origin's hash and
+the origin's length in orbits, which the origin's own hash leaves out: a lengthened origin
+gives a new started run, never a changed one.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import hashlib
 import json
 import math
@@ -67,10 +74,14 @@ def canonical_yaml(d: Mapping) -> str:
                           allow_unicode=True)
 
 
-def run_id(scenario) -> str:
+def run_id(scenario, started_from: Mapping | None = None) -> str:
     """The first 16 hex digits of the SHA-256 of the canonical YAML of the scenario
-    without `IDENTITY_EXCLUDES`."""
-    text = canonical_yaml(_without(scenario.to_dict(), IDENTITY_EXCLUDES))
+    without `IDENTITY_EXCLUDES` (and, for a run that starts from another run of the study,
+    ``started_from``: that run's hash ``run`` and length ``orbits``)."""
+    payload = _without(scenario.to_dict(), IDENTITY_EXCLUDES)
+    if started_from is not None:
+        payload["started_from"] = dict(started_from)
+    text = canonical_yaml(payload)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
 
 
@@ -86,26 +97,42 @@ def labelled(scenario, rid: str, threads: int | None = None):
 
 @dataclass
 class StudyRun:
-    """One distinct run of a study and the specs (case, variant, seed) that ask for it."""
+    """One distinct run of a study and the specs (case, variant, seed) that ask for it;
+    ``origin``: the id of the run it starts from (None: it draws its particles)."""
 
     run_id: str
     scenario: Any
     labels: list[str] = field(default_factory=list)
+    origin: str | None = None
 
 
 def collect(specs: Sequence[Any], threads: int | None = None
             ) -> tuple[dict[str, StudyRun], list[str]]:
-    """The distinct runs of ``specs`` (``config.study.RunSpec``) by id, in spec order, and
-    the id of each spec."""
+    """The distinct runs of ``specs`` (``config.study.RunSpec``) by id, each after the run
+    it starts from, and the id of each spec.  A run that a spec only starts from (the
+    origin of a variant's run, or of a fixed seed) is among the runs as well."""
     runs: dict[str, StudyRun] = {}
-    ids = []
-    for spec in specs:
-        rid = run_id(spec.scenario)
-        if rid not in runs:
-            runs[rid] = StudyRun(rid, labelled(spec.scenario, rid, threads))
-        runs[rid].labels.append(spec.label)
-        ids.append(rid)
-    return runs, ids
+    return runs, [_collect_one(spec, runs, threads) for spec in specs]
+
+
+def _collect_one(spec, runs: dict[str, StudyRun], threads: int | None,
+                 start_of: str | None = None) -> str:
+    """Add the run of ``spec`` (after its origin's) to ``runs``; its id."""
+    scenario, origin, started_from = spec.scenario, None, None
+    if spec.origin is not None:
+        origin = _collect_one(spec.origin, runs, threads, start_of=spec.label)
+        scenario = with_overrides(scenario, {"sheet.initial_state.file": f"{origin}.h5"})
+        started_from = {"run": origin, "orbits": runs[origin].scenario.integration.orbits}
+    rid = run_id(scenario, started_from)
+    if rid not in runs:
+        runs[rid] = StudyRun(rid, labelled(scenario, rid, threads), origin=origin)
+    labels = runs[rid].labels
+    if start_of is None:   # a run the study asks for itself is named only as such
+        labels[:] = [x for x in labels if not x.startswith(f"{spec.label} (the start of")]
+        labels.append(spec.label)
+    elif not any(x == spec.label or x.startswith(f"{spec.label} (") for x in labels):
+        labels.append(f"{spec.label} (the start of {start_of})")
+    return rid
 
 
 # --- summaries --------------------------------------------------------------------------------
@@ -251,7 +278,7 @@ def plan_run(run: StudyRun, runs_dir: Path, summaries_dir: Path,
                          "delete it to run the run again")
     action = (existing_action(path, run.scenario, extend=True, asker="the study",
                               advice=advice) if path.exists() else "run")
-    return RunTask(run.run_id, run.scenario, str(path.absolute()),
+    return RunTask(run.run_id, run_scenario(run, path), str(path.absolute()),
                    str(summary_path.absolute()), action, tuple(run.labels),
                    _cpu_of(summary) if state == "shorter" and action != "run" else None)
 
@@ -268,10 +295,18 @@ def _completion(run: StudyRun, path: Path, summary_path: Path,
     with contextlib.suppress(InputError):
         if (existing_action(path, run.scenario, extend=True, asker="the study") == "reuse"
                 and open_run(path).attrs.get("status") == "finished"):
-            return RunTask(run.run_id, run.scenario, str(path.absolute()),
+            return RunTask(run.run_id, run_scenario(run, path), str(path.absolute()),
                            str(summary_path.absolute()), "reuse", tuple(run.labels),
                            cost=dict(summary.get("cost", {})))
     return None
+
+
+def run_scenario(run: StudyRun, path: Path):
+    """The scenario a run is made with: a started run's has its run file as its source, so
+    that its start file (named by the origin's hash) is found beside it."""
+    if run.origin is None:
+        return run.scenario
+    return dataclasses.replace(run.scenario, source=str(path.absolute()))
 
 
 @dataclass
