@@ -12,14 +12,12 @@ so a change that breaks the physics fails here.  Tolerances, per case:
    below eps_cr(tau);
 5. REBOUND's example: every statistic of ringsim's resolver within 3 combined standard
    errors of REBOUND's built-in resolver from the same seed; the two sheets equal to
-   1e-6 m after one step;
-6. Dilley (1993) Figs. 1 and 5: every logged eps equal to the paper's equations and to
-   ringsim.restitution within 1e-12, the eps applied in head-on pairs within 1e-9, and
-   each figure's curve sampled by >= 20 logged collisions at 0.01-2 cm/s.
+   1e-6 m after one step.
 
 Cases 2 (the GT78 threshold) and 4 (the size distribution) are study files
 (``studies/validation-threshold``, ``studies/validation-size-distribution``), tested in
-tests/test_validation_studies.py.
+tests/test_validation_studies.py; case 6 (Dilley 1993 Figs. 1 and 5) is
+tests/test_dilley_figures.py.
 
 The case tests are marked slow (about a minute each): ``pytest -m slow
 tests/test_validation.py``.  Two fast tests check the renderer of docs/validation.md: the
@@ -40,7 +38,6 @@ import pytest
 from validation.case1_constant_eps import case1
 from validation.case3_bridges_identical import case3
 from validation.case5_rebound_example import case5
-from validation.case6_dilley_figures import case6
 from validation.common import QUICK, CaseResult, Comparison, load_results, save_result
 from validation.render import line_mode_markdown, section_markdown
 
@@ -97,19 +94,6 @@ def test_case5_ringsim_matches_rebound_builtin_resolver(tmp_path):
     for c in result.comparisons:
         assert math.isfinite(c.sigma) and abs(c.sigma) <= 3.0, \
             f"{c.quantity}: ringsim {c.ringsim} vs REBOUND {c.ref_value} ({c.sigma:+.1f} sigma)"
-
-
-@pytest.mark.slow
-def test_case6_dilley_figures_in_the_running_resolver(tmp_path):
-    sizes = small()
-    result = case6(sizes, tmp_path, tmp_path / "fig")
-    for c in result.comparisons:
-        assert c.ringsim <= c.ref_high, f"{c.quantity}: {c.ringsim}"
-    groups = result.extra["groups"]
-    assert len(groups) == 4 + 2 * 6, "Fig. 1: 4 radii; Fig. 5a and 5b: 6 pair types each"
-    for g in groups:
-        assert g["max_dev"] <= 1e-12, f"{g['label']}: eps differs from the paper's"
-        assert g["n_in_range"] >= 20, f"{g['label']}: too few impacts at 0.01-2 cm/s"
 
 
 def test_line_mode_section_is_rendered_from_its_stored_numbers():

@@ -19,7 +19,7 @@ from collections.abc import Sequence
 
 #: Command -> (module of this folder whose ``main(argv)`` runs it, what it writes).
 COMMANDS = {
-    "ladder": ("ladder", "the reference cases 1, 3, 5, 6: section 'Reference cases' of "
+    "ladder": ("ladder", "the reference cases 1, 3, 5: section 'Reference cases' of "
                "docs/validation.md"),
     "line-mode": ("line_mode", "line-mode detection against the small-dt tree reference: "
                   "its section of docs/validation.md"),

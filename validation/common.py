@@ -1,6 +1,6 @@
 """What the validation cases share: sizes, result rows, cached runs, scenarios, energy balance.
 
-Every case of the ladder (``case1_constant_eps`` ... ``case6_dilley_figures``) returns a
+Every case of the ladder (``case1_constant_eps`` ... ``case5_rebound_example``) returns a
 ``CaseResult``: rows (``Comparison``) of ringsim's value with its standard error against a
 reference with its uncertainty and source.  Results are stored as JSON beside the runs
 (``save_result``, ``load_results``), and finished run files are reused when their scenario
@@ -61,15 +61,13 @@ class Sizes:
     case5_n: int | None = None              # None: the example's own N (about 1490)
     case5_orbits: float = 10.0
     case5_skip_orbits: float = 2.0
-    case6_n: int = 1200
-    case6_orbits: float = 4.0
 
 
 FULL = Sizes()
 QUICK = Sizes(case1_n=300, case1_orbits=15.0, case1_orbits_dilute=30.0,
               case1_taus=(0.1, 0.25, 0.5, 1.0, 1.5), case3_n=300, case3_orbits=15.0,
               case3_taus=(0.25, 1.0), case5_n=600,
-              case5_orbits=8.0, case5_skip_orbits=2.0, case6_n=400, case6_orbits=3.0)
+              case5_orbits=8.0, case5_skip_orbits=2.0)
 
 
 # --- results ---------------------------------------------------------------------------------

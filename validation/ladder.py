@@ -20,16 +20,16 @@ Cases (all SI inside; results in units of the particle radius r and Omega):
 3. Bridges et al. (1984) law, identical 1 m particles at 100 000 km from Saturn: a
    near-monolayer with c of a few r Omega;
 5. REBOUND's shearing-sheet example through ``scenarios/bridges.yaml``: ringsim's resolver
-   against REBOUND's built-in hard-sphere resolver from the same seed;
-6. Dilley (1993) Figs. 1 and 5: eps in the running resolver's collision log against the
-   paper's equations and ``ringsim.restitution``, and the rebound speed of head-on pairs.
+   against REBOUND's built-in hard-sphere resolver from the same seed.
 
 Cases 2 (the Goldreich & Tremaine 1978 threshold) and 4 (the Bridges law with a q = 3
 size distribution) are study files, ``studies/validation-threshold/study.yaml`` and
-``studies/validation-size-distribution/study.yaml``, run by ``ringsim study``.
+``studies/validation-size-distribution/study.yaml``, run by ``ringsim study``; case 6
+(Dilley 1993 Figs. 1 and 5) compares eps with the paper's equations, not a run's
+statistics, and is the test ``tests/test_dilley_figures.py``.
 
 Each case is a module of ``validation/`` (``case1_constant_eps``,
-``case3_bridges_identical``, ``case5_rebound_example``, ``case6_dilley_figures``), built
+``case3_bridges_identical``, ``case5_rebound_example``), built
 from what they share in ``common`` and rendered to Markdown by ``render``.  Each case
 returns a ``CaseResult``: rows comparing ringsim's value (with its standard error) with a
 reference value (with its uncertainty and source), the difference in units of the
@@ -49,7 +49,6 @@ from ringsim.report import replace_section
 from validation.case1_constant_eps import case1
 from validation.case3_bridges_identical import case3
 from validation.case5_rebound_example import case5
-from validation.case6_dilley_figures import case6
 from validation.common import (
     DOC,
     FULL,
@@ -67,7 +66,7 @@ from validation.render import SECTION_HEADING, row_markdown, section_markdown
 FIGURES = ROOT / "docs" / "figures" / "validation"
 
 CASES: dict[int, Callable[[Sizes, Path, Path], CaseResult]] = {
-    1: case1, 3: case3, 5: case5, 6: case6}
+    1: case1, 3: case3, 5: case5}
 
 
 def run_case(number: int, sizes: Sizes, workdir: Path, figures: Path) -> CaseResult:

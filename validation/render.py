@@ -80,7 +80,13 @@ def section_markdown(results: dict[int, CaseResult], figures_rel: str) -> str:
            "case 2, the Goldreich & Tremaine (1978) threshold, is "
            "`studies/validation-threshold/study.yaml`; case 4, the Bridges law with a "
            "q = 3 size distribution, is `studies/validation-size-distribution/study.yaml`. "
-           "Their reports are `study.report/report.md` beside each file.", "",
+           "Their reports are `study.report/report.md` beside each file. Case 6, Dilley "
+           "(1993) Figs. 1 and 5, compares ε with the paper's equations rather than a "
+           "run's statistics: it is the test `tests/test_dilley_figures.py` (the curves "
+           "that `ringsim epsilon` prints and draws, the ε of head-on pairs resolved by "
+           "ringsim's resolver, and the ε the running resolver logs in hot sheets of the "
+           "figures' radii, each against the paper's equations typed anew in the test).",
+           "",
            "The other cases run through the machinery users run (`ringsim.run`, the "
            "native resolver, `ringsim.compare.equilibrium`). Written by "
            "`python -m validation ladder` (`--quick` for small sizes; the slow tests in "
