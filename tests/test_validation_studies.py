@@ -1,7 +1,8 @@
-"""The validation ladder's cases 2 and 4 as study files (docs/validation.md, "Reference
-cases"): ``studies/validation-threshold`` (the thermal-balance threshold of Goldreich &
-Tremaine 1978) and ``studies/validation-size-distribution`` (the Bridges law with a q = 3
-size distribution).
+"""Validation cases as study files (docs/validation.md): the ladder's cases 2 and 4,
+``studies/validation-threshold`` (the thermal-balance threshold of Goldreich & Tremaine
+1978) and ``studies/validation-size-distribution`` (the Bridges law with a q = 3 size
+distribution), and ``studies/validation-kinetic-theory`` (the dense-ring kinetic theory
+of Latter & Ogilvie 2008).
 
 The fast tests check what the study files declare against the physics they encode (the
 critical epsilon they bracket, the size bins they read); the slow tests run each quick form
@@ -22,11 +23,13 @@ import pytest
 from ringsim.analysis.equilibrium import QUANTITIES
 from ringsim.config.study import load_study
 from ringsim.physics import kinetic
+from ringsim.physics.dense_kinetic import kinetic_steady_state
 from ringsim.study.command import run_study
 
 ROOT = Path(__file__).resolve().parent.parent
 THRESHOLD = ROOT / "studies" / "validation-threshold"
 SIZES = ROOT / "studies" / "validation-size-distribution"
+KINETIC = ROOT / "studies" / "validation-kinetic-theory"
 
 
 def _load(folder: Path):
@@ -60,6 +63,24 @@ def test_size_distribution_study_reads_the_smallest_over_the_largest_size_bin():
     assert bins and all((r.bin, r.over_bin) == (0, -1) for r in bins)
     c = [r for r in bins if r.quantity == "by_size.velocity_dispersion"]
     assert {(r.low, r.high) for r in c} == {(2.0, 5.0), (float("-inf"), 6.1)}
+
+
+def test_kinetic_theory_study_quotes_the_theory_at_its_optical_depths():
+    """Each case's references are the tabulated theory at the case's optical depth, to the
+    4 digits written (c [r Omega]; viscosities [m^2/s] = [r^2 Omega] x r^2 Omega), with a
+    tolerance of 3 % of the value."""
+    study = _load(KINETIC)
+    specs = {spec.case: spec.scenario for spec in study.specs()}
+    keys = {"velocity_dispersion_rOmega": "c", "translational_viscosity": "nu_trans",
+            "collisional_viscosity": "nu_coll"}
+    assert {r.case for r in study.references} == set(specs)
+    for ref in study.references:
+        sc = specs[ref.case]
+        unit = 1.0 if ref.quantity == "velocity_dispersion_rOmega" else \
+            sc.orbital_frequency * 1.0 ** 2           # 1 m spheres
+        theory = kinetic_steady_state(sc.sheet.optical_depth)[keys[ref.quantity]] * unit
+        assert ref.value == pytest.approx(theory, rel=5e-4), (ref.case, ref.quantity)
+        assert ref.high - ref.value == pytest.approx(0.03 * theory, rel=0.02)
 
 
 def _quick_afresh(folder: Path, tmp_path: Path) -> dict:

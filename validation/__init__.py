@@ -11,7 +11,6 @@ runner; ``--help`` lists the commands).  Modules:
 * ``ladder``: runs the cases and writes the report (``python -m validation ladder``);
 * ``line_mode``: line-mode collision detection against the small-dt tree reference, with
   ``encounters``, the straight-path prediction of multiple encounters it reports;
-* ``kinetic_theory``: identical smooth spheres against the dense-ring kinetic theory;
 * ``friction_ring`` and ``cooling``: a ring patch of rough spheres, and the homogeneous
   cooling of rough spheres in a periodic box;
 * ``render``: the Markdown of ``docs/validation.md``.
