@@ -1,6 +1,7 @@
 """The ``references`` of a study file (docs/studies.md, "Reference values"): read and
-checked, the verdict of each case against its reference, the report's section, and the
-validation ladder's case 1 as a study (``studies/validation-constant-eps``)."""
+checked, the verdict of each case against its reference (a value with its own uncertainty,
+a one-sided range, a per-size-bin value, a ratio of two cases), the report's section, and
+the validation ladder's case 1 as a study (``studies/validation-constant-eps``)."""
 
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ from ringsim.cli import main
 from ringsim.config.study import load_study
 from ringsim.config.study_references import Reference
 from ringsim.study.command import run_study
-from ringsim.study.references import reference_entry
+from ringsim.study.references import reference_entry, references_section
 
 ROOT = Path(__file__).resolve().parent.parent
 BUNDLED = ROOT / "studies" / "validation-constant-eps"
@@ -30,10 +31,13 @@ cases:
   dense: {}
   dilute: {sheet.optical_depth: 0.1}
 length: {orbits: 0.3}
+ratios: [[dense, dilute]]
 references:
   dense:
     mean_epsilon: {value: 0.5, tolerance: 1.0e-9, source: the constant law}
     velocity_dispersion_rOmega: {low: 100.0, high: 200.0, source: a deliberately wrong range}
+  dense/dilute:
+    filling_factor: {low: 2.0, source: five times the optical depth fills more}
 """
 
 
@@ -80,6 +84,28 @@ BAD = [
      "references.dense.mean_epsilonn", "did you mean 'mean_epsilon'"),
     ("  dense: {mean_epsilon: {low: 2, high: 1, source: s}}\n",
      "references.dense.mean_epsilon.high", "out of range"),
+    ("  dense: {mean_epsilon: {value: 0.5, source: s}}\n",
+     "references.dense.mean_epsilon.tolerance", "missing"),
+    ("  dense: {mean_epsilon: {sigma: 0.1, low: 0.1, source: s}}\n",
+     "references.dense.mean_epsilon.sigma", "without value"),
+    ("  dense: {mean_epsilon: {value: 0.5, sigma: -0.1, source: s}}\n",
+     "references.dense.mean_epsilon.sigma", "out of range"),
+    ("  dense: {mean_epsilon: {source: s}}\n",
+     "references.dense.mean_epsilon.low", "missing"),
+    ("  dense: {mean_epsilon: {bin: 0, low: 0.1, source: s}}\n",
+     "references.dense.mean_epsilon.bin", "not with"),
+    ("  dense: {by_size.thickness: {low: 0.1, source: s}}\n",
+     "references.dense.by_size.thickness.bin", "missing"),
+    ("  dense: {by_size.thickness: {bin: 0.5, low: 0.1, source: s}}\n",
+     "references.dense.by_size.thickness.bin", "integer"),
+    ("  dense: {mean_epsilon: [{low: 0.1, source: s}, 3]}\n",
+     "references.dense.mean_epsilon[1]", "not a mapping"),
+    ("  dense: {mean_epsilon: [{low: 0.1, source: s}, {low: 0.1}]}\n",
+     "references.dense.mean_epsilon[1].source", "missing"),
+    ("  dilute/dense: {thickness: {low: 0.1, source: s}}\n",
+     "references.dilute/dense", "the study's ratios: dense/dilute"),
+    ("  dense/dilute: {by_size.thickness: {bin: 0, low: 0.1, source: s}}\n",
+     "references.dense/dilute.by_size.thickness", "unknown quantity"),
 ]
 
 
@@ -101,7 +127,11 @@ def test_study_reports_each_reference_with_its_verdict(tmp_path):
     out = tmp_path / "refs" / "study.report"
     report = json.loads((out / "report.json").read_text())
     entries = {e["quantity"]: e for e in report["references"]}
-    assert [e["case"] for e in report["references"]] == ["dense", "dense"]
+    assert [e["case"] for e in report["references"]] == ["dense", "dense", "dense/dilute"]
+    ratio = entries["filling_factor"]
+    listed = next(r for r in report["ratios"] if r["quantity"] == "filling_factor")
+    assert ratio["ratio"] == ["dense", "dilute"] and ratio["agrees"]
+    assert ratio["mean"] == listed["mean"] > 2.0 and ratio["high"] is None
     assert entries["mean_epsilon"]["agrees"] and entries["mean_epsilon"]["mean"] == \
         pytest.approx(0.5, abs=1e-9)
     wrong = entries["velocity_dispersion_rOmega"]
@@ -137,3 +167,67 @@ def test_bundled_case1_study_quick_form_agrees_and_reproduces_its_summaries(tmp_
         fresh = json.loads(new.read_text())
         old.pop("cost"), fresh.pop("cost")
         assert fresh == old, new.name
+
+
+def test_a_reference_with_its_own_uncertainty_is_checked_in_combined_units():
+    """value ± sigma: the distance is |mean - value| / sqrt(stderr^2 + sigma^2), agreement
+    within 3 of those (the ladder's Comparison rows)."""
+    ref = Reference("c", "thickness", 10.0, 10.0, 10.0, "a value", sigma=4.0)
+    entry = reference_entry(ref, case(25.0, 3.0))
+    assert entry["distance"] == pytest.approx(15.0 / 5.0) and entry["agrees"]
+    assert entry["sigma"] == 4.0
+    assert not reference_entry(ref, case(26.0, 3.0))["agrees"]        # 3.2 combined
+    alone = Reference("c", "thickness", 10.0, 10.0, 10.0, "the same without sigma")
+    assert reference_entry(alone, case(25.0, 3.0))["distance"] == pytest.approx(5.0)
+    assert "sigma" not in reference_entry(alone, case(25.0, 3.0))
+
+
+BY_SIZE = {"cases": {"c": {"bins": [
+    {"r_low": 0.5, "r_high": 1.0, "velocity_dispersion": {"mean": 3.0, "stderr": 0.3,
+                                                          "units": "m/s"}},
+    {"r_low": 1.0, "r_high": 2.0, "velocity_dispersion": {"mean": 2.0, "stderr": 0.1,
+                                                          "units": "m/s"}},
+    {"r_low": 2.0, "r_high": 4.0, "velocity_dispersion": {"mean": 1.0, "stderr": 0.1,
+                                                          "units": "m/s"}}]}}}
+
+
+def test_a_per_size_bin_reference_reads_the_bin_or_the_ratio_of_two_bins():
+    """``bin`` counts from the smallest (negative from the largest); ``over_bin`` divides
+    by another bin with first-order error propagation: 3.0 ± 0.3 over 1.0 ± 0.1 is
+    3.0 ± 3 sqrt(0.1^2 + 0.1^2)."""
+    one = Reference("c", "by_size.velocity_dispersion", 1.5, 2.5, None, "s", bin=1)
+    entry = reference_entry(one, {}, BY_SIZE)
+    assert (entry["mean"], entry["stderr"], entry["units"]) == (2.0, 0.1, "m/s")
+    assert entry["bin_radii"] == [1.0, 2.0] and entry["agrees"]
+    two = Reference("c", "by_size.velocity_dispersion", -math.inf, 2.0, None, "s", bin=0,
+                    over_bin=-1)
+    entry = reference_entry(two, {}, BY_SIZE)
+    assert entry["mean"] == pytest.approx(3.0)
+    assert entry["stderr"] == pytest.approx(3.0 * math.hypot(0.1, 0.1))
+    assert entry["distance"] == pytest.approx(1.0 / entry["stderr"]) and entry["agrees"]
+    assert entry["over_bin_radii"] == [2.0, 4.0] and entry["units"] == "dimensionless"
+    missing = Reference("c", "by_size.velocity_dispersion", 0.0, 1.0, None, "s", bin=5)
+    assert not reference_entry(missing, {}, BY_SIZE)["agrees"]
+    lines = "\n".join(references_section([entry], "rule"))
+    assert "below 2" in lines and "0.5-1 m bin / 2-4 m bin" in lines
+
+
+def test_a_ratio_reference_uses_the_ratios_statistical_and_systematic_errors():
+    ratios = [{"numerator": "a", "denominator": "b", "quantity": "thickness", "mean": 2.0,
+               "stat": 0.3, "syst": 0.4, "units": "dimensionless"},
+              {"numerator": "a", "denominator": "b", "quantity": "filling_factor",
+               "mean": 2.0, "stat": 0.3, "syst": None, "units": "dimensionless"}]
+    ref = Reference("a/b", "thickness", 0.0, 1.0, None, "s", ratio=("a", "b"))
+    entry = reference_entry(ref, {}, None, ratios)
+    assert entry["stderr"] == pytest.approx(0.5) and entry["distance"] == pytest.approx(2.0)
+    no_syst = Reference("a/b", "filling_factor", 0.0, 1.0, None, "s", ratio=("a", "b"))
+    assert reference_entry(no_syst, {}, None, ratios)["stderr"] == 0.3
+
+
+def test_references_of_one_quantity_may_be_a_list(tmp_path):
+    text = STUDY.split("references:")[0] + (
+        "references:\n  dense:\n    mean_epsilon:\n"
+        "      - {low: 0.4, source: one}\n      - {value: 0.5, sigma: 0.1, source: two}\n")
+    study = load_study(write(tmp_path / "list", text), quantities=tuple(QUANTITIES))
+    assert [(r.source, r.low, r.high, r.sigma) for r in study.references] == [
+        ("one", 0.4, math.inf, 0.0), ("two", 0.5, 0.5, 0.1)]

@@ -5,12 +5,12 @@ runner; ``--help`` lists the commands).  Modules:
 
 * ``common``: what the cases share (``Sizes``, ``Comparison``, ``CaseResult``,
   ``run_cached``, ``sheet_scenario``, the energy balance of a sheet);
-* ``case1_constant_eps`` ... ``case6_dilley_figures``: the six reference cases of the
-  validation ladder, one module each;
+* ``case1_constant_eps``, ``case3_bridges_identical`` and ``case5_rebound_example``: the
+  reference cases of the validation ladder still run as scripts, one module each (cases 2
+  and 4 are study files under ``studies/``, case 6 is ``tests/test_dilley_figures.py``);
 * ``ladder``: runs the cases and writes the report (``python -m validation ladder``);
 * ``line_mode``: line-mode collision detection against the small-dt tree reference, with
   ``encounters``, the straight-path prediction of multiple encounters it reports;
-* ``kinetic_theory``: identical smooth spheres against the dense-ring kinetic theory;
 * ``friction_ring`` and ``cooling``: a ring patch of rough spheres, and the homogeneous
   cooling of rough spheres in a periodic box;
 * ``render``: the Markdown of ``docs/validation.md``.

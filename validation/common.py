@@ -1,6 +1,6 @@
 """What the validation cases share: sizes, result rows, cached runs, scenarios, energy balance.
 
-Every case of the ladder (``case1_constant_eps`` ... ``case6_dilley_figures``) returns a
+Every case of the ladder (``case1_constant_eps`` ... ``case5_rebound_example``) returns a
 ``CaseResult``: rows (``Comparison``) of ringsim's value with its standard error against a
 reference with its uncertainty and source.  Results are stored as JSON beside the runs
 (``save_result``, ``load_results``), and finished run files are reused when their scenario
@@ -55,31 +55,19 @@ class Sizes:
     case1_orbits: float = 40.0
     case1_orbits_dilute: float = 100.0      # tau <= 0.15 collides rarely: longer run
     case1_taus: tuple[float, ...] = (0.1, 0.25, 0.5, 0.75, 1.0, 1.5)
-    case2_n: int = 2000
-    case2_tau: float = 0.1
-    case2_orbits: float = 20.0
-    case2_settle_orbits: float = 50.0
-    case2_steps: int = 5
-    case2_initial_dispersion: float = 30.0  # [r Omega]: dilute, as GT78 assume
     case3_n: int = 1000
     case3_orbits: float = 40.0
     case3_taus: tuple[float, ...] = (0.25, 0.5, 1.0)
-    case4_n: int = 2000
-    case4_orbits: float = 30.0
-    case4_tau: float = 0.5
     case5_n: int | None = None              # None: the example's own N (about 1490)
     case5_orbits: float = 10.0
     case5_skip_orbits: float = 2.0
-    case6_n: int = 1200
-    case6_orbits: float = 4.0
 
 
 FULL = Sizes()
 QUICK = Sizes(case1_n=300, case1_orbits=15.0, case1_orbits_dilute=30.0,
-              case1_taus=(0.1, 0.25, 0.5, 1.0, 1.5), case2_n=400, case2_orbits=15.0,
-              case2_settle_orbits=40.0, case2_steps=3, case3_n=300, case3_orbits=15.0,
-              case3_taus=(0.25, 1.0), case4_n=600, case4_orbits=15.0, case5_n=600,
-              case5_orbits=8.0, case5_skip_orbits=2.0, case6_n=400, case6_orbits=3.0)
+              case1_taus=(0.1, 0.25, 0.5, 1.0, 1.5), case3_n=300, case3_orbits=15.0,
+              case3_taus=(0.25, 1.0), case5_n=600,
+              case5_orbits=8.0, case5_skip_orbits=2.0)
 
 
 # --- results ---------------------------------------------------------------------------------

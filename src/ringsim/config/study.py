@@ -448,17 +448,19 @@ def load_study(path: str | PathLike, quantities: Sequence[str] | None = None) ->
                  if top.has("overrides") else {})
     cases, starts = _cases(top, base, {**full.length, **overrides})
     ratios = _ratios(top, [case for case, _ in cases])
+    study_quantities = _quantities(top, quantities)
     if full.variants and not ratios:
         raise top.error("variants", "given without ratios", "variants measure the "
                         "systematic part of the ratios: add ratios, or remove variants")
     study = Study(name=name, description=description, source=source, base=base,
                   base_file=base_file, overrides=overrides, cases=cases, ratios=ratios,
-                  quantities=_quantities(top, quantities), full=full,
+                  quantities=study_quantities, full=full,
                   quick_mode=_quick_mode(top, base, full),
                   report=_report(top, Path(source).parent),
                   quick_report=(_report(top.section("quick"), Path(source).parent)
                                 if top.has("quick") else None),
-                  references=read_references(top, [case for case, _ in cases], quantities),
+                  references=read_references(top, [case for case, _ in cases], quantities,
+                                             ratios, study_quantities or quantities),
                   starts=starts)
     _check_runs(study)
     return study

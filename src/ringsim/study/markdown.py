@@ -201,7 +201,8 @@ def report_markdown(report: Mapping, summaries: Mapping[str, dict], prose: str,
     if prose.strip():
         lines += [prose.strip(), ""]
     lines += setup_section(report) + equilibria_section(report)
-    lines += references_section(report.get("references", []))
+    lines += references_section(report.get("references", []),
+                                report.get("references_rule", ""))
     lines += ratios_section(report, figure) + by_size_lines(report.get("by_size", {}))
     lines += cassini_section(report)
     lines += runs_section(report) + cost_section(report, summaries)

@@ -23,7 +23,7 @@ from ringsim.analysis.compare import ratio
 from ringsim.analysis.equilibrium import NOT_IN_EQUILIBRIUM, QUANTITIES
 from ringsim.study.by_size import by_size_report
 from ringsim.study.cassini import against_cassini
-from ringsim.study.references import RULE, reference_entries
+from ringsim.study.references import reference_entries, rule
 
 #: What a particle weighting of ``ringsim.quantities`` counts equally.
 _WEIGHTINGS = {"number": "number: every particle counts once",
@@ -187,8 +187,8 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
     for case, start in study.starts.items():
         report["cases"][case]["start"] = start.to_dict()
     if study.references:
-        report["references"] = reference_entries(study.references, report["cases"])
-        report["references_rule"] = RULE
+        report["references"] = reference_entries(study.references, report)
+        report["references_rule"] = rule(study.references)
     return report
 
 

@@ -1,0 +1,119 @@
+"""Validation cases as study files (docs/validation.md): the ladder's cases 2 and 4,
+``studies/validation-threshold`` (the thermal-balance threshold of Goldreich & Tremaine
+1978) and ``studies/validation-size-distribution`` (the Bridges law with a q = 3 size
+distribution), and ``studies/validation-kinetic-theory`` (the dense-ring kinetic theory
+of Latter & Ogilvie 2008).
+
+The fast tests check what the study files declare against the physics they encode (the
+critical epsilon they bracket, the size bins they read); the slow tests run each quick form
+afresh and assert that every reference agrees and that the summaries equal the committed
+ones but for their cost (docs/studies.md: a rerun on the same kind of machine reproduces
+its summary).  The committed reports are checked against their summaries by
+tests/test_study_reports.py.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from ringsim.analysis.equilibrium import QUANTITIES
+from ringsim.config.study import load_study
+from ringsim.physics import kinetic
+from ringsim.physics.dense_kinetic import kinetic_steady_state
+from ringsim.study.command import run_study
+
+ROOT = Path(__file__).resolve().parent.parent
+THRESHOLD = ROOT / "studies" / "validation-threshold"
+SIZES = ROOT / "studies" / "validation-size-distribution"
+KINETIC = ROOT / "studies" / "validation-kinetic-theory"
+
+
+def _load(folder: Path):
+    return load_study(folder / "study.yaml", quantities=tuple(QUANTITIES))
+
+
+def test_threshold_study_brackets_the_critical_epsilon_with_cooling_and_heating_rings():
+    """Every hot case below GT78's eps_cr at tau = 0.1 (0.631) must cool below its start
+    (30 r Omega) and every case above it heat: the references say so, on both sides."""
+    study = _load(THRESHOLD)
+    eps_cr = kinetic.critical_epsilon(0.1)
+    assert eps_cr == pytest.approx(0.631, abs=5e-4)
+    specs = {spec.case: spec.scenario for spec in study.specs()}
+    start = {case: sc.sheet.initial_dispersion for case, sc in specs.items()}
+    eps = {case: dict(sc.restitution.parameters)["epsilon"] for case, sc in specs.items()}
+    checks = {r.case: r for r in study.references
+              if r.quantity == "velocity_dispersion_rOmega"}
+    hot = [case for case in specs if start[case] == 30.0]
+    below = [case for case in hot if eps[case] < eps_cr]
+    above = [case for case in hot if eps[case] > eps_cr]
+    assert below and above and len(below) + len(above) == len(hot)
+    assert all(checks[c].high == 30.0 and checks[c].low == float("-inf") for c in below)
+    assert all(checks[c].low == 30.0 and checks[c].high == float("inf") for c in above)
+    cold = [case for case in specs if start[case] < 30.0]
+    assert cold and all(eps[c] < eps_cr and checks[c].high <= 5.0 for c in cold)
+
+
+def test_size_distribution_study_reads_the_smallest_over_the_largest_size_bin():
+    study = _load(SIZES)
+    bins = [r for r in study.references if r.quantity.startswith("by_size.")]
+    assert bins and all((r.bin, r.over_bin) == (0, -1) for r in bins)
+    c = [r for r in bins if r.quantity == "by_size.velocity_dispersion"]
+    assert {(r.low, r.high) for r in c} == {(2.0, 5.0), (float("-inf"), 6.1)}
+
+
+def test_kinetic_theory_study_quotes_the_theory_at_its_optical_depths():
+    """Each case's references are the tabulated theory at the case's optical depth, to the
+    4 digits written (c [r Omega]; viscosities [m^2/s] = [r^2 Omega] x r^2 Omega), with a
+    tolerance of 3 % of the value."""
+    study = _load(KINETIC)
+    specs = {spec.case: spec.scenario for spec in study.specs()}
+    keys = {"velocity_dispersion_rOmega": "c", "translational_viscosity": "nu_trans",
+            "collisional_viscosity": "nu_coll"}
+    assert {r.case for r in study.references} == set(specs)
+    for ref in study.references:
+        sc = specs[ref.case]
+        unit = 1.0 if ref.quantity == "velocity_dispersion_rOmega" else \
+            sc.orbital_frequency * 1.0 ** 2           # 1 m spheres
+        theory = kinetic_steady_state(sc.sheet.optical_depth)[keys[ref.quantity]] * unit
+        assert ref.value == pytest.approx(theory, rel=5e-4), (ref.case, ref.quantity)
+        assert ref.high - ref.value == pytest.approx(0.03 * theory, rel=0.02)
+
+
+def _quick_afresh(folder: Path, tmp_path: Path) -> dict:
+    copy = tmp_path / folder.name
+    shutil.copytree(folder, copy, ignore=shutil.ignore_patterns(
+        "summaries", "*.report", "earlier_runs*"))
+    run_study(copy / "study.yaml", quick=True, workers=2, echo=None,
+              command=f"ringsim study studies/{folder.name}/study.yaml --quick")
+    for new in sorted((copy / "summaries").glob("*.json")):
+        old = json.loads((folder / "summaries" / new.name).read_text())
+        fresh = json.loads(new.read_text())
+        old.pop("cost"), fresh.pop("cost")
+        assert fresh == old, new.name
+    return json.loads((copy / "study.quick.report" / "report.json").read_text())
+
+
+@pytest.mark.slow
+def test_threshold_quick_form_cools_below_and_heats_above(tmp_path):
+    """Seven runs of 400 particles, 15 orbits (about 10 CPU-seconds)."""
+    report = _quick_afresh(THRESHOLD, tmp_path)
+    assert len(report["references"]) == 10
+    assert all(e["agrees"] for e in report["references"]), \
+        [e for e in report["references"] if not e["agrees"]]
+    c = {case: e["equilibrium"]["velocity_dispersion_rOmega"]["mean"]
+         for case, e in report["cases"].items()}
+    assert c["eps0.3"] < c["eps0.5"] < c["eps0.6"] < c["eps0.7"] < c["eps0.8"] < c["eps0.9"]
+
+
+@pytest.mark.slow
+def test_size_distribution_quick_form_is_far_from_equipartition(tmp_path):
+    """One run of 600 particles, 15 orbits (about 5 CPU-seconds)."""
+    report = _quick_afresh(SIZES, tmp_path)
+    assert len(report["references"]) == 3 and all(e["agrees"] for e in report["references"])
+    bins = report["by_size"]["cases"]["q3"]["bins"]
+    c = [b["velocity_dispersion"]["mean"] for b in bins]
+    assert all(a > b for a, b in zip(c, c[1:], strict=False)), "c falls with size"
