@@ -47,7 +47,9 @@
  * evaluated from both sides (gather): the pair forces are antisymmetric to round-off, so
  * the total momentum of the short-range forces vanishes to round-off.  Cost: an O(N) cell
  * list with cells of at least r_c / 2 (an area of about (2.5 r_c)^2 searched per particle;
- * boxes narrower than 2.5 r_c fall back to all pairs and their 3 x 3 nearest images).
+ * boxes narrower than 2.5 r_c fall back to all pairs and their 3 x 3 nearest images); the
+ * sources of a cell run are summed in one loop, or in two passes where enough of them lie
+ * within r_c (rs_p3m_pairs: the same bits either way).
  */
 #include <math.h>
 #include <stddef.h>
