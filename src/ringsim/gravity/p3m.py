@@ -6,9 +6,11 @@ scipy.fft (:class:`ringsim.physics.p3m_mesh.P3MMesh`); mass assignment, interpol
 the short-range pair sum within r_c in C (``ringsim/csrc/rs_p3m.c``).  REBOUND's own gravity
 is off (``sim.gravity = "none"``); one Python ``additional_forces`` callback per force
 evaluation (SEI: once per step, at the half-step positions, time ``sim.t`` of mid-step) does
-prepare -> assign -> FFT solve -> interpolate -> pair sum.  ctypes swallows exceptions raised
-in a callback, so the callback stores the first one and :func:`raise_pending` re-raises it
-after the step (the run loop calls it after every chunk of steps).  `SOLVER` is the solver
+prepare -> assign -> FFT solve -> interpolate -> pair sum (with ``sheet.p3m_mesh_interval``
+k > 1 the mesh stages run on one step in k, their force times k: `P3MSolver`).  ctypes
+swallows exceptions raised in a callback, so the callback stores the first one and
+:func:`raise_pending` re-raises it after the step (the run loop calls it after every chunk
+of steps).  `SOLVER` is the solver
 behind ``ringsim.gravity.base.GravitySolver``: its keyword ``p3m_setting`` is (split [m],
 auto).
 """
@@ -100,9 +102,10 @@ def describe(Lx, Ly, softening, split, auto=False, pair_min_radius=0.0,
     """
     p = p3m_parameters(Lx, Ly, split)
     largest = p3m_auto_split(split, math.inf, 1, Lx, Ly) if auto else p["split"]
-    interval = ({"p3m_mesh_interval": int(mesh_interval), "units_p3m_mesh_interval":
-                 "steps (the mesh force acts as an impulse of this many steps on every "
-                 "such step; 1: every step)"} if mesh_interval != 1 else {})
+    interval = {} if mesh_interval == 1 else {
+        "p3m_mesh_interval": int(mesh_interval), "units_p3m_mesh_interval":
+            "steps (the mesh force acts as an impulse of this many steps on the middle "
+            "step of every group of this many; 1: every step)"}
     return {"gravity_solver": P3M.name, **interval,
             "p3m_split": p["split"], "units_p3m_split": "m",
             "p3m_split_auto": int(bool(auto)),
