@@ -81,7 +81,8 @@ P3M_MESH_INTERVAL = Parameter(
             "(step index floor(t / dt) = (k - 1) / 2 modulo k) and not on the others, while "
             "the pair sum and the mean vertical field act every step (the impulse "
             "multiple-time-step scheme, RESPA); 1: the mesh every step; 5 left an "
-            "equilibrium's c and H within a few per cent, 15 heated it by about 10 %",
+            "equilibrium's c and H within the seeds' spread (-10 to +3 %), 15 heated it "
+            "by about 10 %",
     source="Tuckerman, Berne & Martyna 1992, J. Chem. Phys. 97, 1990 (reversible "
            "multiple time scale molecular dynamics); docs/gravity.md, section \"The mesh "
            "every k steps\" (its error against k = 1; benchmarks/p3m_thick.py)")
