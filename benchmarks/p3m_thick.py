@@ -14,8 +14,14 @@ the stages of P3M's force evaluation (``P3MSolver.profile``) and the force error
 the converged shear-periodic image sum on ``--targets`` random particles (rms of the
 per-particle relative error) at the state before the steps.  Medians of ``--repeats``.
 
+With ``--configs F:K ...`` the script instead times P3M with the mesh every K steps
+(``sheet.p3m_mesh_interval``) and the split at F times `auto`'s, in the constructed rings
+(tail apart) and the Saturn presets ``--presets``, each against the step without gravity
+(section "P3M: the mesh every k steps" of docs/performance.md).
+
 Usage: python benchmarks/p3m_thick.py [--n 20000] [--sigmas 44 183] [--steps 10]
        [--tail-fractions 0 0.02] [--write-doc]
+       python benchmarks/p3m_thick.py --configs 1:1 1:5 0.6:15 [--presets a b c] ...
 """
 
 from __future__ import annotations
@@ -174,6 +180,116 @@ def document(rows: list[str], args) -> str:
         + "\n".join(rows) + "\n")
 
 
+def interval_cost(sc, heights, args, k: int, split_factor: float) -> dict:
+    """`step_cost`'s figures of ``sc`` with the mesh every ``k`` steps
+    (``sheet.p3m_mesh_interval``) and the split at ``split_factor`` times the one `auto`
+    takes at the state (1: `auto`); ``args.steps`` rounded up to whole intervals, medians
+    of ``args.repeats``; the force error is that of the whole force (the mesh's impulse
+    spread over its k steps)."""
+    over: dict = {"sheet.p3m_mesh_interval": k}
+    if split_factor != 1.0:
+        probe = build(sc, heights)
+        probe.sim.steps(1)
+        over["sheet.p3m_split"] = split_factor * p3m.installed_solver(probe.sim).params.split
+        probe.resolver.close()
+    sc = with_overrides(sc, over)
+    steps = -(-args.steps // k) * k
+    runs = []
+    for i in range(args.repeats):
+        built = build(sc, heights)
+        sim, solver = built.sim, p3m.installed_solver(built.sim)
+        out = {"n": sim.N, "k": k}
+        if i == 0 and args.targets:
+            solver.mesh_interval = 1
+            out["error"] = force_error(sim, args.targets)
+            solver.mesh_interval = k
+        sim.steps(2 * k)
+        solver.profile = {}
+        t0 = time.process_time()
+        sim.steps(steps)
+        out["step"] = (time.process_time() - t0) / steps / sim.N
+        p3m.raise_pending(sim)
+        out["stages"] = {name: v / steps / sim.N for name, v in solver.profile.items()}
+        par = solver.params
+        out["mesh"] = f"{par.split:.2f}: {par.nx} x {par.ny} x {par.nz}"
+        out["rms_z"] = float(np.std([p.z for p in sim.particles]))
+        built.resolver.close()
+        runs.append(out)
+    best = dict(runs[0])
+    best["step"] = float(np.median([r["step"] for r in runs]))
+    best["stages"] = {name: float(np.median([r["stages"].get(name, 0.0) for r in runs]))
+                      for name in runs[0]["stages"]}
+    return best
+
+
+MESH_STAGES = ("mass assignment", "mesh fields (FFT)", "interpolation")
+
+
+def interval_rows(label, sc, heights, args) -> list[str]:
+    """Table rows of one ring: each (split factor, mesh interval) of ``args.configs``
+    against the step without gravity (the same state, the same process)."""
+    plain = median_cost(without_gravity(sc), heights, args)
+    rows = []
+    for config in args.configs:
+        factor, k = (float(v) for v in config.split(":"))
+        g = interval_cost(sc, heights, args, int(k), factor)
+        st = g["stages"]
+        mesh = sum(st.get(name, 0.0) for name in MESH_STAGES)
+        rest = sum(v for name, v in st.items() if name not in (*MESH_STAGES, "pair sum"))
+        error = f"{g['error'] * 100:.2f} %" if "error" in g else "-"
+        rows.append(
+            f"| {label} | {g['n']} | {g['rms_z']:.1f} | {factor:g} | {g['mesh']} | {int(k)} "
+            f"| {error} | {g['step'] * 1e6:.2f} | {mesh * 1e6:.2f} "
+            f"| {st['pair sum'] * 1e6:.2f} | {rest * 1e6:.2f} | {plain['step'] * 1e6:.2f} "
+            f"| {g['step'] / plain['step']:.1f} |")
+        print(rows[-1], flush=True)
+    return rows
+
+
+def interval_document(rows: list[str], args) -> str:
+    when = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    return (
+        "## P3M: the mesh every k steps\n\n"
+        f"`python benchmarks/p3m_thick.py --n {args.n} --sigmas "
+        f"{' '.join(f'{s:g}' for s in args.sigmas)} --tail {args.tail:g} --steps {args.steps} "
+        f"--repeats {args.repeats} --presets {' '.join(args.presets)} --configs "
+        f"{' '.join(args.configs)} --write-doc`, {when}, {platform.machine()} "
+        f"{platform.system()}, REBOUND {rebound.__version__}, one thread, CPU microseconds "
+        "per particle-step (medians of the repeats over whole intervals of k steps; the "
+        "machine shared with other jobs, so absolute figures are inflated alike).  "
+        "Constructed rings as in the script's docstring with the tail apart "
+        "(`sheet.p3m_tail_fraction` 0.08); the presets as they run, at their initial "
+        "state.  Split factor: the split is that times the one `auto` takes at the state "
+        "(1: `auto`).  k: `sheet.p3m_mesh_interval`.  Error: rms per-particle relative "
+        "error of the whole force (mesh every step) against the converged shear-periodic "
+        f"image sum on {args.targets} random particles.  Mesh: assignment, FFTs and "
+        "interpolation per step (averaged over the k steps).\n\n"
+        "| ring | N | rms z [m] | split factor | split [m]: mesh nx x ny x layers | k "
+        "| rms force error | whole step | mesh | pair sum | mean vertical field, split "
+        "and layers | no gravity (same state) | with / without gravity |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+        + "\n".join(rows) + "\n")
+
+
+def interval_main(args) -> None:
+    """The ``--configs`` mode: `interval_rows` of the constructed rings (tail apart) and
+    the presets ``args.presets``."""
+    rows = []
+    for sigma in args.sigmas:
+        heights = tailed_heights(args.n, sigma, args.tail)
+        sc = with_overrides(ring_scenario(args.n, True), {"sheet.p3m_tail_fraction": 0.08})
+        rows += interval_rows(f"constructed, sigma {sigma:g} m", sc, heights, args)
+    for name in args.presets:
+        sc = with_overrides(load_scenario(f"scenarios/saturn-{name}-ring.yaml"),
+                            {"integration.threads": 1})
+        rows += interval_rows(f"{name.upper()}-ring preset", sc, None, args)
+    text = interval_document(rows, args)
+    print(text)
+    if args.write_doc:
+        replace_section("docs/performance.md", "## P3M: the mesh every k steps", text,
+                        "Performance")
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=20000)
@@ -185,7 +301,14 @@ def main(argv=None) -> None:
     ap.add_argument("--tail-fractions", type=float, nargs="+", default=[0.0, 0.02])
     ap.add_argument("--no-b-ring", action="store_true")
     ap.add_argument("--write-doc", action="store_true")
+    ap.add_argument("--configs", nargs="+", default=None,
+                    help="SPLIT_FACTOR:K pairs: the mesh-interval mode (interval_main)")
+    ap.add_argument("--presets", nargs="*", default=["b"],
+                    help="Saturn presets of the mesh-interval mode (a, b, c)")
     args = ap.parse_args(argv)
+    if args.configs:
+        interval_main(args)
+        return
     rows = []
     for sigma in args.sigmas:
         heights = tailed_heights(args.n, sigma, args.tail)

@@ -47,7 +47,9 @@
  * evaluated from both sides (gather): the pair forces are antisymmetric to round-off, so
  * the total momentum of the short-range forces vanishes to round-off.  Cost: an O(N) cell
  * list with cells of at least r_c / 2 (an area of about (2.5 r_c)^2 searched per particle;
- * boxes narrower than 2.5 r_c fall back to all pairs and their 3 x 3 nearest images).
+ * boxes narrower than 2.5 r_c fall back to all pairs and their 3 x 3 nearest images); the
+ * sources of a cell run are summed in one loop, or in two passes where enough of them lie
+ * within r_c (rs_p3m_pairs: the same bits either way).
  */
 #include <math.h>
 #include <stddef.h>
@@ -66,7 +68,7 @@ struct rs_p3m {
     int nz;                /* layers (set by rs_p3m_prepare) */
     int error;             /* nonzero: allocation failed in the last call */
     int threads;           /* OpenMP threads of interpolation and pair sum (<= 1: one) */
-    int reserved;
+    int two_pass;          /* pair sum in two passes (set by rs_p3m_short from its last call) */
     double z0;             /* height of layer 0 [m] (set by rs_p3m_prepare) */
     double shift;          /* shear offset s [m] at the call's time (rs_p3m_prepare) */
     double alpha;          /* s / Lx */
@@ -98,6 +100,7 @@ void rs_p3m_init(struct rs_p3m* p){
         p->table[k] = rs_p3m_long_over_r3(r, p->split);
     }
     p->error = 0;
+    p->two_pass = 0;
 }
 
 /* Table lookup of L(r)/r^3 at r^2 = r2 < rc^2. */
@@ -393,28 +396,74 @@ struct rs_p3m_list {
     int clamped;
 };
 
+/* Sources per chunk of the pair sum's two passes (rs_p3m_pairs). */
+#define RS_P3M_CHUNK 128
+/* Fraction of the scanned sources within r_c above which the pair sum takes two passes:
+ * one scanned source in eight within r_c (a ring about as thick as r_c) gains from them,
+ * one in twenty-five (a ring many r_c thick) loses (docs/performance.md, "P3M: the mesh
+ * every k steps in an equilibrium, and what is left"). */
+#define RS_P3M_TWO_PASS_FRACTION 0.08
+
 /* Short-range acceleration [m/s^2] on (xi, yi, zi) from the sorted sources [b, e) of src,
- * each at (x_j + offx, y_j + offy, z_j). */
+ * each at (x_j + offx, y_j + offy, z_j), into acc[0..2]; acc[3] and acc[4] count the
+ * sources scanned and those within r_c.  One loop that tests and skips, or (p->two_pass)
+ * two passes over chunks of sources: the indices within r_c without branches, then their
+ * forces in the same order.  Both give the same sums, bit for bit. */
 static void rs_p3m_pairs(const struct rs_p3m* p, const struct rs_p3m_list* src, size_t b,
                          size_t e, double xi, double yi, double zi, double offx, double offy,
                          double inv_step, double* acc){
     const double rc2 = p->cutoff * p->cutoff, b2 = p->softening * p->softening;
     const double xs = xi - offx, ys = yi - offy;
     const double *sx = src->sx, *sy = src->sy, *sz = src->sz, *sm = src->sm;
-    for (size_t j = b; j < e; j++){
-        const double dx = xs - sx[j];
-        const double dy = ys - sy[j];
-        const double dz = zi - sz[j];
-        const double r2 = dx * dx + dy * dy + dz * dz;
-        if (r2 >= rc2 || r2 == 0.0){
-            continue;
+    size_t hits = 0;
+    if (!p->two_pass){
+        for (size_t j = b; j < e; j++){
+            const double dx = xs - sx[j];
+            const double dy = ys - sy[j];
+            const double dz = zi - sz[j];
+            const double r2 = dx * dx + dy * dy + dz * dz;
+            if (r2 >= rc2 || r2 == 0.0){
+                continue;
+            }
+            hits++;
+            const double s2 = r2 + b2;
+            const double f = sm[j] * (1.0 / (s2 * sqrt(s2)) - rs_p3m_lookup(p, r2, inv_step));
+            acc[0] -= f * dx;
+            acc[1] -= f * dy;
+            acc[2] -= f * dz;
         }
-        const double s2 = r2 + b2;
-        const double f = sm[j] * (1.0 / (s2 * sqrt(s2)) - rs_p3m_lookup(p, r2, inv_step));
-        acc[0] -= f * dx;
-        acc[1] -= f * dy;
-        acc[2] -= f * dz;
+        acc[3] += (double)(e - b);
+        acc[4] += (double)hits;
+        return;
     }
+    size_t near[RS_P3M_CHUNK];
+    for (size_t c0 = b; c0 < e; c0 += RS_P3M_CHUNK){
+        const size_t c1 = e - c0 < RS_P3M_CHUNK ? e : c0 + RS_P3M_CHUNK;
+        size_t m = 0;
+        for (size_t j = c0; j < c1; j++){
+            const double dx = xs - sx[j];
+            const double dy = ys - sy[j];
+            const double dz = zi - sz[j];
+            const double r2 = dx * dx + dy * dy + dz * dz;
+            near[m] = j;
+            m += (size_t)((r2 < rc2) & (r2 != 0.0));
+        }
+        for (size_t q = 0; q < m; q++){
+            const size_t j = near[q];
+            const double dx = xs - sx[j];
+            const double dy = ys - sy[j];
+            const double dz = zi - sz[j];
+            const double r2 = dx * dx + dy * dy + dz * dz;
+            const double s2 = r2 + b2;
+            const double f = sm[j] * (1.0 / (s2 * sqrt(s2)) - rs_p3m_lookup(p, r2, inv_step));
+            acc[0] -= f * dx;
+            acc[1] -= f * dy;
+            acc[2] -= f * dz;
+        }
+        hits += m;
+    }
+    acc[3] += (double)(e - b);
+    acc[4] += (double)hits;
 }
 
 /* The correction [m/s^2] to rs_p3m_pairs of the pairs with a particle beyond the mesh:
@@ -635,12 +684,14 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
         return;
     }
     /* targets in cell order (sources cached); each target's sum is its own, in a fixed
-     * order: the same bits on any number of threads */
-#pragma omp parallel for schedule(dynamic, 256) num_threads(rs_p3m_threads(p, n))
+     * order: the same bits on any number of threads (and either way of rs_p3m_pairs) */
+    double scanned = 0.0, within = 0.0;
+#pragma omp parallel for schedule(dynamic, 256) num_threads(rs_p3m_threads(p, n)) \
+    reduction(+:scanned, within)
     for (size_t slot = 0; slot < n; slot++){
         struct reb_particle* const q = &ps[all.order[slot]];
         const struct rs_p3m_list* src = q->r < r_pair ? &large : &all;
-        double acc[3] = {0.0, 0.0, 0.0};
+        double acc[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
         const double target[5] = {all.sx[slot], all.sy[slot], all.sz[slot], all.sc[slot],
                                    all.sw[slot]};
         /* a pair with a particle beyond the mesh has its target beyond the mesh or within
@@ -656,7 +707,11 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
         q->ax += G * acc[0];
         q->ay += G * acc[1];
         q->az += G * acc[2];
+        scanned += acc[3];
+        within += acc[4];
     }
+    /* the next call's way of summing (a cost, not a result: the bits are the same) */
+    p->two_pass = within > RS_P3M_TWO_PASS_FRACTION * scanned;
     rs_p3m_list_free(&all);
     rs_p3m_list_free(&large);
 }

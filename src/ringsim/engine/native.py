@@ -356,7 +356,7 @@ class P3MStruct(ctypes.Structure):
         ("nz", ctypes.c_int),
         ("error", ctypes.c_int),
         ("threads", ctypes.c_int),
-        ("reserved", ctypes.c_int),
+        ("two_pass", ctypes.c_int),
         ("z0", ctypes.c_double),
         ("shift", ctypes.c_double),
         ("alpha", ctypes.c_double),

@@ -6,9 +6,11 @@ scipy.fft (:class:`ringsim.physics.p3m_mesh.P3MMesh`); mass assignment, interpol
 the short-range pair sum within r_c in C (``ringsim/csrc/rs_p3m.c``).  REBOUND's own gravity
 is off (``sim.gravity = "none"``); one Python ``additional_forces`` callback per force
 evaluation (SEI: once per step, at the half-step positions, time ``sim.t`` of mid-step) does
-prepare -> assign -> FFT solve -> interpolate -> pair sum.  ctypes swallows exceptions raised
-in a callback, so the callback stores the first one and :func:`raise_pending` re-raises it
-after the step (the run loop calls it after every chunk of steps).  `SOLVER` is the solver
+prepare -> assign -> FFT solve -> interpolate -> pair sum (with ``sheet.p3m_mesh_interval``
+k > 1 the mesh stages run on one step in k, their force times k: `P3MSolver`).  ctypes
+swallows exceptions raised in a callback, so the callback stores the first one and
+:func:`raise_pending` re-raises it after the step (the run loop calls it after every chunk
+of steps).  `SOLVER` is the solver
 behind ``ringsim.gravity.base.GravitySolver``: its keyword ``p3m_setting`` is (split [m],
 auto).
 """
@@ -81,7 +83,7 @@ def p3m_parameters(Lx, Ly, split, cutoff=None, cell=None, dz=None) -> dict:
 
 
 def describe(Lx, Ly, softening, split, auto=False, pair_min_radius=0.0,
-             tail_fraction=0.0) -> dict:
+             tail_fraction=0.0, mesh_interval=1) -> dict:
     """Root attributes of a run file for the P3M solver at its defaults, each with
     ``units_<name>`` beside it; with ``auto`` the split, cutoff, mesh and layers given are
     those of the first rung, and ``p3m_split_auto`` says that the split follows the height
@@ -95,10 +97,16 @@ def describe(Lx, Ly, softening, split, auto=False, pair_min_radius=0.0,
         Particles below it are field-only (0: none).
     tail_fraction : float [-]
         Fraction of the particles the mesh may leave beyond its layers (0: none).
+    mesh_interval : int [steps]
+        Steps per mesh evaluation (1: every step; recorded only when above 1).
     """
     p = p3m_parameters(Lx, Ly, split)
     largest = p3m_auto_split(split, math.inf, 1, Lx, Ly) if auto else p["split"]
-    return {"gravity_solver": P3M.name,
+    interval = {} if mesh_interval == 1 else {
+        "p3m_mesh_interval": int(mesh_interval), "units_p3m_mesh_interval":
+            "steps (the mesh force acts as an impulse of this many steps on the middle "
+            "step of every group of this many; 1: every step)"}
+    return {"gravity_solver": P3M.name, **interval,
             "p3m_split": p["split"], "units_p3m_split": "m",
             "p3m_split_auto": int(bool(auto)),
             "units_p3m_split_auto": "1: the split follows the height span, 0: fixed",
@@ -165,13 +173,21 @@ class P3MSolver:
         with damped weights, its pair forces within r_c and its mean vertical field are
         exact.  The split of ``auto`` still follows the whole height span.  0: the layers
         span every particle.
+    mesh_interval : int [steps]
+        ``sheet.p3m_mesh_interval`` k (odd): in REBOUND's steps the mesh (assignment, FFTs,
+        interpolation) runs only on the middle step of every k, index floor(t / dt) =
+        (k - 1) / 2 modulo k, its force multiplied by k (an impulse of k steps, centred on
+        the steps it stands for; the RESPA scheme of Tuckerman et al. 1992), and is left
+        out on the others; the pair sum and the mean vertical field act every step.  The
+        schedule is a function of t and dt alone, so a resumed run takes the same steps.
+        :meth:`apply` called directly gives the whole force.  1: the mesh every step.
     """
 
     def __init__(self, Lx: float, Ly: float, softening: float, split: float,
                  cutoff: float | None = None, cell: float | None = None,
                  dz: float | None = None, G: float = G_SI, workers: int = 1,
                  auto: bool = False, pair_min_radius: float = 0.0,
-                 tail_fraction: float = 0.0) -> None:
+                 tail_fraction: float = 0.0, mesh_interval: int = 1) -> None:
         if not HAS_P3M:
             raise ImportError("ringsim._resolver was built without rs_p3m.c; rebuild the "
                               "extension (`python setup.py build_ext --inplace`)")
@@ -185,6 +201,11 @@ class P3MSolver:
         if not 0.0 <= tail_fraction < 1.0:
             raise ValueError(f"P3M tail fraction {tail_fraction} must be in [0, 1)")
         self.tail_fraction = float(tail_fraction)
+        if (mesh_interval != int(mesh_interval) or int(mesh_interval) % 2 == 0
+                or not 1 <= mesh_interval <= 99):
+            raise ValueError(f"P3M mesh interval {mesh_interval} must be an odd whole number "
+                             "of steps in [1, 99]")
+        self.mesh_interval = int(mesh_interval)
         self._explicit = (cutoff, cell, dz)
         self._rungs: dict[float, tuple[P3MStruct, P3MMesh]] = {}
         self.error: BaseException | None = None
@@ -251,24 +272,40 @@ class P3MSolver:
         p.nz = layer_bucket(nz)
         return p
 
-    def apply(self, sim_address: int) -> None:
-        """Add the P3M accelerations [m/s^2] to the simulation at ``sim_address``."""
+    def apply(self, sim_address: int, mesh_steps: int = 1) -> None:
+        """Add the P3M accelerations [m/s^2] to the simulation at ``sim_address``, the mesh
+        force ``mesh_steps`` times (an impulse of that many steps; 0: none)."""
         lap = _Laps(self.profile)
         p = self._prepare(sim_address)
         lap("split and layers")
-        mass = np.empty((p.nz, p.nx, p.ny))
-        _LIB.rs_p3m_assign(sim_address, ctypes.byref(p), mass)
-        lap("mass assignment")
-        gx, gy, gz = self.mesh.fields(mass, p.alpha)
-        lap("mesh fields (FFT)")
-        _LIB.rs_p3m_interpolate(sim_address, ctypes.byref(p), gx, gy, gz)
-        lap("interpolation")
+        if mesh_steps > 0:
+            mass = np.empty((p.nz, p.nx, p.ny))
+            _LIB.rs_p3m_assign(sim_address, ctypes.byref(p), mass)
+            lap("mass assignment")
+            gx, gy, gz = self.mesh.fields(mass, p.alpha)
+            if mesh_steps != 1:
+                for g in (gx, gy, gz):
+                    g *= float(mesh_steps)
+            lap("mesh fields (FFT)")
+            _LIB.rs_p3m_interpolate(sim_address, ctypes.byref(p), gx, gy, gz)
+            lap("interpolation")
         _LIB.rs_p3m_mean_vertical(sim_address, ctypes.byref(p))
         lap("mean vertical field")
         _LIB.rs_p3m_short(sim_address, ctypes.byref(p))
         lap("pair sum")
         if p.error:
             raise MemoryError("rs_p3m: out of memory (cell list or fine vertical layers)")
+
+    def _mesh_steps(self, sim_pointer) -> int:
+        """Steps of mesh force in this force evaluation: k = ``mesh_interval`` on the
+        steps whose index n = floor(t / dt) is (k - 1) / 2 modulo k, the middle of the k
+        steps n - (k - 1) / 2 ... n + (k - 1) / 2 it stands for (SEI evaluates at mid-step,
+        t = (n + 1/2) dt from t = 0), 0 on the others; 1 when k = 1."""
+        k = self.mesh_interval
+        if k == 1:
+            return 1
+        sim = sim_pointer.contents
+        return k if (math.floor(sim.t / sim.dt) - k // 2) % k == 0 else 0
 
     def _additional_forces(self, sim_pointer) -> None:
         if self.error is not None:
@@ -277,7 +314,7 @@ class P3MSolver:
             address = ctypes.cast(sim_pointer, ctypes.c_void_p).value
             if address is None:
                 raise ValueError("REBOUND called the P3M solver with a NULL simulation")
-            self.apply(address)
+            self.apply(address, self._mesh_steps(sim_pointer))
         except Exception as exc:  # noqa: BLE001 - ctypes would swallow it; re-raised later
             self.error = exc
 
@@ -316,26 +353,37 @@ def set_threads(sim: rebound.Simulation, threads: int) -> None:
 
 
 def install(sim: rebound.Simulation, *, p3m_setting: tuple[float, bool],
-            p3m_pair_min_radius: float = 0.0, p3m_tail_fraction: float = 0.0) -> None:
+            p3m_pair_min_radius: float = 0.0, p3m_tail_fraction: float = 0.0,
+            p3m_mesh_interval: int = 1) -> None:
     """A `P3MSolver` of ``sim``'s box and softening with ``p3m_setting`` = (split scale
     [m], auto: the split follows the height span from there up), the field-only radius
-    ``p3m_pair_min_radius`` [m] and the tail fraction ``p3m_tail_fraction`` [-], the other
+    ``p3m_pair_min_radius`` [m], the tail fraction ``p3m_tail_fraction`` [-] and the steps
+    per mesh evaluation ``p3m_mesh_interval``, the other
     parameters at their defaults (``physics.p3m_scales.P3M_*``)."""
     split, auto = p3m_setting
     Lx = sim.root_size * sim.N_root_x
     Ly = sim.root_size * sim.N_root_y
     install_p3m(sim, P3MSolver(Lx, Ly, sim.softening, split, G=G_SI, auto=auto,
                                pair_min_radius=p3m_pair_min_radius,
-                               tail_fraction=p3m_tail_fraction))
+                               tail_fraction=p3m_tail_fraction,
+                               mesh_interval=p3m_mesh_interval))
+
+
+def _interval(mesh_interval: int) -> dict:
+    """``p3m_mesh_interval`` as a keyword where it is not 1 (the default leaves the
+    keywords of earlier runs as they were)."""
+    return {} if mesh_interval == 1 else {"p3m_mesh_interval": int(mesh_interval)}
 
 
 def arguments(scenario) -> dict:
-    """``p3m_setting`` (split [m], auto), ``p3m_pair_min_radius`` [m] and
-    ``p3m_tail_fraction`` [-] of a scenario's P3M solver."""
+    """``p3m_setting`` (split [m], auto), ``p3m_pair_min_radius`` [m],
+    ``p3m_tail_fraction`` [-] and, where not 1, ``p3m_mesh_interval`` [steps] of a
+    scenario's P3M solver."""
     tail = scenario.sheet.p3m_tail_fraction
     return {"p3m_setting": scenario.p3m_setting,
             "p3m_pair_min_radius": float(scenario.sheet.p3m_pair_min_radius or 0.0),
-            "p3m_tail_fraction": 0.0 if tail is None else float(tail)}
+            "p3m_tail_fraction": 0.0 if tail is None else float(tail),
+            **_interval(int(scenario.sheet.p3m_mesh_interval or 1))}
 
 
 def recognise(sim: rebound.Simulation) -> dict | None:
@@ -343,7 +391,8 @@ def recognise(sim: rebound.Simulation) -> dict | None:
     solver = installed_solver(sim)
     return None if solver is None else {"p3m_setting": solver.setting,
                                         "p3m_pair_min_radius": solver.pair_min_radius,
-                                        "p3m_tail_fraction": solver.tail_fraction}
+                                        "p3m_tail_fraction": solver.tail_fraction,
+                                        **_interval(solver.mesh_interval)}
 
 
 def attributes(keywords: dict, geometry) -> dict:
@@ -351,7 +400,8 @@ def attributes(keywords: dict, geometry) -> dict:
     split, auto = keywords["p3m_setting"]
     return describe(geometry.Lx, geometry.Ly, keywords["softening"], split, auto,
                     pair_min_radius=keywords.get("p3m_pair_min_radius", 0.0),
-                    tail_fraction=keywords.get("p3m_tail_fraction", 0.0))
+                    tail_fraction=keywords.get("p3m_tail_fraction", 0.0),
+                    mesh_interval=keywords.get("p3m_mesh_interval", 1))
 
 
 SOLVER = GravitySolver(P3M, install=install, arguments=arguments, recognise=recognise,
