@@ -9,8 +9,9 @@ sheet in the same process (the pair of figures least disturbed by other jobs; th
 searches find the same pairs, so the sheet evolves the same either way).  Once without
 self-gravity (the baseline) and once as the preset runs (P3M with its field-only
 particles).  CPU time per particle-step, median of the rounds; the ratios; what an orbit
-costs at dt = 1e-3 orbit.  The initial state is cooler and thinner than an equilibrium;
-the figures are the set-up's, not the equilibrium's.  With ``--write-doc`` the table
+costs at dt = 1e-3 orbit.  The initial state has the velocity dispersion of Toomre Q = 2
+(``sheet.initial_toomre_q``), the order of an equilibrium's, but not its structure (no
+wakes yet); the figures are the set-up's, not the equilibrium's.  With ``--write-doc`` the table
 replaces the section "## The Saturn presets" of docs/performance.md.
 
 Usage: python benchmarks/saturn_presets.py [--presets a b c] [--steps 5] [--repeats 3]
@@ -73,7 +74,7 @@ def table(presets: list[str], steps: int, repeats: int) -> str:
             f"--repeats {repeats} --write-doc`, {when}, {platform.machine()} "
             f"{platform.system()}, one thread, CPU times, median of {repeats} rounds (the "
             f"machine shared: load average {load:.1f} at the end).  Each preset from its "
-            "initial state (cooler and thinner than its equilibrium), the same sheet in one "
+            "initial state (Toomre Q = 2, without an equilibrium's wakes), the same sheet in one "
             "process: the step without self-gravity (the baseline) and as the preset runs "
             "(P3M, field-only particles below `sheet.p3m_pair_min_radius`), each with the "
             "line detector's grid per reach class (the default) and with its one grid in "
