@@ -305,8 +305,7 @@ def new_simulation(scenario) -> tuple[rebound.Simulation, SheetGeometry, np.ndar
         dispersion = float(np.sqrt(np.mean(w * w)))
     else:
         rng = np.random.default_rng(scenario.seed)
-        radii = scenario.particles.size_distribution.draw_radii(sheet_cfg.n_particles, rng)
-        masses = scenario.particles.density * 4.0 / 3.0 * np.pi * radii**3
+        radii, masses = drawn_particles(scenario, rng)
         dispersion = initial_dispersion(sheet_cfg, radii, masses, Omega)
         geometry, t0, spins = None, 0.0, None
     z_half = initial_z_half_height(sheet_cfg, float(radii.mean()), dispersion, Omega,
@@ -405,6 +404,12 @@ def initial_z_half_height(sheet_cfg, r_mean: float, dispersion: float, Omega: fl
             / VERTICAL_GUARD_FRACTION)
 
 
+def drawn_particles(scenario, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Radii [m] and masses [kg] of the scenario's particles, drawn with ``rng``."""
+    radii = scenario.particles.size_distribution.draw_radii(scenario.sheet.n_particles, rng)
+    return radii, scenario.particles.density * 4.0 / 3.0 * np.pi * radii**3
+
+
 def initial_dispersion(sheet_cfg, radii: np.ndarray, masses: np.ndarray,
                        Omega: float) -> float:
     """Initial 1-D velocity dispersion relative to the shear flow [m/s] of a drawn sheet:
@@ -434,10 +439,7 @@ def without_gravity(scenario):
                if k not in ("gravity_solver", "initial_toomre_q", *SOLVER_KEYS)}
     sheet_d["gravity"] = False
     if scenario.sheet.initial_toomre_q is not None and scenario.sheet.initial_state is None:
-        rng = np.random.default_rng(scenario.seed)
-        radii = scenario.particles.size_distribution.draw_radii(scenario.sheet.n_particles,
-                                                                rng)
-        masses = scenario.particles.density * 4.0 / 3.0 * np.pi * radii**3
+        radii, masses = drawn_particles(scenario, np.random.default_rng(scenario.seed))
         c = initial_dispersion(scenario.sheet, radii, masses, scenario.orbital_frequency)
         sheet_d["initial_dispersion"] = c / (float(radii.mean())
                                              * scenario.orbital_frequency)
