@@ -859,10 +859,8 @@ static int rs_count_deflections(const struct reb_simulation* const r,
                                 struct rs_resolver* const res, const struct reb_collision c){
     const double m1 = r->particles[c.p1].m;
     const double m2 = r->particles[c.p2].m;
-    const double total_mass = m1 + m2;
     const int repeated = rs_pair_memory_stamp(&res->memory, r, c.p1, c.p2,
-                                              m2 >= RS_DEFLECTING_MASS_SHARE * total_mass,
-                                              m1 >= RS_DEFLECTING_MASS_SHARE * total_mass);
+                                              rs_deflects(m1, m2), rs_deflects(m2, m1));
     if (repeated < 0){
         return 0;
     }

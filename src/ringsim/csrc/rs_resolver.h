@@ -23,6 +23,11 @@
  * MULTI_ENCOUNTER_MASS_SHARE in ringsim/engine/timestep.py). */
 #define RS_DEFLECTING_MASS_SHARE 0.1
 
+/* Whether a collision deflects a particle of mass m [kg] struck by one of m_partner [kg]. */
+static inline int rs_deflects(double m, double m_partner){
+    return m_partner >= RS_DEFLECTING_MASS_SHARE * (m + m_partner);
+}
+
 struct rs_log_entry {
     double t;           /* [s] simulation time of the collision */
     double v_n;         /* [m/s] normal impact speed */

@@ -1211,9 +1211,7 @@ static int rs_after_collision(const struct reb_simulation* const r, struct rs_sh
     t->deviation = fmax(t->deviation, deviation);
     d->deviation_max = fmax(d->deviation_max, t->deviation);
     t->last = d->serial;
-    const double m = r->particles[q].m;
-    const double m_partner = r->particles[partner].m;
-    const int deflected = m_partner >= RS_DEFLECTING_MASS_SHARE * (m + m_partner);
+    const int deflected = rs_deflects(r->particles[q].m, r->particles[partner].m);
     t->contacts += deflected;
     if (t->contacts >= RS_MAX_CONTACTS){
         d->saturated += deflected && t->contacts == RS_MAX_CONTACTS;
