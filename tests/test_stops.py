@@ -37,6 +37,17 @@ def stops_scenario(ring_scenario):
     return lambda **overrides: ring_scenario(STOPS, overrides)
 
 
+def _assert_resumes_to(reference, scenario_file, path) -> None:
+    """``ringsim run --resume`` finishes the run file ``path`` of ``scenario_file``, and it
+    then holds every dataset of the uninterrupted run ``reference`` (==)."""
+    assert main(["run", str(scenario_file), "-o", str(path), "--resume",
+                 "--no-progress"]) == 0
+    ref, res = run_file_datasets(reference), run_file_datasets(path)
+    assert ref.keys() == res.keys()
+    for name in ref:
+        assert ref[name] == res[name], f"{name} differs from the uninterrupted run"
+
+
 class SignalledRunner(Runner):
     """A runner that sends itself ``sig`` at one chosen moment of its loop:
 
@@ -171,12 +182,7 @@ def test_sigint_to_ringsim_run_at_ten_moments_exits_130_and_resumes_identically(
         assert "--resume" in out and "Traceback" not in err
         assert ringsim.open_run(path).attrs["status"] == "stopped"
         assert runfile.read_checkpoint(path) is not None
-    assert main(["run", str(scenario_file), "-o", str(path), "--resume",
-                 "--no-progress"]) == 0
-    ref, res = run_file_datasets(reference), run_file_datasets(path)
-    assert ref.keys() == res.keys()
-    for name in ref:
-        assert ref[name] == res[name], f"{name} differs from the uninterrupted run"
+    _assert_resumes_to(reference, scenario_file, path)
 
 
 SWEEP_SCENARIO = """\
@@ -291,12 +297,7 @@ def test_full_disk_ends_the_run_with_one_line_and_resume_finishes_it(tmp_path,
     kept = ringsim.open_run(path)
     assert kept.attrs["status"] == "running" and runfile.read_checkpoint(path) is not None
     assert 1 <= kept.timeseries["t"].size < ringsim.open_run(reference).timeseries["t"].size
-    assert main(["run", str(scenario_file), "-o", str(path), "--resume",
-                 "--no-progress"]) == 0
-    ref, res = run_file_datasets(reference), run_file_datasets(path)
-    assert ref.keys() == res.keys()
-    for name in ref:
-        assert ref[name] == res[name], f"{name} differs from the uninterrupted run"
+    _assert_resumes_to(reference, scenario_file, path)
 
 
 #: Writes a run file with a small snapshot, then under a file size limit of 200 kB commits a
@@ -435,9 +436,4 @@ def test_run_killed_without_signal_resumes_from_its_last_wall_time_checkpoint(
     assert 0.1 * sc.orbital_period < kept.state["t"] < 0.5 * sc.orbital_period, \
         "a checkpoint within the run, not its final one"
     assert ringsim.open_run(path).attrs["status"] == "running"
-    assert main(["run", str(scenario_file), "-o", str(path), "--resume",
-                 "--no-progress"]) == 0
-    ref, res = run_file_datasets(reference), run_file_datasets(path)
-    assert ref.keys() == res.keys()
-    for name in ref:
-        assert ref[name] == res[name], f"{name} differs from the uninterrupted run"
+    _assert_resumes_to(reference, scenario_file, path)
