@@ -336,15 +336,21 @@ def _replace_key(text: str, line: str) -> str:
     return "".join(kept) + line
 
 
-@pytest.mark.parametrize("line, key, words", BAD, ids=[b[1] for b in BAD])
-def test_bad_study_file_is_bad_input(tmp_path, capsys, line, key, words):
-    study = write_study(tmp_path, _replace_key(STUDY, line))
-    out = tmp_path / "out"
+def assert_refused(study: Path, capsys, key: str, words: str) -> None:
+    """``ringsim study STUDY --quick`` on a bad study file: exit status 2, one line naming
+    ``key`` of study.yaml and holding ``words``, no traceback, nothing written beside it."""
+    out = study.parent / "out"
     assert main(["study", str(study), "--quick", "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "Traceback" not in err[0], err
     assert f"study.yaml: {key}:" in err[0] and words in err[0], err[0]
-    assert not out.exists() and not (tmp_path / "summaries").exists(), "nothing written"
+    assert not out.exists() and not (study.parent / "summaries").exists(), "nothing written"
+
+
+@pytest.mark.parametrize("line, key, words", BAD, ids=[b[1] for b in BAD])
+def test_bad_study_file_is_bad_input(tmp_path, capsys, line, key, words):
+    study = write_study(tmp_path, _replace_key(STUDY, line))
+    assert_refused(study, capsys, key, words)
 
 
 def test_overrides_valid_only_together_are_accepted_and_a_bad_one_is_named(tmp_path, capsys):

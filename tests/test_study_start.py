@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_study import assert_refused
 
 from ringsim.cli import main
 from ringsim.config.study import load_study
@@ -223,12 +224,7 @@ def test_fixed_seed_starts_every_seed_from_one_run(tmp_path):
 def test_bad_start_is_bad_input(tmp_path, capsys, start, key, words):
     text = STUDY.replace("{case: small, tile: [1, 2]}", start)
     study = write_study(tmp_path, text)
-    out = tmp_path / "out"
-    assert main(["study", str(study), "--quick", "--out", str(out)]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "Traceback" not in err[0], err
-    assert f"study.yaml: {key}:" in err[0] and words in err[0], err[0]
-    assert not out.exists() and not (tmp_path / "summaries").exists(), "nothing written"
+    assert_refused(study, capsys, key, words)
 
 
 def test_a_cycle_of_starts_is_bad_input(tmp_path, capsys):
