@@ -58,9 +58,15 @@ def ratio_figure(report: Mapping):
     ax.set_xlabel("equilibrium quantity (each ratio divides like by like)")
     ax.set_ylabel("ratio [dimensionless]")
     ax.grid(axis="y", color="0.9")
-    fig.legend(loc="outside upper center", ncols=min(len(pairs) + 1, 4), frameon=False,
-               title=f"study {report['study']} ({report['form']} form): thick bars "
-                     "statistical, thin bars total error")
+    title = (f"study {report['study']} ({report['form']} form): thick bars statistical, "
+             "thin bars total error")
+    for ncols in range(min(len(pairs) + 1, 4), 0, -1):   # the most columns that fit
+        legend = fig.legend(loc="outside upper center", ncols=ncols, frameon=False,
+                            title=title)
+        fig.draw_without_rendering()
+        if ncols == 1 or legend.get_window_extent().width <= fig.bbox.width:
+            break
+        legend.remove()
     return fig
 
 
