@@ -25,7 +25,7 @@ import pytest
 import ringsim
 from ringsim.analysis import wake_model
 from ringsim.config.study import load_study
-from ringsim.study import cassini, run_study
+from ringsim.study import cassini, markdown, run_study
 from ringsim.study.runs import SUMMARY_FORMAT, collect
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -160,6 +160,21 @@ def test_seed_mean_and_a_seed_without_occultations():
     assert cassini.against_cassini({"c": [_summary(gravity=False)]}) is None
 
 
+def test_bar_model_only_from_seeds_with_a_wake():
+    """A seed without a significant wake adds its occultation but not its bar-model fit
+    (unconstrained without wakes: H/W 1e12 +- 1e26 was seen) to the case's means."""
+    table = cassini.against_cassini({"c": [_summary(hw=(0.2, 0.01)),
+                                           _summary(hw=(6e12, 1e26), wake=False)]})
+    assert table is not None
+    entry = table["cases"]["c"]
+    assert entry["seeds_measured"] == 2 and entry["seeds_with_wake"] == 1
+    assert entry["height_over_width"]["mean"] == pytest.approx(0.2)
+    assert entry["height_over_width"]["stderr"] == pytest.approx(0.01)
+    assert entry["geometric_optical_depth"] is not None
+    md = "\n".join(markdown.cassini_section({"against_cassini": table}))
+    assert "| 2 (1 with a wake) | 0.2 ± 0.01 |" in md
+
+
 # --- a study with a gravitating case -------------------------------------------------------
 
 SCENARIO = """\
@@ -230,15 +245,17 @@ def test_gravitating_summary_holds_the_occultations_and_the_report_its_table(gra
     assert table["cases"]["plain"]["verdict"] == "no wakes (no self-gravity)"
     entry = table["cases"]["gravity"]
     assert entry["seeds_measured"] == 1 and entry["gravity"] is True
-    assert entry["height_over_width"]["units"] == "dimensionless"
-    assert entry["wake_angle_from_radial_deg"]["units"] == "deg"
+    # no wake: the bar model's parameters are not averaged, the occultation's are
+    assert entry["seeds_with_wake"] == 0 and entry["height_over_width"] is None
+    assert entry["wake_angle_from_radial_deg"] is None
     assert entry["geometric_optical_depth"]["mean"] == pytest.approx(0.2, rel=1e-9)
     # no wake forms in 0.2 orbit from a random start (analyze's verdict)
     assert entry["verdict"] == "no significant wake"
     assert table["published"]["A_height_over_width"]["low"] == 0.15
     md = grav_study["md"]
     assert "## Against Cassini" in md and "Colwell et al. 2006" in md
-    assert "| gravity | 0 | kind monodisperse, radius 1.0 | none | 1 |" in md
+    row = "| gravity | 0 | kind monodisperse, radius 1.0 | none | 1 (0 with a wake) | no wake |"
+    assert row in md
     assert "**no significant wake** |" in md and "**no wakes (no self-gravity)** |" in md
 
 

@@ -76,6 +76,10 @@ GEOMETRY = ("ringsim observe's defaults through every snapshot of each run's equ
 #: The table's quantities, from the fit or the asymmetry, each {"mean", "stderr", "units"}.
 QUANTITIES = ("height_over_width", "gap_optical_depth", "wake_angle_from_radial_deg",
               "asymmetry_amplitude", "peak_transmission", "geometric_optical_depth")
+#: The bar model's parameters among `QUANTITIES`: they describe wakes, so a case's mean
+#: holds only the seeds with a significant wake and a fit (a fit to views of a ring
+#: without wakes is unconstrained: its H/W can be anything).
+BAR_MODEL = ("height_over_width", "gap_optical_depth", "wake_angle_from_radial_deg")
 #: Units of a summary's ``occultation`` numbers not given beside them.
 UNITS = {"snapshots": "count", "snapshot_orbits": "orbits", "elevations_deg": "deg",
          "azimuths": "count", "fit_reduced_chi2": "dimensionless",
@@ -202,16 +206,21 @@ def describe_case(summary: Mapping) -> dict:
 
 def case_cassini(members: Sequence[Mapping]) -> dict:
     """One case's row: what it is, its seed means of `QUANTITIES` (null without a measured
-    seed) and its verdict."""
+    seed; the `BAR_MODEL` parameters null without a seed with a significant wake and a
+    fit), the counts of both kinds of seed, and its verdict."""
     entry: dict[str, object] = describe_case(members[0])
     if not entry["gravity"]:
         entry.update({"seeds_measured": 0, "verdict": "no wakes (no self-gravity)"})
         return entry
     measured = [s for s in members if "occultation" in s]
+    waking = [s for s in measured
+              if s["occultation"]["wake_significant"] and s["occultation"]["fitted"]]
     for quantity in QUANTITIES:
-        entry[quantity] = (budget.replica_mean([_seed_value(s, quantity) for s in measured])
-                           if measured else None)
+        seeds = waking if quantity in BAR_MODEL else measured
+        entry[quantity] = (budget.replica_mean([_seed_value(s, quantity) for s in seeds])
+                           if seeds else None)
     entry["seeds_measured"] = len(measured)
+    entry["seeds_with_wake"] = len(waking)
     entry["verdict"] = verdict(entry, measured)
     return entry
 

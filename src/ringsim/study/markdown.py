@@ -7,6 +7,7 @@ import math
 from collections.abc import Mapping, Sequence
 
 from ringsim.analysis.equilibrium import TABLE_ROWS
+from ringsim.study import cassini
 from ringsim.study.by_size import by_size_lines
 from ringsim.study.references import references_section
 
@@ -112,7 +113,14 @@ def _cassini_cell(entry: Mapping, quantity: str) -> str:
     if not entry["gravity"]:
         return "-"
     value = entry.get(quantity)
+    if value is None and entry.get("seeds_measured") and quantity in cassini.BAR_MODEL:
+        return "no wake"
     return "not measured" if value is None else _pm(value)
+
+
+def _seeds_cell(entry: Mapping) -> str:
+    n, waking = entry["seeds_measured"], entry.get("seeds_with_wake")
+    return str(n) if waking is None or waking == n else f"{n} ({waking} with a wake)"
 
 
 def cassini_section(report: Mapping) -> list[str]:
@@ -128,7 +136,7 @@ def cassini_section(report: Mapping) -> list[str]:
     quantities = ("height_over_width", "gap_optical_depth", "wake_angle_from_radial_deg",
                   "asymmetry_amplitude", "peak_transmission", "geometric_optical_depth")
     rows = [[case, _num(e["kappa"]), e["size_distribution"], e["friction"],
-             str(e["seeds_measured"]) if e["gravity"] else "-"]
+             _seeds_cell(e) if e["gravity"] else "-"]
             + [_cassini_cell(e, q) for q in quantities] + [f"**{e['verdict']}**"]
             for case, e in cassini["cases"].items()]
     published = [[p["ring"], p["quantity"], p["text"], p["source"]]
@@ -138,7 +146,9 @@ def cassini_section(report: Mapping) -> list[str]:
              "Mean ± standard error over the seeds whose summary holds the occultations "
              "(the larger of the propagated error and the seed-to-seed one); \"not "
              "measured\": summaries made before they kept the occultations; n/a: no "
-             "number (an asymmetry of views some of which let no ray through). "
+             "number (an asymmetry of views some of which let no ray through). The bar model's "
+             "H/W, gap τ and wake angle are means over the seeds with a significant wake "
+             "and a fit (\"no wake\": no such seed). "
              f"Rule: {cassini['rule']}.", ""]
             + _table(header, rows) + ["", "The published values:", ""]
             + _table(["ring", "quantity", "published", "source"], published) + [""])
