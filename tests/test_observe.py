@@ -17,7 +17,7 @@ import pytest
 import ringsim
 from ringsim.analysis import occultation as oc
 from ringsim.analysis import wake_model, wakes
-from ringsim.analysis.observe import asymmetry
+from ringsim.analysis.observe import asymmetry, window_snapshots
 from ringsim.cli import main
 
 
@@ -254,6 +254,12 @@ def test_observe_on_a_tiny_run_writes_every_view(tiny_run_file, tmp_path):
     assert [v["azimuth_deg"] for v in obs["views"]] == [0.0, 90.0]
     assert all(0.0 <= v["transmission"] <= 1.0 for v in obs["views"])
     assert obs["geometric_optical_depth"] == pytest.approx(0.2, rel=1e-6)
+    # the traced snapshots are the window's when any lies in it, and the JSON says which
+    run = ringsim.open_run(tiny_run_file)
+    indices, in_window = window_snapshots(run)
+    assert obs["snapshots"] == indices and obs["snapshots_in_window"] is in_window
+    assert in_window is bool(run.snapshot_times[indices[0]] >= ringsim.equilibrium(run)[
+        "equilibrium_from_orbit"]["mean"] * run.scenario.orbital_period * (1 - 1e-12))
 
 
 @pytest.mark.parametrize("args, key", [

@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 
 import ringsim
+from ringsim.analysis import window
+from ringsim.analysis.equilibrium import NO_WINDOW_SNAPSHOT, equilibrium_table
 from ringsim.cli import main
 from ringsim.physics import restitution as rs
 from ringsim.physics.pair_bins import pair_bin_sums, pair_radii
@@ -95,6 +97,11 @@ def test_analyze_prints_per_bin_motions_layers_and_pair_eps(broad_run, tmp_path,
     assert seg["small"]["r_high"] == pytest.approx(r_small, rel=1e-12)
     assert seg["large"]["n"] == int(np.sum(r > r.min() * (r.max() / r.min()) ** (2 / 3)))
     assert "vertical segregation (Cuzzi et al. 1979)" in text
+    # the snapshots averaged are the window's, and the equilibrium says how many
+    assert seg["in_window"] is (eq["window_snapshots"] > 0)
+    assert eq["window_snapshots"] == len([s for s in snaps if s["t"] >= t0 - 1e-6 * abs(t0)])
+    assert eq["units"]["window_snapshots"] == "count"
+    assert (NO_WINDOW_SNAPSHOT in text) is (eq["window_snapshots"] == 0)
     assert f"H = {seg['small']['thickness']['mean']:.4g}" in text
     assert "thickness H (rms z) by weighting [m]: number" in text
     assert "mass" in text.split("by weighting [m]:")[1].splitlines()[0]
@@ -111,6 +118,29 @@ def test_analyze_prints_per_bin_motions_layers_and_pair_eps(broad_run, tmp_path,
     mean = np.array(pair["mean_epsilon"], float)
     assert np.all((mean[counts > 0] > 0) & (mean[counts > 0] <= 1))
     assert "mean eps of the law (sampled collisions) per pair of size bins" in text
+
+
+class _Snapshots:
+    """A stand-in run: time series rows at ``rows`` and snapshots at ``times`` [s]."""
+
+    def __init__(self, rows, times):
+        self.timeseries = {"t": np.asarray(rows, float)}
+        self.snapshot_times = np.asarray(times, float)
+        self.n_snapshots = self.snapshot_times.size
+
+
+def test_window_snapshots_say_when_none_lies_in_the_window(broad_run):
+    rows = np.arange(11) * 10.0
+    # snapshots at 0, 40, 80 s: a window from row 5 (50 s) holds the one at 80 s
+    assert window.window_snapshot_indices(_Snapshots(rows, [0.0, 40.0, 80.0]), 5) == ([2], True)
+    # a window from row 9 (90 s) holds none: the last snapshot, flagged
+    assert window.window_snapshot_indices(_Snapshots(rows, [0.0, 40.0, 80.0]), 9) == ([2], False)
+    # a start past the last row is the last row
+    assert window.window_snapshot_indices(_Snapshots(rows, [0.0, 100.0]), 99) == ([1], True)
+    # analyze prints one line for it, and the equilibrium's table only then
+    eq = ringsim.equilibrium(ringsim.open_run(broad_run))
+    eq["window_snapshots"] = 0
+    assert NO_WINDOW_SNAPSHOT in equilibrium_table(eq).splitlines()
 
 
 def test_pair_eps_says_when_the_log_is_off(tmp_path, ring_scenario, capsys):

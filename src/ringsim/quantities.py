@@ -215,6 +215,10 @@ _DECLARED = (
     Quantity("tiled_copies_independent_from_orbit", "orbits", "first snapshot at which every "
              "tiled copy is independent of the first (Infinity while they are not)"),
     Quantity("n_particles", "count", "particles in the box"),
+    Quantity("window_snapshots", "count", "snapshots in the equilibrium window, over which "
+             "the local dispersions, the cross-section-weighted thickness and the by-size "
+             "layers average (0: none lies in it, and they are from the last snapshot, "
+             "which lies before the window)"),
     Quantity("mean_radius", "m", "mean particle radius <r> (first snapshot)"),
     Quantity("mean_mass", "kg", "mean particle mass of a size bin (first snapshot)"),
     Quantity("r_low", "m", "lower radius edge of a size bin"),
@@ -377,7 +381,7 @@ EQUILIBRIUM = ("velocity_dispersion", "velocity_dispersion_rOmega", "thickness",
 #: The plain numbers of an equilibrium (and the per-size-bin edges and count), whose units
 #: the JSON's ``units`` entry gives.
 PLAIN = ("orbits", "n_particles", "mean_radius", "optical_depth", "equilibrium_from_orbit",
-         "r_low", "r_high", "n")
+         "window_snapshots", "r_low", "r_high", "n")
 #: A gravitating run's equilibrium quantities, in the printed order.
 GRAVITY = ("r_h", "toomre_Q", "toomre_Q_mass", "lambda_cr", "wake_wavelength",
            "wake_pitch_angle", "wake_amplitude", "gravitational_viscosity", "viscous_heating",

@@ -25,6 +25,7 @@ from ringsim.analysis import (
     tiling,
     timeseries,
 )
+from ringsim.analysis import window as snapshot_window
 from ringsim.analysis.gravitating import gravity_equilibrium, gravity_table_lines
 from ringsim.analysis.law_range import LAW_RANGE_WARNING as LAW_RANGE_WARNING
 from ringsim.analysis.law_range import law_range, law_range_lines
@@ -225,6 +226,7 @@ def equilibrium(run) -> dict:
         out["tiled_copies_independent_from_orbit"] = _value(
             independent, 0.0, quantities.unit("tiled_copies_independent_from_orbit"))
     out.update(in_equilibrium=window["in_equilibrium"], reason=window["reason"],
+               window_snapshots=snapshot_window.count_in_window(run, start),
                status=str(run.attrs.get("status", "unknown")), orbits=float(orbits[-1]),
                n_particles=int(radius.size), mean_radius=float(radius.mean()),
                optical_depth=float(ts["optical_depth"][-1]), units=dict(PLAIN_UNITS))
@@ -357,6 +359,9 @@ def _fmt(value: dict, scale: float = 1.0) -> str:
 
 
 #: Printed by ``analyze`` and ``compare`` for a run the finder did not call stationary.
+NO_WINDOW_SNAPSHOT = ("WARNING: no snapshot lies in the equilibrium window; the local "
+                      "dispersions, the cross-section-weighted thickness and the by-size "
+                      "layers are from the last snapshot, which lies before it")
 NOT_IN_EQUILIBRIUM = ("WARNING: {name} never reached equilibrium ({reason}); its numbers are "
                       "averages over a window that is too short or still drifting, not "
                       "equilibrium values")
@@ -389,6 +394,8 @@ def equilibrium_table(eq: dict) -> str:
                      + (f"the copies are independent from orbit {when:.3g} (the window starts "
                         "no earlier)" if math.isfinite(when)
                         else "the copies are not independent by the last snapshot"))
+    if eq.get("window_snapshots") == 0:
+        lines.append(NO_WINDOW_SNAPSHOT)
     for key in TABLE_ROWS:
         q = quantities.QUANTITY[key]
         withheld = eq.get("aggregating") and key in aggregation.COLLISION_KEYS

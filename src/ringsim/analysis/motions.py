@@ -30,7 +30,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ringsim.analysis import timeseries
+from ringsim.analysis import timeseries, window
 from ringsim.physics import gravity as patch
 from ringsim.quantities import QUANTITY, unit
 
@@ -174,10 +174,8 @@ def motion_equilibrium(run, start: int) -> dict:
                       float(patch.toomre_wavelength(Sigma, Omega)))
     out = {key: _window(ts[key][start:], key) for key in
            ("velocity_dispersion_mass_weighted", "thickness_mass_weighted") if key in ts}
-    t_start = float(ts["t"][min(start, ts["t"].size - 1)])
-    snaps = [run.snapshot(i) for i in range(run.n_snapshots)]
-    snaps = [s for s in snaps if s["t"] >= t_start] or snaps[-1:]
-    per = [snapshot_motions(s, Lx, Ly, Omega, cell) for s in snaps]
+    indices, _ = window.window_snapshot_indices(run, start)
+    per = [snapshot_motions(run.snapshot(i), Lx, Ly, Omega, cell) for i in indices]
     for key in ("velocity_dispersion_local_number_weighted",
                 "velocity_dispersion_local_mass_weighted", "thickness_cross_section_weighted"):
         out[key] = _window([p[key] for p in per], key)

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from ringsim.analysis import occultation, tiling, wake_model, wakes
+from ringsim.analysis import occultation, tiling, wake_model, wakes, window
 from ringsim.analysis.equilibrium import stationary_window
 from ringsim.errors import InputError
 from ringsim.physics.selfgravity import shear_offset
@@ -35,18 +35,13 @@ DEFAULT_PRECISION = 0.01
 RAY_SEED = 0
 
 
-def window_snapshots(run) -> list[int]:
-    """Indices of the snapshots inside the equilibrium window ``analyze`` finds (the last
-    snapshot when none is)."""
+def window_snapshots(run) -> tuple[list[int], bool]:
+    """Indices of the snapshots inside the equilibrium window ``analyze`` finds, and whether
+    any is (``window.window_snapshot_indices``: the last snapshot when none is)."""
     ts = run.timeseries
     start = stationary_window(ts["orbits"], ts["velocity_dispersion"], ts["thickness"],
                               tiling.independent_from_orbit(run) or 0.0)["start"]
-    orbits = np.asarray(ts["orbits"])
-    from_orbit = float(orbits[min(start, orbits.size - 1)])
-    period = run.scenario.orbital_period
-    chosen = [i for i in range(run.n_snapshots)
-              if run.snapshot(i)["t"] / period >= from_orbit - 1e-9]
-    return chosen or [run.n_snapshots - 1]
+    return window.window_snapshot_indices(run, start)
 
 
 def check_arguments(path: str, elevations, azimuths, snapshot, rays, precision,
@@ -141,7 +136,8 @@ def observe(run, elevations=DEFAULT_ELEVATIONS, azimuths=DEFAULT_AZIMUTHS,
     azimuths = DEFAULT_AZIMUTHS if azimuths is None else azimuths
     check_arguments(path, elevations, azimuths, snapshot, rays, precision, run.n_snapshots)
     precision = DEFAULT_PRECISION if precision is None else precision
-    indices = window_snapshots(run) if snapshot is None else [snapshot % run.n_snapshots]
+    indices, in_window = (window_snapshots(run) if snapshot is None
+                          else ([snapshot % run.n_snapshots], None))
     Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
     Omega = run.scenario.orbital_frequency
     rng = np.random.default_rng(RAY_SEED)
@@ -157,6 +153,7 @@ def observe(run, elevations=DEFAULT_ELEVATIONS, azimuths=DEFAULT_AZIMUTHS,
              for (b, a), v in per_view.items()]
     period = run.scenario.orbital_period
     out: dict[str, object] = {"run": path, "snapshots": indices,
+           "snapshots_in_window": in_window,
            "snapshot_orbits": [float(s["t"]) / period for s in snaps],
            "geometric_optical_depth": float(np.mean([occultation.geometric_optical_depth(
                s["radius"], Lx, Ly) for s in snaps])),

@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from ringsim import quantities
-from ringsim.analysis import timeseries
+from ringsim.analysis import timeseries, window
 
 #: The velocity ellipsoid's axes and their time series.
 AXES = ("sigma_x", "sigma_y", "sigma_z")
@@ -57,8 +57,8 @@ def _group_thickness(snaps: list[dict], members: np.ndarray) -> tuple[float, flo
 
 def vertical_segregation(run, start: int) -> dict | None:
     """The thickness of the small- and the large-particle layer (module docstring) over the
-    snapshots at or after row ``start`` (the last snapshot if none is); None for a run of
-    one radius.
+    snapshots at or after row ``start`` (the last snapshot if none is: ``in_window``
+    False); None for a run of one radius.
 
     Returns
     -------
@@ -66,10 +66,8 @@ def vertical_segregation(run, start: int) -> dict | None:
     ``thickness`` {mean, stderr, units [m]}}), ``ratio`` H_small / H_large with its
     propagated error, ``definition`` and ``units``.
     """
-    ts = run.timeseries
-    t_start = float(ts["t"][min(start, ts["t"].size - 1)])
-    snaps = [run.snapshot(i) for i in range(run.n_snapshots)]
-    snaps = [s for s in snaps if s["t"] >= t_start] or snaps[-1:]
+    indices, in_window = window.window_snapshot_indices(run, start)
+    snaps = [run.snapshot(i) for i in indices]
     radius = snaps[0]["radius"]
     r_min, r_max = float(radius.min()), float(radius.max())
     if not r_max > r_min:
@@ -89,8 +87,11 @@ def vertical_segregation(run, start: int) -> dict | None:
     out["ratio"] = _value(ratio, abs(ratio) * rel, quantities.unit("ratio"))
     out["definition"] = ("rms z about the sheet's mass-weighted mean height, number-weighted "
                          "within each group; small: the lowest third of the radius range in "
-                         "log r, large: the highest third; mean over the window's "
-                         f"{len(snaps)} snapshot(s)")
+                         "log r, large: the highest third; "
+                         + (f"mean over the window's {len(snaps)} snapshot(s)" if in_window
+                            else "from the last snapshot, which lies before the window "
+                            "(none lies in it)"))
+    out["in_window"] = in_window
     out["units"] = {"r_low": "m", "r_high": "m", "n": "count"}
     return out
 

@@ -456,6 +456,7 @@ class Run:
     units : dict
         Unit of each time series.
     n_snapshots : int
+    snapshot_times : array [s]
     guard_events : list of (orbits, message)
 
     Raises
@@ -478,11 +479,10 @@ class Run:
             self.units = {name: _text(ds.attrs.get("units", ""))
                           for name, ds in f["timeseries"].items()}
             self._snapshot_names = sorted(f["snapshots"].keys())
-            self.guard_events = [
-                (float(t), str(_text(m)))
-                for t, m in zip(f["guards"]["orbits"][...], f["guards"]["message"][...],
-                                strict=True)
-            ]
+            self.snapshot_times = np.array([float(f["snapshots"][name].attrs["t"])
+                                            for name in self._snapshot_names])
+            self.guard_events = [(float(t), str(_text(m))) for t, m in zip(
+                f["guards"]["orbits"][...], f["guards"]["message"][...], strict=True)]
         self.format_version = str(self.attrs.get("format_version", UNVERSIONED))
         try:
             self.scenario = scenario_from_text(str(self.attrs["scenario_yaml"]),

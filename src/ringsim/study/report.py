@@ -144,6 +144,11 @@ def ratio_entry(runs: Runs, pair: tuple[str, str], quantity: str,
             "in_equilibrium": all(s["in_equilibrium"] for s in members)}
 
 
+#: The warning for a run none of whose snapshots lies in its equilibrium window.
+NO_WINDOW_SNAPSHOT = ("WARNING: {name}: no snapshot lies in its equilibrium window; its "
+                      "by-size layers and occultations are from the last snapshot, which "
+                      "lies before the window")
+
 def _warnings(study, mode, runs: Runs) -> list[str]:
     out = []
     names = [(case, None) for case, _ in study.cases]
@@ -151,9 +156,11 @@ def _warnings(study, mode, runs: Runs) -> list[str]:
     for case, variant in names:
         for seed, rid in runs.by_key[(case, variant)]:
             s = runs.summaries[rid]
+            label = f"{case}{f' [{variant}]' if variant else ''} seed {seed} (run {rid})"
             if not s["in_equilibrium"]:
-                label = f"{case}{f' [{variant}]' if variant else ''} seed {seed} (run {rid})"
                 out.append(NOT_IN_EQUILIBRIUM.format(name=label, reason=s["reason"]))
+            if s.get("window_snapshots") == 0 and ("by_size" in s or "occultation" in s):
+                out.append(NO_WINDOW_SNAPSHOT.format(name=label))
     return out
 
 
