@@ -268,6 +268,25 @@ def test_report_only_gives_the_same_report(grav_study, tmp_path):
     assert (out / "report.md").read_text() == grav_study["md"]
 
 
+def test_a_summary_without_a_window_snapshot_is_warned_about(grav_study, tmp_path):
+    """A run none of whose snapshots lies in its equilibrium window (its occultations are
+    from the last snapshot, before the window): its summary says so and the report warns;
+    the summaries of runs with window snapshots do not carry the key."""
+    path = _write(tmp_path / "late")
+    summaries = tmp_path / "late" / "summaries"
+    shutil.copytree(grav_study["folder"] / "summaries", summaries)
+    assert not any("no_snapshot_in_window" in json.loads(f.read_text())
+                   for f in summaries.iterdir())
+    rid = grav_study["ids"]["gravity"]
+    summary = json.loads((summaries / f"{rid}.json").read_text())
+    summary["no_snapshot_in_window"] = True
+    (summaries / f"{rid}.json").write_text(json.dumps(summary))
+    run_study(path, report_only=True, echo=None, command=COMMAND)
+    report = json.loads((tmp_path / "late" / "study.report" / "report.json").read_text())
+    late = [w for w in report["warnings"] if "no snapshot lies in its equilibrium window" in w]
+    assert len(late) == 1 and f"(run {rid})" in late[0]
+
+
 def test_old_summary_renders_and_is_completed_from_its_run_file(grav_study, tmp_path):
     """A gravitating summary without ``occultation`` (an older ringsim's): the report says
     "not measured"; with the finished run file the study adds the occultations, keeps the

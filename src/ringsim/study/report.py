@@ -159,7 +159,7 @@ def _warnings(study, mode, runs: Runs) -> list[str]:
             label = f"{case}{f' [{variant}]' if variant else ''} seed {seed} (run {rid})"
             if not s["in_equilibrium"]:
                 out.append(NOT_IN_EQUILIBRIUM.format(name=label, reason=s["reason"]))
-            if s.get("window_snapshots") == 0 and ("by_size" in s or "occultation" in s):
+            if s.get("no_snapshot_in_window") and ("by_size" in s or "occultation" in s):
                 out.append(NO_WINDOW_SNAPSHOT.format(name=label))
     return out
 

@@ -54,8 +54,7 @@ IDENTITY_EXCLUDES = (*LABEL_KEYS, *SPEED_ONLY_KEYS, "integration.orbits")
 SUMMARY_FORMAT = "ringsim study summary 1"
 #: Plain numbers of a summary and their units.
 SUMMARY_UNITS = {"orbits": "orbits", "n_particles": "count", "mean_radius": "m",
-                 "optical_depth": "dimensionless", "window_snapshots": "count",
-                 "cpu_time_s": "s",
+                 "optical_depth": "dimensionless", "cpu_time_s": "s",
                  "run_wall_time_s": "s"}
 
 
@@ -212,9 +211,9 @@ def make_summary(rid: str, run, eq: Mapping, quantities: Iterable[str],
             "orbits": float(eq["orbits"]), "n_particles": int(eq["n_particles"]),
             "mean_radius": float(eq["mean_radius"]),
             "optical_depth": float(eq["optical_depth"]),
-            "window_snapshots": int(eq["window_snapshots"]),
             "units": dict(SUMMARY_UNITS), "cost": dict(cost),
-            **({"by_size": sizes} if sizes is not None else {})}
+            **({"by_size": sizes} if sizes is not None else {}),
+            **({"no_snapshot_in_window": True} if eq["window_snapshots"] == 0 else {})}
 
 
 # --- the plan -----------------------------------------------------------------------------------
