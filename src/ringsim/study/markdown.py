@@ -99,13 +99,20 @@ def ratios_section(report: Mapping, figure: str | None) -> list[str]:
         lines += [f"![The ratios with their statistical and total errors]({figure})", ""]
     shifts = [[f"{e['numerator']} / {e['denominator']}", _label(e["quantity"]), variant,
                _num(part["ratio"]), _num(part["ratio_without"]), _num(part["shift"], 2),
-               _num(part["noise"], 2)]
+               _num(part["noise"], 2), _num(part.get("seed_noise"), 2)]
               for e in report["ratios"] for variant, part in e["syst_parts"].items()]
     if shifts:
         lines += ["### The variants' shifts", "",
-                  f"Seeds {report['variant_seeds']}, with and without each variant.", ""]
+                  f"Seeds {report['variant_seeds']}, with and without each variant. The "
+                  "last column is the shift that realisation alone gives: the seed-to-seed "
+                  "standard deviation of one seed's ratio times sqrt(2 / variant seeds) "
+                  "(n/a with fewer than two seeds). A variant run with the same seed is "
+                  "another realisation, so a shift below it is not told apart from chance "
+                  "even where it exceeds its statistical error; the budget counts it "
+                  "(an upper estimate).", ""]
         lines += _table(["ratio", "quantity", "variant", "with the variant",
-                         "without", "shift", "its stat. error"], shifts) + [""]
+                         "without", "shift", "its stat. error", "seed noise"], shifts)
+        lines += [""]
     return lines
 
 

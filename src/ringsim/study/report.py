@@ -115,17 +115,34 @@ def _case_ratio(runs: Runs, num: str, den: str, quantity: str, variant: str | No
                  seed_mean(runs.of(den, variant, seeds), quantity))
 
 
+def seed_scatter(runs: Runs, num: str, den: str, quantity: str) -> float | None:
+    """The standard deviation over the seeds of one seed's ratio num / den (the seeds both
+    cases ran; None with fewer than two): how far two runs of the ratio differ by
+    realisation alone."""
+    def by_seed(case: str) -> dict[int, float]:
+        return {seed: float(runs.summaries[rid]["equilibrium"][quantity]["mean"])
+                for seed, rid in runs.by_key[(case, None)]}
+    top, bottom = by_seed(num), by_seed(den)
+    ratios = [top[s] / bottom[s] for s in sorted(set(top) & set(bottom)) if bottom[s]]
+    if len(ratios) < 2:
+        return None
+    mean = sum(ratios) / len(ratios)
+    return math.sqrt(sum((r - mean) ** 2 for r in ratios) / (len(ratios) - 1))
+
+
 def _variant_part(runs: Runs, num: str, den: str, quantity: str, variant: str,
-                  seeds: Sequence[int]) -> dict:
-    """The shift of a ratio with one variant, against the same seeds without it."""
+                  seeds: Sequence[int], scatter: float | None) -> dict:
+    """The shift of a ratio with one variant, against the same seeds without it, and the
+    shift realisation alone gives (``scatter`` sqrt(2 / seeds))."""
     without = _case_ratio(runs, num, den, quantity, None, seeds)
     moved = _case_ratio(runs, num, den, quantity, variant, seeds)
     shift = moved["mean"] - without["mean"]
     noise = math.hypot(moved["stderr"], without["stderr"])
     relative = (max(abs(shift), noise) / abs(without["mean"])
                 if math.isfinite(without["mean"]) and without["mean"] else math.nan)
+    seed_noise = None if scatter is None else scatter * math.sqrt(2.0 / len(seeds))
     return {"ratio": moved["mean"], "ratio_without": without["mean"], "shift": shift,
-            "noise": noise, "relative": relative}
+            "noise": noise, "seed_noise": seed_noise, "relative": relative}
 
 
 def ratio_entry(runs: Runs, pair: tuple[str, str], quantity: str,
@@ -133,7 +150,9 @@ def ratio_entry(runs: Runs, pair: tuple[str, str], quantity: str,
     """One ratio of one quantity, with its statistical and systematic errors."""
     num, den = pair
     value = _case_ratio(runs, num, den, quantity)
-    parts = {v: _variant_part(runs, num, den, quantity, v, variant_seeds) for v in variants}
+    scatter = seed_scatter(runs, num, den, quantity)
+    parts = {v: _variant_part(runs, num, den, quantity, v, variant_seeds, scatter)
+             for v in variants}
     relative = {v: part["relative"] for v, part in parts.items()}
     syst, _ = budget.systematic({"relative": {quantity: relative}}, quantity, value["mean"])
     members = runs.of(num) + runs.of(den)
@@ -141,6 +160,7 @@ def ratio_entry(runs: Runs, pair: tuple[str, str], quantity: str,
             "mean": value["mean"], "stat": value["stderr"], "syst": syst,
             "total": math.hypot(value["stderr"], syst), "units": value["units"],
             "quantity_units": QUANTITIES[quantity][1], "syst_parts": parts,
+            "seed_scatter": scatter,
             "in_equilibrium": all(s["in_equilibrium"] for s in members)}
 
 

@@ -1,0 +1,51 @@
+"""The seed-to-seed scatter of a study's ratio and the shift a variant gets by realisation
+alone (``study.report.seed_scatter``, ``ratio_entry``'s ``seed_noise``)."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from ringsim.study.report import Runs, ratio_entry, seed_scatter
+
+
+def _summary(c: float) -> dict:
+    eq = {"velocity_dispersion": {"mean": c, "stderr": 0.01 * c, "units": "m/s"}}
+    return {"equilibrium": eq, "in_equilibrium": True}
+
+
+def _runs(values: dict[tuple[str, str | None, int], float]) -> Runs:
+    specs = [SimpleNamespace(case=case, variant=variant, seed=seed)
+             for case, variant, seed in values]
+    ids = [f"{case}-{variant}-{seed}" for case, variant, seed in values]
+    return Runs(specs, ids, {rid: _summary(v) for rid, v in zip(ids, values.values(),
+                                                                strict=True)})
+
+
+def test_seed_scatter_is_the_standard_deviation_of_each_seeds_ratio():
+    num = {1: 5.2, 2: 5.0, 3: 5.3}
+    den = {1: 1.0, 2: 1.1, 3: 0.9}
+    values = {("a", None, s): v for s, v in num.items()}
+    values.update({("b", None, s): v for s, v in den.items()})
+    values.update({("a", "v", 1): 4.8, ("b", "v", 1): 1.0})
+    runs = _runs(values)
+    expected = float(np.std([num[s] / den[s] for s in (1, 2, 3)], ddof=1))
+    assert seed_scatter(runs, "a", "b", "velocity_dispersion") == pytest.approx(expected,
+                                                                                rel=1e-12)
+    entry = ratio_entry(runs, ("a", "b"), "velocity_dispersion", ["v"], [1])
+    assert entry["seed_scatter"] == pytest.approx(expected, rel=1e-12)
+    part = entry["syst_parts"]["v"]
+    # one variant seed: the difference of two single-seed ratios, sqrt(2) times the scatter
+    assert part["seed_noise"] == pytest.approx(expected * math.sqrt(2.0), rel=1e-12)
+    assert part["shift"] == pytest.approx(4.8 / 1.0 - 5.2 / 1.0, rel=1e-12)
+
+
+def test_one_seed_has_no_scatter():
+    runs = _runs({("a", None, 1): 2.0, ("b", None, 1): 1.0,
+                  ("a", "v", 1): 2.1, ("b", "v", 1): 1.0})
+    assert seed_scatter(runs, "a", "b", "velocity_dispersion") is None
+    entry = ratio_entry(runs, ("a", "b"), "velocity_dispersion", ["v"], [1])
+    assert entry["syst_parts"]["v"]["seed_noise"] is None
