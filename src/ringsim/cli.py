@@ -238,7 +238,8 @@ def _cmd_observe(args) -> int:
     check_outputs({"--json": args.json, "--plots": args.plots}, [args.run], args.force)
     (run,) = _open_runs([args.run])
     _print_status(run)
-    obs = observe(run, args.elevation, args.azimuth, args.snapshot, args.rays, args.precision)
+    obs = observe(run, args.elevation, args.azimuth, args.snapshot, args.rays, args.precision,
+                  args.reference)
     print(observation_table(obs))
     _write_results(args, obs, "plot_observation", run, obs)
     return EXIT_OK
@@ -369,6 +370,9 @@ def _observe_arguments(sub) -> None:
     rays = p.add_mutually_exclusive_group()
     rays.add_argument("--rays", type=int, metavar="N", help="rays per view and snapshot")
     rays.add_argument("--precision", type=float, metavar="P", help="relative error of tau_n")
+    p.add_argument("--reference", type=int, default=0, metavar="K", help="K structure-free "
+                   "copies per opening angle: the p-value of the azimuthal asymmetry "
+                   "(default 0: none; costs K times the tracing)")
     p.add_argument("--json", metavar="OUT.json", help="write the views as JSON")
     p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
     _add_force_option(p)

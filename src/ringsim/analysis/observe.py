@@ -17,10 +17,12 @@ azimuth 90 deg + pitch along which a line of sight runs parallel to the wakes.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
 from ringsim.analysis import occultation, tiling, wake_model, wakes, window
+from ringsim.analysis.asymmetry_reference import MOST_COPIES, p_value, reference_amplitudes
 from ringsim.analysis.equilibrium import stationary_window
 from ringsim.errors import InputError
 from ringsim.physics.selfgravity import shear_offset
@@ -45,7 +47,7 @@ def window_snapshots(run) -> tuple[list[int], bool]:
 
 
 def check_arguments(path: str, elevations, azimuths, snapshot, rays, precision,
-                    n_snapshots: int) -> None:
+                    n_snapshots: int, reference: int = 0) -> None:
     """InputError (exit status 2) for an argument ``observe`` cannot use."""
     for b in elevations:
         if not (math.isfinite(b) and 0.0 < b <= 90.0):
@@ -61,6 +63,8 @@ def check_arguments(path: str, elevations, azimuths, snapshot, rays, precision,
         raise InputError(path, "--rays", f"{rays}: at least 100 rays per view")
     if precision is not None and not 0.0 < precision < 1.0:
         raise InputError(path, "--precision", f"{precision:g}: a relative error in (0, 1)")
+    if not 0 <= reference <= MOST_COPIES:
+        raise InputError(path, "--reference", f"{reference}: 0 to {MOST_COPIES} copies")
 
 
 def _combine(per_snapshot: list[dict], elevation: float) -> dict:
@@ -115,9 +119,36 @@ def _analyze_pitch(snaps: list[dict], Lx: float, Ly: float, Omega: float) -> dic
             "parallel_azimuth_deg": float((90.0 + np.mean(p)) % 180.0)}
 
 
+def _trace_views(snaps: list[dict], Lx: float, Ly: float, Omega: float, elevations,
+                 azimuths, rng: np.random.Generator, rays: int | None,
+                 precision: float) -> list[dict]:
+    """Every view (B, phi) [deg] through the snapshots, combined over them (`_combine`);
+    Lx, Ly [m], Omega [1/s]."""
+    per_view: dict[tuple[float, float], list[dict]] = {}
+    for snap in snaps:
+        shift = shear_offset(Omega, Lx, Ly, float(snap["t"]))
+        for b in elevations:
+            for a in azimuths:
+                per_view.setdefault((b, a), []).append(occultation.trace_view(
+                    snap, Lx, Ly, shift, b, a, rng, rays=rays, precision=precision))
+    return [{"elevation_deg": float(b), "azimuth_deg": float(a), **_combine(v, b)}
+            for (b, a), v in per_view.items()]
+
+
+def _with_reference(rows: list[dict], copies: int,
+                    amplitudes: Callable[[float], list[float]]) -> list[dict]:
+    """The asymmetry rows with, for ``copies`` > 0, each B's structure-free reference
+    (``reference_amplitudes``, ``reference_p_value``)."""
+    for row in rows if copies else []:
+        ref = amplitudes(row["elevation_deg"])
+        row["reference_amplitudes"] = ref
+        row["reference_p_value"] = p_value(row["relative_amplitude"], ref)
+    return rows
+
+
 def observe(run, elevations=DEFAULT_ELEVATIONS, azimuths=DEFAULT_AZIMUTHS,
             snapshot: int | None = None, rays: int | None = None,
-            precision: float | None = None) -> dict:
+            precision: float | None = None, reference: int = 0) -> dict:
     """The synthetic occultations of a run (the JSON of ``ringsim observe``; docs/interface.md).
 
     Parameters
@@ -130,11 +161,15 @@ def observe(run, elevations=DEFAULT_ELEVATIONS, azimuths=DEFAULT_AZIMUTHS,
         Rays per view and snapshot; None: as many as ``precision`` needs.
     precision : float or None [dimensionless]
         Relative standard error of tau_n per view and snapshot (default 0.01).
+    reference : int
+        Structure-free copies per opening angle for the asymmetry's p-value
+        (``analysis.asymmetry_reference``; 0: none).
     """
     path = str(run.path)
     elevations = DEFAULT_ELEVATIONS if elevations is None else elevations
     azimuths = DEFAULT_AZIMUTHS if azimuths is None else azimuths
-    check_arguments(path, elevations, azimuths, snapshot, rays, precision, run.n_snapshots)
+    check_arguments(path, elevations, azimuths, snapshot, rays, precision, run.n_snapshots,
+                    reference)
     precision = DEFAULT_PRECISION if precision is None else precision
     indices, in_window = (window_snapshots(run) if snapshot is None
                           else ([snapshot % run.n_snapshots], None))
@@ -142,22 +177,23 @@ def observe(run, elevations=DEFAULT_ELEVATIONS, azimuths=DEFAULT_AZIMUTHS,
     Omega = run.scenario.orbital_frequency
     rng = np.random.default_rng(RAY_SEED)
     snaps = [run.snapshot(i) for i in indices]
-    per_view: dict[tuple[float, float], list[dict]] = {}
-    for snap in snaps:
-        shift = shear_offset(Omega, Lx, Ly, float(snap["t"]))
-        for b in elevations:
-            for a in azimuths:
-                per_view.setdefault((b, a), []).append(occultation.trace_view(
-                    snap, Lx, Ly, shift, b, a, rng, rays=rays, precision=precision))
-    views = [{"elevation_deg": float(b), "azimuth_deg": float(a), **_combine(v, b)}
-             for (b, a), v in per_view.items()]
+
+    def trace(some: list[dict], bs, azs) -> list[dict]:
+        return _trace_views(some, Lx, Ly, Omega, bs, azs, rng, rays, precision)
+
+    views = trace(snaps, elevations, azimuths)
+
+    def tau_of_view(twins: list[dict], b: float, a: float) -> float:
+        return trace(twins, [b], [a])[0]["normal_optical_depth"]
     period = run.scenario.orbital_period
     out: dict[str, object] = {"run": path, "snapshots": indices,
            "snapshots_in_window": in_window,
            "snapshot_orbits": [float(s["t"]) / period for s in snaps],
            "geometric_optical_depth": float(np.mean([occultation.geometric_optical_depth(
                s["radius"], Lx, Ly) for s in snaps])),
-           "views": views, "azimuthal_asymmetry": asymmetry(views),
+           "views": views, "azimuthal_asymmetry": _with_reference(
+               asymmetry(views), reference, lambda b: reference_amplitudes(
+                   snaps, Lx, Ly, b, azimuths, reference, rng, tau_of_view)),
            "ray_seed": RAY_SEED, "precision": None if rays is not None else precision,
            "rays_per_view": rays}
     out["bar_model"] = wake_model.fit_bar_model(*(np.array([v[k] for v in views]) for k in (
@@ -190,6 +226,14 @@ def observation_table(obs: dict) -> str:
                      f"   {row['normal_optical_depth_mean']:7.4g}"
                      f"   {row['relative_amplitude']:12.3g}"
                      f"    {row['peak_transmission_azimuth_deg']:6.1f}")
+    for row in obs["azimuthal_asymmetry"]:
+        if "reference_amplitudes" in row:
+            ref = [r for r in row["reference_amplitudes"] if math.isfinite(r)]
+            p = row["reference_p_value"]
+            lines.append(f"  B = {row['elevation_deg']:g} deg: structure-free reference, "
+                         f"{len(row['reference_amplitudes'])} copies, median amplitude "
+                         + (f"{float(np.median(ref)):.3g}" if ref else "n/a")
+                         + ("; p-value n/a" if p is None else f"; p-value {p:.3g}"))
     fit = obs["bar_model"]
     if fit.get("success") is not None and "height_over_width" in fit:
         def pm(key):
