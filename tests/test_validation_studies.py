@@ -1,6 +1,7 @@
-"""Validation cases as study files (docs/validation.md): the ladder's cases 2 and 4,
+"""Validation cases as study files (docs/validation.md): the ladder's cases 2, 3 and 4,
 ``studies/validation-threshold`` (the thermal-balance threshold of Goldreich & Tremaine
-1978) and ``studies/validation-size-distribution`` (the Bridges law with a q = 3 size
+1978), ``studies/validation-bridges`` (the Bridges law, identical 1 m particles) and
+``studies/validation-size-distribution`` (the Bridges law with a q = 3 size
 distribution), and ``studies/validation-kinetic-theory`` (the dense-ring kinetic theory
 of Latter & Ogilvie 2008).
 
@@ -29,6 +30,7 @@ from ringsim.study.command import run_study
 ROOT = Path(__file__).resolve().parent.parent
 THRESHOLD = ROOT / "studies" / "validation-threshold"
 SIZES = ROOT / "studies" / "validation-size-distribution"
+BRIDGES = ROOT / "studies" / "validation-bridges"
 KINETIC = ROOT / "studies" / "validation-kinetic-theory"
 
 
@@ -117,3 +119,22 @@ def test_size_distribution_quick_form_is_far_from_equipartition(tmp_path):
     bins = report["by_size"]["cases"]["q3"]["bins"]
     c = [b["velocity_dispersion"]["mean"] for b in bins]
     assert all(a > b for a, b in zip(c, c[1:], strict=False)), "c falls with size"
+
+
+@pytest.mark.slow
+def test_bridges_quick_form_is_a_near_monolayer_held_up_by_finite_size(tmp_path):
+    """Three runs of 300 particles, 15 orbits (about 35 CPU-seconds): c of a few r Omega
+    (1 to 5, the ladder's reading of Wisdom & Tremaine 1988 and Salo 1991), H below 3 r,
+    and the applied mean eps below GT78's eps_cr at each optical depth, so that only the
+    particles' finite size holds the ring up; c falls as tau rises."""
+    report = _quick_afresh(BRIDGES, tmp_path)
+    assert len(report["references"]) == 9
+    assert all(e["agrees"] for e in report["references"]), \
+        [e for e in report["references"] if not e["agrees"]]
+    for case, e in report["cases"].items():
+        tau = float(case.removeprefix("tau"))
+        eps = e["equilibrium"]["mean_epsilon"]["mean"]
+        assert eps < kinetic.critical_epsilon(tau), (case, eps)
+    c = {case: e["equilibrium"]["velocity_dispersion_rOmega"]["mean"]
+         for case, e in report["cases"].items()}
+    assert c["tau0.25"] > c["tau0.5"] > c["tau1"]
