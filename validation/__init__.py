@@ -9,8 +9,8 @@ runner; ``--help`` lists the commands).  Modules:
   script (cases 1 to 4 are study files under ``studies/``, case 6 is
   ``tests/test_dilley_figures.py``);
 * ``ladder``: runs the cases and writes the report (``python -m validation ladder``);
-* ``line_mode``: line-mode collision detection against the small-dt tree reference, with
-  ``encounters``, the straight-path prediction of multiple encounters it reports;
+* ``encounters``: the straight-path prediction of multiple encounters in a step (line
+  mode's check, ``studies/validation-line-mode`` and ``tests/test_line_mode.py``);
 * ``friction_ring`` and ``cooling``: a ring patch of rough spheres, and the homogeneous
   cooling of rough spheres in a periodic box;
 * ``render``: the Markdown of ``docs/validation.md``.
