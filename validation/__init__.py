@@ -11,8 +11,7 @@ runner; ``--help`` lists the commands).  Modules:
 * ``ladder``: runs the cases and writes the report (``python -m validation ladder``);
 * ``encounters``: the straight-path prediction of multiple encounters in a step (line
   mode's check, ``studies/validation-line-mode`` and ``tests/test_line_mode.py``);
-* ``friction_ring`` and ``cooling``: a ring patch of rough spheres, and the homogeneous
-  cooling of rough spheres in a periodic box;
+* ``cooling``: the homogeneous cooling of rough spheres in a periodic box;
 * ``render``: the Markdown of ``docs/validation.md``.
 
 The validation is not part of the installed package: it reads ``scenarios/`` and writes

@@ -1,7 +1,6 @@
 """The one runner of the validation, from the repository root::
 
     python -m validation ladder [--quick] [--cases N ...] [--report-only]
-    python -m validation friction-ring [--workdir runs/validation]
     python -m validation cooling [--quick]
 
 Each command is the ``main`` of one module of this folder; ``python -m validation COMMAND
@@ -19,8 +18,6 @@ from collections.abc import Sequence
 COMMANDS = {
     "ladder": ("ladder", "the reference cases 1, 3, 5: section 'Reference cases' of "
                "docs/validation.md"),
-    "friction-ring": ("friction_ring", "a ring patch of rough spheres: the table of its "
-                      "section of docs/validation.md, printed"),
     "cooling": ("cooling", "the homogeneous cooling of rough spheres: the table and figure of "
                 "docs/friction.md"),
 }
