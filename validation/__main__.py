@@ -16,8 +16,8 @@ from collections.abc import Sequence
 
 #: Command -> (module of this folder whose ``main(argv)`` runs it, what it writes).
 COMMANDS = {
-    "ladder": ("ladder", "the reference cases 1, 3, 5: section 'Reference cases' of "
-               "docs/validation.md"),
+    "ladder": ("ladder", "the reference case 5 (REBOUND's example): section 'Reference "
+               "cases' of docs/validation.md"),
     "cooling": ("cooling", "the homogeneous cooling of rough spheres: the table and figure of "
                 "docs/friction.md"),
 }
