@@ -1,7 +1,9 @@
-"""Validation cases as study files (docs/validation.md): the ladder's cases 2 and 4,
+"""Validation cases as study files (docs/validation.md): the ladder's cases 2, 3 and 4,
 ``studies/validation-threshold`` (the thermal-balance threshold of Goldreich & Tremaine
-1978) and ``studies/validation-size-distribution`` (the Bridges law with a q = 3 size
-distribution), and ``studies/validation-kinetic-theory`` (the dense-ring kinetic theory
+1978), ``studies/validation-bridges`` (the Bridges law, identical 1 m particles) and
+``studies/validation-size-distribution`` (the Bridges law with a q = 3 size
+distribution), ``studies/validation-line-mode`` (line-mode detection against the tree
+reference), and ``studies/validation-kinetic-theory`` (the dense-ring kinetic theory
 of Latter & Ogilvie 2008).
 
 The fast tests check what the study files declare against the physics they encode (the
@@ -29,6 +31,8 @@ from ringsim.study.command import run_study
 ROOT = Path(__file__).resolve().parent.parent
 THRESHOLD = ROOT / "studies" / "validation-threshold"
 SIZES = ROOT / "studies" / "validation-size-distribution"
+BRIDGES = ROOT / "studies" / "validation-bridges"
+LINE_MODE = ROOT / "studies" / "validation-line-mode"
 KINETIC = ROOT / "studies" / "validation-kinetic-theory"
 
 
@@ -117,3 +121,57 @@ def test_size_distribution_quick_form_is_far_from_equipartition(tmp_path):
     bins = report["by_size"]["cases"]["q3"]["bins"]
     c = [b["velocity_dispersion"]["mean"] for b in bins]
     assert all(a > b for a, b in zip(c, c[1:], strict=False)), "c falls with size"
+
+
+@pytest.mark.slow
+def test_bridges_quick_form_is_a_near_monolayer_held_up_by_finite_size(tmp_path):
+    """Three runs of 300 particles, 15 orbits (about 35 CPU-seconds): c of a few r Omega
+    (1 to 5, the ladder's reading of Wisdom & Tremaine 1988 and Salo 1991), H below 3 r,
+    and the applied mean eps below GT78's eps_cr at each optical depth, so that only the
+    particles' finite size holds the ring up; c falls as tau rises."""
+    report = _quick_afresh(BRIDGES, tmp_path)
+    assert len(report["references"]) == 9
+    assert all(e["agrees"] for e in report["references"]), \
+        [e for e in report["references"] if not e["agrees"]]
+    for case, e in report["cases"].items():
+        tau = float(case.removeprefix("tau"))
+        eps = e["equilibrium"]["mean_epsilon"]["mean"]
+        assert eps < kinetic.critical_epsilon(tau), (case, eps)
+    c = {case: e["equilibrium"]["velocity_dispersion_rOmega"]["mean"]
+         for case, e in report["cases"].items()}
+    assert c["tau0.25"] > c["tau0.5"] > c["tau1"]
+
+
+def test_line_mode_study_pairs_each_line_case_with_its_tree_reference():
+    """Each ratio compares a line case at a fixed 1e-3 orbit with a tree case at dt: auto
+    that differs from it by nothing else, and its references ask for 1 on c and H."""
+    study = _load(LINE_MODE)
+    cases = dict(study.cases)
+    assert sorted(study.ratios) == [("mono-line", "mono-tree"),
+                                    ("powerlaw-line", "powerlaw-tree")]
+    for line, tree in study.ratios:
+        a, b = dict(cases[line]), dict(cases[tree])
+        assert (a.pop("integration.collision_detection"), a.pop("integration.dt")) == \
+            ("line", 1.0e-3)
+        assert (b.pop("integration.collision_detection"), b.pop("integration.dt")) == \
+            ("tree", "auto")
+        assert a == b, (line, tree)
+    refs = [r for r in study.references if r.ratio is not None]
+    assert {(r.ratio, r.quantity) for r in refs} == {
+        (pair, q) for pair in study.ratios for q in ("velocity_dispersion", "thickness")}
+    assert all(r.value == 1.0 and (r.low, r.high) == pytest.approx((0.97, 1.03)) for r in refs)
+
+
+@pytest.mark.slow
+def test_line_mode_quick_form_agrees_with_the_tree(tmp_path):
+    """Twelve runs of 200 particles, 5 orbits (about 90 CPU-seconds): every line / tree
+    ratio of c and H within 3 % of 1 widened by 3 standard errors, and the identical
+    spheres' ratio of c within 3 % of 1 by itself (its standard error is below 1 %)."""
+    report = _quick_afresh(LINE_MODE, tmp_path)
+    assert len(report["references"]) == 4
+    assert all(e["agrees"] for e in report["references"]), \
+        [e for e in report["references"] if not e["agrees"]]
+    mono = next(e for e in report["references"]
+                if e["ratio"] == ["mono-line", "mono-tree"]
+                and e["quantity"] == "velocity_dispersion")
+    assert abs(mono["mean"] - 1.0) < 0.03 and mono["stderr"] < 0.01

@@ -1,8 +1,6 @@
 """The one runner of the validation, from the repository root::
 
     python -m validation ladder [--quick] [--cases N ...] [--report-only]
-    python -m validation line-mode run|report|all [--cases ...] [--replicas 6]
-    python -m validation friction-ring [--workdir runs/validation]
     python -m validation cooling [--quick]
 
 Each command is the ``main`` of one module of this folder; ``python -m validation COMMAND
@@ -18,12 +16,8 @@ from collections.abc import Sequence
 
 #: Command -> (module of this folder whose ``main(argv)`` runs it, what it writes).
 COMMANDS = {
-    "ladder": ("ladder", "the reference cases 1, 3, 5: section 'Reference cases' of "
-               "docs/validation.md"),
-    "line-mode": ("line_mode", "line-mode detection against the small-dt tree reference: "
-                  "its section of docs/validation.md"),
-    "friction-ring": ("friction_ring", "a ring patch of rough spheres: the table of its "
-                      "section of docs/validation.md, printed"),
+    "ladder": ("ladder", "the reference case 5 (REBOUND's example): section 'Reference "
+               "cases' of docs/validation.md"),
     "cooling": ("cooling", "the homogeneous cooling of rough spheres: the table and figure of "
                 "docs/friction.md"),
 }

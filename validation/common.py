@@ -1,6 +1,6 @@
 """What the validation cases share: sizes, result rows, cached runs, scenarios, energy balance.
 
-Every case of the ladder (``case1_constant_eps`` ... ``case5_rebound_example``) returns a
+The ladder's case (``case5_rebound_example``) returns a
 ``CaseResult``: rows (``Comparison``) of ringsim's value with its standard error against a
 reference with its uncertainty and source.  Results are stored as JSON beside the runs
 (``save_result``, ``load_results``), and finished run files are reused when their scenario
@@ -22,11 +22,9 @@ from pathlib import Path
 import numpy as np
 
 import ringsim
-from ringsim.analysis import timeseries
 from ringsim.config.scenario import scenario_from_dict
 from ringsim.errors import InputError
-from ringsim.physics import restitution as rs
-from ringsim.plots.common import pyplot, save_figure
+from ringsim.plots.common import pyplot, save_figure  # noqa: F401  (pyplot: the cases' figures)
 from ringsim.store.runfile import open_run
 
 #: The repository (a source checkout) whose docs/ and runs/ the ladder writes.
@@ -34,13 +32,8 @@ ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "validation.md"
 WORKDIR = ROOT / "runs" / "validation"
 
-TWO_PI = 2.0 * math.pi
-#: Orbital frequency of the constant-eps cases [1/s]; results are in units of r Omega.
+#: Orbital frequency of the sheets of ``sheet_scenario`` [1/s]; results are in units of r Omega.
 OMEGA_LAB = 2.0e-4
-#: Saturn's GM [m^3/s^2] and the orbital radius of cases 3-4 [m] (Wisdom & Tremaine 1988
-#: and Salo 1991 place their patches in Saturn's rings; 100 000 km is inside the B ring).
-SATURN_GM = 3.7931e16
-RING_RADIUS = 1.0e8
 #: Solid ice [kg/m^3].
 ICE = 900.0
 
@@ -51,23 +44,13 @@ ICE = 900.0
 class Sizes:
     """Particle numbers and durations [orbits] of every case."""
 
-    case1_n: int = 1000
-    case1_orbits: float = 40.0
-    case1_orbits_dilute: float = 100.0      # tau <= 0.15 collides rarely: longer run
-    case1_taus: tuple[float, ...] = (0.1, 0.25, 0.5, 0.75, 1.0, 1.5)
-    case3_n: int = 1000
-    case3_orbits: float = 40.0
-    case3_taus: tuple[float, ...] = (0.25, 0.5, 1.0)
     case5_n: int | None = None              # None: the example's own N (about 1490)
     case5_orbits: float = 10.0
     case5_skip_orbits: float = 2.0
 
 
 FULL = Sizes()
-QUICK = Sizes(case1_n=300, case1_orbits=15.0, case1_orbits_dilute=30.0,
-              case1_taus=(0.1, 0.25, 0.5, 1.0, 1.5), case3_n=300, case3_orbits=15.0,
-              case3_taus=(0.25, 1.0), case5_n=600,
-              case5_orbits=8.0, case5_skip_orbits=2.0)
+QUICK = Sizes(case5_n=600, case5_orbits=8.0, case5_skip_orbits=2.0)
 
 
 # --- results ---------------------------------------------------------------------------------
@@ -209,20 +192,6 @@ def run_cached(scenario, path: Path):
     return run
 
 
-def value(entry: dict) -> tuple[float, float]:
-    """(mean, stderr) of an equilibrium entry."""
-    return float(entry["mean"]), float(entry["stderr"])
-
-
-def equilibrium_entry(eq: dict, tau: float) -> dict:
-    """The numbers of one run's equilibrium the case tables show: c/(r Omega), H/r and the
-    filling factor as (mean, stderr), the collision frequency, and the equilibrium verdict."""
-    return {"tau": tau, "c": value(eq["velocity_dispersion_rOmega"]),
-            "h": value(eq["thickness_r"]), "ff": value(eq["filling_factor"]),
-            "collision_frequency": value(eq["collision_frequency"]),
-            "in_equilibrium": eq["in_equilibrium"], "reason": eq["reason"]}
-
-
 def sheet_scenario(name: str, *, size_distribution: dict, restitution: dict, tau: float,
                    n: int, orbits: float, planet: dict | None = None, seed: int = 1,
                    collision_detection: str = "tree", dt="auto", initial_dispersion: float = 2.0,
@@ -244,91 +213,8 @@ def sheet_scenario(name: str, *, size_distribution: dict, restitution: dict, tau
 
 
 MONODISPERSE_1M = {"kind": "monodisperse", "radius": 1.0}
-SATURN = {"GM": SATURN_GM, "a": RING_RADIUS}
-BRIDGES = {"model": "bridges", "v_c": rs.BRIDGES_V_C, "exponent": rs.BRIDGES_EXPONENT}
 
 
 def figure_file(fig, figures: Path, name: str) -> Path:
     """Lay out ``fig``, write it as ``figures/name`` (PNG) and close it; returns the path."""
     return save_figure(fig, figures / name)
-
-
-
-
-def dispersion_against_tau(table: list[dict], label: str):
-    """A figure of two panels, the first with c/(r Omega) against tau (error bars) drawn.
-
-    ``table``: one dict per optical depth with ``tau`` and ``c`` = (mean, stderr) [r Omega].
-    Returns the figure, both axes and the optical depths (array).
-    """
-    plt = pyplot()
-    fig, (ax_c, ax_2) = plt.subplots(1, 2, figsize=(11, 4.3))
-    taus = np.array([t["tau"] for t in table])
-    cm = np.array([t["c"] for t in table])
-    ax_c.errorbar(taus, cm[:, 0], yerr=cm[:, 1], fmt="o-", label=label)
-    return fig, ax_c, ax_2, taus
-
-
-# --- energy balance of a sheet ---------------------------------------------------------------
-
-def bin_mean_square_speed(counts: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """Mean v^2 [m^2/s^2] within each logarithmic speed bin, for a density that follows the
-    local power law of the neighbouring bins (within a bin of 10 per decade a log-uniform
-    density would bias sum v^2 by ~2%; the local slope removes most of that).
-
-    Parameters
-    ----------
-    counts : array (n_bins,) of collision counts
-    edges : array (n_bins + 1,) [m/s], 0 < edges
-    """
-    lo, hi = edges[:-1], edges[1:]
-    width = np.log(hi / lo)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        log_density = np.log(np.where(counts > 0, counts / width, np.nan))
-    centre = 0.5 * (np.log(lo) + np.log(hi))
-    left = np.concatenate([[0], np.arange(counts.size - 1)])
-    right = np.concatenate([np.arange(1, counts.size), [counts.size - 1]])
-    with np.errstate(invalid="ignore"):
-        slope = (log_density[right] - log_density[left]) / (centre[right] - centre[left])
-    slope = np.where(np.isfinite(slope), slope, 0.0)
-
-    def integral(k):  # int_lo^hi v^k dln v
-        safe = np.where(np.abs(k) > 1e-9, k, 1.0)
-        return np.where(np.abs(k) > 1e-9, (hi**safe - lo**safe) / safe, width)
-
-    return integral(slope + 2.0) / integral(slope)
-
-
-def energy_balance(run, eq: dict) -> dict:
-    """Viscous heating and collisional dissipation of a constant-eps run of identical
-    particles over its equilibrium window [W/m^2].
-
-    Heating by the shear: (9/4) Omega^2 Sigma (nu_trans + nu_col) (Wisdom & Tremaine 1988;
-    nu_col from REBOUND's collisions_plog).  Dissipation: (1 - eps^2) (M_bar/2) sum v_n^2
-    per unit area and time, M_bar = m/2, with sum v_n^2 from the impact-speed histograms of
-    the run file (``bin_mean_square_speed``).  In a steady state they are equal.
-    """
-    ts = run.timeseries
-    Omega = run.scenario.orbital_frequency
-    eps = float(run.scenario.restitution_dict()["epsilon"])
-    first = run.snapshot(0)
-    area = float(run.attrs["Lx"]) * float(run.attrs["Ly"])
-    sigma = float(first["mass"].sum()) / area
-    m = float(first["mass"][0])
-    start = int(np.searchsorted(ts["orbits"], eq["equilibrium_from_orbit"]["mean"] - 1e-9))
-    start = max(start, 1)
-    edges = ts["impact_speed_bin_edges"]
-    hist = ts["impact_speed_histogram"]
-    # underflow [0, 1e-7 m/s] and overflow [100 m/s, inf) hold (almost) nothing
-    inner = bin_mean_square_speed(hist[start:, 1:-1].sum(axis=0).astype(float), edges[1:-1])
-    v2 = np.concatenate([[edges[1] ** 2 / 3.0], inner, [edges[-2] ** 2]])
-    dt = np.diff(ts["t"], prepend=np.nan)
-    dissipation = (1.0 - eps**2) * (m / 4.0) * (hist @ v2) / (area * dt)
-    dplog = np.diff(ts["collisions_plog"], prepend=np.nan)
-    heating = (2.25 * Omega**2 * sigma * ts["translational_viscosity"]
-               + 1.5 * Omega * dplog / (area * dt))
-    h = timeseries.autocorrelated_mean(heating[start:])
-    d = timeseries.autocorrelated_mean(dissipation[start:])
-    ratio = h[0] / d[0]
-    return {"heating": h[:2], "dissipation": d[:2], "ratio": ratio,
-            "ratio_err": abs(ratio) * math.hypot(h[1] / h[0], d[1] / d[0])}

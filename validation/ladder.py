@@ -1,41 +1,33 @@
 """Validation ladder: ringsim against published ring physics.
 
-Runs the reference cases through the same machinery users run (``ringsim.run`` on
+Runs the reference case 5 through the same machinery users run (``ringsim.run`` on
 scenarios, the native resolver, ``ringsim.compare.equilibrium``) and writes the section
 "## Reference cases" of ``docs/validation.md`` with one table and one figure per case
 (figures in ``docs/figures/validation/``)::
 
-    python -m validation ladder                # documented sizes (~22 min of CPU)
-    python -m validation ladder --quick        # small sizes (~5 min), same checks,
+    python -m validation ladder                # documented size (~3 min of CPU)
+    python -m validation ladder --quick        # small size, same checks,
                                                # report in runs/validation/quick/
-    python -m validation ladder --cases 3 5    # only these cases; the report keeps the
-                                               # stored results of the others
     python -m validation ladder --report-only  # rewrite the report from stored results
 
-Cases (all SI inside; results in units of the particle radius r and Omega):
+The case (all SI inside; results in units of the particle radius r and Omega):
 
-1. identical particles, constant eps = 0.5, no self-gravity, tau = 0.1 ... 1.5:
-   c/(r Omega), filling factor, the dilute estimate of ``ringsim.diagnostics`` and the
-   energy balance of the sheet (viscous heating = collisional dissipation);
-3. Bridges et al. (1984) law, identical 1 m particles at 100 000 km from Saturn: a
-   near-monolayer with c of a few r Omega;
 5. REBOUND's shearing-sheet example through ``scenarios/bridges.yaml``: ringsim's resolver
    against REBOUND's built-in hard-sphere resolver from the same seed.
 
-Cases 2 (the Goldreich & Tremaine 1978 threshold) and 4 (the Bridges law with a q = 3
-size distribution) are study files, ``studies/validation-threshold/study.yaml`` and
-``studies/validation-size-distribution/study.yaml``, run by ``ringsim study``; case 6
-(Dilley 1993 Figs. 1 and 5) compares eps with the paper's equations, not a run's
-statistics, and is the test ``tests/test_dilley_figures.py``.
+Cases 1 (constant eps = 0.5), 2 (the Goldreich & Tremaine 1978 threshold), 3 (the
+Bridges law, identical particles) and 4 (the Bridges law with a q = 3 size distribution)
+are study files, ``studies/validation-constant-eps``, ``studies/validation-threshold``,
+``studies/validation-bridges`` and ``studies/validation-size-distribution``, run by
+``ringsim study``; case 6 (Dilley 1993 Figs. 1 and 5) compares eps with the paper's
+equations, not a run's statistics, and is the test ``tests/test_dilley_figures.py``.
 
-Each case is a module of ``validation/`` (``case1_constant_eps``,
-``case3_bridges_identical``, ``case5_rebound_example``), built
-from what they share in ``common`` and rendered to Markdown by ``render``.  Each case
-returns a ``CaseResult``: rows comparing ringsim's value (with its standard error) with a
-reference value (with its uncertainty and source), the difference in units of the
-combined uncertainty, and whether that is the expected outcome.  Results are stored as
-JSON beside the runs (``--workdir``, default ``runs/validation``) and finished
-run files are reused when their scenario is unchanged.
+The case is the module ``case5_rebound_example``, built from ``common`` and rendered to
+Markdown by ``render``.  It returns a ``CaseResult``: rows comparing ringsim's value (with
+its standard error) with a reference value (with its uncertainty and source), the
+difference in units of the combined uncertainty, and whether that is the expected
+outcome.  Results are stored as JSON beside the runs (``--workdir``, default
+``runs/validation``) and finished run files are reused when their scenario is unchanged.
 """
 
 from __future__ import annotations
@@ -46,8 +38,6 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from ringsim.report import replace_section
-from validation.case1_constant_eps import case1
-from validation.case3_bridges_identical import case3
 from validation.case5_rebound_example import case5
 from validation.common import (
     DOC,
@@ -65,8 +55,7 @@ from validation.render import SECTION_HEADING, row_markdown, section_markdown
 
 FIGURES = ROOT / "docs" / "figures" / "validation"
 
-CASES: dict[int, Callable[[Sizes, Path, Path], CaseResult]] = {
-    1: case1, 3: case3, 5: case5}
+CASES: dict[int, Callable[[Sizes, Path, Path], CaseResult]] = {5: case5}
 
 
 def run_case(number: int, sizes: Sizes, workdir: Path, figures: Path) -> CaseResult:

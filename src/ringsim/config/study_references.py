@@ -39,6 +39,11 @@ REFERENCE_KEYS = ("value", "tolerance", "sigma", "low", "high", "source", "bin",
 #: Per-size-bin quantities a reference may name: key -> the summary's ``by_size`` bin key.
 BY_SIZE_QUANTITIES = {"by_size.velocity_dispersion": "velocity_dispersion",
                       "by_size.thickness": "thickness"}
+#: The spin quantities of a case with friction (``study.spin``): a reference names them
+#: ``spin.KEY``, the case's seed mean of the summaries' ``spin`` entry KEY.
+SPIN_QUANTITIES = ("rotational_energy_fraction", "rotational_energy_fraction_random",
+                   "mean_spin_z", "rms_spin", "sliding_fraction")
+SPIN_REFERENCES = tuple(f"spin.{key}" for key in SPIN_QUANTITIES)
 #: Separates the numerator and the denominator of a ratio's reference key.
 RATIO_SEPARATOR = "/"
 
@@ -186,10 +191,10 @@ def read_references(top: Section, cases: Sequence[str], quantities: Sequence[str
         for quantity_key in by_quantity.mapping:
             quantity = str(quantity_key)
             allowed_here = (list(known) if known is not None else []) + \
-                ([] if ratio else list(BY_SIZE_QUANTITIES))
+                ([] if ratio else [*BY_SIZE_QUANTITIES, *SPIN_REFERENCES])
             if known is not None and quantity not in allowed_here or \
                     ratio and quantity in BY_SIZE_QUANTITIES:
                 raise _unknown(by_quantity, quantity, "quantity", allowed_here,
-                               "an equilibrium quantity" + ("" if ratio else " or by size"))
+                               "an equilibrium quantity" + ("" if ratio else ", by size or spin"))
             out += [_one(ref, case, quantity, ratio) for ref in _sections(by_quantity, quantity)]
     return tuple(out)

@@ -19,7 +19,8 @@ from collections.abc import Mapping, Sequence
 
 from ringsim.analysis import compare
 from ringsim.analysis.equilibrium import TABLE_ROWS
-from ringsim.config.study_references import BY_SIZE_QUANTITIES
+from ringsim.config.study_references import BY_SIZE_QUANTITIES, SPIN_REFERENCES
+from ringsim.study.spin import SPIN_LABELS, spin_value
 
 #: Standard errors of the case's mean by which a reference's interval is widened.
 N_SIGMA = 3.0
@@ -83,6 +84,8 @@ def reference_entry(reference, cases: Mapping[str, Mapping], by_size: Mapping | 
         extra["ratio"] = list(reference.ratio)
     elif reference.quantity in BY_SIZE_QUANTITIES:
         value, extra = _bin_value(reference, by_size)
+    elif reference.quantity in SPIN_REFERENCES:
+        value = spin_value(cases[reference.case], reference.quantity)
     else:
         value = cases[reference.case]["equilibrium"][reference.quantity]
     if reference.sigma:
@@ -132,6 +135,8 @@ def _label(e: Mapping) -> tuple[str, float]:
         under = e.get("over_bin_radii")
         return text + (f" / bin {e['over_bin']}" if under is None else
                        f" / {under[0]:.3g}-{under[1]:.3g} m bin"), 1.0
+    if e["quantity"] in SPIN_LABELS:
+        return SPIN_LABELS[e["quantity"]], 1.0
     label, unit, scale = TABLE_ROWS[e["quantity"]]
     if "ratio" in e:
         return f"{label}, ratio", 1.0

@@ -24,6 +24,7 @@ from ringsim.analysis.equilibrium import NOT_IN_EQUILIBRIUM, QUANTITIES
 from ringsim.study.by_size import by_size_report
 from ringsim.study.cassini import against_cassini
 from ringsim.study.references import reference_entries, rule
+from ringsim.study.spin import case_spin
 
 #: What a particle weighting of ``ringsim.quantities`` counts equally.
 _WEIGHTINGS = {"number": "number: every particle counts once",
@@ -104,9 +105,10 @@ def case_entry(overrides: Mapping, runs: Runs, case: str) -> dict:
         value = seed_mean(members, quantity)
         value["weighting"] = weighting(quantity)
         equilibrium[quantity] = value
+    spin = case_spin(members)
     return {"overrides": dict(overrides), "runs": runs.entries(case),
             "in_equilibrium": all(s["in_equilibrium"] for s in members),
-            "equilibrium": equilibrium}
+            "equilibrium": equilibrium, **({"spin": spin} if spin is not None else {})}
 
 
 def _case_ratio(runs: Runs, num: str, den: str, quantity: str, variant: str | None = None,

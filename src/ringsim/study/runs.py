@@ -45,6 +45,7 @@ from ringsim.config.scenario import SPEED_ONLY_KEYS, with_overrides, without_key
 from ringsim.errors import InputError
 from ringsim.study.by_size import size_summary
 from ringsim.study.cassini import lacks_occultation, occultation_summary
+from ringsim.study.spin import spin_summary
 
 #: Scenario keys left out of a run's identity: its labels and the thread count change no
 #: result, and a run asked for with more ``integration.orbits`` is the same run lengthened.
@@ -198,9 +199,11 @@ def make_summary(rid: str, run, eq: Mapping, quantities: Iterable[str],
     ``run_wall_time_s``.  A self-gravitating run's also holds ``occultation``
     (``study.cassini.occultation_summary``)."""
     kept = [*quantities, "equilibrium_from_orbit"]
-    sizes = size_summary(eq)
+    sizes, spin = size_summary(eq), spin_summary(eq)
     extra = ({"occultation": occultation_summary(run, eq.get("wake_significant"))}
              if run.scenario.sheet.gravity else {})
+    if spin is not None:
+        extra["spin"] = spin
     return {**extra, "format": SUMMARY_FORMAT, "run": rid,
             "ringsim_version": str(run.attrs.get("ringsim_version", "")),
             "scenario": summary_scenario(run.scenario),
