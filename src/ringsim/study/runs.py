@@ -216,7 +216,9 @@ def make_summary(rid: str, run, eq: Mapping, quantities: Iterable[str],
             "optical_depth": float(eq["optical_depth"]),
             "units": dict(SUMMARY_UNITS), "cost": dict(cost),
             **({"by_size": sizes} if sizes is not None else {}),
-            **({"no_snapshot_in_window": True} if eq["window_snapshots"] == 0 else {})}
+            **({"no_snapshot_in_window": True}
+               if eq["window_snapshots"] == 0 and (sizes is not None or "occultation" in extra)
+               else {})}
 
 
 # --- the plan -----------------------------------------------------------------------------------
