@@ -28,7 +28,7 @@ from ringsim.engine import invariants
 from ringsim.engine.runner import Runner
 from ringsim.store import runfile
 from ringsim.store.lock import RunFileLock, lock_path, writer_of
-from ringsim.testing import run_file_datasets
+from ringsim.testing import assert_same_datasets
 
 DATA = Path(__file__).resolve().parent / "data"
 FORMAT_1_0 = DATA / "format_1_0.h5"
@@ -565,10 +565,7 @@ def _interrupted_chain(tiny_scenario, tmp_path, sig, seed, n_stops=5):
     # makes the mid-interval case certain)
     assert main(["run", str(scenario_file), "-o", str(path), "--resume",
                  "--no-progress"]) == 0
-    ref, res = run_file_datasets(reference), run_file_datasets(path)
-    assert ref.keys() == res.keys()
-    for name in ref:
-        assert ref[name] == res[name], f"{name} differs from the uninterrupted run"
+    assert_same_datasets(reference, path)
     assert _checkpoint_state(reference) == _checkpoint_state(path)
 
 
@@ -629,8 +626,5 @@ def test_stop_inside_an_interval_then_resume_is_identical(tmp_path, tiny_scenari
     assert ck.state["t"] > rows[-1] and int(ck.statistics["count"]) > 0, \
         "stopped inside an interval that had collisions"
     ringsim.run(sc, output=path, resume=True, progress=False)
-    ref, res = run_file_datasets(reference), run_file_datasets(path)
-    assert ref.keys() == res.keys()
-    for name in ref:
-        assert ref[name] == res[name], f"{name} differs from the uninterrupted run"
+    assert_same_datasets(reference, path)
     assert _checkpoint_state(reference) == _checkpoint_state(path)

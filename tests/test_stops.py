@@ -22,7 +22,7 @@ from ringsim.cli import main
 from ringsim.engine.runner import Runner
 from ringsim.engine.stop import StopRequest
 from ringsim.store import runfile
-from ringsim.testing import run_file_datasets
+from ringsim.testing import assert_same_datasets
 
 #: A tiny ring for stop tests: 80 particles of 1-2 m, 0.3 orbit, a row every 0.02 orbit, a
 #: checkpoint every 0.1 orbit.
@@ -42,10 +42,7 @@ def _assert_resumes_to(reference, scenario_file, path) -> None:
     then holds every dataset of the uninterrupted run ``reference`` (==)."""
     assert main(["run", str(scenario_file), "-o", str(path), "--resume",
                  "--no-progress"]) == 0
-    ref, res = run_file_datasets(reference), run_file_datasets(path)
-    assert ref.keys() == res.keys()
-    for name in ref:
-        assert ref[name] == res[name], f"{name} differs from the uninterrupted run"
+    assert_same_datasets(reference, path)
 
 
 class SignalledRunner(Runner):
@@ -135,10 +132,7 @@ def test_signal_at_ten_moments_stops_within_a_step_and_resumes_identically(
             f"t = {runner.sent_t} s, dt = {dt} s"
         assert ringsim.open_run(path).attrs["status"] == "stopped"
     ringsim.run(sc, output=path, resume=True, progress=False)
-    ref, res = run_file_datasets(reference), run_file_datasets(path)
-    assert ref.keys() == res.keys()
-    for name in ref:
-        assert ref[name] == res[name], f"{name} differs from the uninterrupted run"
+    assert_same_datasets(reference, path)
 
 
 def _identity(path):

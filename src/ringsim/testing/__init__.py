@@ -7,7 +7,7 @@
 * ``gravity``: the self-gravity harness, random sheets in REBOUND with the tree or P3M,
   their accelerations and their errors against the converged image sum;
 * ``resume``: `assert_resumes_bit_for_bit`, a run in one go against the same run stopped
-  and resumed;
+  and resumed, and `assert_same_datasets`, two run files dataset by dataset;
 * ``synthetic_restitution``: the synthetic restitution measurements of the bundled
   ``ringsim fit`` example (`hatzes_like_csv`, `write_hatzes_like`).
 
@@ -25,7 +25,7 @@ from ringsim.testing.gravity import (
     tree_accelerations,
     tree_simulation,
 )
-from ringsim.testing.resume import assert_resumes_bit_for_bit
+from ringsim.testing.resume import assert_resumes_bit_for_bit, assert_same_datasets
 from ringsim.testing.synthetic_restitution import hatzes_like_csv, write_hatzes_like
 from ringsim.testing.twins import (
     OVERLAP_CHUNK,
@@ -41,6 +41,7 @@ __all__ = [
     "PythonReferenceResolver",
     "accelerations",
     "assert_resumes_bit_for_bit",
+    "assert_same_datasets",
     "count_overlaps_numpy",
     "force_errors",
     "hatzes_like_csv",

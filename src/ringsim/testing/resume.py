@@ -11,6 +11,17 @@ import numpy as np
 STATE_KEYS = ("x", "y", "z", "vx", "vy", "vz")
 
 
+def assert_same_datasets(reference, path) -> None:
+    """The run file ``path`` holds every dataset of the run file ``reference`` and no other,
+    each equal (==, ``twins.run_file_datasets``)."""
+    from ringsim.testing.twins import run_file_datasets
+
+    ref, res = run_file_datasets(reference), run_file_datasets(path)
+    assert ref.keys() == res.keys()
+    for name in ref:
+        assert ref[name] == res[name], f"{name} differs from the uninterrupted run"
+
+
 def assert_resumes_bit_for_bit(scenario, folder: str | Path, stop_orbits: float = 0.1,
                                snapshot: int = -1) -> tuple:
     """Run ``scenario`` in one go, and again stopped after ``stop_orbits`` [orbits] and
