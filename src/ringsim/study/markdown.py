@@ -133,30 +133,28 @@ def _seeds_cell(entry: Mapping) -> str:
 def cassini_section(report: Mapping) -> list[str]:
     """The synthetic occultations of the gravitating cases beside the published Cassini
     values (``report.json``'s ``against_cassini``; none without one)."""
-    cassini = report.get("against_cassini")
-    if not cassini:
+    table = report.get("against_cassini")
+    if not table:
         return []
-    b = f"{cassini['asymmetry_elevation_deg']:g}°"
+    b = f"{table['asymmetry_elevation_deg']:g}°"
     header = ["case", "κ", "size distribution", "friction", "seeds measured", "H/W",
               "gap τ", "wake angle from radial [deg]", f"asymmetry of τ_n at B = {b}",
               f"peak T at B = {b}", "geometric τ", "consistent with"]
-    quantities = ("height_over_width", "gap_optical_depth", "wake_angle_from_radial_deg",
-                  "asymmetry_amplitude", "peak_transmission", "geometric_optical_depth")
     rows = [[case, _num(e["kappa"]), e["size_distribution"], e["friction"],
              _seeds_cell(e) if e["gravity"] else "-"]
-            + [_cassini_cell(e, q) for q in quantities] + [f"**{e['verdict']}**"]
-            for case, e in cassini["cases"].items()]
+            + [_cassini_cell(e, q) for q in cassini.QUANTITIES] + [f"**{e['verdict']}**"]
+            for case, e in table["cases"].items()]
     published = [[p["ring"], p["quantity"], p["text"], p["source"]]
-                 for p in cassini["published"].values()]
+                 for p in table["published"].values()]
     return (["## Against Cassini", "",
-             f"What a stellar occultation would measure of each case: {cassini['geometry']}. "
+             f"What a stellar occultation would measure of each case: {table['geometry']}. "
              "Mean ± standard error over the seeds whose summary holds the occultations "
              "(the larger of the propagated error and the seed-to-seed one); \"not "
              "measured\": summaries made before they kept the occultations; n/a: no "
              "number (an asymmetry of views some of which let no ray through). The bar model's "
              "H/W, gap τ and wake angle are means over the seeds with a significant wake "
              "and a fit (\"no wake\": no such seed). "
-             f"Rule: {cassini['rule']}.", ""]
+             f"Rule: {table['rule']}.", ""]
             + _table(header, rows) + ["", "The published values:", ""]
             + _table(["ring", "quantity", "published", "source"], published) + [""])
 

@@ -171,6 +171,7 @@ NO_WINDOW_SNAPSHOT = ("WARNING: {name}: no snapshot lies in its equilibrium wind
                       "by-size layers and occultations are from the last snapshot, which "
                       "lies before the window")
 
+
 def _warnings(study, mode, runs: Runs) -> list[str]:
     out = []
     names = [(case, None) for case, _ in study.cases]
@@ -181,7 +182,7 @@ def _warnings(study, mode, runs: Runs) -> list[str]:
             label = f"{case}{f' [{variant}]' if variant else ''} seed {seed} (run {rid})"
             if not s["in_equilibrium"]:
                 out.append(NOT_IN_EQUILIBRIUM.format(name=label, reason=s["reason"]))
-            if s.get("no_snapshot_in_window") and ("by_size" in s or "occultation" in s):
+            if s.get("no_snapshot_in_window"):
                 out.append(NO_WINDOW_SNAPSHOT.format(name=label))
     return out
 
