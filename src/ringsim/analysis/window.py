@@ -21,7 +21,12 @@ def window_snapshot_indices(run, start: int) -> tuple[list[int], bool]:
         First row of the equilibrium window (a row past the end: the last row).
     """
     t = run.timeseries["t"]
-    t_start = float(t[min(start, t.size - 1)])
+    return snapshots_from(run, float(t[min(start, t.size - 1)]))
+
+
+def snapshots_from(run, t_start: float) -> tuple[list[int], bool]:
+    """The indices of the snapshots taken at or after ``t_start`` [s], and whether any is;
+    without one, the last snapshot's index and False."""
     chosen = [i for i in range(run.n_snapshots) if run.snapshot_times[i] >= t_start]
     return (chosen, True) if chosen else ([run.n_snapshots - 1], False)
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ringsim.analysis.snapshot import peculiar_velocity, thickness
+from ringsim.analysis.window import snapshots_from
 from ringsim.plots.common import (
     SPEED_SCALE,
     SPEED_UNIT,
@@ -34,9 +35,9 @@ def window_snapshots(run, eq: dict) -> tuple[list[dict], str]:
     period = run.scenario.orbital_period
     start = equilibrium_start(eq)
     if start is not None:
-        inside = [run.snapshot(i) for i in range(run.n_snapshots)]
-        inside = [s for s in inside if s["t"] / period >= start - 1e-9]
-        if inside:
+        indices, in_window = snapshots_from(run, (start - 1e-9) * period)
+        if in_window:
+            inside = [run.snapshot(i) for i in indices]
             return inside, (f"{len(inside)} snapshot{'s' if len(inside) > 1 else ''} of the "
                             f"equilibrium window (orbits ≥ {start:.3g})")
     last = run.snapshot(-1)
