@@ -21,7 +21,7 @@ from os import PathLike
 from pathlib import Path
 from typing import Any
 
-from ringsim.config.scenario import MAX_SEED, Scenario, load_scenario, with_overrides
+from ringsim.config.scenario import Scenario, load_scenario, with_overrides
 from ringsim.config.schema import (
     REQUIRED,
     ScenarioError,
@@ -31,6 +31,14 @@ from ringsim.config.schema import (
     show,
 )
 from ringsim.config.study_references import Reference, read_references
+from ringsim.config.study_scope import (
+    VARIANT_KEYS,
+    check_form_seeds,
+    form_seeds,
+    read_case_seeds,
+    read_seeds,
+    read_variant_cases,
+)
 from ringsim.config.study_start import (
     START_FILE,
     Start,
@@ -74,6 +82,9 @@ class Mode:
     overrides : dict
         ``quick``'s dotted overrides of every run (empty in the full form).
     variants : tuple of (name, dict of dotted overrides)
+    variant_cases : dict of variant name -> tuple of case names
+        The cases whose runs a variant changes, for the variants that name them
+        (``config.study_scope``); a variant not in it changes every case of the ratios.
     """
 
     quick: bool
@@ -82,6 +93,14 @@ class Mode:
     length: dict
     overrides: dict
     variants: tuple[tuple[str, dict], ...]
+    variant_cases: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+
+    def changes(self, variant: str | None, case: str) -> dict:
+        """The overrides of ``variant`` on the runs of ``case`` ({} where it keeps the
+        case's own run)."""
+        if variant is None or case not in self.variant_cases.get(variant, (case,)):
+            return {}
+        return dict(self.variants)[variant]
 
 
 @dataclass(frozen=True)
@@ -137,6 +156,8 @@ class Study:
         The values the cases are checked against (``config.study_references``).
     starts : dict of case name -> Start
         The cases that start from another case's run (``config.study_start``).
+    case_seeds : dict of case name -> tuple of int
+        The seeds of the cases that name their own (``config.study_scope``).
     """
 
     name: str
@@ -154,6 +175,7 @@ class Study:
     quick_report: str | None = None
     references: tuple[Reference, ...] = ()
     starts: Mapping[str, Start] = field(default_factory=dict)
+    case_seeds: Mapping[str, tuple[int, ...]] = field(default_factory=dict)
 
     @property
     def folder(self) -> Path:
@@ -176,11 +198,13 @@ class Study:
         return [name for name, _ in self.cases if name in used]
 
     def specs(self, quick: bool = False) -> list[RunSpec]:
-        """Every run of a form: each case with each seed, then each variant of each case
+        """Every run of a form: seed by seed, each case with that seed (so a study run in
+        order completes one replica of every case first), then each variant of each case
         of the ratios with each variant seed."""
         mode = self.mode(quick)
-        out = [self.spec(mode, case, None, seed)
-               for case, _ in self.cases for seed in mode.seeds]
+        out = [self.spec(mode, case, None, seed) for seed in mode.seeds
+               for case, _ in self.cases
+               if seed in form_seeds(mode.seeds, self.case_seeds.get(case))]
         for variant, _ in mode.variants:
             out += [self.spec(mode, case, variant, seed)
                     for case in self.ratio_cases() for seed in mode.variant_seeds]
@@ -189,7 +213,7 @@ class Study:
     def spec(self, mode: Mode, case: str, variant: str | None, seed: int) -> RunSpec:
         """The run of a case (with a variant, or None) and a seed in a form; a case that
         starts from another's run has that run, of the same variant, as its ``origin``."""
-        changes = dict(mode.variants)[variant] if variant else {}
+        changes = mode.changes(variant, case)
         start = self.starts.get(case)
         scenario = _scenario(self, mode, dict(self.cases)[case], changes, seed, start)
         origin = (self.spec(mode, start.case, variant, seed if start.seed is None
@@ -216,21 +240,6 @@ def _name(sec: Section, key: str, value: Any, what: str) -> str:
     if not isinstance(value, str) or not _NAME.fullmatch(value):
         raise sec.error(key, f"{show(value)} cannot name a {what}", _NAME_TEXT)
     return value
-
-
-def _seeds(sec: Section, key: str, within: Sequence[int] | None = None) -> tuple[int, ...]:
-    allowed = (f"a non-empty list of distinct integers in [0, {MAX_SEED}]"
-               + (f" among the seeds {list(within)}" if within is not None else ""))
-    value = sec.get(key, None, allowed)
-    if not isinstance(value, list) or not value:
-        raise sec.error(key, f"got {show(value)}", allowed)
-    for item in value:
-        if isinstance(item, bool) or not isinstance(item, int) or not 0 <= item <= MAX_SEED \
-                or (within is not None and item not in within):
-            raise sec.error(key, f"{show(item)} is not allowed", allowed)
-    if len(set(value)) != len(value):
-        raise sec.error(key, f"{value} repeats a seed", allowed)
-    return tuple(value)
 
 
 def _length(sec: Section, key: str) -> dict:
@@ -283,19 +292,24 @@ def _check_override(sec: Section, dotted: str, value: Any, base: Scenario,
                         exc.allowed) from None
 
 
-def _cases(top: Section, base: Scenario, length: dict
-           ) -> tuple[tuple[tuple[str, dict], ...], dict[str, Start]]:
-    """The cases' overrides, and the starts of the cases that start from another's run."""
+def _cases(top: Section, base: Scenario, length: dict, seeds: Sequence[int]
+           ) -> tuple[tuple[tuple[str, dict], ...], dict[str, Start],
+                      dict[str, tuple[int, ...]]]:
+    """The cases' overrides, the starts of the cases that start from another's run, and
+    the seeds of the cases that name their own."""
     cases = top.section("cases", required=True, allowed="case name -> dotted overrides")
     if not cases.mapping:
         raise top.error("cases", "is empty", "case name -> dotted overrides (may be {})")
     names = [str(key) for key in cases.mapping]
-    out, starts = [], {}
+    out, starts, case_seeds = [], {}, {}
     for key in cases.mapping:
         name = _name(cases, str(key), key, "case")
         value = cases.mapping[key]
         if value is None:
             raise cases.error(name, "no value given", "a mapping of overrides ({} for none)")
+        if isinstance(value, Mapping) and "seeds" in value:
+            case_seeds[name] = read_case_seeds(cases, name, value["seeds"], seeds)
+            value = {k: v for k, v in value.items() if k != "seeds"}
         if isinstance(value, Mapping) and "start" in value:
             starts[name] = read_start(cases, name, value["start"], names)
             value = {k: v for k, v in value.items() if k != "start"}
@@ -303,7 +317,7 @@ def _cases(top: Section, base: Scenario, length: dict
         here = Section(cases.file, cases.prefix, {name: value})
         out.append((name, _check_overrides(here, name, base, length)))
     check_cycles(cases, starts)
-    return tuple(out), starts
+    return tuple(out), starts, case_seeds
 
 
 def _ratios(top: Section, cases: Sequence[str]) -> tuple[tuple[str, str], ...]:
@@ -344,30 +358,39 @@ def _quantities(top: Section, known: Sequence[str] | None) -> tuple[str, ...] | 
     return tuple(str(name) for name in value)
 
 
-def _variants(sec: Section, base: Scenario, before: dict) -> tuple[tuple[str, dict], ...]:
-    variants = sec.section("variants", allowed="variant name -> dotted overrides")
-    out = []
+def _variants(sec: Section, base: Scenario, before: dict, ratio_cases: Sequence[str]
+              ) -> tuple[tuple[tuple[str, dict], ...], dict[str, tuple[str, ...]]]:
+    """The variants' overrides, and the cases of the variants that name the cases whose
+    runs they change."""
+    variants = sec.section("variants", allowed="variant name -> dotted overrides, and "
+                           "optionally cases: the cases whose runs the variant changes")
+    out, scopes = [], {}
     for key in variants.mapping:
         name = _name(variants, str(key), key, "variant")
-        changes = _check_overrides(variants, name, base, before)
+        value = variants.mapping[key]
+        if isinstance(value, Mapping) and "cases" in value:
+            scopes[name] = read_variant_cases(variants, name, value["cases"], ratio_cases)
+            value = {k: v for k, v in value.items() if k not in VARIANT_KEYS}
+        here = Section(variants.file, variants.prefix, {name: value})
+        changes = _check_overrides(here, name, base, before)
         if not changes:
             raise variants.error(name, "is empty", "the overrides that change the method")
         out.append((name, changes))
-    return tuple(out)
+    return tuple(out), scopes
 
 
-def _full_mode(top: Section, base: Scenario) -> Mode:
-    seeds = _seeds(top, "seeds")
-    length = _length(top, "length") if top.has("length") else {}
-    variants = _variants(top, base, length)
+def _full_mode(top: Section, base: Scenario, seeds: tuple[int, ...], length: dict,
+               ratio_cases: Sequence[str]) -> Mode:
+    variants, scopes = _variants(top, base, length, ratio_cases)
     if top.has("variant_seeds") and not variants:
         raise top.error("variant_seeds", "given without variants", "remove it, or add variants")
-    variant_seeds = (_seeds(top, "variant_seeds", within=seeds) if top.has("variant_seeds")
+    variant_seeds = (read_seeds(top, "variant_seeds", within=seeds) if top.has("variant_seeds")
                      else seeds[:1])
-    return Mode(False, seeds, variant_seeds, length, {}, variants)
+    return Mode(False, seeds, variant_seeds, length, {}, variants, scopes)
 
 
-def _quick_mode(top: Section, base: Scenario, full: Mode) -> Mode | None:
+def _quick_mode(top: Section, base: Scenario, full: Mode, ratio_cases: Sequence[str]
+                ) -> Mode | None:
     if not top.has("quick"):
         return None
     quick = top.section("quick", allowed="the --quick form: length, seeds, variant_seeds, "
@@ -383,17 +406,17 @@ def _quick_mode(top: Section, base: Scenario, full: Mode) -> Mode | None:
     scenario_keys = {k: v for k, v in quick.mapping.items() if k not in QUICK_KEYS}
     overrides = _check_overrides(Section(top.file, "", {"quick": scenario_keys}), "quick",
                                  base, length)
-    seeds = _seeds(quick, "seeds") if quick.has("seeds") else full.seeds
-    variants = (_variants(quick, base, {**length, **overrides}) if quick.has("variants")
-                else full.variants)
+    seeds = read_seeds(quick, "seeds") if quick.has("seeds") else full.seeds
+    variants, scopes = (_variants(quick, base, {**length, **overrides}, ratio_cases)
+                        if quick.has("variants") else (full.variants, full.variant_cases))
     if quick.has("variant_seeds"):
         if not variants:
             raise quick.error("variant_seeds", "given without variants", "remove it")
-        variant_seeds = _seeds(quick, "variant_seeds", within=seeds)
+        variant_seeds = read_seeds(quick, "variant_seeds", within=seeds)
     else:
         variant_seeds = (full.variant_seeds if set(full.variant_seeds) <= set(seeds)
                          else seeds[:1])
-    return Mode(True, seeds, variant_seeds, length, overrides, variants)
+    return Mode(True, seeds, variant_seeds, length, overrides, variants, scopes)
 
 
 def _report(top: Section, folder: Path) -> str | None:
@@ -408,8 +431,13 @@ def _report(top: Section, folder: Path) -> str | None:
 
 
 def _check_runs(study: Study) -> None:
-    """Every run of both forms is a valid scenario (cases and variants can clash)."""
+    """Every case runs a seed in both forms, and every run of both forms is a valid
+    scenario (cases and variants can clash)."""
     for quick in (False, True) if study.quick_mode is not None else (False,):
+        mode = study.mode(quick)
+        check_form_seeds(study.source, "quick" if quick else "full", mode.seeds,
+                         mode.variant_seeds, study.ratio_cases(), study.case_seeds,
+                         bool(mode.variants))
         try:
             study.specs(quick)
         except ScenarioError as exc:
@@ -443,11 +471,14 @@ def load_study(path: str | PathLike, quantities: Sequence[str] | None = None) ->
         raise top.error("base", f"no scenario file {show(str(base_path))}",
                         "a scenario file, relative to the study file")
     base = load_scenario(base_path)
-    full = _full_mode(top, base)
-    overrides = (_check_overrides(top, "overrides", base, full.length)
+    seeds = read_seeds(top, "seeds")
+    length = _length(top, "length") if top.has("length") else {}
+    overrides = (_check_overrides(top, "overrides", base, length)
                  if top.has("overrides") else {})
-    cases, starts = _cases(top, base, {**full.length, **overrides})
+    cases, starts, case_seeds = _cases(top, base, {**length, **overrides}, seeds)
     ratios = _ratios(top, [case for case, _ in cases])
+    ratio_cases = [case for case, _ in cases if any(case in pair for pair in ratios)]
+    full = _full_mode(top, base, seeds, length, ratio_cases)
     study_quantities = _quantities(top, quantities)
     if full.variants and not ratios:
         raise top.error("variants", "given without ratios", "variants measure the "
@@ -455,12 +486,12 @@ def load_study(path: str | PathLike, quantities: Sequence[str] | None = None) ->
     study = Study(name=name, description=description, source=source, base=base,
                   base_file=base_file, overrides=overrides, cases=cases, ratios=ratios,
                   quantities=study_quantities, full=full,
-                  quick_mode=_quick_mode(top, base, full),
+                  quick_mode=_quick_mode(top, base, full, ratio_cases),
                   report=_report(top, Path(source).parent),
                   quick_report=(_report(top.section("quick"), Path(source).parent)
                                 if top.has("quick") else None),
                   references=read_references(top, [case for case, _ in cases], quantities,
                                              ratios, study_quantities or quantities),
-                  starts=starts)
+                  starts=starts, case_seeds=case_seeds)
     _check_runs(study)
     return study

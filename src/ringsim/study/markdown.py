@@ -48,6 +48,16 @@ def _start(start: Mapping | None) -> str:
             f"{seed} (same form and variant), tiled {start['tile'][0]} x {start['tile'][1]}")
 
 
+def _scope(variant: Mapping) -> str:
+    """What a variant that names its cases leaves as it is."""
+    if "cases" not in variant:
+        return ""
+    kept = [case for case in variant["runs"] if case not in variant["cases"]]
+    return (f"; it changes the runs of {', '.join(f'`{c}`' for c in variant['cases'])} only"
+            + (f" ({', '.join(f'`{c}`' for c in kept)} keep their own runs: the study file "
+               "states that the variant does not change them)" if kept else ""))
+
+
 def setup_section(report: Mapping) -> list[str]:
     """What was run: the base, the changes of every run, the cases and the variants."""
     lines = ["## Set-up", "", f"Base scenario `{report['base']}`; every run: "
@@ -55,9 +65,10 @@ def setup_section(report: Mapping) -> list[str]:
              + (f"; the quick form then sets {_changes(report['quick_overrides'])}"
                 if report["form"] == "quick" else "") + f". Seeds {report['seeds']}.", ""]
     lines += [f"- case `{case}`: {_changes(entry['overrides'])}" + _start(entry.get("start"))
+              + (f" (seeds {entry['seeds']} only)" if "seeds" in entry else "")
               for case, entry in report["cases"].items()]
     lines += [f"- variant `{name}` (seeds {report['variant_seeds']}): "
-              f"{_changes(v['overrides'])}" for name, v in report["variants"].items()]
+              f"{_changes(v['overrides'])}" + _scope(v) for name, v in report["variants"].items()]
     return lines + [""]
 
 

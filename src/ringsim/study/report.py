@@ -205,6 +205,8 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
         "averaging": AVERAGING, "systematics": SYSTEMATICS, "quantities": quantities,
         "cases": {case: case_entry(overrides, runs, case) for case, overrides in study.cases},
         "variants": {name: {"overrides": dict(changes),
+                            **({"cases": list(mode.variant_cases[name])}
+                               if name in mode.variant_cases else {}),
                             "runs": {case: runs.entries(case, name)
                                      for case in study.ratio_cases()}}
                      for name, changes in mode.variants},
@@ -216,6 +218,8 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
     }
     for case, start in study.starts.items():
         report["cases"][case]["start"] = start.to_dict()
+    for case, seeds in study.case_seeds.items():
+        report["cases"][case]["seeds"] = [s for s in mode.seeds if s in seeds]
     if study.references:
         report["references"] = reference_entries(study.references, report)
         report["references_rule"] = rule(study.references)

@@ -1,0 +1,95 @@
+"""Which runs a study's cases and variants ask for: the case key ``seeds`` and the variant
+key ``cases`` of a study file (docs/studies.md, "Fewer runs where they add nothing").
+
+A case's ``seeds`` (among the study's seeds) are the seeds it runs: a case outside the
+headline ratio can run once where the headline pair runs three times.  In the quick form
+the case runs the quick seeds among its own.
+
+A variant's ``cases`` (among the cases of the ratios) are the cases whose runs it changes.
+Every other case of the ratios keeps its own run in the variant, the run of the same seed
+without the variant: the study file asserts that the variant does not change that case's
+physics (a reference mass of Dilley's mass factor where kappa = 0, say), so running it
+again would give the same equilibrium at the cost of a run.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+from ringsim.config.scenario import MAX_SEED
+from ringsim.config.schema import ScenarioError, Section, show
+
+#: Keys of a variant besides its dotted scenario overrides.
+VARIANT_KEYS = ("cases",)
+
+
+def read_seeds(sec: Section, key: str, within: Sequence[int] | None = None) -> tuple[int, ...]:
+    """The list of seeds ``key`` of ``sec`` (optionally among ``within``)."""
+    allowed = (f"a non-empty list of distinct integers in [0, {MAX_SEED}]"
+               + (f" among the seeds {list(within)}" if within is not None else ""))
+    value = sec.get(key, None, allowed)
+    if not isinstance(value, list) or not value:
+        raise sec.error(key, f"got {show(value)}", allowed)
+    for item in value:
+        if isinstance(item, bool) or not isinstance(item, int) or not 0 <= item <= MAX_SEED \
+                or (within is not None and item not in within):
+            raise sec.error(key, f"{show(item)} is not allowed", allowed)
+    if len(set(value)) != len(value):
+        raise sec.error(key, f"{value} repeats a seed", allowed)
+    return tuple(value)
+
+
+def read_case_seeds(cases: Section, name: str, value: object,
+                    seeds: Sequence[int]) -> tuple[int, ...]:
+    """The case key ``seeds``: distinct seeds among the study's ``seeds``."""
+    allowed = f"a non-empty list of distinct seeds among the study's seeds {list(seeds)}"
+    key = f"{name}.seeds"
+    if not isinstance(value, list) or not value:
+        raise cases.error(key, f"got {show(value)}", allowed)
+    for item in value:
+        if isinstance(item, bool) or not isinstance(item, int) or item not in seeds:
+            raise cases.error(key, f"{show(item)} is not allowed", allowed)
+    if len(set(value)) != len(value):
+        raise cases.error(key, f"{value} repeats a seed", allowed)
+    return tuple(value)
+
+
+def read_variant_cases(variants: Section, name: str, value: object,
+                       ratio_cases: Sequence[str]) -> tuple[str, ...]:
+    """The variant key ``cases``: distinct cases of the ratios."""
+    allowed = ("a non-empty list of distinct cases of the ratios, the cases whose runs the "
+               f"variant changes: {', '.join(ratio_cases)}")
+    key = f"{name}.cases"
+    if not isinstance(value, list) or not value or len(set(map(str, value))) != len(value):
+        raise variants.error(key, f"got {show(value)}", allowed)
+    for item in value:
+        if item not in ratio_cases:
+            raise variants.error(key, f"{show(item)} is not a case of the ratios", allowed)
+    return tuple(str(item) for item in value)
+
+
+def form_seeds(seeds: Sequence[int], case_seeds: Sequence[int] | None) -> tuple[int, ...]:
+    """The seeds a case runs in a form: the form's ``seeds``, or those among the case's
+    own ``case_seeds`` (None: the case declares none)."""
+    if case_seeds is None:
+        return tuple(seeds)
+    return tuple(seed for seed in seeds if seed in case_seeds)
+
+
+def check_form_seeds(source: str, form: str, seeds: Sequence[int],
+                     variant_seeds: Sequence[int], ratio_cases: Sequence[str],
+                     case_seeds: Mapping[str, tuple[int, ...]], has_variants: bool) -> None:
+    """Every case runs at least one seed in the form, and each case of the ratios runs
+    every variant seed (a variant's shift compares the same seeds with and without it)."""
+    for case, own in case_seeds.items():
+        runs = form_seeds(seeds, own)
+        if not runs:
+            raise ScenarioError(source, f"cases.{case}.seeds", f"none of {list(own)} is "
+                                f"among the {form} form's seeds {list(seeds)}",
+                                "seeds the form runs")
+        missing = [s for s in variant_seeds if s not in runs]
+        if has_variants and case in ratio_cases and missing:
+            raise ScenarioError(source, f"cases.{case}.seeds", f"lacks the {form} form's "
+                                f"variant seeds {missing}", "seeds that include the "
+                                "variant seeds: a variant's shift compares the same seeds "
+                                "with and without it")

@@ -1,0 +1,90 @@
+"""A study's case ``seeds`` and variant ``cases`` (``config.study_scope``): the runs they
+ask for, the report they give, and bad values as bad input.
+
+The study is tests/test_study.py's tiny sheet (200 particles, 0.3 orbit in line mode, a
+few seconds a run)."""
+
+import json
+
+import pytest
+
+from ringsim.config.study import load_study
+from ringsim.study import run_study
+from ringsim.study.runs import collect, run_id
+from tests.test_study import SCENARIO, assert_refused, write_study
+
+SCOPED = """\
+name: tiny-scoped
+base: tiny.yaml
+seeds: [1, 2]
+cases:
+  k0: {}
+  k01: {restitution.kappa: 0.1}
+  k02: {restitution.kappa: 0.2, seeds: [1]}
+ratios: [[k01, k0], [k02, k0]]
+variants:
+  ref_600g: {restitution.reference_mass: 0.6, cases: [k01, k02]}
+length: {orbits: 0.6}
+quick:
+  sheet.n_particles: 200
+  length: {orbits: 0.3}
+"""
+
+
+def test_case_seeds_and_variant_cases_plan_only_the_runs_that_differ(tmp_path):
+    study = load_study(write_study(tmp_path, SCOPED))
+    specs = study.specs(quick=True)
+    labels = [spec.label for spec in specs]
+    # seed by seed; k02 only with seed 1; the variant on every case of the ratios
+    assert labels == ["k0 seed 1", "k01 seed 1", "k02 seed 1", "k0 seed 2", "k01 seed 2",
+                      "k0 [ref_600g] seed 1", "k01 [ref_600g] seed 1",
+                      "k02 [ref_600g] seed 1"]
+    runs, ids = collect(specs)
+    by_label = dict(zip(labels, ids, strict=True))
+    # k0 keeps its own run in the variant; the variant changes k01's and k02's
+    assert by_label["k0 [ref_600g] seed 1"] == by_label["k0 seed 1"]
+    assert by_label["k01 [ref_600g] seed 1"] != by_label["k01 seed 1"]
+    assert by_label["k02 [ref_600g] seed 1"] != by_label["k02 seed 1"]
+    assert len(runs) == 7
+    moved = next(s for s in specs if s.label == "k01 [ref_600g] seed 1").scenario
+    assert moved.restitution.reference_mass == 0.6
+    assert run_id(next(s for s in specs if s.label == "k0 [ref_600g] seed 1").scenario) \
+        == by_label["k0 seed 1"]
+
+
+def test_scoped_study_report_holds_the_seeds_and_cases_it_ran(tmp_path):
+    path = write_study(tmp_path, SCOPED)
+    run_study(path, quick=True, workers=1, echo=None, command="ringsim study x --quick")
+    report = json.loads((tmp_path / "study.quick.report" / "report.json").read_text())
+    assert report["cases"]["k02"]["seeds"] == [1]
+    assert "seeds" not in report["cases"]["k0"]
+    assert [r["seed"] for r in report["cases"]["k02"]["runs"]] == [1]
+    assert report["variants"]["ref_600g"]["cases"] == ["k01", "k02"]
+    variant_k0 = report["variants"]["ref_600g"]["runs"]["k0"]
+    assert [r["run"] for r in variant_k0] == [report["cases"]["k0"]["runs"][0]["run"]]
+    k02 = next(e for e in report["ratios"]
+               if e["numerator"] == "k02" and e["quantity"] == "velocity_dispersion")
+    assert k02["seed_scatter"] is None   # one common seed: no seed-to-seed scatter
+    text = (tmp_path / "study.quick.report" / "report.md").read_text()
+    assert "(seeds [1] only)" in text and "changes the runs of `k01`, `k02` only" in text
+
+
+BAD = [
+    ("  k02: {restitution.kappa: 0.2, seeds: [3]}\n", "cases.k02.seeds", "3 is not allowed"),
+    ("  k02: {restitution.kappa: 0.2, seeds: []}\n", "cases.k02.seeds", "got []"),
+    ("  k02: {restitution.kappa: 0.2, seeds: [2]}\n", "cases.k02.seeds",
+     "lacks the full form's variant seeds [1]"),
+    ("  ref_600g: {restitution.reference_mass: 0.6, cases: [k9]}\n", "variants.ref_600g.cases",
+     "'k9' is not a case of the ratios"),
+    ("  ref_600g: {cases: [k01]}\n", "variants.ref_600g", "is empty"),
+]
+
+
+@pytest.mark.parametrize("line, key, words", BAD, ids=[b[1] + str(i) for i, b in
+                                                     enumerate(BAD)])
+def test_bad_case_seeds_and_variant_cases_are_bad_input(tmp_path, capsys, line, key, words):
+    name = line.split(":")[0]
+    text = "".join(line if row.startswith(name + ":") else row + "\n"
+                   for row in SCOPED.splitlines())
+    assert text != SCOPED + "\n"
+    assert_refused(write_study(tmp_path, text, SCENARIO), capsys, key, words)
