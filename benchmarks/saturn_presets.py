@@ -14,22 +14,34 @@ costs at dt = 1e-3 orbit.  The initial state has the velocity dispersion of Toom
 wakes yet); the figures are the set-up's, not the equilibrium's.  With ``--write-doc`` the table
 replaces the section "## The Saturn presets" of docs/performance.md.
 
+With ``--states RUN.h5 ...`` it measures instead the last snapshot of each run file (a
+preset's run in its equilibrium, e.g. a run of studies/kappa-saturn), as issue 39's target
+asks: the whole step on 1 and on 2 threads (wall time, alternating rounds on the same
+sheet), with and without self-gravity; ``--write-doc`` then replaces the section "## The
+Saturn presets in their equilibrium".
+
 Usage: python benchmarks/saturn_presets.py [--presets a b c] [--steps 5] [--repeats 3]
-                                           [--write-doc]
+                                           [--states RUN.h5 ...] [--write-doc]
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import platform
 import statistics
 import time
 from datetime import datetime, timezone
 
-from ringsim.config.scenario import load_scenario, with_overrides
+import h5py
+
+from ringsim.config.scenario import load_scenario, scenario_from_text, with_overrides
+from ringsim.config.study_start import Start, started
 from ringsim.engine import detector
+from ringsim.engine.native import set_detector_threads, use_threaded_sei
 from ringsim.engine.sheet import build_sheet, without_gravity
+from ringsim.gravity.registry import set_gravity_threads
 from ringsim.report import replace_section
 
 STEPS_PER_ORBIT = 1000    # dt = 1e-3 orbit, the presets' dt: auto in line mode
@@ -86,17 +98,77 @@ def table(presets: list[str], steps: int, repeats: int) -> str:
     return head + "\n".join(rows) + "\n"
 
 
+def state_cost(path: str, gravity: bool, steps: int, repeats: int
+               ) -> tuple[dict[int, float], int, float]:
+    """Wall seconds per particle-step on 1 and 2 threads (medians of ``repeats``
+    alternating rounds) of the sheet of the last snapshot of the run file at ``path``, its
+    particle count and the snapshot's time [orbits]."""
+    with h5py.File(path, "r") as f:
+        sc = scenario_from_text(f.attrs["scenario_yaml"], source=path)
+        orbits = float(f.attrs["Omega"]) * float(list(f["snapshots"].values())[-1].attrs["t"]) \
+            / (2.0 * math.pi)
+    sc = started(sc, os.path.abspath(path), Start(case="", snapshot=-1))
+    if not gravity:
+        sc = without_gravity(sc)
+    built = build_sheet(sc)
+    sim = built.sim
+    sim.steps(2)
+    times: dict[int, list[float]] = {1: [], 2: []}
+    for _ in range(repeats):
+        for threads, found in times.items():
+            use_threaded_sei(sim, threads)
+            set_detector_threads(built.resolver.address, threads)
+            set_gravity_threads(sim, threads)
+            t0 = time.perf_counter()
+            sim.steps(steps)
+            found.append((time.perf_counter() - t0) / steps / sim.N)
+    return {k: statistics.median(v) for k, v in times.items()}, sim.N, orbits
+
+
+def state_table(paths: list[str], steps: int, repeats: int) -> str:
+    rows = []
+    for path in paths:
+        base, n, orbits = state_cost(path, False, steps, repeats)
+        grav, _, _ = state_cost(path, True, steps, repeats)
+        rows.append(f"| `{os.path.basename(path)}` | {orbits:.1f} | {n} | "
+                    f"{base[1] * 1e9:.0f} | {base[2] * 1e9:.0f} | {base[2] / base[1]:.2f} | "
+                    f"{grav[1] * 1e9:.0f} | {grav[2] * 1e9:.0f} | {grav[2] / grav[1]:.2f} | "
+                    f"{grav[1] / base[1]:.2f} | {grav[2] * n * STEPS_PER_ORBIT / 60:.1f} |")
+    when = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    load = os.getloadavg()[0]
+    head = (f"## The Saturn presets in their equilibrium\n\n`python benchmarks/saturn_presets.py "
+            f"--states RUN.h5 ... --steps {steps} --repeats {repeats} --write-doc`, {when}, "
+            f"{platform.machine()} {platform.system()}, wall time, median of {repeats} "
+            f"rounds alternating 1 and 2 threads on the same sheet (the machine shared: load "
+            f"average {load:.1f} at the end).  Each run file's last snapshot, the sheet as "
+            "its run left it (the particles, P3M with its field-only particles, friction, the "
+            "law), stepped without self-gravity (the baseline) and as it runs.  Issue 39's "
+            "target: at most 1 us per particle-step with gravity on both cores.\n\n"
+            "| run file | orbit | particles | no gravity, 1 thread [ns per particle-step] "
+            "| 2 threads [ns] | 2 / 1 | with gravity, 1 thread [ns] | 2 threads [ns] | 2 / 1 "
+            "| gravity / no gravity (1 thread) | wall minutes per orbit (2 threads) |\n"
+            "|---|---|---|---|---|---|---|---|---|---|---|\n")
+    return head + "\n".join(rows) + "\n"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--presets", nargs="+", default=["a", "b", "c"])
     parser.add_argument("--steps", type=int, default=5)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--states", nargs="+", default=None,
+                        help="run files: measure their last snapshots on 1 and 2 threads")
     parser.add_argument("--write-doc", action="store_true")
     args = parser.parse_args()
-    text = table(args.presets, args.steps, args.repeats)
+    if args.states:
+        text = state_table(args.states, args.steps, args.repeats)
+        section = "## The Saturn presets in their equilibrium"
+    else:
+        text = table(args.presets, args.steps, args.repeats)
+        section = "## The Saturn presets"
     print(text)
     if args.write_doc:
-        replace_section("docs/performance.md", "## The Saturn presets", text, "Performance")
+        replace_section("docs/performance.md", section, text, "Performance")
 
 
 if __name__ == "__main__":
