@@ -230,20 +230,18 @@ class P3MMesh:
         # vertical coupling along the last (contiguous) axis, layout (modes, z_length): the
         # kernels' z-spectra interpolated linearly in |k| from the tables
         kphi_tab, gz_tab = self._kernel_tables(nz)
-        f = k / self._ktab[1]
-        i = f.astype(np.int64)
-        w = (f - i)[:, None]
-        phi_z = kphi_tab[i] * (1.0 - w) + kphi_tab[i + 1] * w
-        with np.errstate(divide="ignore", invalid="ignore"):
-            phi_z = np.where(k[:, None] > 0.0, phi_z / k[:, None], 0.0)
-        gz_z = 1j * (gz_tab[i] * (1.0 - w) + gz_tab[i + 1] * w)
+        phi_z, gz_z = _interpolated(kphi_tab, gz_tab, k, self._ktab[1])
         if self.mean_vertical_in_c:
             gz_z[0] = 0.0       # the k = 0 vertical field is added on fine layers in C
         s_t = np.moveaxis(s_hat, 0, -1).reshape(k.size, nz)
         s_z = scipy.fft.fft(s_t, n=self.z_length(nz), axis=-1, workers=workers)
-        conv = scipy.fft.ifft(np.stack([s_z * phi_z, s_z * gz_z]), axis=-1,
-                              workers=workers)[:, :, :nz]
-        pot_hat, gz_hat = (np.moveaxis(c.reshape(nx, -1, nz), -1, 0) for c in conv)
+        # each product transformed back on its own and its layers made contiguous again
+        # (nz, nx, ny/2+1): the horizontal transforms below then read whole rows
+        pot_hat, gz_hat = (
+            np.ascontiguousarray(np.moveaxis(
+                scipy.fft.ifft(s_z * kernel, axis=-1, workers=workers)[:, :nz]
+                .reshape(nx, -1, nz), -1, 0))
+            for kernel in (phi_z, gz_z))
         deriv_x = -1j * kxp
         deriv_y = -1j * ky
         if nx % 2 == 0:
@@ -257,3 +255,27 @@ class P3MMesh:
         out = [scipy.fft.irfft2(h, s=shape, axes=(1, 2), workers=workers)
                for h in (deriv_x * pot_hat, deriv_y * pot_hat, gz_hat)]
         return [np.ascontiguousarray(g) for g in out]
+
+
+def _interpolated(kphi_tab, gz_tab, k, k_step):
+    """The vertical kernel spectra at the modes' |k| (``P3MMesh.fields``): phi (real, 0 at
+    k = 0) and g_z (imaginary), each interpolated linearly between the tables' rows
+    ``k_step`` [1/m] apart, in place on two work arrays."""
+    f = k / k_step
+    i = f.astype(np.int64)
+    w = (f - i)[:, None]
+    one_w = 1.0 - w
+    phi = np.take(kphi_tab, i, axis=0)
+    phi *= one_w
+    upper = np.take(kphi_tab, i + 1, axis=0)
+    upper *= w
+    phi += upper
+    positive = k > 0.0
+    np.divide(phi, k[:, None], out=phi, where=positive[:, None])
+    phi[~positive] = 0.0
+    g = np.take(gz_tab, i, axis=0)
+    g *= one_w
+    np.take(gz_tab, i + 1, axis=0, out=upper)
+    upper *= w
+    g += upper
+    return phi, 1j * g
