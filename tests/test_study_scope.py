@@ -8,6 +8,7 @@ import json
 
 import pytest
 
+from ringsim.cli import main
 from ringsim.config.study import load_study
 from ringsim.study import run_study
 from ringsim.study.runs import collect, run_id
@@ -52,9 +53,17 @@ def test_case_seeds_and_variant_cases_plan_only_the_runs_that_differ(tmp_path):
         == by_label["k0 seed 1"]
 
 
-def test_scoped_study_report_holds_the_seeds_and_cases_it_ran(tmp_path):
-    path = write_study(tmp_path, SCOPED)
-    run_study(path, quick=True, workers=1, echo=None, command="ringsim study x --quick")
+@pytest.fixture(scope="module")
+def scoped(tmp_path_factory):
+    """The scoped study's quick form, run once: its folder."""
+    folder = tmp_path_factory.mktemp("scoped")
+    path = write_study(folder, SCOPED)
+    run_study(path, quick=True, workers=2, echo=None, command="ringsim study x --quick")
+    return folder
+
+
+def test_scoped_study_report_holds_the_seeds_and_cases_it_ran(scoped):
+    tmp_path = scoped
     report = json.loads((tmp_path / "study.quick.report" / "report.json").read_text())
     assert report["cases"]["k02"]["seeds"] == [1]
     assert "seeds" not in report["cases"]["k0"]
@@ -88,3 +97,45 @@ def test_bad_case_seeds_and_variant_cases_are_bad_input(tmp_path, capsys, line, 
                    for row in SCOPED.splitlines())
     assert text != SCOPED + "\n"
     assert_refused(write_study(tmp_path, text, SCENARIO), capsys, key, words)
+
+
+def test_partial_report_leaves_out_what_is_not_summarised_and_says_so(scoped, tmp_path,
+                                                                     capsys):
+    """``--report-only --partial``: with every summary it is the full report (in its own
+    folder); without k02's and the variant's k01 summaries it holds k0 and k01, their
+    ratio without the variant, and a note naming what is missing."""
+    path = scoped / "study.yaml"
+    whole = run_study(path, quick=True, report_only=True, partial=True, echo=None,
+                      command="ringsim study x --quick")
+    assert whole.out == scoped / "study.quick.partial.report"
+    assert (whole.out / "report.json").read_bytes() == \
+        (scoped / "study.quick.report" / "report.json").read_bytes()
+    report = json.loads((scoped / "study.quick.report" / "report.json").read_text())
+    gone = [report["cases"]["k02"]["runs"][0]["run"],
+            report["variants"]["ref_600g"]["runs"]["k01"][0]["run"]]
+    for rid in gone:
+        (scoped / "summaries" / f"{rid}.json").rename(tmp_path / f"{rid}.json")
+    try:
+        assert main(["study", str(path), "--quick", "--report-only"]) == 2
+        capsys.readouterr()
+        out = tmp_path / "partial"
+        run_study(path, out=out, quick=True, report_only=True, partial=True, echo=None,
+                  command="ringsim study x --quick --report-only --partial")
+    finally:
+        for rid in gone:
+            (tmp_path / f"{rid}.json").rename(scoped / "summaries" / f"{rid}.json")
+    part = json.loads((out / "report.json").read_text())
+    assert list(part["cases"]) == ["k0", "k01"]
+    assert part["cases"]["k0"] == report["cases"]["k0"]
+    assert [(e["numerator"], e["denominator"]) for e in part["ratios"]][:1] == [("k01", "k0")]
+    assert part["variants"] == {}
+    assert all(e["syst"] is None for e in part["ratios"])
+    assert part["partial"].startswith("PARTIAL REPORT: 5 of 7 runs have summaries")
+    assert "cases k02" in part["partial"] and "variants ref_600g" in part["partial"]
+    assert f"**{part['partial']}**" in (out / "report.md").read_text()
+
+
+def test_partial_without_report_only_is_bad_input(scoped, capsys):
+    assert main(["study", str(scoped / "study.yaml"), "--quick", "--partial"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--partial" in err[0] and "--report-only" in err[0]

@@ -409,6 +409,9 @@ def _study_arguments(sub) -> None:
                    "particles and length)")
     p.add_argument("--report-only", action="store_true", help="write the report from the "
                    "summaries alone; run nothing")
+    p.add_argument("--partial", action="store_true", help="with --report-only: the report "
+                   "of the cases whose runs all have summaries so far (default out: "
+                   "<study>.partial.report/)")
     p.add_argument("--resummarise", action="store_true", help="remake the summary of every "
                    "finished run file in DIR/runs with today's analysis (cost kept)")
     _add_threads_option(p)

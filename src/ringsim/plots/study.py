@@ -58,7 +58,8 @@ def ratio_figure(report: Mapping):
     ax.set_xlabel("equilibrium quantity (each ratio divides like by like)")
     ax.set_ylabel("ratio [dimensionless]")
     ax.grid(axis="y", color="0.9")
-    title = (f"study {report['study']} ({report['form']} form): thick bars statistical, "
+    form = f"{report['form']} form" + (", partial" if report.get("partial") else "")
+    title = (f"study {report['study']} ({form}): thick bars statistical, "
              "thin bars total error")
     for ncols in range(min(len(pairs) + 1, 4), 0, -1):   # the most columns that fit
         legend = fig.legend(loc="outside upper center", ncols=ncols, frameon=False,

@@ -20,6 +20,7 @@ from ringsim.batch import ACTIONS, dask_client, run_dask, run_local
 from ringsim.config.scenario import check_threads
 from ringsim.config.study import load_study
 from ringsim.errors import InputError
+from ringsim.study.partial import partial_output_dir, reduced, summarised
 from ringsim.study.runs import (
     TaskResult,
     collect,
@@ -132,7 +133,7 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
               report_only: bool = False, threads: int | None = None,
               resummarise: bool = False,
               echo: Callable[[str], None] | None = print,
-              command: str | None = None) -> StudyResult:
+              command: str | None = None, partial: bool = False) -> StudyResult:
     """Run a study (docs/studies.md) and write ``report.json``, ``report.md`` and
     ``ratios.png`` into ``out``.
 
@@ -149,6 +150,7 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
     threads : ``integration.threads`` of every run (changes the speed, never a result)
     echo : receives the progress lines (None: quiet)
     command : the command line the report names as the one that regenerates it
+    partial : with ``report_only``, the report so far (``ringsim.study.partial``)
 
     Raises
     ------
@@ -159,7 +161,11 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
     from ringsim.analysis.equilibrium import QUANTITIES
 
     say = echo if echo is not None else (lambda line: None)
-    out_dir = Path(out) if out is not None else default_output_dir(study_path, quick)
+    if partial and not report_only:
+        raise InputError("<command line>", "--partial", "given without --report-only "
+                         "(--report-only --partial: the report of the runs done so far)")
+    out_dir = (Path(out) if out is not None else partial_output_dir(study_path, quick)
+               if partial else default_output_dir(study_path, quick))
     _check_options(workers, threads, out_dir)
     study = load_study(study_path, quantities=tuple(QUANTITIES))
     specs = study.specs(quick)
@@ -173,22 +179,43 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
             study_path, len(runs), tasks, out_dir, where))
         if result.n_failed or result.n_stopped:
             return result
-    summaries = read_summaries(runs, summaries_dir)
-    command = command or f"ringsim study {study_path}{' --quick' if quick else ''}"
-    result.files = write_report(study, quick, specs, ids, summaries, out_dir, command)
+    study, specs, ids, summaries, note = _reported(study, quick, specs, ids, runs,
+                                                   summaries_dir, partial)
+    command = command or (f"ringsim study {study_path}{' --quick' if quick else ''}"
+                          + (" --report-only --partial" if partial else ""))
+    result.files = write_report(study, quick, specs, ids, summaries, out_dir, command,
+                                note)
     for path in result.files:
         say(f"wrote {path}")
     return result
 
 
+def _reported(study, quick: bool, specs, ids, runs: dict, summaries_dir: Path,
+              partial: bool) -> tuple:
+    """``(study, specs, ids, summaries, note)`` of the report: every run's summary (InputError
+    for a missing one), or with ``partial`` the study cut to its summarised cases and the
+    note of what it leaves out (``study.partial``)."""
+    if not partial:
+        return study, specs, ids, read_summaries(runs, summaries_dir), None
+    summaries = summarised(runs, summaries_dir)
+    study, specs, ids, note = reduced(study, quick, specs, ids, summaries)
+    if not study.cases:
+        raise InputError(str(summaries_dir), "summary", "no case has a summary of every run "
+                         "yet; run the study (without --report-only) first")
+    return study, specs, ids, {rid: summaries[rid] for rid in ids}, note
+
+
 def write_report(study, quick: bool, specs, ids, summaries: dict, out_dir: Path,
-                 command: str) -> list[Path]:
-    """``report.json``, ``report.md`` and (with ratios) ``ratios.png`` into ``out_dir``."""
+                 command: str, partial: str | None = None) -> list[Path]:
+    """``report.json``, ``report.md`` and (with ratios) ``ratios.png`` into ``out_dir``;
+    ``partial``: the note of a partial report (what it leaves out), or None."""
     from ringsim.plots.study import plot_ratios
     from ringsim.study.markdown import report_markdown
     from ringsim.study.report import build_report
 
     report = build_report(study, quick, specs, ids, summaries)
+    if partial is not None:
+        report["partial"] = partial
     out_dir.mkdir(parents=True, exist_ok=True)
     files = [write_json(out_dir / "report.json", report)]
     figure = plot_ratios(report, out_dir)
@@ -223,12 +250,13 @@ def study_command(args) -> int:
         print(line, flush=True)
 
     command = (f"ringsim study {_shown(args.study)}" + (" --quick" if args.quick else "")
+               + (" --report-only --partial" if args.partial else "")
                + (f" --out {_shown(args.out)}" if args.out else ""))
     result = run_study(args.study, out=args.out, workers=args.workers,
                        scheduler=args.scheduler, quick=args.quick,
                        report_only=args.report_only, threads=args.threads,
                        resummarise=args.resummarise, echo=echo,
-                       command=command)
+                       command=command, partial=args.partial)
     if result.n_failed or result.n_stopped:
         bad = [f"{r.run_id} ({'; '.join(r.labels)}): {r.status}" for r in result.results
                if r.status != "finished"]

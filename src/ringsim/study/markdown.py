@@ -224,6 +224,8 @@ def report_markdown(report: Mapping, summaries: Mapping[str, dict], prose: str,
               f"{form}: `{command}` regenerates it, running only the runs without a "
               "summary; with `--report-only` it is rewritten from the summaries alone. "
               "Every number is also in `report.json`.", ""]
+    if report.get("partial"):
+        lines += [f"**{report['partial']}**", ""]
     if prose.strip():
         lines += [prose.strip(), ""]
     lines += setup_section(report) + equilibria_section(report)

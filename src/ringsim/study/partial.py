@@ -1,0 +1,82 @@
+"""A study's report so far (``ringsim study --report-only --partial``): the cases whose
+runs all have summaries, the ratios between them and the variants whose runs are all
+summarised; the rest named as not yet run.
+
+A study of large runs takes many sessions of background work (``studies/kappa-saturn``).
+Its committed summaries already hold finished equilibria; the partial report shows them
+with the same tables and sections as the final one, in its own folder
+(``<study>.partial.report/``), and says in its first warning what it leaves out, so that it
+is never read as the study's result.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from ringsim.study.runs import collect, read_summary, summary_state
+
+
+def partial_output_dir(study_path, quick: bool = False) -> Path:
+    """``<stem>.partial.report/`` (``<stem>.quick.partial.report/`` with ``--quick``)."""
+    path = Path(study_path)
+    return path.parent / f"{path.stem}{'.quick' if quick else ''}.partial.report"
+
+
+def summarised(runs: Mapping, folder: Path) -> dict[str, dict]:
+    """The summaries of the runs (by id) that have one of their own scenario and length."""
+    out = {}
+    for rid, run in runs.items():
+        summary = read_summary(folder / f"{rid}.json")
+        if summary is not None and summary_state(summary, run.scenario) == "same":
+            out[rid] = summary
+    return out
+
+
+def reduced(study, quick: bool, specs: Sequence, ids: Sequence[str],
+            summaries: Mapping[str, dict]) -> tuple:
+    """``(study, specs, ids, note)``: the study cut to the cases whose runs all have
+    summaries, the ratios of two such cases and the variants whose runs of those ratios
+    are all summarised, with its specs and their ids; ``note``, the warning that names
+    what is left out (None when nothing is)."""
+    done = {(s.case, s.variant, s.seed) for s, rid in zip(specs, ids, strict=True)
+            if rid in summaries}
+    every = {(s.case, s.variant, s.seed) for s in specs}
+    cases = [(name, o) for name, o in study.cases
+             if all(key in done for key in every if key[0] == name and key[1] is None)]
+    names = {name for name, _ in cases}
+    ratios = tuple(pair for pair in study.ratios if set(pair) <= names)
+    in_ratios = {name for pair in ratios for name in pair}
+    mode = study.mode(quick)
+    variants = tuple((v, o) for v, o in mode.variants
+                     if all(key in done for key in every
+                            if key[1] == v and key[0] in in_ratios))
+    if not ratios:
+        variants = ()
+    cut_mode = dataclasses.replace(mode, variants=variants, variant_cases={
+        v: tuple(c for c in mode.variant_cases[v] if c in in_ratios)
+        for v, _ in variants if v in mode.variant_cases})
+    cut = dataclasses.replace(
+        study, cases=tuple(cases), ratios=ratios,
+        references=tuple(r for r in study.references
+                         if (r.ratio is not None and tuple(r.ratio) in ratios)
+                         or (r.ratio is None and r.case in names)),
+        starts={c: s for c, s in study.starts.items() if c in names},
+        case_seeds={c: s for c, s in study.case_seeds.items() if c in names},
+        **({"quick_mode": cut_mode} if quick else {"full": cut_mode}))
+    kept = list(zip(cut.specs(quick), collect(cut.specs(quick))[1], strict=True))
+    missing_cases = [name for name, _ in study.cases if name not in names]
+    missing_variants = [v for v, _ in mode.variants if v not in dict(variants)]
+    note = None
+    if missing_cases or missing_variants or len(ratios) < len(study.ratios):
+        note = (f"PARTIAL REPORT: {len(summaries)} of {len(set(ids))} runs have summaries; "
+                "not in it yet: "
+                + "; ".join(part for part in (
+                    f"cases {', '.join(missing_cases)}" if missing_cases else "",
+                    f"variants {', '.join(missing_variants)}" if missing_variants else "",
+                    f"{len(study.ratios) - len(ratios)} of {len(study.ratios)} ratios"
+                    if len(ratios) < len(study.ratios) else "") if part)
+                + ". The study's result is its full report, when every run is done.")
+    return cut, [s for s, _ in kept], [rid for _, rid in kept], note
+
