@@ -55,3 +55,57 @@ def test_separated_particles_form_no_groups():
     stats = clumps.clump_statistics(snapshot(grid), LX, LY, 7.0, GM, distance_for(1.5))
     assert stats["largest_group"] == pytest.approx(1.0 / len(grid))
     assert stats["grouped"] == 0.0 and stats["hill_groups"] == 0
+
+
+def _brute_links(x, y, z, radius, lx, ly, shift, link):
+    """Every linked pair by brute force over the radial images: {(i, j): d} with i < j
+    and d = r_j - r_i of the nearest image [m]."""
+    out = {}
+    for i in range(x.size):
+        j = np.arange(i + 1, x.size)
+        images = []
+        for k in (-1, 0, 1):        # radial images: x + k Lx at y - k shift
+            dy = (y[j] - k * shift - y[i] + 0.5 * ly) % ly - 0.5 * ly
+            images.append(np.column_stack([x[j] + k * lx - x[i], dy, z[j] - z[i]]))
+        images = np.stack(images)
+        nearest = np.argmin(np.linalg.norm(images, axis=2), axis=0)
+        d = images[nearest, np.arange(j.size)]
+        for m in np.flatnonzero(np.linalg.norm(d, axis=1) < link * (radius[i] + radius[j])):
+            out[(i, int(j[m]))] = d[m]
+    return out
+
+
+def test_links_of_a_broad_size_distribution_are_every_touching_pair():
+    """The search by radius classes finds exactly the pairs closer than 1.05 times the sum
+    of their radii, across the sheared boundaries, with their nearest-image separations,
+    in a dense sheet of radii drawn from 5 cm to 2 m (at least five classes)."""
+    rng = np.random.default_rng(17)
+    n, lx, ly, shift = 700, 10.0, 12.0, 4.3
+    u = rng.uniform(size=n)
+    radius = 0.05 * (1.0 - u * (1.0 - 40.0 ** -2)) ** -0.5      # q = 3 from 5 cm to 2 m
+    x = rng.uniform(-0.5 * lx, 0.5 * lx, n)
+    y = rng.uniform(-0.5 * ly, 0.5 * ly, n)
+    z = rng.normal(0.0, 0.3, n)
+    assert len(clumps.radius_classes(radius)) >= 5
+    i, j, d = clumps._linked_pairs(x, y, z, radius, lx, ly, shift, clumps.CONTACT_LINK)
+    want = _brute_links(x, y, z, radius, lx, ly, shift, clumps.CONTACT_LINK)
+    assert len(want) > 100
+    assert any(abs(x[a] - x[b]) > 0.5 * lx for a, b in want)    # some across the boundary
+    got = {(min(a, b), max(a, b)): (v if a < b else -v) for a, b, v in zip(i, j, d, strict=True)}
+    assert set(got) == set(want) and i.size == len(got)
+    for key, v in want.items():
+        np.testing.assert_allclose(got[key], v, rtol=0, atol=1e-12)
+
+
+def test_links_of_equal_spheres_are_those_of_one_search():
+    """Equal radii make one class: the search is `near_pairs` at twice the radius, as it
+    was before the classes, pair for pair and bit for bit."""
+    rng = np.random.default_rng(4)
+    x, y = rng.uniform(-0.5 * LX, 0.5 * LX, (2, 600))
+    z = rng.normal(0.0, 1.0, 600)
+    radius = np.full(600, 1.0)
+    i, j, d = clumps._linked_pairs(x, y, z, radius, LX, LY, 9.0, clumps.CONTACT_LINK)
+    a, b, e = clumps.near_pairs(x, y, z, LX, LY, 9.0, clumps.CONTACT_LINK * 2.0)
+    keep = np.linalg.norm(e, axis=1) < clumps.CONTACT_LINK * 2.0
+    assert np.array_equal(i, a[keep]) and np.array_equal(j, b[keep])
+    assert np.array_equal(d, e[keep])

@@ -31,6 +31,8 @@ from ringsim.physics.selfgravity import radial_images
 CONTACT_LINK = 1.05
 #: Groups of at least this many particles count as groups in ``grouped_fraction``.
 MIN_GROUP = 10
+#: The linked-pair search's radius classes are this factor apart [dimensionless].
+RADIUS_CLASS_FACTOR = 2.0
 
 
 def near_pairs(x, y, z, Lx, Ly, shift, reach):
@@ -66,11 +68,61 @@ def near_pairs(x, y, z, Lx, Ly, shift, reach):
     return i[first], j[first], d[first]
 
 
-def _linked_pairs(x, y, z, radius, Lx, Ly, shift, link):
-    """Linked pairs (i, j) of original indices and the separation vectors r_j - r_i [m]."""
-    i, j, d = near_pairs(x, y, z, Lx, Ly, shift, link * 2.0 * float(radius.max()))
-    keep = np.linalg.norm(d, axis=1) < link * (radius[i] + radius[j])
+def _tree_points(x, y, z, Ly, x0, z0):
+    """Points for a cKDTree periodic in y only (x, z shifted by a common origin >= 0)."""
+    return np.column_stack([x - x0, np.mod(y + 0.5 * Ly, Ly), z - z0])
+
+
+def pairs_between(a, b, x, y, z, Lx, Ly, shift, reach):
+    """Pairs of a particle of ``a`` and one of ``b`` (disjoint index arrays) whose centres
+    are closer than ``reach`` across the shear-periodic boundaries, as `near_pairs` gives
+    them: indices (i in a, j in b) and separations r_j - r_i [m] of the image of j nearest
+    to i."""
+    index, px, py, pz = radial_images(x[b], y[b], z[b], Lx, shift, reach)
+    x0, z0 = min(px.min(), x[a].min()), min(pz.min(), z[a].min())
+    box = [1e300, Ly, 1e300]
+    mine = cKDTree(_tree_points(x[a], y[a], z[a], Ly, x0, z0), boxsize=box)
+    theirs = cKDTree(_tree_points(px, py, pz, Ly, x0, z0), boxsize=box)
+    found = mine.sparse_distance_matrix(theirs, reach, output_type="ndarray")
+    ia, ib = found["i"].astype(int), found["j"].astype(int)
+    d = np.column_stack([px[ib] - x[a][ia], py[ib] - y[a][ia], pz[ib] - z[a][ia]])
+    d[:, 1] = (d[:, 1] + 0.5 * Ly) % Ly - 0.5 * Ly
+    i, j = a[ia], b[index[ib]]
+    keep = np.linalg.norm(d, axis=1) < reach
     return i[keep], j[keep], d[keep]
+
+
+def radius_classes(radius, factor=RADIUS_CLASS_FACTOR) -> list[np.ndarray]:
+    """The particles' indices in classes of radius ``factor`` apart, smallest first."""
+    level = np.floor(np.log(radius / radius.min()) / np.log(factor)).astype(int)
+    return [np.flatnonzero(level == k) for k in np.unique(level)]
+
+
+def _linked_pairs(x, y, z, radius, Lx, Ly, shift, link):
+    """Linked pairs (i, j) of original indices and the separation vectors r_j - r_i [m],
+    in the order of (min(i, j), max(i, j)).
+
+    The search goes class by class of radius (`radius_classes`, as the line detector's
+    reach classes): within a class, and between two, out to ``link`` times the sum of
+    their largest radii, so that a broad distribution (2.5 cm to 5 m) does not look for
+    every particle's partners out to twice the largest radius."""
+    x, y, z = (np.asarray(v, dtype=float) for v in (x, y, z))
+    classes = radius_classes(radius)
+    parts = []
+    for k, a in enumerate(classes):
+        for b in classes[k:]:
+            reach = link * (float(radius[a].max()) + float(radius[b].max()))
+            if b is a:
+                i, j, d = near_pairs(x[a], y[a], z[a], Lx, Ly, shift, reach)
+                i, j = a[i], a[j]
+            else:
+                i, j, d = pairs_between(a, b, x, y, z, Lx, Ly, shift, reach)
+            keep = np.linalg.norm(d, axis=1) < link * (radius[i] + radius[j])
+            parts.append((i[keep], j[keep], d[keep]))
+    i, j, d = (np.concatenate(c) for c in zip(*parts, strict=True))
+    key = np.minimum(i, j) * (x.size + 1) + np.maximum(i, j)
+    _, first = np.unique(key, return_index=True)
+    return i[first], j[first], d[first]
 
 
 def contact_groups(x, y, z, radius, Lx, Ly, shift, link=CONTACT_LINK):
