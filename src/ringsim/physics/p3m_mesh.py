@@ -18,6 +18,8 @@ docs/gravity.md, section 4b.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 import scipy.fft
 import scipy.special
@@ -230,18 +232,32 @@ class P3MMesh:
         # vertical coupling along the last (contiguous) axis, layout (modes, z_length): the
         # kernels' z-spectra interpolated linearly in |k| from the tables
         kphi_tab, gz_tab = self._kernel_tables(nz)
-        phi_z, gz_z = _interpolated(kphi_tab, gz_tab, k, self._ktab[1])
-        if self.mean_vertical_in_c:
-            gz_z[0] = 0.0       # the k = 0 vertical field is added on fine layers in C
         s_t = np.moveaxis(s_hat, 0, -1).reshape(k.size, nz)
-        s_z = scipy.fft.fft(s_t, n=self.z_length(nz), axis=-1, workers=workers)
-        # each product transformed back on its own and its layers made contiguous again
-        # (nz, nx, ny/2+1): the horizontal transforms below then read whole rows
-        pot_hat, gz_hat = (
-            np.ascontiguousarray(np.moveaxis(
-                scipy.fft.ifft(s_z * kernel, axis=-1, workers=workers)[:, :nz]
-                .reshape(nx, -1, nz), -1, 0))
-            for kernel in (phi_z, gz_z))
+        coupled = np.empty((2, k.size, nz), dtype=complex)
+
+        def couple(rows: slice) -> None:
+            # the vertical coupling of a block of modes: the z-spectra of the kernels at
+            # their |k|, the layers' transform, the products transformed back; numpy and
+            # scipy release the GIL, so blocks on threads run at once, and every element's
+            # arithmetic is the same in any block
+            phi_z, gz_z = _interpolated(kphi_tab, gz_tab, k[rows], self._ktab[1])
+            if self.mean_vertical_in_c and rows.start == 0:
+                gz_z[0] = 0.0   # the k = 0 vertical field is added on fine layers in C
+            s_z = scipy.fft.fft(s_t[rows], n=self.z_length(nz), axis=-1)
+            for out, kernel in zip(coupled, (phi_z, gz_z), strict=True):
+                out[rows] = scipy.fft.ifft(s_z * kernel, axis=-1)[:, :nz]
+
+        blocks = [slice(b[0], b[-1] + 1) for b in np.array_split(np.arange(k.size),
+                                                                    max(workers, 1)) if b.size]
+        if len(blocks) == 1:
+            couple(blocks[0])
+        else:
+            with ThreadPoolExecutor(len(blocks)) as pool:
+                list(pool.map(couple, blocks))
+        # the layers made contiguous again (nz, nx, ny/2+1): the horizontal transforms
+        # below then read whole rows
+        pot_hat, gz_hat = (np.ascontiguousarray(np.moveaxis(c.reshape(nx, -1, nz), -1, 0))
+                           for c in coupled)
         deriv_x = -1j * kxp
         deriv_y = -1j * ky
         if nx % 2 == 0:
