@@ -485,15 +485,14 @@ static void rs_p3m_pairs(const struct rs_p3m* p, const struct rs_p3m_list* src, 
 #define RS_P3M_MASK_WORDS 64
 
 /* The forces of the sources marked in mask (bit k of word w: slot b + 64 w + k) on the
- * target at (xs, ys, zi) in the sources' frame, in slot order, as rs_p3m_pairs sums them;
- * acc[4] counts them. */
+ * target at (xs, ys, zi) in the sources' frame, in slot order, as rs_p3m_pairs sums them,
+ * into acc[0..2]. */
 static void rs_p3m_marked(const struct rs_p3m* p, const struct rs_p3m_list* src, size_t b,
                           size_t words, const unsigned long long* mask, double xs, double ys,
                           double zi, double inv_step, double* acc){
     const double b2 = p->softening * p->softening;
     const double *sx = src->sx, *sy = src->sy, *sz = src->sz, *sm = src->sm;
     double a0 = acc[0], a1 = acc[1], a2 = acc[2];
-    size_t hits = 0;
     for (size_t w = 0; w < words; w++){
         for (unsigned long long bits = mask[w]; bits != 0; bits &= bits - 1){
             const size_t j = b + 64 * w + (size_t)__builtin_ctzll(bits);
@@ -506,13 +505,11 @@ static void rs_p3m_marked(const struct rs_p3m* p, const struct rs_p3m_list* src,
             a0 -= f * dx;
             a1 -= f * dy;
             a2 -= f * dz;
-            hits++;
         }
     }
     acc[0] = a0;
     acc[1] = a1;
     acc[2] = a2;
-    acc[4] += (double)hits;
 }
 
 /* The height bin [0, nzb) of the list's index at height z [m] (clamped: the bins beyond
@@ -530,8 +527,8 @@ static int rs_p3m_zbin(const struct rs_p3m_list* l, double z){
  * start[c1 + 1]) on the target (x, y, z), sources at (x_j + offx, y_j + offy, z_j),
  * scanning only the height bins [blo, bhi] of each cell: the sources within r_c are
  * marked in a bitmask by their slot and summed in slot order, so the sums are those of
- * rs_p3m_pairs over the whole run, bit for bit.  acc as rs_p3m_pairs' (acc[3] counts the
- * sources of the bins scanned). */
+ * rs_p3m_pairs over the whole run, bit for bit.  acc as rs_p3m_pairs' (acc[3] and acc[4]
+ * count only the scans of rs_p3m_pairs, for its choice of passes). */
 static __attribute__((noinline)) void rs_p3m_window(
         const struct rs_p3m* p, const struct rs_p3m_list* src, size_t c0, size_t c1, int blo,
         int bhi, const double* target, double offx, double offy, double inv_step,
@@ -549,7 +546,6 @@ static __attribute__((noinline)) void rs_p3m_window(
     for (size_t w = 0; w < words; w++){
         mask[w] = 0;
     }
-    size_t scanned = 0;
     for (size_t c = c0; c <= c1; c++){
         const size_t t0 = src->zstart[c * nzb + (size_t)blo];
         const size_t t1 = src->zstart[c * nzb + (size_t)bhi + 1];
@@ -561,10 +557,8 @@ static __attribute__((noinline)) void rs_p3m_window(
             const size_t k = src->zslot[t] - b;
             mask[k >> 6] |= (unsigned long long)((r2 < rc2) & (r2 != 0.0)) << (k & 63);
         }
-        scanned += t1 - t0;
     }
     rs_p3m_marked(p, src, b, words, mask, xs, ys, zi, inv_step, acc);
-    acc[3] += (double)scanned;
 }
 
 /* rs_p3m_cells' pair sum (no fixes) through the list's height index (src->nzb > 1): the
@@ -925,7 +919,8 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
         scanned += acc[3];
         within += acc[4];
     }
-    /* the next call's way of summing (a cost, not a result: the bits are the same) */
+    /* the next call's way of summing by columns, from the column scans alone (a cost, not
+     * a result: the bits are the same) */
     p->two_pass = within > RS_P3M_TWO_PASS_FRACTION * scanned;
     p->zbins = all.nzb;
     rs_p3m_list_free(&all);
