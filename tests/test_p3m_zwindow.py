@@ -90,3 +90,23 @@ def test_the_index_finds_every_pair_just_inside_the_cutoff():
         assert not np.array_equal(alone[lower], window[lower]), (lower, upper)
         ps[lower].r = ps[upper].r = 1.0
         params.pair_min_radius = 0.0
+
+
+def test_the_column_scans_ways_still_agree_where_the_index_is_taken():
+    """tests/test_p3m_pair_passes.py's thick sheet (rms 60 m) now takes the index, which
+    bypasses rs_p3m_pairs; with the index off its one loop and two passes still give the
+    same bits there, and the index gives them too."""
+    s = testing.random_sheet(300, dispersion=60.0 * 2.0e-4, seed=6)
+    z = s["pos"][:, 2]
+    s["pos"][:, 2] = (z - z.mean()) / z.std() * 60.0
+    sim = testing.p3m_simulation(s, t=T_REF)
+    solver = p3m.installed_solver(sim)
+    solver.set_height_index(False)
+    ways = []
+    for two_pass in (0, 1):
+        solver.params.two_pass = two_pass
+        ways.append(testing.accelerations(sim))
+    solver.set_height_index(True)
+    ways.append(testing.accelerations(sim))
+    assert solver.params.zbins > 1
+    assert np.array_equal(ways[0], ways[1]) and np.array_equal(ways[0], ways[2])

@@ -49,7 +49,9 @@
  * list with cells of at least r_c / 2 (an area of about (2.5 r_c)^2 searched per particle;
  * boxes narrower than 2.5 r_c fall back to all pairs and their 3 x 3 nearest images); the
  * sources of a cell run are summed in one loop, or in two passes where enough of them lie
- * within r_c (rs_p3m_pairs: the same bits either way).
+ * within r_c (rs_p3m_pairs: the same bits either way).  In a ring many r_c thick each
+ * cell's sources are also indexed by height, and a target scans only the heights within
+ * r_c of its own, summing what it finds in the same order (rs_p3m_window: the same bits).
  */
 #include <math.h>
 #include <stddef.h>
