@@ -599,7 +599,6 @@ static void rs_p3m_cells_window(const struct rs_p3m* p, const struct rs_p3m_list
     }
 }
 
-
 /* The correction [m/s^2] to rs_p3m_pairs of the pairs with a particle beyond the mesh:
  * the target (xi, yi, zi) is on the mesh at zci with weight wi, source j at sc[j] with
  * sw[j] (rs_p3m_on_mesh).  Such a pair got from the mesh the long-range force of its
@@ -788,7 +787,7 @@ static int rs_p3m_list_build(struct rs_p3m_list* l, const struct rs_p3m* p,
     return 1;
 }
 
-/* Height bins per cutoff of the index by height (bins of at least r_c / 2). */
+/* Height bins per cutoff of the index by height (bins of at least r_c / 4). */
 #define RS_P3M_ZBINS_PER_CUTOFF 4
 /* The height index is built where the sources span more than this many cutoffs (a target
  * then scans at most about 2.25 r_c of the ring's height) ... */
