@@ -17,16 +17,21 @@ per-particle relative error) at the state before the steps.  Medians of ``--repe
 With ``--configs F:K ...`` the script instead times P3M with the mesh every K steps
 (``sheet.p3m_mesh_interval``) and the split at F times `auto`'s, in the constructed rings
 (tail apart) and the Saturn presets ``--presets``, each against the step without gravity
-(section "P3M: the mesh every k steps" of docs/performance.md).
+(section "P3M: the mesh every k steps" of docs/performance.md).  With ``--height-index 0
+1`` each configuration is timed with the pair sum by whole columns (0) and through its
+height index (1, the default: ``P3MSolver.set_height_index``) in the same process, written
+to the section "P3M: the pair sum through a height index".
 
 Usage: python benchmarks/p3m_thick.py [--n 20000] [--sigmas 44 183] [--steps 10]
        [--tail-fractions 0 0.02] [--write-doc]
        python benchmarks/p3m_thick.py --configs 1:1 1:5 0.6:15 [--presets a b c] ...
+       python benchmarks/p3m_thick.py --configs 1:5 --height-index 0 1 [--presets a b c] ...
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import time
 from datetime import datetime, timezone
@@ -180,12 +185,13 @@ def document(rows: list[str], args) -> str:
         + "\n".join(rows) + "\n")
 
 
-def interval_cost(sc, heights, args, k: int, split_factor: float) -> dict:
+def interval_cost(sc, heights, args, k: int, split_factor: float,
+                  height_index: bool = True) -> dict:
     """`step_cost`'s figures of ``sc`` with the mesh every ``k`` steps
     (``sheet.p3m_mesh_interval``) and the split at ``split_factor`` times the one `auto`
-    takes at the state (1: `auto`); ``args.steps`` rounded up to whole intervals, medians
-    of ``args.repeats``; the force error is that of the whole force (the mesh's impulse
-    spread over its k steps)."""
+    takes at the state (1: `auto`), the pair sum through its height index or not;
+    ``args.steps`` rounded up to whole intervals, medians of ``args.repeats``; the force
+    error is that of the whole force (the mesh's impulse spread over its k steps)."""
     over: dict = {"sheet.p3m_mesh_interval": k}
     if split_factor != 1.0:
         probe = build(sc, heights)
@@ -198,6 +204,7 @@ def interval_cost(sc, heights, args, k: int, split_factor: float) -> dict:
     for i in range(args.repeats):
         built = build(sc, heights)
         sim, solver = built.sim, p3m.installed_solver(built.sim)
+        solver.set_height_index(height_index)
         out = {"n": sim.N, "k": k}
         if i == 0 and args.targets:
             solver.mesh_interval = 1
@@ -232,18 +239,49 @@ def interval_rows(label, sc, heights, args) -> list[str]:
     rows = []
     for config in args.configs:
         factor, k = (float(v) for v in config.split(":"))
-        g = interval_cost(sc, heights, args, int(k), factor)
-        st = g["stages"]
-        mesh = sum(st.get(name, 0.0) for name in MESH_STAGES)
-        rest = sum(v for name, v in st.items() if name not in (*MESH_STAGES, "pair sum"))
-        error = f"{g['error'] * 100:.2f} %" if "error" in g else "-"
-        rows.append(
-            f"| {label} | {g['n']} | {g['rms_z']:.1f} | {factor:g} | {g['mesh']} | {int(k)} "
-            f"| {error} | {g['step'] * 1e6:.2f} | {mesh * 1e6:.2f} "
-            f"| {st['pair sum'] * 1e6:.2f} | {rest * 1e6:.2f} | {plain['step'] * 1e6:.2f} "
-            f"| {g['step'] / plain['step']:.1f} |")
-        print(rows[-1], flush=True)
+        for index in args.height_index:
+            g = interval_cost(sc, heights, args, int(k), factor, bool(index))
+            st = g["stages"]
+            mesh = sum(st.get(name, 0.0) for name in MESH_STAGES)
+            rest = sum(v for name, v in st.items() if name not in (*MESH_STAGES, "pair sum"))
+            error = f"{g['error'] * 100:.2f} %" if "error" in g else "-"
+            way = f" | {'height index' if index else 'columns'}" if _compare(args) else ""
+            rows.append(
+                f"| {label} | {g['n']} | {g['rms_z']:.1f} | {factor:g} | {g['mesh']} "
+                f"| {int(k)}{way} | {error} | {g['step'] * 1e6:.2f} | {mesh * 1e6:.2f} "
+                f"| {st['pair sum'] * 1e6:.2f} | {rest * 1e6:.2f} "
+                f"| {plain['step'] * 1e6:.2f} | {g['step'] / plain['step']:.1f} |")
+            print(rows[-1], flush=True)
     return rows
+
+
+def _compare(args) -> bool:
+    """Whether the run compares the pair sum by columns and through the height index."""
+    return len(set(args.height_index)) > 1
+
+
+def index_document(rows: list[str], args) -> str:
+    """The section of the ``--height-index 0 1`` mode."""
+    when = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    load = " ".join(f"{v:.1f}" for v in os.getloadavg())
+    return (
+        "## P3M: the pair sum through a height index\n\n"
+        f"`python benchmarks/p3m_thick.py --n {args.n} --sigmas "
+        f"{' '.join(f'{s:g}' for s in args.sigmas)} --tail {args.tail:g} --steps {args.steps} "
+        f"--repeats {args.repeats} --targets {args.targets} --presets "
+        f"{' '.join(args.presets)} --configs {' '.join(args.configs)} --height-index 0 1 "
+        f"--write-doc`, {when}, {platform.machine()} {platform.system()}, REBOUND "
+        f"{rebound.__version__}, one thread, load average {load} at the end, CPU "
+        "microseconds per particle-step (medians of the repeats over whole intervals of k "
+        "steps).  As the section \"P3M: the mesh every k steps\" (the same rings, states "
+        "and columns), each configuration timed with the pair sum by whole columns and "
+        "through its height index in the same process; the force error is the same for "
+        "both (the same bits).\n\n"
+        "| ring | N | rms z [m] | split factor | split [m]: mesh nx x ny x layers | k "
+        "| pair sum | rms force error | whole step | mesh | pair sum | mean vertical field, "
+        "split and layers | no gravity (same state) | with / without gravity |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+        + "\n".join(rows) + "\n")
 
 
 def interval_document(rows: list[str], args) -> str:
@@ -283,11 +321,15 @@ def interval_main(args) -> None:
         sc = with_overrides(load_scenario(f"scenarios/saturn-{name}-ring.yaml"),
                             {"integration.threads": 1})
         rows += interval_rows(f"{name.upper()}-ring preset", sc, None, args)
-    text = interval_document(rows, args)
+    if _compare(args):
+        text = index_document(rows, args)
+        section = "## P3M: the pair sum through a height index"
+    else:
+        text = interval_document(rows, args)
+        section = "## P3M: the mesh every k steps"
     print(text)
     if args.write_doc:
-        replace_section("docs/performance.md", "## P3M: the mesh every k steps", text,
-                        "Performance")
+        replace_section("docs/performance.md", section, text, "Performance")
 
 
 def main(argv=None) -> None:
@@ -305,6 +347,9 @@ def main(argv=None) -> None:
                     help="SPLIT_FACTOR:K pairs: the mesh-interval mode (interval_main)")
     ap.add_argument("--presets", nargs="*", default=["b"],
                     help="Saturn presets of the mesh-interval mode (a, b, c)")
+    ap.add_argument("--height-index", type=int, nargs="+", default=[1], choices=[0, 1],
+                    help="the mesh-interval mode's pair sum: 0 by columns, 1 through its "
+                         "height index (0 1: both, compared)")
     args = ap.parse_args(argv)
     if args.configs:
         interval_main(args)

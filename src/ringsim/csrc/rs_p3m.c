@@ -49,7 +49,9 @@
  * list with cells of at least r_c / 2 (an area of about (2.5 r_c)^2 searched per particle;
  * boxes narrower than 2.5 r_c fall back to all pairs and their 3 x 3 nearest images); the
  * sources of a cell run are summed in one loop, or in two passes where enough of them lie
- * within r_c (rs_p3m_pairs: the same bits either way).
+ * within r_c (rs_p3m_pairs: the same bits either way).  In a ring many r_c thick each
+ * cell's sources are also indexed by height, and a target scans only the heights within
+ * r_c of its own, summing what it finds in the same order (rs_p3m_window: the same bits).
  */
 #include <math.h>
 #include <stddef.h>
@@ -69,6 +71,10 @@ struct rs_p3m {
     int error;             /* nonzero: allocation failed in the last call */
     int threads;           /* OpenMP threads of interpolation and pair sum (<= 1: one) */
     int two_pass;          /* pair sum in two passes (set by rs_p3m_short from its last call) */
+    int zwindow;           /* 1 (rs_p3m_init): a target scans only the height bins within
+                              r_c of its own where the ring is thick; 0: whole columns */
+    int zbins;             /* height bins of the last call's index of all particles (1: no
+                              index; set by rs_p3m_short) */
     double z0;             /* height of layer 0 [m] (set by rs_p3m_prepare) */
     double shift;          /* shear offset s [m] at the call's time (rs_p3m_prepare) */
     double alpha;          /* s / Lx */
@@ -101,6 +107,8 @@ void rs_p3m_init(struct rs_p3m* p){
     }
     p->error = 0;
     p->two_pass = 0;
+    p->zwindow = 1;
+    p->zbins = 1;
 }
 
 /* Table lookup of L(r)/r^3 at r^2 = r2 < rc^2. */
@@ -387,13 +395,21 @@ void rs_p3m_mean_vertical(struct reb_simulation* const r, struct rs_p3m* p){
 /* A cell list of the pair sum: the particles' wrapped positions and masses sorted by cell
  * (x-major), the first slot of each cell in start[0..cells] and each slot's particle; sc
  * and sw are each slot's height on the mesh [m] and the damping of its mesh weights
- * (rs_p3m_on_mesh), and clamped says whether any particle lies beyond the mesh. */
+ * (rs_p3m_on_mesh), and clamped says whether any particle lies beyond the mesh.  In a
+ * thick ring (nzb > 1, rs_p3m_zbins_build) each cell's slots are also indexed by height:
+ * zslot lists them by (cell, height bin, slot), bin b of cell c in
+ * [zstart[c nzb + b], zstart[c nzb + b + 1]), and zx, zy, zz are their positions [m] in
+ * that order; bins 1 / inv_hz [m] tall from zb0 [m]. */
 struct rs_p3m_list {
     size_t n;
     size_t* start;
     size_t* order;
     double *sx, *sy, *sz, *sm, *sc, *sw;
     int clamped;
+    int nzb;
+    size_t *zstart, *zslot;
+    double *zx, *zy, *zz;
+    double zb0, inv_hz;
 };
 
 /* Sources per chunk of the pair sum's two passes (rs_p3m_pairs). */
@@ -464,6 +480,123 @@ static void rs_p3m_pairs(const struct rs_p3m* p, const struct rs_p3m_list* src, 
     }
     acc[3] += (double)(e - b);
     acc[4] += (double)hits;
+}
+
+/* Words of the longest run (64 sources a word) that rs_p3m_window marks; a longer run is
+ * scanned whole by rs_p3m_pairs. */
+#define RS_P3M_MASK_WORDS 64
+
+/* The forces of the sources marked in mask (bit k of word w: slot b + 64 w + k) on the
+ * target at (xs, ys, zi) in the sources' frame, in slot order, as rs_p3m_pairs sums them,
+ * into acc[0..2]. */
+static void rs_p3m_marked(const struct rs_p3m* p, const struct rs_p3m_list* src, size_t b,
+                          size_t words, const unsigned long long* mask, double xs, double ys,
+                          double zi, double inv_step, double* acc){
+    const double b2 = p->softening * p->softening;
+    const double *sx = src->sx, *sy = src->sy, *sz = src->sz, *sm = src->sm;
+    double a0 = acc[0], a1 = acc[1], a2 = acc[2];
+    for (size_t w = 0; w < words; w++){
+        for (unsigned long long bits = mask[w]; bits != 0; bits &= bits - 1){
+            const size_t j = b + 64 * w + (size_t)__builtin_ctzll(bits);
+            const double dx = xs - sx[j];
+            const double dy = ys - sy[j];
+            const double dz = zi - sz[j];
+            const double r2 = dx * dx + dy * dy + dz * dz;
+            const double s2 = r2 + b2;
+            const double f = sm[j] * (1.0 / (s2 * sqrt(s2)) - rs_p3m_lookup(p, r2, inv_step));
+            a0 -= f * dx;
+            a1 -= f * dy;
+            a2 -= f * dz;
+        }
+    }
+    acc[0] = a0;
+    acc[1] = a1;
+    acc[2] = a2;
+}
+
+/* The height bin [0, nzb) of the list's index at height z [m] (clamped: the bins beyond
+ * the lowest and highest source are the first and the last). */
+static int rs_p3m_zbin(const struct rs_p3m_list* l, double z){
+    const double f = (z - l->zb0) * l->inv_hz;
+    return f < 0.0 ? 0 : (f >= (double)l->nzb ? l->nzb - 1 : (int)f);
+}
+
+/* Margin [r_c] by which the searches by position widen their bounds: a source that the
+ * rounded test r^2 < r_c^2 takes always lies within them. */
+#define RS_P3M_REACH_MARGIN 1e-6
+
+/* rs_p3m_pairs over the sources of the cells c0..c1 (one run: slots start[c0] to
+ * start[c1 + 1]) on the target (x, y, z), sources at (x_j + offx, y_j + offy, z_j),
+ * scanning only the height bins [blo, bhi] of each cell: the sources within r_c are
+ * marked in a bitmask by their slot and summed in slot order, so the sums are those of
+ * rs_p3m_pairs over the whole run, bit for bit.  acc as rs_p3m_pairs' (acc[3] and acc[4]
+ * count only the scans of rs_p3m_pairs, for its choice of passes). */
+static __attribute__((noinline)) void rs_p3m_window(
+        const struct rs_p3m* p, const struct rs_p3m_list* src, size_t c0, size_t c1, int blo,
+        int bhi, const double* target, double offx, double offy, double inv_step,
+        double* acc){
+    const size_t b = src->start[c0], e = src->start[c1 + 1];
+    const double xs = target[0] - offx, ys = target[1] - offy, zi = target[2];
+    if (e - b > 64 * RS_P3M_MASK_WORDS){
+        rs_p3m_pairs(p, src, b, e, target[0], target[1], zi, offx, offy, inv_step, acc);
+        return;
+    }
+    const double rc2 = p->cutoff * p->cutoff;
+    const double *zx = src->zx, *zy = src->zy, *zz = src->zz;
+    const size_t words = (e - b + 63) / 64, nzb = (size_t)src->nzb;
+    unsigned long long mask[RS_P3M_MASK_WORDS];
+    for (size_t w = 0; w < words; w++){
+        mask[w] = 0;
+    }
+    for (size_t c = c0; c <= c1; c++){
+        const size_t t0 = src->zstart[c * nzb + (size_t)blo];
+        const size_t t1 = src->zstart[c * nzb + (size_t)bhi + 1];
+        for (size_t t = t0; t < t1; t++){
+            const double dx = xs - zx[t];
+            const double dy = ys - zy[t];
+            const double dz = zi - zz[t];
+            const double r2 = dx * dx + dy * dy + dz * dz;
+            const size_t k = src->zslot[t] - b;
+            mask[k >> 6] |= (unsigned long long)((r2 < rc2) & (r2 != 0.0)) << (k & 63);
+        }
+    }
+    rs_p3m_marked(p, src, b, words, mask, xs, ys, zi, inv_step, acc);
+}
+
+/* rs_p3m_cells' pair sum (no fixes) through the list's height index (src->nzb > 1): the
+ * columns within r_c of the target, in each only the cells within r_c horizontally, each
+ * scanned by rs_p3m_window; the same runs in the same order, so the same sums, bit for
+ * bit. */
+static void rs_p3m_cells_window(const struct rs_p3m* p, const struct rs_p3m_list* src,
+                                int ncx, int ncy, double Lx, double Ly, double s,
+                                const double* target, double inv_step, double* acc){
+    const double rc = p->cutoff, hx = Lx / ncx, hy = Ly / ncy;
+    const double tol = RS_P3M_REACH_MARGIN * rc;
+    const double xi = target[0], yi = target[1];
+    const int xlo = (int)floor((xi - rc + 0.5 * Lx) / hx);
+    const int xhi = (int)floor((xi + rc + 0.5 * Lx) / hx);
+    for (int qx = xlo; qx <= xhi; qx++){
+        const int nimg = (int)floor((double)qx / (double)ncx);
+        const size_t col = (size_t)(qx - nimg * ncx) * (size_t)ncy;
+        const double xl = -0.5 * Lx + (double)(qx - nimg * ncx) * hx, xs = xi - nimg * Lx;
+        const double dx = fmax(fmax(xl - xs, xs - xl - hx) - tol, 0.0);
+        if (dx >= rc){
+            continue;
+        }
+        const double reach = sqrt(rc * rc - dx * dx) + tol;
+        const int blo = rs_p3m_zbin(src, target[2] - reach);
+        const int bhi = rs_p3m_zbin(src, target[2] + reach);
+        const double yc = yi + nimg * s + 0.5 * Ly;
+        const int ylo = (int)floor((yc - reach) / hy), yhi = (int)floor((yc + reach) / hy);
+        for (int q0 = ylo; q0 <= yhi;){
+            const int wy = (int)floor((double)q0 / (double)ncy);
+            const int q1 = yhi < (wy + 1) * ncy - 1 ? yhi : (wy + 1) * ncy - 1;
+            const size_t c0 = col + (size_t)(q0 - wy * ncy), c1 = col + (size_t)(q1 - wy * ncy);
+            rs_p3m_window(p, src, c0, c1, blo, bhi, target, nimg * Lx, -nimg * s + wy * Ly,
+                          inv_step, acc);
+            q0 = q1 + 1;
+        }
+    }
 }
 
 /* The correction [m/s^2] to rs_p3m_pairs of the pairs with a particle beyond the mesh:
@@ -576,6 +709,9 @@ static void rs_p3m_list_free(struct rs_p3m_list* l){
     free(l->start);
     free(l->order);
     free(l->sx);
+    free(l->zstart);
+    free(l->zslot);
+    free(l->zx);
 }
 
 /* Sort the particles of radius >= r_min (all for r_min = 0) into a cell list of ncx x ncy
@@ -607,6 +743,7 @@ static int rs_p3m_list_build(struct rs_p3m_list* l, const struct rs_p3m* p,
     l->sc = l->sx + 4 * m;
     l->sw = l->sx + 5 * m;
     l->clamped = 0;
+    l->nzb = 1;
     const double hx = Lx / ncx, hy = Ly / ncy;
     for (size_t k = 0; k < n; k++){   /* wrap, then counting sort into cells (x-major) */
         if (ps[k].r < r_min){
@@ -650,6 +787,72 @@ static int rs_p3m_list_build(struct rs_p3m_list* l, const struct rs_p3m* p,
     return 1;
 }
 
+/* Height bins per cutoff of the index by height (bins of at least r_c / 4). */
+#define RS_P3M_ZBINS_PER_CUTOFF 4
+/* The height index is built where the sources span more than this many cutoffs (a target
+ * then scans at most about 2.25 r_c of the ring's height) ... */
+#define RS_P3M_ZWINDOW_MIN_SPAN 4.0
+/* ... and a cell holds at least this many sources on average (with fewer, the index's cost
+ * per cell exceeds the sources it spares) ... */
+#define RS_P3M_ZWINDOW_MIN_PER_CELL 8
+/* ... with at most this many bins per source on average (its memory and set-up are O(N)). */
+#define RS_P3M_ZBINS_PER_SOURCE 4
+
+/* Index the list's slots by height within each of its cells (struct rs_p3m_list) where
+ * the sources span more than RS_P3M_ZWINDOW_MIN_SPAN cutoffs and the cells hold at least
+ * RS_P3M_ZWINDOW_MIN_PER_CELL on average; else nzb stays 1 (no index).
+ * Returns 0 if memory ran out. */
+static int rs_p3m_zbins_build(struct rs_p3m_list* l, const struct rs_p3m* p, size_t cells){
+    const double rc = p->cutoff;
+    double zmin = 0.0, zmax = 0.0;
+    for (size_t j = 0; j < l->n; j++){
+        if (j == 0 || l->sz[j] < zmin) zmin = l->sz[j];
+        if (j == 0 || l->sz[j] > zmax) zmax = l->sz[j];
+    }
+    const double span = zmax - zmin;
+    const double most = (double)(RS_P3M_ZBINS_PER_SOURCE * l->n / cells);
+    const double bins = fmin(floor(span * RS_P3M_ZBINS_PER_CUTOFF / rc) + 1.0, most);
+    if (span <= RS_P3M_ZWINDOW_MIN_SPAN * rc || l->n < RS_P3M_ZWINDOW_MIN_PER_CELL * cells
+        || bins < 2.0){
+        return 1;
+    }
+    const size_t nzb = (size_t)bins, keys = cells * nzb;
+    l->zstart = calloc(keys + 1, sizeof(size_t));
+    l->zslot = malloc((l->n + 1) * sizeof(size_t));
+    l->zx = malloc((3 * l->n + 1) * sizeof(double));
+    if (l->zstart == NULL || l->zslot == NULL || l->zx == NULL){
+        return 0;
+    }
+    l->zy = l->zx + l->n;
+    l->zz = l->zx + 2 * l->n;
+    l->nzb = (int)nzb;
+    l->zb0 = zmin;
+    l->inv_hz = bins / span;
+    for (size_t c = 0; c < cells; c++){   /* counting sort by (cell, bin), stable in slot */
+        for (size_t j = l->start[c]; j < l->start[c + 1]; j++){
+            l->zstart[c * nzb + (size_t)rs_p3m_zbin(l, l->sz[j]) + 1]++;
+        }
+    }
+    for (size_t k = 0; k < keys; k++){
+        l->zstart[k + 1] += l->zstart[k];
+    }
+    for (size_t c = 0; c < cells; c++){
+        for (size_t j = l->start[c]; j < l->start[c + 1]; j++){
+            l->zslot[l->zstart[c * nzb + (size_t)rs_p3m_zbin(l, l->sz[j])]++] = j;
+        }
+    }
+    for (size_t k = keys; k > 0; k--){    /* restore the starts */
+        l->zstart[k] = l->zstart[k - 1];
+    }
+    l->zstart[0] = 0;
+    for (size_t t = 0; t < l->n; t++){
+        l->zx[t] = l->sx[l->zslot[t]];
+        l->zy[t] = l->sy[l->zslot[t]];
+        l->zz[t] = l->sz[l->zslot[t]];
+    }
+    return 1;
+}
+
 /* Add the short-range pair forces (see the file header) to every particle.  Positions are
  * first wrapped into the box with the shear (REBOUND evaluates forces at mid-step, before
  * its boundary check), so that every pair is found from both sides with the same image.
@@ -677,6 +880,11 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
     if (ok && r_pair > 0.0){
         ok = rs_p3m_list_build(&large, p, ps, n, r_pair, ncx, ncy, Lx, Ly, s);
     }
+    if (ok && p->zwindow && !all_pairs){
+        const size_t cells = (size_t)ncx * (size_t)ncy;
+        ok = rs_p3m_zbins_build(&all, p, cells)
+             && (r_pair <= 0.0 || rs_p3m_zbins_build(&large, p, cells));
+    }
     if (!ok){
         rs_p3m_list_free(&all);
         rs_p3m_list_free(&large);
@@ -700,6 +908,8 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
         for (int pass = 0; pass <= fixes; pass++){
             if (all_pairs){
                 rs_p3m_all_images(p, src, target, pass, Lx, Ly, s, inv_step, acc);
+            }else if (pass == 0 && src->nzb > 1){
+                rs_p3m_cells_window(p, src, ncx, ncy, Lx, Ly, s, target, inv_step, acc);
             }else{
                 rs_p3m_cells(p, src, ncx, ncy, Lx, Ly, s, target, pass, inv_step, acc);
             }
@@ -710,8 +920,10 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
         scanned += acc[3];
         within += acc[4];
     }
-    /* the next call's way of summing (a cost, not a result: the bits are the same) */
+    /* the next call's way of summing by columns, from the column scans alone (a cost, not
+     * a result: the bits are the same) */
     p->two_pass = within > RS_P3M_TWO_PASS_FRACTION * scanned;
+    p->zbins = all.nzb;
     rs_p3m_list_free(&all);
     rs_p3m_list_free(&large);
 }

@@ -357,6 +357,8 @@ class P3MStruct(ctypes.Structure):
         ("error", ctypes.c_int),
         ("threads", ctypes.c_int),
         ("two_pass", ctypes.c_int),
+        ("zwindow", ctypes.c_int),
+        ("zbins", ctypes.c_int),
         ("z0", ctypes.c_double),
         ("shift", ctypes.c_double),
         ("alpha", ctypes.c_double),

@@ -207,6 +207,7 @@ class P3MSolver:
                              "of steps in [1, 99]")
         self.mesh_interval = int(mesh_interval)
         self._explicit = (cutoff, cell, dz)
+        self.height_index = True
         self._rungs: dict[float, tuple[P3MStruct, P3MMesh]] = {}
         self.error: BaseException | None = None
         #: CPU seconds [s] per stage of :meth:`apply` (summed over calls) while it is a
@@ -226,6 +227,7 @@ class P3MSolver:
                                dz=par["dz"], nx=par["nx"], ny=par["ny"], threads=self.threads,
                                pair_min_radius=self.pair_min_radius)
             _LIB.rs_p3m_init(ctypes.byref(params))
+            params.zwindow = int(self.height_index)
             mesh = P3MMesh(self.Lx, self.Ly, params.nx, params.ny, par["dz"], split,
                            G=self.G, workers=self.threads)
             self._rungs[split] = (params, mesh)
@@ -235,6 +237,14 @@ class P3MSolver:
     def setting(self) -> tuple[float, bool]:
         """(split [m], auto) as given: enough to make the same solver again."""
         return self.first_split, self.auto
+
+    def set_height_index(self, on: bool) -> None:
+        """The pair sum through its height index where the ring is thick (``True``, the
+        default: ``rs_p3m_window``) or by whole columns (the reference of tests and
+        benchmarks); the same bits either way."""
+        self.height_index = bool(on)
+        for params, _mesh in self._rungs.values():
+            params.zwindow = int(self.height_index)
 
     def set_threads(self, threads: int) -> None:
         """Interpolation, pair sum (OpenMP) and FFTs (scipy.fft workers) on ``threads``
