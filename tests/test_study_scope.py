@@ -139,3 +139,31 @@ def test_partial_without_report_only_is_bad_input(scoped, capsys):
     assert main(["study", str(scoped / "study.yaml"), "--quick", "--partial"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--partial" in err[0] and "--report-only" in err[0]
+
+
+def test_partial_report_keeps_a_case_with_some_of_its_seeds(scoped, tmp_path):
+    """Without k01's seed-2 summary the partial report holds k01 from seed 1 alone and
+    says so; its ratio to k0 is the mean of that seed over k0's two."""
+    path = scoped / "study.yaml"
+    report = json.loads((scoped / "study.quick.report" / "report.json").read_text())
+    gone = next(r["run"] for r in report["cases"]["k01"]["runs"] if r["seed"] == 2)
+    (scoped / "summaries" / f"{gone}.json").rename(tmp_path / f"{gone}.json")
+    try:
+        out = tmp_path / "partial"
+        run_study(path, out=out, quick=True, report_only=True, partial=True, echo=None,
+                  command="ringsim study x --quick --report-only --partial")
+    finally:
+        (tmp_path / f"{gone}.json").rename(scoped / "summaries" / f"{gone}.json")
+    part = json.loads((out / "report.json").read_text())
+    assert [r["seed"] for r in part["cases"]["k01"]["runs"]] == [1]
+    assert part["cases"]["k01"]["seeds"] == [1]
+    assert part["cases"]["k0"] == report["cases"]["k0"]
+    assert "fewer seeds than asked: k01 (seeds [1] of [1, 2])" in part["partial"]
+    one = part["cases"]["k01"]["runs"][0]["run"]
+    summary = json.loads((scoped / "summaries" / f"{one}.json").read_text())
+    c01 = summary["equilibrium"]["velocity_dispersion"]["mean"]
+    c0 = report["cases"]["k0"]["equilibrium"]["velocity_dispersion"]["mean"]
+    ratio = next(e for e in part["ratios"] if e["numerator"] == "k01"
+                 and e["quantity"] == "velocity_dispersion")
+    assert ratio["mean"] == pytest.approx(c01 / c0, rel=1e-12)
+    assert list(part["variants"]) == ["ref_600g"]     # its seed-1 runs are all there

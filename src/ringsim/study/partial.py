@@ -1,6 +1,6 @@
-"""A study's report so far (``ringsim study --report-only --partial``): the cases whose
-runs all have summaries, the ratios between them and the variants whose runs are all
-summarised; the rest named as not yet run.
+"""A study's report so far (``ringsim study --report-only --partial``): the cases with a
+summarised run, each over the seeds done, the ratios between them and the variants whose
+runs are all summarised; the rest named as not yet run.
 
 A study of large runs takes many sessions of background work (``studies/kappa-saturn``).
 Its committed summaries already hold finished equilibria; the partial report shows them
@@ -36,47 +36,52 @@ def summarised(runs: Mapping, folder: Path) -> dict[str, dict]:
 
 def reduced(study, quick: bool, specs: Sequence, ids: Sequence[str],
             summaries: Mapping[str, dict]) -> tuple:
-    """``(study, specs, ids, note)``: the study cut to the cases whose runs all have
-    summaries, the ratios of two such cases and the variants whose runs of those ratios
-    are all summarised, with its specs and their ids; ``note``, the warning that names
-    what is left out (None when nothing is)."""
+    """``(study, specs, ids, note)``: the study cut to the cases with at least one
+    summarised run (each with the seeds whose runs are summarised), the ratios of two such
+    cases and the variants whose runs of those ratios are all summarised, with its specs
+    and their ids; ``note``, the warning that names what is left out (None when nothing
+    is)."""
     done = {(s.case, s.variant, s.seed) for s, rid in zip(specs, ids, strict=True)
             if rid in summaries}
     every = {(s.case, s.variant, s.seed) for s in specs}
-    cases = [(name, o) for name, o in study.cases
-             if all(key in done for key in every if key[0] == name and key[1] is None)]
+    asked = {name: sorted(seed for c, v, seed in every if c == name and v is None)
+             for name, _ in study.cases}
+    seeds = {name: [seed for seed in asked[name] if (name, None, seed) in done]
+             for name in asked}
+    cases = tuple((name, o) for name, o in study.cases if seeds[name])
     names = {name for name, _ in cases}
     ratios = tuple(pair for pair in study.ratios if set(pair) <= names)
     in_ratios = {name for pair in ratios for name in pair}
     mode = study.mode(quick)
-    variants = tuple((v, o) for v, o in mode.variants
-                     if all(key in done for key in every
-                            if key[1] == v and key[0] in in_ratios))
-    if not ratios:
-        variants = ()
+    variants = tuple((v, o) for v, o in mode.variants if ratios and all(
+        key in done and key[2] in seeds[key[0]] for key in every
+        if key[1] == v and key[0] in in_ratios))
     cut_mode = dataclasses.replace(mode, variants=variants, variant_cases={
         v: tuple(c for c in mode.variant_cases[v] if c in in_ratios)
         for v, _ in variants if v in mode.variant_cases})
     cut = dataclasses.replace(
-        study, cases=tuple(cases), ratios=ratios,
+        study, cases=cases, ratios=ratios,
         references=tuple(r for r in study.references
                          if (r.ratio is not None and tuple(r.ratio) in ratios)
                          or (r.ratio is None and r.case in names)),
         starts={c: s for c, s in study.starts.items() if c in names},
-        case_seeds={c: s for c, s in study.case_seeds.items() if c in names},
+        case_seeds={c: tuple(seeds[c]) for c in names if seeds[c] != asked[c]
+                    or c in study.case_seeds},
         **({"quick_mode": cut_mode} if quick else {"full": cut_mode}))
     kept = list(zip(cut.specs(quick), collect(cut.specs(quick))[1], strict=True))
-    missing_cases = [name for name, _ in study.cases if name not in names]
-    missing_variants = [v for v, _ in mode.variants if v not in dict(variants)]
-    note = None
-    if missing_cases or missing_variants or len(ratios) < len(study.ratios):
-        note = (f"PARTIAL REPORT: {len(summaries)} of {len(set(ids))} runs have summaries; "
-                "not in it yet: "
-                + "; ".join(part for part in (
-                    f"cases {', '.join(missing_cases)}" if missing_cases else "",
-                    f"variants {', '.join(missing_variants)}" if missing_variants else "",
-                    f"{len(study.ratios) - len(ratios)} of {len(study.ratios)} ratios"
-                    if len(ratios) < len(study.ratios) else "") if part)
-                + ". The study's result is its full report, when every run is done.")
+    missing = [name for name, _ in study.cases if name not in names]
+    fewer = [f"{name} (seeds {seeds[name]} of {asked[name]})" for name in names
+             if seeds[name] != asked[name]]
+    left_out = [f"variants {', '.join(v for v, _ in mode.variants if v not in dict(variants))}"
+                if len(variants) < len(mode.variants) else "",
+                f"cases {', '.join(missing)}" if missing else "",
+                f"{len(study.ratios) - len(ratios)} of {len(study.ratios)} ratios"
+                if len(ratios) < len(study.ratios) else ""]
+    if not (fewer or any(left_out)):
+        return cut, [s for s, _ in kept], [rid for _, rid in kept], None
+    note = (f"PARTIAL REPORT: {len(summaries)} of {len(set(ids))} runs have summaries"
+            + (f"; fewer seeds than asked: {', '.join(fewer)}" if fewer else "")
+            + (f"; not in it yet: {'; '.join(part for part in left_out if part)}"
+               if any(left_out) else "")
+            + ". The study's result is its full report, when every run is done.")
     return cut, [s for s, _ in kept], [rid for _, rid in kept], note
-
