@@ -1,6 +1,8 @@
 """Freely cooling gas of rough spheres in a periodic box: the homogeneous cooling state.
 
-A validation tool for :mod:`ringsim.physics.friction`, not part of a ring run.  Identical
+The reference simulation of :mod:`ringsim.physics.friction` against the closed form of
+:mod:`ringsim.physics.spin_temperature`, not part of a ring run (tests/test_friction.py
+runs it; docs/friction.md, "Homogeneous cooling state of rough spheres").  Identical
 spheres (radius R, mass m, I = k m R^2) fly freely in a cubic periodic box without shear
 or gravity; pairs that came into contact during a time step are found with scipy's
 periodic k-d tree and resolved at their contact, found on the straight relative path as
@@ -14,17 +16,11 @@ each step to restore the starting energy, keeping the time step a fixed fraction
 collision time, and measures time in collisions per particle.  T_rot / T_tr is unchanged
 by the rescaling and relaxes to the value of
 :func:`ringsim.physics.spin_temperature.hcs_temperature_ratio`.
-
-``python -m validation cooling [--quick]`` runs the parameter sets of
-tests/test_friction.py (same seeds, so the same numbers), prints the table of
-docs/friction.md and writes docs/figures/friction/hcs_ratio.png.
 """
 
 from __future__ import annotations
 
-import argparse
 import math
-import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -33,9 +29,6 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from ringsim.physics import friction as fr
-from ringsim.physics import spin_temperature
-from ringsim.plots.common import pyplot, save_figure
-from validation.common import ROOT
 
 FloatArray = NDArray[np.float64]
 
@@ -96,6 +89,18 @@ def _temperatures(v: FloatArray, w: FloatArray, mass: float, inertia: float
             inertia * float(np.mean(np.sum(w * w, axis=1))) / 3.0)
 
 
+def _start(rng: np.random.Generator, n: int, radius: float, box: float, mass: float,
+           inertia: float, ratio_start: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Positions [m], velocities (unit variance, at rest on average) [m/s] and spins
+    [rad/s] of a Maxwellian start with T_rot / T_tr = ``ratio_start``."""
+    x = _place(rng, n, radius, box)
+    v = rng.normal(0.0, 1.0, (n, 3))
+    v -= v.mean(axis=0)
+    t_tr, _ = _temperatures(v, np.zeros_like(v), mass, inertia)
+    w = rng.normal(0.0, math.sqrt(ratio_start * t_tr / inertia), (n, 3))
+    return x, v, w
+
+
 def cool_rough_gas(n_particles: int, volume_fraction: float, eps_n: float,
                    friction: Mapping[str, object], ratio_start: float,
                    collisions_per_particle: float, seed: int,
@@ -129,15 +134,11 @@ def cool_rough_gas(n_particles: int, volume_fraction: float, eps_n: float,
         step well below the Verlet skin (2R) and few particles with two contacts in one
         step (``multi_contacts``).
     """
-    rng = np.random.default_rng(seed)
     mass = density * 4.0 / 3.0 * math.pi * radius**3
     inertia = inertia_factor * mass * radius**2
     box = (n_particles * 4.0 / 3.0 * math.pi * radius**3 / volume_fraction) ** (1.0 / 3.0)
-    x = _place(rng, n_particles, radius, box)
-    v = rng.normal(0.0, 1.0, (n_particles, 3))        # [m/s]
-    v -= v.mean(axis=0)
-    t_tr, _ = _temperatures(v, np.zeros_like(v), mass, inertia)
-    w = rng.normal(0.0, math.sqrt(ratio_start * t_tr / inertia), (n_particles, 3))
+    x, v, w = _start(np.random.default_rng(seed), n_particles, radius, box, mass, inertia,
+                     ratio_start)
     energy = 1.5 * n_particles * sum(_temperatures(v, w, mass, inertia))
 
     collisions = 0
@@ -151,16 +152,15 @@ def cool_rough_gas(n_particles: int, volume_fraction: float, eps_n: float,
         x[x >= box] = 0.0           # np.mod can round up to the box side
         resolved, repeated = _resolve_step(x, v, w, neighbours.candidates(x), box,
                                            radius, mass, eps_n, friction, inertia_factor, dt)
-        collisions += resolved
-        multi += repeated
+        collisions, multi = collisions + resolved, multi + repeated
         t_tr, t_rot = _temperatures(v, w, mass, inertia)
         scale = math.sqrt(energy / (1.5 * n_particles * (t_tr + t_rot)))
         v *= scale
         w *= scale
         history.append((2.0 * collisions / n_particles, t_rot / t_tr))
-    data = np.array(history)
-    return CoolingRun(data[:, 0], data[:, 1], n_particles, volume_fraction, eps_n,
-                      dict(friction), inertia_factor, multi)
+    c, r = np.array(history).T
+    return CoolingRun(c, r, n_particles, volume_fraction, eps_n, dict(friction),
+                      inertia_factor, multi)
 
 
 class _Neighbours:
@@ -263,70 +263,3 @@ def _contact_time(dr: FloatArray, dv: FloatArray, diameter: float, dt: float
     swept = (a > 0.0) & (disc >= 0.0) & (s > 0.0) & (s <= dt)
     overlapping = (gap < 0.0) & (b < 0.0) & ~swept
     return np.where(swept, s, 0.0), swept | overlapping
-
-
-# --- the table and figure of docs/friction.md ------------------------------------------------
-
-FIGURE = ROOT / "docs" / "figures" / "friction" / "hcs_ratio.png"
-#: (n_particles, eps_n, beta, T_rot/T_tr at the start, collisions per particle, seed,
-#:  average from this many collisions per particle): the default tests' three runs, then
-#:  the slow test's (average from five relaxation lengths, then 80 more collisions).
-HCS_CASES = [
-    (300, 0.9, 0.5, 0.0, 40.0, 1, 15.0),
-    (300, 0.9, 0.5, 3.0, 40.0, 2, 15.0),
-    (300, 1.0, 1.0, 0.0, 30.0, 3, 10.0),
-] + [
-    (1000, eps_n, beta, 0.0, settle + 80.0, 11, settle)
-    for eps_n, beta in [(0.9, 0.0), (0.9, 0.5), (0.9, -0.5), (0.7, 0.5), (1.0, 1.0)]
-    for settle in [max(20.0, 5.0 * spin_temperature.hcs_relaxation_collisions(eps_n, beta))]
-]
-VOLUME_FRACTION = 0.01
-
-
-def main(argv: list[str] | None = None, prog: str | None = None) -> None:
-    """``python -m validation cooling``: T_rot/T_tr against the closed form, as a table on
-    standard output and the figure ``FIGURE``."""
-    parser = argparse.ArgumentParser(prog=prog, description="Homogeneous cooling of rough "
-                                     "spheres: T_rot/T_tr against the closed form.")
-    parser.add_argument("--quick", action="store_true", help="the default tests' cases only")
-    args = parser.parse_args(argv)
-    cases = HCS_CASES[:3] if args.quick else HCS_CASES
-    print("| N | eps_n | beta | start | collisions/particle | averaged from | closed form "
-          "| measured | difference | multi-contacts | run time |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
-    runs = []
-    for n, eps_n, beta, start, length, seed, after in cases:
-        clock = time.perf_counter()
-        run = cool_rough_gas(n, VOLUME_FRACTION, eps_n, {"model": "constant", "beta": beta},
-                             start, length, seed=seed)
-        mean, stderr = run.converged_ratio(after)
-        target = spin_temperature.hcs_temperature_ratio(eps_n, beta)
-        collisions = run.collisions_per_particle[-1] * n / 2.0
-        print(f"| {n} | {eps_n} | {beta} | {start} | {length:.0f} | {after:.0f} | {target:.4f} "
-              f"| {mean:.4f} ± {stderr:.4f} | {100.0 * (mean / target - 1.0):+.1f}% "
-              f"| {run.multi_contacts / collisions:.2%} "
-              f"| {time.perf_counter() - clock:.0f} s |", flush=True)
-        runs.append((run, target, f"N={n}, eps_n={eps_n}, beta={beta}, start {start}"))
-    plot_hcs(runs)
-
-
-def plot_hcs(runs: list[tuple[CoolingRun, float, str]]) -> None:
-    """(T_rot/T_tr) / closed form against collisions per particle, one line per run."""
-    fig, ax = pyplot().subplots(figsize=(9, 5.5))
-    for run, target, label in runs:
-        c = run.collisions_per_particle
-        r = run.temperature_ratio
-        # Running mean over about one collision per particle, to show the trend.
-        width = max(1, int(np.searchsorted(c, 1.0)))
-        smooth = np.convolve(r, np.ones(width) / width, mode="valid")
-        ax.plot(c[width - 1:], smooth / target, linewidth=1.0, label=label)
-    ax.axhline(1.0, color="black", linewidth=0.8)
-    ax.axhspan(0.94, 1.06, color="grey", alpha=0.15, label="closed form ± 6%")
-    ax.set_xlabel("collisions per particle  [-]")
-    ax.set_ylabel("(T_rot / T_tr) / closed form  [-]")
-    ax.set_ylim(0.0, 1.6)
-    ax.set_title("Homogeneous cooling of rough spheres, volume fraction "
-                 f"{VOLUME_FRACTION}, k = 2/5")
-    ax.legend(fontsize=8, loc="lower right")
-    save_figure(fig, FIGURE)
-    print(f"wrote {FIGURE}")

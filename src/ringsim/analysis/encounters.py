@@ -1,10 +1,13 @@
 """How often a particle meets two partners within one step: a straight-path prediction.
 
-The line-mode validation reports it beside the resolver's measured ``multi_encounters /
-count``.  It predicts only the second contacts that are already on course at the start of
-a step, so it is a lower bound of the measured fraction (docs/validation.md, "Time-ordered
-contacts in line mode").  Line mode's ``dt: auto`` (``engine.timestep.auto_dt``) does not
-use it: the time-ordered detector resolves multiple encounters exactly.
+It is compared with the resolver's measured ``multi_encounters / count`` of a run file.
+It predicts only the second contacts that are already on course at the start of a step,
+so it is a lower bound of the measured fraction (docs/validation.md, "Time-ordered
+contacts in line mode"; the line-mode check itself is ``studies/validation-line-mode``).
+Line mode's ``dt: auto`` (``engine.timestep.auto_dt``) does not use it: the time-ordered
+detector resolves multiple encounters exactly.  A deflection counts when the partner
+carries at least ``mass_share`` of the pair's mass: pass the resolver's
+``engine.timestep.MULTI_ENCOUNTER_MASS_SHARE`` to compare with its counter.
 """
 
 from __future__ import annotations
@@ -14,27 +17,21 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from scipy.spatial import cKDTree
 
-from ringsim.engine.timestep import MULTI_ENCOUNTER_MASS_SHARE
-
-#: Fraction of collisions in which a partner has a second contact in the same step drawn as
-#: the "dt: auto target" in the line-mode validation's figure: the bound line mode's step
-#: kept to in the stored line-mode runs (docs/validation.md, "Time-ordered contacts in line
-#: mode").
-MULTI_ENCOUNTER_TARGET = 0.01
-#: Window of the contact prediction the line-mode validation reports [steps of 1e-3 orbit].
+#: Window of the contact prediction the line-mode comparison used [steps of 1e-3 orbit].
 MULTI_ENCOUNTER_WINDOW_STEPS = 16
 
 
 def predicted_contacts(x: Any, y: Any, z: Any, vx: Any, vy: Any, vz: Any, radius: Any,
-                       mass: Any, Omega: float,
-                       window: float) -> tuple[np.ndarray, np.ndarray]:
+                       mass: Any, Omega: float, window: float,
+                       mass_share: float) -> tuple[np.ndarray, np.ndarray]:
     """Contacts each particle would make within ``window`` on straight paths.
 
     Every pair that does not overlap now, approaches, and whose straight relative path
     reaches contact within ``window`` counts once for each of its two particles; it also
-    counts as a deflection of a particle whose partner carries at least
-    :data:`MULTI_ENCOUNTER_MASS_SHARE` of the pair's mass.  Positions are taken as they
+    counts as a deflection of a particle whose partner carries at least ``mass_share`` of
+    the pair's mass.  Positions are taken as they
     are (no periodic images: pairs straddling the box edges are missed, a fraction of
     about the search radius over the box size).
 
@@ -48,13 +45,13 @@ def predicted_contacts(x: Any, y: Any, z: Any, vx: Any, vy: Any, vz: Any, radius
     Omega : float [1/s]
         Orbital frequency; the search is widened by speeds relative to the shear flow.
     window : float [s]
+    mass_share : float [1]
+        The share of the pair's mass a deflecting partner carries at least.
 
     Returns
     -------
     contacts, deflections : int arrays [count per particle]
     """
-    from scipy.spatial import cKDTree
-
     pos = np.column_stack([x, y, z]).astype(float)
     vel = np.column_stack([vx, vy, vz]).astype(float)
     radius = np.asarray(radius, dtype=float)
@@ -73,23 +70,27 @@ def predicted_contacts(x: Any, y: Any, z: Any, vx: Any, vy: Any, vz: Any, radius
     if pairs.size == 0:
         return contacts, deflections
     i, j = pairs[:, 0], pairs[:, 1]
-    d = pos[j] - pos[i]
-    u = vel[j] - vel[i]
-    a = np.einsum("ij,ij->i", u, u)
-    b = np.einsum("ij,ij->i", d, u)
-    c = np.einsum("ij,ij->i", d, d) - (radius[i] + radius[j]) ** 2
-    discriminant = b * b - a * c
-    hit = (c > 0.0) & (b < 0.0) & (discriminant >= 0.0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t_contact = np.where(hit, (-b - np.sqrt(np.where(hit, discriminant, 0.0))) / a, np.inf)
-    hit &= t_contact <= window
+    hit = _contact_time(pos[j] - pos[i], vel[j] - vel[i], radius[i] + radius[j]) <= window
     i, j = i[hit], j[hit]
     np.add.at(contacts, i, 1)
     np.add.at(contacts, j, 1)
     total = mass[i] + mass[j]
-    np.add.at(deflections, i[mass[j] >= MULTI_ENCOUNTER_MASS_SHARE * total], 1)
-    np.add.at(deflections, j[mass[i] >= MULTI_ENCOUNTER_MASS_SHARE * total], 1)
+    np.add.at(deflections, i[mass[j] >= mass_share * total], 1)
+    np.add.at(deflections, j[mass[i] >= mass_share * total], 1)
     return contacts, deflections
+
+
+def _contact_time(d: np.ndarray, u: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """Time [s] until the pairs of separations ``d`` [m] and relative velocities ``u``
+    [m/s] (rows) come within ``reach`` [m] on straight paths; inf for a pair that overlaps
+    now, recedes or misses."""
+    a = np.einsum("ij,ij->i", u, u)
+    b = np.einsum("ij,ij->i", d, u)
+    c = np.einsum("ij,ij->i", d, d) - reach**2
+    discriminant = b * b - a * c
+    hit = (c > 0.0) & (b < 0.0) & (discriminant >= 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(hit, (-b - np.sqrt(np.where(hit, discriminant, 0.0))) / a, np.inf)
 
 
 def multi_encounter_fraction(contacts: Any, deflections: Any, radius: Any = None) -> float:
@@ -129,7 +130,8 @@ def multi_encounter_fraction(contacts: Any, deflections: Any, radius: Any = None
     return float(np.sum(n[used] * s_mean * k_mean) / total)
 
 
-def multi_encounter_rate(arrays: Mapping[str, Any], Omega: float, max_window: float) -> float:
+def multi_encounter_rate(arrays: Mapping[str, Any], Omega: float, max_window: float,
+                         mass_share: float) -> float:
     """Predicted ``multi_encounters / count`` per unit step length [1/s].
 
     The fraction for a step dt is about this rate times dt (for fractions << 1).  Contacts
@@ -146,6 +148,8 @@ def multi_encounter_rate(arrays: Mapping[str, Any], Omega: float, max_window: fl
     arrays : mapping of particle arrays x, y, z [m], vx, vy, vz [m/s], radius [m], mass [kg]
     Omega : float [1/s]
     max_window : float [s]
+    mass_share : float [1]
+        As for :func:`predicted_contacts`.
     """
     x, y, z = (np.asarray(arrays[k], dtype=float) for k in ("x", "y", "z"))
     vx, vy, vz = (np.asarray(arrays[k], dtype=float) for k in ("vx", "vy", "vz"))
@@ -157,7 +161,7 @@ def multi_encounter_rate(arrays: Mapping[str, Any], Omega: float, max_window: fl
     reach = max(3.0 * r_max, 0.125 * min(float(np.ptp(x)), float(np.ptp(y))))
     window = max_window if w_max <= 0 else min(max_window, (reach - r_max) / w_max)
     contacts, deflections = predicted_contacts(x, y, z, vx, vy, vz, radius, arrays["mass"],
-                                               Omega, window)
+                                               Omega, window, mass_share)
     evidence = float(np.sum(deflections))
     if evidence <= 4.0:
         return 0.0
