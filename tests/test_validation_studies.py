@@ -3,8 +3,10 @@
 1978), ``studies/validation-bridges`` (the Bridges law, identical 1 m particles) and
 ``studies/validation-size-distribution`` (the Bridges law with a q = 3 size
 distribution), ``studies/validation-line-mode`` (line-mode detection against the tree
-reference), and ``studies/validation-kinetic-theory`` (the dense-ring kinetic theory
-of Latter & Ogilvie 2008).
+reference), ``studies/validation-kinetic-theory`` (the dense-ring kinetic theory
+of Latter & Ogilvie 2008), ``studies/validation-rebound-example`` (case 5: ringsim's
+resolver against REBOUND's) and ``studies/validation-energy-balance`` (case 1's energy
+balance).
 
 The fast tests check what the study files declare against the physics they encode (the
 critical epsilon they bracket, the size bins they read); the slow tests run each quick form
@@ -34,6 +36,8 @@ SIZES = ROOT / "studies" / "validation-size-distribution"
 BRIDGES = ROOT / "studies" / "validation-bridges"
 LINE_MODE = ROOT / "studies" / "validation-line-mode"
 KINETIC = ROOT / "studies" / "validation-kinetic-theory"
+REBOUND_EXAMPLE = ROOT / "studies" / "validation-rebound-example"
+ENERGY = ROOT / "studies" / "validation-energy-balance"
 
 
 def _load(folder: Path):
@@ -175,3 +179,50 @@ def test_line_mode_quick_form_agrees_with_the_tree(tmp_path):
                 if e["ratio"] == ["mono-line", "mono-tree"]
                 and e["quantity"] == "velocity_dispersion")
     assert abs(mono["mean"] - 1.0) < 0.03 and mono["stderr"] < 0.01
+
+
+def test_rebound_example_study_changes_only_the_resolver():
+    """Case 5 compares two runs of the same scenario and seed that differ only in who
+    resolves the collisions; every ratio REBOUND / ringsim is referenced to 1."""
+    study = _load(REBOUND_EXAMPLE)
+    assert dict(study.cases) == {"ringsim": {},
+                                 "rebound": {"integration.resolver": "rebound_hardsphere"}}
+    specs = {(spec.case, spec.seed): spec.scenario for spec in study.specs()}
+    for seed in (1, 2, 3):
+        ours, theirs = specs[("ringsim", seed)], specs[("rebound", seed)]
+        assert theirs.integration.resolver == "rebound_hardsphere"
+        assert ours.to_dict() == {**theirs.to_dict(), "integration": {
+            k: v for k, v in theirs.to_dict()["integration"].items() if k != "resolver"}}
+    refs = [r for r in study.references if r.ratio == ("rebound", "ringsim")]
+    assert {r.quantity for r in refs} == set(study.quantities)
+    assert all((r.low, r.high) == (1.0, 1.0) for r in refs)
+
+
+def test_energy_balance_study_keeps_the_budget_and_asks_for_balance():
+    study = _load(ENERGY)
+    assert study.keep == ("energy_budget",)
+    refs = {r.case: r for r in study.references}
+    assert set(refs) == {case for case, _ in study.cases}
+    assert all(r.quantity == "energy_budget.ratio" and (r.low, r.high) == (0.99, 1.01)
+               for r in refs.values())
+
+
+@pytest.mark.slow
+def test_rebound_example_quick_form_agrees(tmp_path):
+    """Six runs of 500 particles, 6 orbits (about 2 CPU-minutes): every ratio REBOUND /
+    ringsim within 3 standard errors of 1, and c within 15 % of 1 by itself."""
+    report = _quick_afresh(REBOUND_EXAMPLE, tmp_path)
+    assert len(report["references"]) == 7
+    assert all(e["agrees"] for e in report["references"]), \
+        [e for e in report["references"] if not e["agrees"]]
+    c = next(e for e in report["references"] if e["quantity"] == "velocity_dispersion")
+    assert abs(c["mean"] - 1.0) < 0.15
+
+
+@pytest.mark.slow
+def test_energy_balance_quick_form_balances(tmp_path):
+    """Six runs of 200 particles, 10 orbits (about 30 CPU-seconds): heating / dissipation
+    within 1 % of 1 widened by 3 standard errors, and within 3 % by itself."""
+    report = _quick_afresh(ENERGY, tmp_path)
+    assert len(report["references"]) == 3
+    assert all(e["agrees"] and abs(e["mean"] - 1.0) < 0.03 for e in report["references"])
