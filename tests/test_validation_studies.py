@@ -5,8 +5,8 @@
 distribution), ``studies/validation-line-mode`` (line-mode detection against the tree
 reference), ``studies/validation-kinetic-theory`` (the dense-ring kinetic theory
 of Latter & Ogilvie 2008), ``studies/validation-rebound-example`` (case 5: ringsim's
-resolver against REBOUND's) and ``studies/validation-energy-balance`` (case 1's energy
-balance).
+resolver against REBOUND's), ``studies/validation-energy-balance`` (case 1's energy
+balance) and ``studies/validation-aggregation`` (where the rings start to aggregate).
 
 The fast tests check what the study files declare against the physics they encode (the
 critical epsilon they bracket, the size bins they read); the slow tests run each quick form
@@ -38,6 +38,7 @@ LINE_MODE = ROOT / "studies" / "validation-line-mode"
 KINETIC = ROOT / "studies" / "validation-kinetic-theory"
 REBOUND_EXAMPLE = ROOT / "studies" / "validation-rebound-example"
 ENERGY = ROOT / "studies" / "validation-energy-balance"
+AGGREGATION = ROOT / "studies" / "validation-aggregation"
 
 
 def _load(folder: Path):
@@ -226,3 +227,31 @@ def test_energy_balance_quick_form_balances(tmp_path):
     report = _quick_afresh(ENERGY, tmp_path)
     assert len(report["references"]) == 3
     assert all(e["agrees"] and abs(e["mean"] - 1.0) < 0.03 for e in report["references"])
+
+
+def test_aggregation_study_sets_each_case_s_hill_parameter():
+    """Each case's orbital radius gives the Hill parameter of two touching particles its
+    name says (to 1e-6: the radii are written to 7 digits); the references bracket the
+    touching pair's Hill-sphere condition r_h > 1 from both sides."""
+    from ringsim.physics.gravity import hill_parameter
+
+    study = _load(AGGREGATION)
+    assert study.keep == ("aggregation",)
+    for spec in study.specs():
+        sc = spec.scenario
+        r_h = float(hill_parameter(1.0, 1.0, sc.particles.density, sc.planet.GM, sc.planet.a))
+        assert r_h == pytest.approx(float(spec.case.removeprefix("rh")), rel=1e-6)
+    refs = {r.case: r for r in study.references}
+    assert refs["rh0.9"].high == 0.1 and refs["rh1.3"].low == 0.1
+    assert {r.quantity for r in refs.values()} == {"aggregation.bound_fraction_max"}
+
+
+@pytest.mark.slow
+def test_aggregation_quick_form_aggregates_only_above_r_h_1(tmp_path):
+    """Ten runs of 200 particles, 1 orbit (about 50 CPU-seconds): nothing bound at
+    r_h = 0.9, aggregates at 1.3, and the bound share rising with r_h from 1.0 on."""
+    report = _quick_afresh(AGGREGATION, tmp_path)
+    assert all(e["agrees"] for e in report["references"])
+    bound = [report["cases"][f"rh{x}"]["kept"]["aggregation"]["bound_fraction_max"]["mean"]
+             for x in ("1.0", "1.1", "1.2", "1.3")]
+    assert bound == sorted(bound) and bound[-1] > 0.3

@@ -26,6 +26,7 @@ from collections.abc import Iterable, Mapping, Sequence
 
 from ringsim.analysis import budget
 from ringsim.config.study_references import KEPT_QUANTITIES
+from ringsim.quantities import QUANTITY
 
 
 def _number(value: object, units: str) -> dict:
@@ -79,3 +80,42 @@ def kept_value(case: Mapping, quantity: str) -> dict:
     entry = (case.get("kept") or {}).get(name) or {}
     return dict(entry.get(key, {"mean": math.nan, "stderr": math.nan,
                                 "units": "dimensionless"}))
+
+
+def kept_section(report: Mapping) -> list[str]:
+    """The report's section "Kept": each kept entry's seed means per case (none without
+    ``kept`` in the cases, so the reports of other studies are unchanged)."""
+    cases = {case: entry["kept"] for case, entry in report["cases"].items()
+             if "kept" in entry}
+    if not cases:
+        return []
+    lines = ["## Kept", "", "What the summaries keep beyond the equilibrium (the study's "
+             "`keep`): each case's mean over its seeds, with the larger of the propagated "
+             "error and the seed-to-seed standard error of the mean; – where a run of the "
+             "case lacks the entry.", ""]
+    for name in KEPT_QUANTITIES:
+        if not any(name in kept for kept in cases.values()):
+            continue
+        rows = []
+        for key in KEPT_QUANTITIES[name]:
+            q = QUANTITY[f"{name}.{key}"]
+            rows.append([q.label + (f" [{q.shown}]" if q.shown else "")]
+                        + [_shown(kept.get(name, {}).get(key), q.scale)
+                           for kept in cases.values()])
+        if name == "aggregation":
+            rows.append(["aggregating runs"] + [str(kept[name]["aggregating_runs"])
+                                                if name in kept else "–"
+                                                for kept in cases.values()])
+        lines += [f"`{name}`:", "", "| quantity | " + " | ".join(cases) + " |",
+                  "|" + "---|" * (len(cases) + 1)]
+        lines += ["| " + " | ".join(row) + " |" for row in rows] + [""]
+    return lines
+
+
+def _shown(value: Mapping | None, scale: float) -> str:
+    """``mean ± stderr`` in the shown unit, or – without a value."""
+    if not value or value.get("mean") is None or not math.isfinite(value["mean"]):
+        return "–"
+    err = value.get("stderr")
+    return (f"{value['mean'] * scale:.4g} ± "
+            + ("n/a" if err is None or not math.isfinite(err) else f"{err * scale:.2g}"))
