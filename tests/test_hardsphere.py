@@ -65,6 +65,37 @@ def test_extending_a_run_equals_a_longer_run(tmp_path, ring_scenario):
         assert np.array_equal(series, extended.timeseries[name], equal_nan=True), name
 
 
+def test_exported_snapshot_continues_with_rebounds_resolver(tmp_path, capsys,
+                                                             ring_scenario):
+    """`ringsim export --rebound` of such a run prints a continuation that puts REBOUND's
+    resolver back with the law: ten steps of it in plain REBOUND equal (==) ten steps of
+    ringsim's own continuation of the snapshot, collisions among them."""
+    import textwrap
+    import warnings
+
+    from ringsim.engine import export
+
+    path = ringsim.run(ring_scenario(HARDSPHERE, {"integration.orbits": 0.1,
+                                                  "output.snapshot_every": 0.1}),
+                       output=tmp_path / "r.h5", progress=False)
+    out = tmp_path / "r.bin"
+    assert main(["export", str(path), "--snapshot", "-1", "--rebound", str(out)]) == 0
+    code = textwrap.dedent(capsys.readouterr().out.split("continue it with\n", 1)[1])
+    assert "HardsphereHandle" in code and "install_resolver" not in code
+    namespace: dict = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # REBOUND's reminder about function pointers
+        exec(code, namespace)  # noqa: S102 (the printed code, run as a user would)
+    own = sheet.build_sheet(export.continuation_scenario(ringsim.open_run(path), -1))
+    for sim in (namespace["sim"], own.sim):
+        sim.steps(10)
+    a, b = sheet.particle_arrays(namespace["sim"]), sheet.particle_arrays(own.sim)
+    for field in a:
+        assert np.array_equal(a[field], b[field]), field
+    assert own.resolver.stats()["count"] > 0
+    assert namespace["handle"].stats()["count"] == own.resolver.stats()["count"]
+
+
 @pytest.mark.parametrize("overrides, problem", [
     ({"integration.collision_detection": "line"}, "collision_detection: line"),
     ({"restitution": {"model": "dilley", "kappa": 0.0}}, "dilley law"),
