@@ -35,7 +35,7 @@ from ringsim.engine.resolver import install_resolver
 from ringsim.physics import friction as fr
 from ringsim.physics import restitution as rs
 from ringsim.physics import spin_temperature
-from validation.cooling import cool_rough_gas
+from ringsim.testing import cool_rough_gas
 
 DENSITY = 900.0                     # [kg/m^3]
 OMEGA = 2e-4                        # [1/s]

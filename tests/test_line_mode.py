@@ -13,9 +13,9 @@ What is checked, and to what tolerance:
 * the sheet detector finds exactly the pairs of REBOUND's brute-force swept-path search
   (``line``) in sheared boxes at t != 0, also when particles are not yet wrapped;
 * multi_encounters counts a particle deflected twice in one step, not a boulder struck by
-  grains; the multiple-encounter estimate is unbiased for Poisson counts, measured and
-  predicted fractions in a dense ring agree to a factor 2, and ``dt: auto`` keeps the
-  predicted fraction below 1% (1e-3 orbit for a hot ring);
+  grains; measured and predicted (``ringsim.analysis.encounters``, tested on its own in
+  tests/test_encounters.py) fractions in a dense ring agree to a factor 2, and
+  ``dt: auto`` keeps the predicted fraction below 1% (1e-3 orbit for a hot ring);
 * a line-mode run resumed from a REBOUND binary is bit-identical to an uninterrupted one;
 * a cold dense ring (eps = 0.5, tau = 1) reaches the same c and H in line mode at 1e-3
   orbit as in tree mode with dt: auto, within 3 combined standard errors.
@@ -32,17 +32,13 @@ import pytest
 import rebound
 
 from ringsim.analysis import snapshot, timeseries
+from ringsim.analysis.encounters import MULTI_ENCOUNTER_WINDOW_STEPS, multi_encounter_rate
 from ringsim.config.scenario import with_overrides
 from ringsim.engine import sheet
 from ringsim.engine.box import SheetGeometry
 from ringsim.engine.resolver import install_resolver
+from ringsim.engine.timestep import MULTI_ENCOUNTER_MASS_SHARE
 from ringsim.physics import restitution as rs
-from validation.encounters import (
-    MULTI_ENCOUNTER_WINDOW_STEPS,
-    multi_encounter_fraction,
-    multi_encounter_rate,
-    predicted_contacts,
-)
 
 OMEGA = 2e-4                       # [1/s]
 ORBIT = 2.0 * math.pi / OMEGA      # [s]
@@ -312,37 +308,6 @@ def test_multi_encounters_count_particles_deflected_twice_in_a_step(side_mass, c
     assert counters["steps"] == 1 and counters["reports"] == 2 and counters["error"] == "none"
 
 
-def test_multi_encounter_fraction_is_unbiased_for_poisson_counts():
-    rng = np.random.default_rng(5)
-    rate = 0.04                                        # contacts per particle per window
-    contacts = rng.poisson(rate, 400_000)
-    fraction = multi_encounter_fraction(contacts, contacts)
-    # stderr of the ratio ~ sqrt(2 rate^2 n) / (rate n) for n particles
-    assert fraction == pytest.approx(rate, rel=4 * math.sqrt(2.0 / 400_000) / math.sqrt(rate))
-    deflecting = rng.binomial(contacts, 0.5)
-    assert multi_encounter_fraction(contacts, deflecting) == pytest.approx(
-        0.5 * rate, rel=0.1), "only deflections count as first encounters"
-    assert multi_encounter_fraction(np.zeros(5), np.zeros(5)) == 0.0
-
-
-def test_predicted_contacts_of_simple_pairs():
-    window = 10.0                                      # [s]
-    # approaching, contact after 5 s; receding; overlapping now; far apart
-    x = np.array([0.0, 2.25, 100.0, 102.5, 200.0, 201.5, 300.0, 330.0])
-    vx = np.array([0.05, 0.0, -0.05, 0.0, 0.0, 0.0, 0.1, 0.0])
-    zeros = np.zeros_like(x)
-    radius = np.ones_like(x)
-    mass = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0])
-    contacts, deflections = predicted_contacts(x, zeros, zeros, vx, zeros, zeros, radius,
-                                               mass, 0.0, window)
-    np.testing.assert_array_equal(contacts, [1, 1, 0, 0, 0, 0, 0, 0])
-    np.testing.assert_array_equal(deflections, contacts)
-    mass[0] = 1e3                                      # a boulder and a grain
-    _, deflections = predicted_contacts(x, zeros, zeros, vx, zeros, zeros, radius, mass, 0.0,
-                                        window)
-    np.testing.assert_array_equal(deflections, [0, 1, 0, 0, 0, 0, 0, 0])
-
-
 def ring_arrays(n: int, tau: float, dispersion_rOmega: float, seed: int) -> tuple[dict, float]:
     """Particle arrays of a random 1 m ring (Gaussian layer, no overlaps) and its box [m]."""
     rng = np.random.default_rng(seed)
@@ -393,7 +358,8 @@ def integrate_sheet(sc, orbits: float, every: float = 0.1):
         a = sheet.particle_arrays(sim)
         stats = handle.stats()
         handle.reset_stats()
-        rate = multi_encounter_rate(a, OMEGA, MULTI_ENCOUNTER_WINDOW_STEPS * 1e-3 * ORBIT)
+        rate = multi_encounter_rate(a, OMEGA, MULTI_ENCOUNTER_WINDOW_STEPS * 1e-3 * ORBIT,
+                                    MULTI_ENCOUNTER_MASS_SHARE)
         rows.append((snapshot.velocity_dispersion(a["x"], a["vx"], a["vy"], a["vz"], OMEGA),
                      snapshot.thickness(a["z"]), stats["count"], stats["multi_encounters"],
                      rate * sim.dt))

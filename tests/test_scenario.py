@@ -134,10 +134,22 @@ def test_bridges_scenario_matches_rebound_shearing_sheet_example():
     assert sc.sheet.gravity and sc.softening_length == 0.1
     assert sc.sheet.opening_angle**2 == pytest.approx(0.5, rel=1e-3)  # opening_angle2
     assert sc.integration.dt == "auto"                   # REBOUND's 1e-3 orbit is too long
-    from validation.case5_rebound_example import REBOUND_EXAMPLE_RUN
-    example = with_overrides(sc, REBOUND_EXAMPLE_RUN)     # as validation case 5 runs it
+    # the example itself, as studies/validation-rebound-example runs it (validation case 5)
+    example = load_scenario(SCENARIO_DIR.parent / "studies" / "validation-rebound-example"
+                            / "scenario.yaml")
     assert example.integration.dt == 1.0e-3              # REBOUND's dt [orbits]
     assert example.integration.collision_detection == "tree"
+    assert example.sheet.gravity_solver == "tree" and example.softening_length == 0.1
+    assert example.sheet.opening_angle**2 == pytest.approx(0.5, rel=1e-3)
+    assert example.particles.size_distribution == sd and example.particles.density == 400.0
+    assert example.restitution == sc.restitution
+    # 400 kg/m^2 in 200 m x 200 m: dN/dR ~ R^-3 on [1, 4] m has <r^2> = 2 ln 4 / (15/16)
+    # and <r^3> = 2 * 3 / (15/16) [m^2, m^3]
+    r2, r3 = 2.0 * math.log(4.0) / (15 / 16), 6.0 / (15 / 16)
+    mean_mass = 400.0 * 4.0 / 3.0 * math.pi * r3
+    assert example.sheet.optical_depth == pytest.approx(400.0 * math.pi * r2 / mean_mass,
+                                                        abs=5e-5)
+    assert example.sheet.n_particles == round(400.0 * 200.0**2 / mean_mass)
     # REBOUND writes the law as eps = 0.32 (v / 1 cm/s)^-0.234; v_c = 1 cm/s * 0.32^(1/0.234)
     v_c_rebound = 0.01 * 0.32 ** (1.0 / 0.234)
     assert sc.restitution.v_c == pytest.approx(v_c_rebound, rel=5e-3)

@@ -3,8 +3,10 @@
 1978), ``studies/validation-bridges`` (the Bridges law, identical 1 m particles) and
 ``studies/validation-size-distribution`` (the Bridges law with a q = 3 size
 distribution), ``studies/validation-line-mode`` (line-mode detection against the tree
-reference), and ``studies/validation-kinetic-theory`` (the dense-ring kinetic theory
-of Latter & Ogilvie 2008).
+reference), ``studies/validation-kinetic-theory`` (the dense-ring kinetic theory
+of Latter & Ogilvie 2008), ``studies/validation-rebound-example`` (case 5: ringsim's
+resolver against REBOUND's), ``studies/validation-energy-balance`` (case 1's energy
+balance) and ``studies/validation-aggregation`` (where the rings start to aggregate).
 
 The fast tests check what the study files declare against the physics they encode (the
 critical epsilon they bracket, the size bins they read); the slow tests run each quick form
@@ -34,6 +36,9 @@ SIZES = ROOT / "studies" / "validation-size-distribution"
 BRIDGES = ROOT / "studies" / "validation-bridges"
 LINE_MODE = ROOT / "studies" / "validation-line-mode"
 KINETIC = ROOT / "studies" / "validation-kinetic-theory"
+REBOUND_EXAMPLE = ROOT / "studies" / "validation-rebound-example"
+ENERGY = ROOT / "studies" / "validation-energy-balance"
+AGGREGATION = ROOT / "studies" / "validation-aggregation"
 
 
 def _load(folder: Path):
@@ -175,3 +180,78 @@ def test_line_mode_quick_form_agrees_with_the_tree(tmp_path):
                 if e["ratio"] == ["mono-line", "mono-tree"]
                 and e["quantity"] == "velocity_dispersion")
     assert abs(mono["mean"] - 1.0) < 0.03 and mono["stderr"] < 0.01
+
+
+def test_rebound_example_study_changes_only_the_resolver():
+    """Case 5 compares two runs of the same scenario and seed that differ only in who
+    resolves the collisions; every ratio REBOUND / ringsim is referenced to 1."""
+    study = _load(REBOUND_EXAMPLE)
+    assert dict(study.cases) == {"ringsim": {},
+                                 "rebound": {"integration.resolver": "rebound_hardsphere"}}
+    specs = {(spec.case, spec.seed): spec.scenario for spec in study.specs()}
+    for seed in (1, 2, 3):
+        ours, theirs = specs[("ringsim", seed)], specs[("rebound", seed)]
+        assert theirs.integration.resolver == "rebound_hardsphere"
+        assert ours.to_dict() == {**theirs.to_dict(), "integration": {
+            k: v for k, v in theirs.to_dict()["integration"].items() if k != "resolver"}}
+    refs = [r for r in study.references if r.ratio == ("rebound", "ringsim")]
+    assert {r.quantity for r in refs} == set(study.quantities)
+    assert all((r.low, r.high) == (1.0, 1.0) for r in refs)
+
+
+def test_energy_balance_study_keeps_the_budget_and_asks_for_balance():
+    study = _load(ENERGY)
+    assert study.keep == ("energy_budget",)
+    refs = {r.case: r for r in study.references}
+    assert set(refs) == {case for case, _ in study.cases}
+    assert all(r.quantity == "energy_budget.ratio" and (r.low, r.high) == (0.99, 1.01)
+               for r in refs.values())
+
+
+@pytest.mark.slow
+def test_rebound_example_quick_form_agrees(tmp_path):
+    """Six runs of 500 particles, 6 orbits (about 2 CPU-minutes): every ratio REBOUND /
+    ringsim within 3 standard errors of 1, and c within 15 % of 1 by itself."""
+    report = _quick_afresh(REBOUND_EXAMPLE, tmp_path)
+    assert len(report["references"]) == 7
+    assert all(e["agrees"] for e in report["references"]), \
+        [e for e in report["references"] if not e["agrees"]]
+    c = next(e for e in report["references"] if e["quantity"] == "velocity_dispersion")
+    assert abs(c["mean"] - 1.0) < 0.15
+
+
+@pytest.mark.slow
+def test_energy_balance_quick_form_balances(tmp_path):
+    """Six runs of 200 particles, 10 orbits (about 30 CPU-seconds): heating / dissipation
+    within 1 % of 1 widened by 3 standard errors, and within 3 % by itself."""
+    report = _quick_afresh(ENERGY, tmp_path)
+    assert len(report["references"]) == 3
+    assert all(e["agrees"] and abs(e["mean"] - 1.0) < 0.03 for e in report["references"])
+
+
+def test_aggregation_study_sets_each_case_s_hill_parameter():
+    """Each case's orbital radius gives the Hill parameter of two touching particles its
+    name says (to 1e-6: the radii are written to 7 digits); the references bracket the
+    touching pair's Hill-sphere condition r_h > 1 from both sides."""
+    from ringsim.physics.gravity import hill_parameter
+
+    study = _load(AGGREGATION)
+    assert study.keep == ("aggregation",)
+    for spec in study.specs():
+        sc = spec.scenario
+        r_h = float(hill_parameter(1.0, 1.0, sc.particles.density, sc.planet.GM, sc.planet.a))
+        assert r_h == pytest.approx(float(spec.case.removeprefix("rh")), rel=1e-6)
+    refs = {r.case: r for r in study.references}
+    assert refs["rh0.9"].high == 0.1 and refs["rh1.3"].low == 0.1
+    assert {r.quantity for r in refs.values()} == {"aggregation.bound_fraction_max"}
+
+
+@pytest.mark.slow
+def test_aggregation_quick_form_aggregates_only_above_r_h_1(tmp_path):
+    """Ten runs of 200 particles, 1 orbit (about 50 CPU-seconds): nothing bound at
+    r_h = 0.9, aggregates at 1.3, and the bound share rising with r_h from 1.0 on."""
+    report = _quick_afresh(AGGREGATION, tmp_path)
+    assert all(e["agrees"] for e in report["references"])
+    bound = [report["cases"][f"rh{x}"]["kept"]["aggregation"]["bound_fraction_max"]["mean"]
+             for x in ("1.0", "1.1", "1.2", "1.3")]
+    assert bound == sorted(bound) and bound[-1] > 0.3

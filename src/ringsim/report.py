@@ -1,6 +1,6 @@
 """Markdown reports: replace one ``## section`` of a document, leaving the others untouched.
 
-Used by the scripts in ``benchmarks/`` and ``validation/`` that write their measured figures
+Used by the scripts in ``benchmarks/`` that write their measured figures
 into ``docs/*.md``, where several scripts share one file.
 """
 

@@ -49,6 +49,7 @@ from ringsim.config.scenario_keys import (
     DEFAULTS,
     MAX_DT_ORBITS,
     MAX_SEED,
+    RESOLVERS,
     SECTION_KEYS,
     read_friction,
     read_name,
@@ -71,6 +72,7 @@ from ringsim.config.sections import (
 )
 from ringsim.errors import InputError
 from ringsim.physics.gravity_solvers import AUTO_SOFTENING_FRACTION
+from ringsim.physics.restitution import RESTITUTION
 from ringsim.physics.sizes import (
     Mixture,
     MixtureComponent,
@@ -244,7 +246,31 @@ def _read_integration(top: Section, planet: Planet) -> Integration:
         collision_detection=detection,
         until_equilibrium=sec.boolean("until_equilibrium", d["integration.until_equilibrium"]),
         threads=read_threads(sec, d["integration.threads"]),
+        resolver=sec.string("resolver", d["integration.resolver"], choices=RESOLVERS),
     )
+
+
+def _check_resolver(top: Section, integration: Integration, restitution: Restitution,
+                    friction: Friction | None) -> None:
+    """REBOUND's hard-sphere resolver finds its pairs with REBOUND's search (tree), asks
+    its ``coefficient_of_restitution`` for eps of the normal impact speed alone and knows
+    no spins: it takes the tree, a law that does not use the pair, and smooth spheres."""
+    if integration.resolver != "rebound_hardsphere":
+        return
+    allowed = ("rebound_hardsphere with collision_detection: tree, a law of the impact "
+               "speed alone (" + ", ".join(n for n in RESTITUTION.names
+                                           if not RESTITUTION[n].uses_pair)
+               + ") and no friction; or ringsim")
+    if integration.collision_detection != "tree":
+        problem = f"collision_detection: {integration.collision_detection}"
+    elif RESTITUTION[restitution.model].uses_pair:
+        problem = f"the {restitution.model} law depends on the pair's radius and mass"
+    elif friction is not None:
+        problem = "friction (REBOUND's resolver has no spins)"
+    else:
+        return
+    raise top.error("integration.resolver", f"rebound_hardsphere cannot run {problem}",
+                    allowed)
 
 
 def _check_line_dt(sec: Section, dt: float, Omega: float) -> None:
@@ -307,6 +333,7 @@ def _build(data: Any, source: str, source_text: str | None) -> Scenario:
     restitution = read_restitution(top)
     friction = read_friction(top)
     integration = _read_integration(top, planet)
+    _check_resolver(top, integration, restitution, friction)
     check_tiled_stop(top, sheet.initial_state, integration.until_equilibrium)
     output = read_output(top, name)
     check_intervals(top, integration, output)

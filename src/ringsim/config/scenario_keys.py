@@ -66,7 +66,7 @@ SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "sheet": ("optical_depth", "n_particles", "aspect", "gravity", "gravity_solver",
               *SOLVER_KEYS, "initial_dispersion", "initial_toomre_q", "z_box", "initial_state"),
     "integration": ("orbits", "dt", "dt_safety", "collision_detection", "until_equilibrium",
-                    "threads"),
+                    "threads", "resolver"),
     "output": ("path", "timeseries_every", "snapshot_every", "checkpoint_every",
                "log_collisions"),
 }
@@ -79,6 +79,9 @@ SIZE_KINDS: dict[str, tuple[str, ...]] = {
 }
 #: Words of ``integration.collision_detection``.
 COLLISION_DETECTIONS = ("tree", "line")
+#: Words of ``integration.resolver``: ringsim's C resolver, or REBOUND's built-in hard-sphere
+#: resolver (``engine.hardsphere``; tree detection, a law of the impact speed alone).
+RESOLVERS = ("ringsim", "rebound_hardsphere")
 
 #: Defaults of the optional keys (restitution defaults: ringsim.physics.restitution.RESTITUTION).
 DEFAULTS: dict[str, Any] = {
@@ -101,6 +104,7 @@ DEFAULTS: dict[str, Any] = {
     "integration.collision_detection": "tree",
     "integration.until_equilibrium": False,
     "integration.threads": "auto",
+    "integration.resolver": "ringsim",
     "output.timeseries_every": 0.1,
     "output.snapshot_every": 5.0,
     "output.log_collisions": 0,

@@ -259,6 +259,10 @@ class Integration:
     threads : int >= 1 or "auto"
         OpenMP threads of line detection's search; "auto": the cores this process may run
         on (``available_cores``).  Results do not depend on it (same seed, same bits).
+    resolver : str
+        ringsim (ringsim's C resolver) | rebound_hardsphere (REBOUND's built-in hard-sphere
+        resolver, for comparisons; written by `to_dict` only when not the default, so that
+        the identity of every other run is unchanged).
     """
 
     orbits: float
@@ -267,11 +271,15 @@ class Integration:
     collision_detection: str
     until_equilibrium: bool = False
     threads: int | str = "auto"
+    resolver: str = "ringsim"
 
     def to_dict(self) -> dict[str, Any]:
-        return {"orbits": self.orbits, "dt": self.dt, "dt_safety": self.dt_safety,
-                "collision_detection": self.collision_detection,
-                "until_equilibrium": self.until_equilibrium, "threads": self.threads}
+        d = {"orbits": self.orbits, "dt": self.dt, "dt_safety": self.dt_safety,
+             "collision_detection": self.collision_detection,
+             "until_equilibrium": self.until_equilibrium, "threads": self.threads}
+        if self.resolver != "ringsim":
+            d["resolver"] = self.resolver
+        return d
 
     def thread_count(self) -> int:
         """The number of threads ``threads`` asks for (``auto`` resolved now)."""

@@ -30,7 +30,7 @@ from ringsim.config.schema import (
     read_text,
     show,
 )
-from ringsim.config.study_references import Reference, read_references
+from ringsim.config.study_references import Reference, read_keep, read_references
 from ringsim.config.study_scope import (
     VARIANT_KEYS,
     check_form_seeds,
@@ -52,7 +52,7 @@ from ringsim.config.study_start import (
 #: Keys of a study file.
 STUDY_KEYS = ("name", "description", "base", "seeds", "overrides", "cases", "ratios",
               "quantities", "variants", "variant_seeds", "length", "quick", "report",
-              "references")
+              "references", "keep")
 #: Keys of the ``quick`` section besides dotted scenario overrides.
 QUICK_KEYS = ("length", "seeds", "variant_seeds", "variants", "report")
 #: Keys of a ``length`` section.
@@ -158,6 +158,8 @@ class Study:
         The cases that start from another case's run (``config.study_start``).
     case_seeds : dict of case name -> tuple of int
         The seeds of the cases that name their own (``config.study_scope``).
+    keep : tuple of str
+        What the summaries keep beyond the equilibrium (``KEPT_QUANTITIES``).
     """
 
     name: str
@@ -176,6 +178,7 @@ class Study:
     references: tuple[Reference, ...] = ()
     starts: Mapping[str, Start] = field(default_factory=dict)
     case_seeds: Mapping[str, tuple[int, ...]] = field(default_factory=dict)
+    keep: tuple[str, ...] = ()
 
     @property
     def folder(self) -> Path:
@@ -492,6 +495,6 @@ def load_study(path: str | PathLike, quantities: Sequence[str] | None = None) ->
                                 if top.has("quick") else None),
                   references=read_references(top, [case for case, _ in cases], quantities,
                                              ratios, study_quantities or quantities),
-                  starts=starts, case_seeds=case_seeds)
+                  starts=starts, case_seeds=case_seeds, keep=read_keep(top))
     _check_runs(study)
     return study

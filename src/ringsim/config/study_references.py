@@ -44,6 +44,19 @@ BY_SIZE_QUANTITIES = {"by_size.velocity_dispersion": "velocity_dispersion",
 SPIN_QUANTITIES = ("rotational_energy_fraction", "rotational_energy_fraction_random",
                    "mean_spin_z", "rms_spin", "sliding_fraction")
 SPIN_REFERENCES = tuple(f"spin.{key}" for key in SPIN_QUANTITIES)
+#: What a study's summaries keep beyond the equilibrium quantities when its ``keep`` names
+#: it (``study.kept``): name -> the keys of the entry.  ``energy_budget``: the shear heating
+#: against the counted dissipation of the equilibrium window (``analysis.spins``);
+#: ``aggregation``: bound Hill-sphere and contact groups and the overlap guard's events of
+#: the window (``analysis.aggregation``).  A reference names them ``NAME.KEY``.
+KEPT_QUANTITIES = {
+    "energy_budget": ("heating", "normal_dissipation", "tangential_dissipation", "ratio",
+                      "tangential_share"),
+    "aggregation": ("bound_fraction_max", "bound_fraction_last", "contact_fraction_last",
+                    "multi_encounter_share", "overlap_rows", "rows", "max_overlapping_pairs"),
+}
+KEPT_REFERENCES = tuple(f"{name}.{key}" for name, keys in KEPT_QUANTITIES.items()
+                        for key in keys)
 #: Separates the numerator and the denominator of a ratio's reference key.
 RATIO_SEPARATOR = "/"
 
@@ -191,10 +204,28 @@ def read_references(top: Section, cases: Sequence[str], quantities: Sequence[str
         for quantity_key in by_quantity.mapping:
             quantity = str(quantity_key)
             allowed_here = (list(known) if known is not None else []) + \
-                ([] if ratio else [*BY_SIZE_QUANTITIES, *SPIN_REFERENCES])
+                ([] if ratio else [*BY_SIZE_QUANTITIES, *SPIN_REFERENCES, *KEPT_REFERENCES])
             if known is not None and quantity not in allowed_here or \
                     ratio and quantity in BY_SIZE_QUANTITIES:
                 raise _unknown(by_quantity, quantity, "quantity", allowed_here,
-                               "an equilibrium quantity" + ("" if ratio else ", by size or spin"))
+                               "an equilibrium quantity"
+                               + ("" if ratio else ", by size, spin or kept"))
             out += [_one(ref, case, quantity, ratio) for ref in _sections(by_quantity, quantity)]
     return tuple(out)
+
+
+def read_keep(top: Section) -> tuple[str, ...]:
+    """The study's ``keep``: the entries of `KEPT_QUANTITIES` its run summaries keep (empty
+    if absent); ScenarioError naming the key."""
+    if not top.has("keep"):
+        return ()
+    allowed = "a list of distinct names among " + ", ".join(KEPT_QUANTITIES)
+    value = top.get("keep", None, allowed)
+    if not isinstance(value, list) or len(set(map(str, value))) != len(value):
+        raise top.error("keep", f"got {show(value)}", allowed)
+    for name in value:
+        if name not in KEPT_QUANTITIES:
+            close = difflib.get_close_matches(str(name), list(KEPT_QUANTITIES), n=1)
+            raise top.error("keep", f"unknown entry {show(name)}",
+                            (f"did you mean {close[0]!r}? " if close else "") + allowed)
+    return tuple(str(name) for name in value)

@@ -22,7 +22,8 @@ import rebound
 from ringsim.config.scenario import result_dict
 from ringsim.engine import box, invariants, sheet
 from ringsim.engine.binary import simulation_binary, simulation_from_binary
-from ringsim.engine.resolver import ResolverHandle, install_resolver
+from ringsim.engine.hardsphere import HardsphereHandle, install_scenario_resolver
+from ringsim.engine.resolver import ResolverHandle
 from ringsim.errors import InputError
 from ringsim.gravity.registry import install_scenario_gravity
 from ringsim.store import runfile
@@ -49,7 +50,7 @@ class LoopState:
 
 def checkpoint_of(sim: rebound.Simulation, state: LoopState, geometry: box.SheetGeometry,
                   n_particles: int, momentum: invariants.SheetMomentum,
-                  handle: ResolverHandle) -> runfile.Checkpoint:
+                  handle: ResolverHandle | HardsphereHandle) -> runfile.Checkpoint:
     """The checkpoint of a run at ``sim.t``: REBOUND binary, loop counters, box, seed, time
     [s], particle count, momentum reference, resolver statistics and (with friction) spins."""
     saved = state.as_attributes()
@@ -85,7 +86,7 @@ class Resumed:
     ----------
     sim : rebound.Simulation
         The sheet at the checkpoint's time, its gravity solver installed.
-    handle : ResolverHandle
+    handle : ResolverHandle or HardsphereHandle
         The resolver in ``sim``, statistics (and spins) as at the checkpoint.
     geometry : box.SheetGeometry
     state : LoopState
@@ -102,7 +103,7 @@ class Resumed:
     """
 
     sim: rebound.Simulation
-    handle: ResolverHandle
+    handle: ResolverHandle | HardsphereHandle
     geometry: box.SheetGeometry
     state: LoopState
     n_particles: int
@@ -126,8 +127,8 @@ def _counters(path: Path, st: dict, Omega: float) -> tuple[LoopState, box.SheetG
                                    "/checkpoint") from None
 
 
-def _restore_resolver(path: Path, handle: ResolverHandle, checkpoint: runfile.Checkpoint
-                      ) -> None:
+def _restore_resolver(path: Path, handle: ResolverHandle | HardsphereHandle,
+                      checkpoint: runfile.Checkpoint) -> None:
     """The checkpoint's statistics of the open interval and spins into ``handle``;
     RunFileError naming the dataset if they do not fit it."""
     if checkpoint.statistics is not None:
@@ -174,10 +175,7 @@ def resume(path: Path, scenario: Scenario) -> Resumed:
     sim.rand_seed = rand_seed
     if scenario.sheet.gravity:
         install_scenario_gravity(sim, scenario)
-    handle = install_resolver(
-        sim, scenario.restitution_dict(), scenario.friction_dict(),
-        scenario.particles.inertia_factor, log_capacity=scenario.output.log_collisions,
-        collision_detection=scenario.integration.collision_detection)
+    handle = install_scenario_resolver(sim, scenario)
     _restore_resolver(path, handle, checkpoint)
     momentum = (invariants.SheetMomentum.from_attributes(st)
                 or invariants.sheet_momentum(sheet.particle_arrays(sim),

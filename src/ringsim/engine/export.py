@@ -73,10 +73,10 @@ def continuation_scenario(run, index: int):
 def export_rebound(run, index: int, out: str | Path) -> tuple[Path, dict]:
     """Write the REBOUND simulation continuing snapshot ``index``; returns the path and
     what REBOUND's file does not keep (its function pointers and the spins): restitution,
-    collision_detection, friction and inertia_factor, gravity (None, or the keywords of
-    `gravity.registry.install_gravity`), spins (whether the snapshot has spins that a rough
-    continuation needs), with the file's rand_seed, t [s] and orbits of the shear phase;
-    `continuation_code` writes them as Python."""
+    collision_detection, resolver (``integration.resolver``), friction and inertia_factor,
+    gravity (None, or the keywords of `gravity.registry.install_gravity`), spins (whether
+    the snapshot has spins that a rough continuation needs), with the file's rand_seed,
+    t [s] and orbits of the shear phase; `continuation_code` writes them as Python."""
     index = _snapshot_index(run, index)
     scenario = continuation_scenario(run, index)
     sim, *_, spins = new_simulation(scenario)
@@ -93,6 +93,7 @@ def export_rebound(run, index: int, out: str | Path) -> tuple[Path, dict]:
     friction = scenario.friction_dict()
     return out, {"restitution": scenario.restitution_dict(),
                  "collision_detection": scenario.integration.collision_detection,
+                 "resolver": scenario.integration.resolver,
                  "friction": friction, "inertia_factor": scenario.particles.inertia_factor,
                  "gravity": gravity, "spins": spins is not None and friction is not None,
                  "run": str(Path(run.path).resolve()), "snapshot": index,
@@ -104,7 +105,8 @@ def continuation_code(path: str | Path, info: dict) -> str:
     """Python that continues an exported simulation in plain REBOUND as ringsim continues
     the snapshot (``info`` from `export_rebound`): load it, put back ringsim's resolver
     (with the run's friction), its self-gravity solver and the spins, which REBOUND's file
-    does not keep (tests/test_initial_state_export.py runs this code)."""
+    does not keep (tests/test_initial_state_export.py runs this code); a run of REBOUND's
+    hard-sphere resolver (``integration.resolver``) gets that resolver back with its law."""
     resolver = f"{info['restitution']!r}"
     if info["friction"] is not None:
         resolver += (f", friction={info['friction']!r}, "
@@ -113,6 +115,10 @@ def continuation_code(path: str | Path, info: dict) -> str:
              f"sim = rebound.Simulation({str(path)!r})",
              f"handle = ringsim.install_resolver(sim, {resolver}, "
              f"collision_detection={info['collision_detection']!r})"]
+    if info.get("resolver") == "rebound_hardsphere":   # REBOUND's resolver with the law
+        lines[-2:] = ["from ringsim.engine.hardsphere import HardsphereHandle", "",
+                      f"sim = rebound.Simulation({str(path)!r})",
+                      f"handle = HardsphereHandle({info['restitution']!r}).reinstall(sim)"]
     gravity = info["gravity"]
     if gravity is not None:
         keywords = ", ".join(f"{k}={v!r}" for k, v in gravity.items() if k != "solver")

@@ -44,10 +44,12 @@ from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.checkpoint import LoopState, checkpoint_of, resume
 from ringsim.engine.ending import equilibrium_reached, stop_reason
 from ringsim.engine.failure import record_failure
+from ringsim.engine.hardsphere import resolver_attributes
 from ringsim.engine.memory import check_particle_memory
 from ringsim.engine.native import set_detector_threads, use_threaded_sei
 from ringsim.engine.progress import progress_bar
-from ringsim.engine.statistics import histogram_edges, law_rows, with_outer_bins
+from ringsim.engine.resolver import ResolverHandle
+from ringsim.engine.statistics import histogram_edges, resolver_rows
 from ringsim.engine.stop import StopRequest as _StopRequest
 from ringsim.errors import InputError
 from ringsim.gravity.registry import raise_pending, set_gravity_threads
@@ -129,6 +131,7 @@ class Runner:
                                                   self.sim.t)
         attributes = dict(self.geometry.attributes())
         attributes["name"] = self.scenario.name
+        attributes.update(resolver_attributes(self.handle))
         if self.scenario.sheet.gravity:
             self.gravity = gravity.scenario_gravity(self.scenario, built.radii, built.masses,
                                                     self.geometry)
@@ -148,7 +151,7 @@ class Runner:
         ``integration.threads`` threads (no effect on results)."""
         threads = self.scenario.integration.thread_count()
         use_threaded_sei(self.sim, threads)
-        if self.scenario.integration.collision_detection == "line":
+        if isinstance(self.handle, ResolverHandle) and self.handle.collision_detection == "line":
             set_detector_threads(self.handle.address, threads)
         set_gravity_threads(self.sim, threads)
 
@@ -200,13 +203,8 @@ class Runner:
             "max_vertical_amplitude": sheet.max_vertical_amplitude(arrays, self.Omega),
             "z_half_period": 0.5 * g.z_period,
             "overlapping_pairs": box.count_overlaps(arrays, g, self.sim.t),
-            "multi_encounters": int(stats["multi_encounters"]),
-            **law_rows(stats, self.edges, self.scenario.particles.density,
-                       self.handle.log_capacity),
-            "one_minus_epsilon_histogram": with_outer_bins(stats["histograms"]
-                                                           ["one_minus_epsilon"]),
-            "impact_speed_histogram": with_outer_bins(stats["histograms"]["v_n"]),
-            "normal_dissipation": float(stats["normal_dissipation"]),
+            **resolver_rows(stats, self.edges, self.scenario.particles.density,
+                            self.handle.log_capacity),
         }
         if self.handle.friction is not None:     # spins: physics.friction.SPIN_ROW_UNITS
             row.update(friction.spin_row(

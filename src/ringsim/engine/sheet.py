@@ -24,10 +24,11 @@ from ringsim.config.gravity_keys import SOLVER_KEYS
 from ringsim.config.scenario import scenario_from_dict
 from ringsim.engine.blas import one_blas_thread
 from ringsim.engine.box import SheetGeometry, box_geometry, configure_box
+from ringsim.engine.hardsphere import HardsphereHandle, install_scenario_resolver
 from ringsim.engine.initial_file import read_initial_state, refuse_copies_alike
 from ringsim.engine.native import _LIB
 from ringsim.engine.placement import OverlapGrid, wrap_horizontal
-from ringsim.engine.resolver import ResolverHandle, install_resolver
+from ringsim.engine.resolver import ResolverHandle
 from ringsim.engine.timestep import choose_dt
 from ringsim.errors import InputError
 from ringsim.gravity.registry import (
@@ -252,7 +253,7 @@ class BuiltSheet:
     radii: np.ndarray
     masses: np.ndarray
     size_bin_edges: np.ndarray | None
-    resolver: ResolverHandle
+    resolver: ResolverHandle | HardsphereHandle
 
 
 def particle_arrays(sim: rebound.Simulation) -> dict[str, np.ndarray]:
@@ -269,7 +270,8 @@ def particle_arrays(sim: rebound.Simulation) -> dict[str, np.ndarray]:
 
 @one_blas_thread   # the centre of mass at rest: sums of N terms, same bits on any machine
 def build_sheet(scenario) -> BuiltSheet:
-    """Scenario -> ready-to-run shearing sheet with ringsim's native resolver installed.
+    """Scenario -> ready-to-run shearing sheet with its resolver installed (ringsim's
+    native one, or REBOUND's with ``integration.resolver: rebound_hardsphere``).
 
     The scenario's ``seed`` seeds both numpy (radii, positions, velocities) and REBOUND's
     collision shuffle (``sim.rand_seed``): the same scenario gives the same bits.  With
@@ -278,10 +280,7 @@ def build_sheet(scenario) -> BuiltSheet:
     """
     sim, geometry, radii, masses, spins = new_simulation(scenario)
     refuse_copies_alike(scenario)
-    handle = install_resolver(sim, scenario.restitution_dict(), scenario.friction_dict(),
-                              scenario.particles.inertia_factor,
-                              log_capacity=scenario.output.log_collisions,
-                              collision_detection=scenario.integration.collision_detection)
+    handle = install_scenario_resolver(sim, scenario)
     if spins is not None and handle.friction is not None:   # smooth spheres: no spins
         handle.set_spins(spins)
     edges = size_bin_edges(scenario.particles.size_distribution)

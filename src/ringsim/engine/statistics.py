@@ -108,6 +108,22 @@ def law_rows(stats: Mapping[str, Any], edges: np.ndarray | None, density: float,
     return row
 
 
+def resolver_rows(stats: Mapping[str, Any], edges: np.ndarray | None, density: float,
+                  log_capacity: int) -> dict[str, Any]:
+    """The run-file row entries of the C resolver's statistics beyond the count and the
+    means: multiple encounters, the law's range (`law_rows`), the histograms and the
+    normal dissipation [J]; none for statistics without histograms (REBOUND's resolver,
+    ``engine.hardsphere``, which does not tally them)."""
+    if "histograms" not in stats:
+        return {}
+    return {"multi_encounters": int(stats["multi_encounters"]),
+            **law_rows(stats, edges, density, log_capacity),
+            "one_minus_epsilon_histogram": with_outer_bins(stats["histograms"]
+                                                           ["one_minus_epsilon"]),
+            "impact_speed_histogram": with_outer_bins(stats["histograms"]["v_n"]),
+            "normal_dissipation": float(stats["normal_dissipation"])}
+
+
 def checked_log(log_capacity: Any, log_every: Any) -> tuple[int, int]:
     """``log_capacity`` (entries kept, >= 0) and ``log_every`` (stride, >= 1) as ints;
     ValueError naming the argument otherwise."""

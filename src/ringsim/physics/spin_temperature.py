@@ -6,7 +6,7 @@ whose velocities and spins are independent Maxwellians of temperatures T_tr = m<
 T_rot = I<w^2>/3.  Two states follow from the same two-temperature rate equations:
 
 * the homogeneous cooling state of a free gas (:func:`hcs_temperature_ratio`, its pace
-  :func:`hcs_relaxation_collisions`), the reference of ``python -m validation cooling``;
+  :func:`hcs_relaxation_collisions`), checked against ``ringsim.testing.cool_rough_gas``;
 * the collisional balance of rotation in a sheared ring, where the shear heats translation
   only (:func:`collisional_spin_ratio`), the optically thin reference of ring simulations
   with friction.

@@ -169,7 +169,7 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
     _check_options(workers, threads, out_dir)
     study = load_study(study_path, quantities=tuple(QUANTITIES))
     specs = study.specs(quick)
-    runs, ids = collect(specs, threads)
+    runs, ids = collect(specs, threads, study.keep)
     summaries_dir = study.folder / SUMMARIES
     result = StudyResult(out_dir)
     if not report_only:

@@ -9,6 +9,7 @@ from collections.abc import Mapping, Sequence
 from ringsim.analysis.equilibrium import TABLE_ROWS
 from ringsim.study import cassini
 from ringsim.study.by_size import by_size_lines
+from ringsim.study.kept import kept_section
 from ringsim.study.references import references_section
 
 
@@ -231,6 +232,7 @@ def report_markdown(report: Mapping, summaries: Mapping[str, dict], prose: str,
     lines += setup_section(report) + equilibria_section(report)
     lines += references_section(report.get("references", []),
                                 report.get("references_rule", ""))
+    lines += kept_section(report)
     lines += ratios_section(report, figure) + by_size_lines(report.get("by_size", {}))
     lines += cassini_section(report)
     lines += runs_section(report) + cost_section(report, summaries)

@@ -19,7 +19,13 @@ from collections.abc import Mapping, Sequence
 
 from ringsim.analysis import compare
 from ringsim.analysis.equilibrium import TABLE_ROWS
-from ringsim.config.study_references import BY_SIZE_QUANTITIES, SPIN_REFERENCES
+from ringsim.config.study_references import (
+    BY_SIZE_QUANTITIES,
+    KEPT_REFERENCES,
+    SPIN_REFERENCES,
+)
+from ringsim.quantities import QUANTITY
+from ringsim.study.kept import kept_value
 from ringsim.study.spin import SPIN_LABELS, spin_value
 
 #: Standard errors of the case's mean by which a reference's interval is widened.
@@ -86,6 +92,8 @@ def reference_entry(reference, cases: Mapping[str, Mapping], by_size: Mapping | 
         value, extra = _bin_value(reference, by_size)
     elif reference.quantity in SPIN_REFERENCES:
         value = spin_value(cases[reference.case], reference.quantity)
+    elif reference.quantity in KEPT_REFERENCES:
+        value = kept_value(cases[reference.case], reference.quantity)
     else:
         value = cases[reference.case]["equilibrium"][reference.quantity]
     if reference.sigma:
@@ -137,6 +145,9 @@ def _label(e: Mapping) -> tuple[str, float]:
                        f" / {under[0]:.3g}-{under[1]:.3g} m bin"), 1.0
     if e["quantity"] in SPIN_LABELS:
         return SPIN_LABELS[e["quantity"]], 1.0
+    if e["quantity"] in KEPT_REFERENCES:
+        kept = QUANTITY[e["quantity"]]
+        return f"{kept.label} [{kept.shown}]" if kept.shown else kept.label, kept.scale
     label, unit, scale = TABLE_ROWS[e["quantity"]]
     if "ratio" in e:
         return f"{label}, ratio", 1.0

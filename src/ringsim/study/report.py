@@ -23,6 +23,7 @@ from ringsim.analysis.compare import ratio
 from ringsim.analysis.equilibrium import NOT_IN_EQUILIBRIUM, QUANTITIES
 from ringsim.study.by_size import by_size_report
 from ringsim.study.cassini import against_cassini
+from ringsim.study.kept import case_kept
 from ringsim.study.references import reference_entries, rule
 from ringsim.study.spin import case_spin
 
@@ -96,19 +97,21 @@ class Runs:
                 for seed, rid in self.by_key[(case, variant)]]
 
 
-def case_entry(overrides: Mapping, runs: Runs, case: str) -> dict:
+def case_entry(overrides: Mapping, runs: Runs, case: str, keep: Sequence[str] = ()) -> dict:
     """One case: its overrides, runs and seed-averaged equilibrium (every table quantity,
-    with its weighting)."""
+    with its weighting), and the seed means of what its summaries keep (``kept``, only
+    where the study keeps something)."""
     members = runs.of(case)
     equilibrium = {}
     for quantity in QUANTITIES:
         value = seed_mean(members, quantity)
         value["weighting"] = weighting(quantity)
         equilibrium[quantity] = value
-    spin = case_spin(members)
+    spin, kept = case_spin(members), case_kept(members, keep)
     return {"overrides": dict(overrides), "runs": runs.entries(case),
             "in_equilibrium": all(s["in_equilibrium"] for s in members),
-            "equilibrium": equilibrium, **({"spin": spin} if spin is not None else {})}
+            "equilibrium": equilibrium, **({"spin": spin} if spin is not None else {}),
+            **({"kept": kept} if keep else {})}
 
 
 def _case_ratio(runs: Runs, num: str, den: str, quantity: str, variant: str | None = None,
@@ -203,7 +206,8 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
         "variant_seeds": list(mode.variant_seeds) if variants else [],
         "length": dict(mode.length), "quick_overrides": dict(mode.overrides),
         "averaging": AVERAGING, "systematics": SYSTEMATICS, "quantities": quantities,
-        "cases": {case: case_entry(overrides, runs, case) for case, overrides in study.cases},
+        "cases": {case: case_entry(overrides, runs, case, study.keep)
+                  for case, overrides in study.cases},
         "variants": {name: {"overrides": dict(changes),
                             **({"cases": list(mode.variant_cases[name])}
                                if name in mode.variant_cases else {}),

@@ -45,6 +45,7 @@ from ringsim.config.scenario import SPEED_ONLY_KEYS, with_overrides, without_key
 from ringsim.errors import InputError
 from ringsim.study.by_size import size_summary
 from ringsim.study.cassini import lacks_occultation, occultation_summary
+from ringsim.study.kept import kept_summary, lacks_kept
 from ringsim.study.spin import spin_summary
 
 #: Scenario keys left out of a run's identity: its labels and the thread count change no
@@ -99,21 +100,26 @@ def labelled(scenario, rid: str, threads: int | None = None):
 @dataclass
 class StudyRun:
     """One distinct run of a study and the specs (case, variant, seed) that ask for it;
-    ``origin``: the id of the run it starts from (None: it draws its particles)."""
+    ``origin``: the id of the run it starts from (None: it draws its particles); ``keep``:
+    what its summary keeps beyond the equilibrium (``study.kept``)."""
 
     run_id: str
     scenario: Any
     labels: list[str] = field(default_factory=list)
     origin: str | None = None
+    keep: tuple[str, ...] = ()
 
 
-def collect(specs: Sequence[Any], threads: int | None = None
+def collect(specs: Sequence[Any], threads: int | None = None, keep: tuple[str, ...] = ()
             ) -> tuple[dict[str, StudyRun], list[str]]:
     """The distinct runs of ``specs`` (``config.study.RunSpec``) by id, each after the run
     it starts from, and the id of each spec.  A run that a spec only starts from (the
     origin of a variant's run, or of a fixed seed) is among the runs as well."""
     runs: dict[str, StudyRun] = {}
-    return runs, [_collect_one(spec, runs, threads) for spec in specs]
+    ids = [_collect_one(spec, runs, threads) for spec in specs]
+    for run in runs.values():
+        run.keep = keep
+    return runs, ids
 
 
 def _collect_one(spec, runs: dict[str, StudyRun], threads: int | None,
@@ -193,17 +199,18 @@ def summary_state(summary: Mapping | None, scenario) -> str:
 
 
 def make_summary(rid: str, run, eq: Mapping, quantities: Iterable[str],
-                 cost: Mapping) -> dict:
+                 cost: Mapping, keep: Iterable[str] = ()) -> dict:
     """The summary of the finished run ``rid`` (``ringsim.open_run``) from its
     equilibrium (``ringsim.equilibrium``); ``cost``: ``cpu_time_s`` and
     ``run_wall_time_s``.  A self-gravitating run's also holds ``occultation``
-    (``study.cassini.occultation_summary``)."""
+    (``study.cassini.occultation_summary``); ``keep``: the kept entries (``study.kept``)."""
     kept = [*quantities, "equilibrium_from_orbit"]
     sizes, spin = size_summary(eq), spin_summary(eq)
     extra = ({"occultation": occultation_summary(run, eq.get("wake_significant"))}
              if run.scenario.sheet.gravity else {})
     if spin is not None:
         extra["spin"] = spin
+    extra.update(kept_summary(eq, keep))
     return {**extra, "format": SUMMARY_FORMAT, "run": rid,
             "ringsim_version": str(run.attrs.get("ringsim_version", "")),
             "scenario": summary_scenario(run.scenario),
@@ -242,7 +249,9 @@ class RunTask:
         form), added to this session's.
     cost : dict or None
         The ``cost`` of a summary being remade from the finished run file (to add
-        ``occultation``, or with ``resummarise``), kept as it is.
+        ``occultation`` or a kept entry, or with ``resummarise``), kept as it is.
+    keep : tuple of str
+        What the summary keeps beyond the equilibrium (``study.kept``).
     """
 
     run_id: str
@@ -253,6 +262,7 @@ class RunTask:
     labels: tuple[str, ...]
     cpu_before: float | None = None
     cost: dict | None = None
+    keep: tuple[str, ...] = ()
 
 
 def _cpu_of(summary: Mapping | None) -> float | None:
@@ -286,24 +296,27 @@ def plan_run(run: StudyRun, runs_dir: Path, summaries_dir: Path,
                               advice=advice) if path.exists() else "run")
     return RunTask(run.run_id, run_scenario(run, path), str(path.absolute()),
                    str(summary_path.absolute()), action, tuple(run.labels),
-                   _cpu_of(summary) if state == "shorter" and action != "run" else None)
+                   _cpu_of(summary) if state == "shorter" and action != "run" else None,
+                   keep=run.keep)
 
 
 def _completion(run: StudyRun, path: Path, summary_path: Path,
                 summary: Mapping | None, always: bool = False) -> RunTask | None:
     """The task that remakes a run's summary from its finished run file, keeping its
-    ``cost``: when the summary of a gravitating run lacks ``occultation``, or ``always``
-    (None when the run file is not there finished)."""
+    ``cost``: when the summary of a gravitating run lacks ``occultation`` or the summary
+    lacks an entry its study keeps, or ``always`` (None when the run file is not there
+    finished)."""
     from ringsim.store.runfile import open_run
 
-    if summary is None or not path.exists() or not (always or lacks_occultation(summary)):
+    if summary is None or not path.exists() or not (
+            always or lacks_occultation(summary) or lacks_kept(summary, run.keep)):
         return None
     with contextlib.suppress(InputError):
         if (existing_action(path, run.scenario, extend=True, asker="the study") == "reuse"
                 and open_run(path).attrs.get("status") == "finished"):
             return RunTask(run.run_id, run_scenario(run, path), str(path.absolute()),
                            str(summary_path.absolute()), "reuse", tuple(run.labels),
-                           cost=dict(summary.get("cost", {})))
+                           cost=dict(summary.get("cost", {})), keep=run.keep)
     return None
 
 
@@ -361,7 +374,8 @@ def _run_task(task: RunTask) -> TaskResult:
         cost = task.cost if task.cost is not None else {
             "cpu_time_s": cpu,
             "run_wall_time_s": float(wall) if isinstance(wall, (int, float)) else None}
-        write_json(task.summary, make_summary(task.run_id, run, eq, QUANTITIES, cost))
+        write_json(task.summary, make_summary(task.run_id, run, eq, QUANTITIES, cost,
+                                              task.keep))
     elif status == "stopped":
         result.error = "stopped before the end; start the study again to continue it"
     elif status == "failed":

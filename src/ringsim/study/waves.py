@@ -51,4 +51,4 @@ def _remake(run: StudyRun, runs_dir: Path, summaries_dir: Path) -> RunTask:
     path = runs_dir / f"{run.run_id}.h5"
     return RunTask(run.run_id, run_scenario(run, path), str(path.absolute()),
                    str((summaries_dir / f"{run.run_id}.json").absolute()), "run",
-                   tuple(run.labels))
+                   tuple(run.labels), keep=run.keep)

@@ -8,12 +8,15 @@
   their accelerations and their errors against the converged image sum;
 * ``resume``: `assert_resumes_bit_for_bit`, a run in one go against the same run stopped
   and resumed, and `assert_same_datasets`, two run files dataset by dataset;
+* ``cooling``: the homogeneous cooling of a gas of rough spheres in a periodic box
+  (`cool_rough_gas`), the reference of the two-temperature theory of rough spheres;
 * ``synthetic_restitution``: the synthetic restitution measurements of the bundled
   ``ringsim fit`` example (`hatzes_like_csv`, `write_hatzes_like`).
 
 Every name is importable from ``ringsim.testing`` itself.
 """
 
+from ringsim.testing.cooling import CoolingRun, cool_rough_gas
 from ringsim.testing.gravity import (
     DEFAULT_OPENING_ANGLE,
     DEFAULT_SOFTENING_FRACTION,
@@ -35,6 +38,7 @@ from ringsim.testing.twins import (
 )
 
 __all__ = [
+    "CoolingRun",
     "DEFAULT_OPENING_ANGLE",
     "DEFAULT_SOFTENING_FRACTION",
     "OVERLAP_CHUNK",
@@ -42,6 +46,7 @@ __all__ = [
     "accelerations",
     "assert_resumes_bit_for_bit",
     "assert_same_datasets",
+    "cool_rough_gas",
     "count_overlaps_numpy",
     "force_errors",
     "hatzes_like_csv",
