@@ -12,3 +12,18 @@ def test_replace_append_and_create(tmp_path):
     assert doc.read_text() == "# Performance\n\n## A\n\nthree\n\n## B\n\ntwo\n"
     replace_section(doc, "## B", "## B\n\nfour\n", "Performance")
     assert doc.read_text() == "# Performance\n\n## A\n\nthree\n\n## B\n\nfour\n"
+
+
+def test_a_heading_that_starts_another_is_not_that_section(tmp_path):
+    """``## The presets`` does not replace ``## The presets in their equilibrium`` (nor the
+    other way round): a heading is matched as a whole line."""
+    doc = tmp_path / "perf.md"
+    doc.write_text("# Performance\n\n## The presets in their equilibrium: prose\n\nkept\n")
+    replace_section(doc, "## The presets in their equilibrium",
+                    "## The presets in their equilibrium\n\ntable\n", "Performance")
+    text = doc.read_text()
+    assert "kept" in text and text.count("## ") == 2
+    replace_section(doc, "## The presets in their equilibrium",
+                    "## The presets in their equilibrium\n\nnew table\n", "Performance")
+    text = doc.read_text()
+    assert "kept" in text and "new table" in text and "\ntable" not in text

@@ -6,20 +6,23 @@ into ``docs/*.md``, where several scripts share one file.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 
 def replace_section(path: str | Path, heading: str, text: str, title: str) -> None:
     """Put ``text`` (which starts with ``heading``) in place of that section of ``path``.
 
-    The section runs from its heading line to the next ``## `` heading or the end.  A
+    The section runs from its heading line (``heading`` as a whole line: a longer heading
+    that starts with it is another section) to the next ``## `` heading or the end.  A
     missing section is appended; a missing file is created with ``# title``.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     old = path.read_text() if path.exists() else f"# {title}\n"
-    if heading in old:
-        head, rest = old.split(heading, 1)
+    found = re.search(rf"^{re.escape(heading)}$", old, flags=re.MULTILINE)
+    if found is not None:
+        head, rest = old[:found.start()], old[found.start():]
         following = rest.find("\n## ")
         tail = rest[following + 1:] if following >= 0 else ""
         new = head + text.rstrip() + "\n" + ("\n" + tail if tail else "")
