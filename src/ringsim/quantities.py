@@ -271,6 +271,16 @@ _DECLARED = (
     Quantity("aggregation.contact_fraction_last", "fraction of the mass", "share of the mass "
              "in contact groups of >= 10 particles in the window's last snapshot",
              weighting="mass"),
+    # --- heating or cooling, and the velocity ellipsoid (analysis.thermal) ----------------------
+    Quantity("thermal_balance.growth_rate", "1/orbit", "least-squares slope of ln c² against "
+             "the orbit after the start's relaxation (3 orbits), error from batch means",
+             "growth rate of ln c²"),
+    Quantity("thermal_balance.sigma_xy_over_xx", DIMENSIONLESS, "σ_xy / σ_xx over the same "
+             "rows (the shear stress's share)", "σ_xy / σ_xx", weighting="number"),
+    Quantity("thermal_balance.sigma_yy_over_xx", DIMENSIONLESS, "σ_yy / σ_xx over the same "
+             "rows", "σ_yy / σ_xx", weighting="number"),
+    Quantity("thermal_balance.sigma_zz_over_xx", DIMENSIONLESS, "σ_zz / σ_xx over the same "
+             "rows", "σ_zz / σ_xx", weighting="number"),
     # --- the energy budget and the spins (analysis.spins) --------------------------------------
     Quantity("energy_budget.heating", "W/m^2", "shear heating (9/4) Ω² Σ ν_trans + (3/2) Ω "
              "Δplog / (Lx Ly Δt)", "shear heating"),

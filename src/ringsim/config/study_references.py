@@ -54,6 +54,8 @@ KEPT_QUANTITIES = {
                       "tangential_share"),
     "aggregation": ("bound_fraction_max", "bound_fraction_last", "contact_fraction_last",
                     "multi_encounter_share", "overlap_rows", "rows", "max_overlapping_pairs"),
+    "thermal_balance": ("growth_rate", "sigma_xy_over_xx", "sigma_yy_over_xx",
+                        "sigma_zz_over_xx"),
 }
 KEPT_REFERENCES = tuple(f"{name}.{key}" for name, keys in KEPT_QUANTITIES.items()
                         for key in keys)

@@ -12,6 +12,10 @@ per case.
   collision and the overlap guard's rows (``analysis.aggregation.run_aggregation``), each
   as ``{mean, stderr: 0, units}`` (one run's number: the seeds give the scatter), and the
   verdict ``aggregating``.
+* ``thermal_balance``: the growth rate of ln c^2 [1/orbit] and the stress ratios
+  sigma_xy / sigma_xx, sigma_yy / sigma_xx, sigma_zz / sigma_xx over the rows after the
+  start's relaxation, with batch-means errors (``analysis.thermal``): whether a ring
+  heats or cools where it has no stationary window.
 
 A summary keeps only what its study names, so that the summaries of every other study are
 unchanged, byte for byte.  A case's entry in ``report.json`` holds the seed means
@@ -25,6 +29,7 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 
 from ringsim.analysis import budget
+from ringsim.analysis.thermal import thermal_balance
 from ringsim.config.study_references import KEPT_QUANTITIES
 from ringsim.quantities import QUANTITY
 
@@ -35,12 +40,15 @@ def _number(value: object, units: str) -> dict:
     return {"mean": mean, "stderr": 0.0, "units": units}
 
 
-def kept_summary(eq: Mapping, names: Iterable[str]) -> dict:
-    """The kept entries ``names`` of a run's equilibrium (``ringsim.equilibrium``)."""
+def kept_summary(eq: Mapping, names: Iterable[str], run=None) -> dict:
+    """The kept entries ``names`` of a run's equilibrium (``ringsim.equilibrium``); ``run``
+    (``ringsim.open_run``) for those read from its time series (``thermal_balance``)."""
     out: dict = {}
     for name in names:
         keys = KEPT_QUANTITIES[name]
-        if name == "energy_budget":
+        if name == "thermal_balance":
+            out[name] = thermal_balance(run)
+        elif name == "energy_budget":
             b = eq.get("energy_budget")
             out[name] = None if not b else {key: dict(b[key]) for key in keys}
         else:

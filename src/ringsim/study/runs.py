@@ -210,7 +210,7 @@ def make_summary(rid: str, run, eq: Mapping, quantities: Iterable[str],
              if run.scenario.sheet.gravity else {})
     if spin is not None:
         extra["spin"] = spin
-    extra.update(kept_summary(eq, keep))
+    extra.update(kept_summary(eq, keep, run))
     return {**extra, "format": SUMMARY_FORMAT, "run": rid,
             "ringsim_version": str(run.attrs.get("ringsim_version", "")),
             "scenario": summary_scenario(run.scenario),
