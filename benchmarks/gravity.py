@@ -36,9 +36,13 @@ from ringsim.engine.native import set_detector_threads
 from ringsim.gravity import p3m, tree
 from ringsim.physics import p3m_scales as scales
 from ringsim.physics import selfgravity as sg
-from ringsim.report import replace_section
+from ringsim.report import KEPT_MARKER, replace_section
 
 T_SNAPSHOT = 2345.6      # s: a time with a non-trivial shear offset
+
+#: Ends the part of the section "## Self-gravity" this script writes (the subsections
+#: after it are hand-written and kept by --write-doc).
+MARKER = f"{KEPT_MARKER}benchmarks/gravity.py writes; the text below is kept -->"
 
 
 def cpu(fn, repeats):
@@ -187,6 +191,8 @@ freed memory for reuse (`ringsim.engine.native.keep_freed_memory`, glibc's `mall
 without it each step's mesh-sized temporaries are fresh pages that the kernel zeroes
 (`clear_page` 7 % of the step in `perf`), and the step at N = 100000 on two threads takes
 1.74-1.89 us against 1.59-1.66 us with it (interleaved processes, idle machine).
+
+{MARKER}
 """
 
 

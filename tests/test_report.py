@@ -27,3 +27,16 @@ def test_a_heading_that_starts_another_is_not_that_section(tmp_path):
                     "## The presets in their equilibrium\n\nnew table\n", "Performance")
     text = doc.read_text()
     assert "kept" in text and "new table" in text and "\ntable" not in text
+
+
+def test_the_hand_written_rest_after_the_marker_is_kept(tmp_path):
+    """A section whose script-written part ends with a `KEPT_MARKER` line keeps its
+    hand-written rest (its ### subsections) when the script writes it again."""
+    from ringsim.report import KEPT_MARKER
+
+    doc = tmp_path / "perf.md"
+    mark = f"{KEPT_MARKER}x.py writes; the text below is kept -->"
+    doc.write_text(f"# P\n\n## G\n\nold table\n\n{mark}\n\n### Sub\n\nprose\n\n## H\n\nh\n")
+    replace_section(doc, "## G", f"## G\n\nnew table\n\n{mark}\n", "P")
+    assert doc.read_text() == (f"# P\n\n## G\n\nnew table\n\n{mark}\n\n### Sub\n\nprose\n\n"
+                               "## H\n\nh\n")
