@@ -412,18 +412,10 @@ def _baseline_table(results: list[dict]) -> str:
 def write_doc(results: list[dict], command: str, note: str = "", when: str = "") -> None:
     """Replace (or append) the "Scale" section of docs/performance.md; draw the figure.
     ``when``: the time of the measurement (a redraw keeps the stored one)."""
+    from ringsim.report import replace_section  # ends the part at MARKER, keeps the rest
+
     when = when or datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    text = DOC.read_text()
-    new = section(results, command, note, when)
-    start = text.find(HEADING + "\n")
-    if start < 0:
-        text = text.rstrip("\n") + "\n\n" + new
-    elif (marker := text.find(MARKER, start)) >= 0:
-        text = text[:start] + new + text[marker + len(MARKER) + 1:]
-    else:
-        end = text.find("\n## ", start + len(HEADING))
-        text = text[:start] + new + ("" if end < 0 else text[end:])
-    DOC.write_text(text)
+    replace_section(DOC, HEADING, section(results, command, note, when), "Performance")
     RESULTS.write_text(json.dumps({"command": command, "note": note, "when": when,
                                    "results": results},
                                   indent=1))

@@ -51,8 +51,8 @@ def near_pairs(x, y, z, Lx, Ly, shift, reach):
     """
     x, y, z = (np.asarray(v, dtype=float) for v in (x, y, z))
     index, px, py, pz = radial_images(x, y, z, Lx, shift, reach)
-    tree = cKDTree(np.column_stack([px - px.min(), np.mod(py + 0.5 * Ly, Ly),
-                                    pz - pz.min()]), boxsize=[1e300, Ly, 1e300])
+    tree = cKDTree(_tree_points(px, py, pz, Ly, px.min(), pz.min()),
+                   boxsize=[1e300, Ly, 1e300])
     pairs = tree.query_pairs(reach, output_type="ndarray")
     if pairs.size == 0:
         return np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3))

@@ -35,7 +35,6 @@ from ringsim.config.study_scope import (
     VARIANT_KEYS,
     check_form_seeds,
     form_seeds,
-    read_case_seeds,
     read_seeds,
     read_variant_cases,
 )
@@ -311,7 +310,8 @@ def _cases(top: Section, base: Scenario, length: dict, seeds: Sequence[int]
         if value is None:
             raise cases.error(name, "no value given", "a mapping of overrides ({} for none)")
         if isinstance(value, Mapping) and "seeds" in value:
-            case_seeds[name] = read_case_seeds(cases, name, value["seeds"], seeds)
+            case_seeds[name] = read_seeds(Section(cases.file, cases.key(name), value),
+                                          "seeds", within=seeds)
             value = {k: v for k, v in value.items() if k != "seeds"}
         if isinstance(value, Mapping) and "start" in value:
             starts[name] = read_start(cases, name, value["start"], names)

@@ -39,21 +39,6 @@ def read_seeds(sec: Section, key: str, within: Sequence[int] | None = None) -> t
     return tuple(value)
 
 
-def read_case_seeds(cases: Section, name: str, value: object,
-                    seeds: Sequence[int]) -> tuple[int, ...]:
-    """The case key ``seeds``: distinct seeds among the study's ``seeds``."""
-    allowed = f"a non-empty list of distinct seeds among the study's seeds {list(seeds)}"
-    key = f"{name}.seeds"
-    if not isinstance(value, list) or not value:
-        raise cases.error(key, f"got {show(value)}", allowed)
-    for item in value:
-        if isinstance(item, bool) or not isinstance(item, int) or item not in seeds:
-            raise cases.error(key, f"{show(item)} is not allowed", allowed)
-    if len(set(value)) != len(value):
-        raise cases.error(key, f"{value} repeats a seed", allowed)
-    return tuple(value)
-
-
 def read_variant_cases(variants: Section, name: str, value: object,
                        ratio_cases: Sequence[str]) -> tuple[str, ...]:
     """The variant key ``cases``: distinct cases of the ratios."""

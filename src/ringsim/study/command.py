@@ -20,7 +20,7 @@ from ringsim.batch import ACTIONS, dask_client, run_dask, run_local
 from ringsim.config.scenario import check_threads
 from ringsim.config.study import load_study
 from ringsim.errors import InputError
-from ringsim.study.partial import partial_output_dir, reduced, summarised
+from ringsim.study.partial import partial_output_dir, reduced
 from ringsim.study.runs import (
     TaskResult,
     collect,
@@ -68,15 +68,18 @@ def _check_options(workers: int | None, threads: int | None, out: Path) -> None:
         raise InputError(str(out), "--out", "exists and is not a directory")
 
 
-def read_summaries(runs: dict, folder: Path) -> dict[str, dict]:
+def read_summaries(runs: dict, folder: Path, missing_ok: bool = False) -> dict[str, dict]:
     """The summary of every run; InputError naming the first that is missing or is not of
-    the run asked (the report needs them all)."""
+    the run asked (the report needs them all), or with ``missing_ok`` only the runs that
+    have one of their own (a partial report)."""
     out = {}
     for rid, run in runs.items():
         path = folder / f"{rid}.json"
         summary = read_summary(path)
         state = summary_state(summary, run.scenario)
         if summary is None or state != "same":
+            if missing_ok:
+                continue
             why = {"missing": "no summary", "shorter": "the summary is of a shorter run",
                    "longer": "the summary is of a longer run",
                    "other": "the summary is of another scenario"}[state]
@@ -197,7 +200,7 @@ def _reported(study, quick: bool, specs, ids, runs: dict, summaries_dir: Path,
     note of what it leaves out (``study.partial``)."""
     if not partial:
         return study, specs, ids, read_summaries(runs, summaries_dir), None
-    summaries = summarised(runs, summaries_dir)
+    summaries = read_summaries(runs, summaries_dir, missing_ok=True)
     study, specs, ids, note = reduced(study, quick, specs, ids, summaries)
     if not study.cases:
         raise InputError(str(summaries_dir), "summary", "no case has a summary of every run "

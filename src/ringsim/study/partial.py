@@ -15,23 +15,13 @@ import dataclasses
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from ringsim.study.runs import collect, read_summary, summary_state
+from ringsim.study.runs import collect
 
 
 def partial_output_dir(study_path, quick: bool = False) -> Path:
     """``<stem>.partial.report/`` (``<stem>.quick.partial.report/`` with ``--quick``)."""
     path = Path(study_path)
     return path.parent / f"{path.stem}{'.quick' if quick else ''}.partial.report"
-
-
-def summarised(runs: Mapping, folder: Path) -> dict[str, dict]:
-    """The summaries of the runs (by id) that have one of their own scenario and length."""
-    out = {}
-    for rid, run in runs.items():
-        summary = read_summary(folder / f"{rid}.json")
-        if summary is not None and summary_state(summary, run.scenario) == "same":
-            out[rid] = summary
-    return out
 
 
 def reduced(study, quick: bool, specs: Sequence, ids: Sequence[str],
@@ -68,7 +58,8 @@ def reduced(study, quick: bool, specs: Sequence, ids: Sequence[str],
         case_seeds={c: tuple(seeds[c]) for c in names if seeds[c] != asked[c]
                     or c in study.case_seeds},
         **({"quick_mode": cut_mode} if quick else {"full": cut_mode}))
-    kept = list(zip(cut.specs(quick), collect(cut.specs(quick))[1], strict=True))
+    cut_specs = cut.specs(quick)
+    kept = list(zip(cut_specs, collect(cut_specs)[1], strict=True))
     missing = [name for name, _ in study.cases if name not in names]
     fewer = [f"{name} (seeds {seeds[name]} of {asked[name]})" for name in names
              if seeds[name] != asked[name]]
