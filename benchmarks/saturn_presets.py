@@ -18,10 +18,14 @@ With ``--states RUN.h5 ...`` it measures instead the last snapshot of each run f
 preset's run in its equilibrium, e.g. a run of studies/kappa-saturn), as issue 39's target
 asks: the whole step on 1 and on 2 threads (wall time, alternating rounds on the same
 sheet), with and without self-gravity; ``--write-doc`` then replaces the section "## The
-Saturn presets in their equilibrium".
+Saturn presets in their equilibrium".  ``--mesh-intervals K ...`` (state mode) measures the
+gravitating step once per P3M mesh interval k (``sheet.p3m_mesh_interval``; 1: the mesh
+every step, the presets' default); ``--steps`` should then be a multiple of every k, so that
+each round holds whole intervals.
 
 Usage: python benchmarks/saturn_presets.py [--presets a b c] [--steps 5] [--repeats 3]
-                                           [--states RUN.h5 ...] [--write-doc]
+                                           [--states RUN.h5 ...] [--mesh-intervals 1 5]
+                                           [--write-doc]
 """
 
 from __future__ import annotations
@@ -98,11 +102,12 @@ def table(presets: list[str], steps: int, repeats: int) -> str:
     return head + "\n".join(rows) + "\n"
 
 
-def state_cost(path: str, gravity: bool, steps: int, repeats: int
+def state_cost(path: str, gravity: bool, steps: int, repeats: int, interval: int = 1
                ) -> tuple[dict[int, float], int, float]:
     """Wall seconds per particle-step on 1 and 2 threads (medians of ``repeats``
-    alternating rounds) of the sheet of the last snapshot of the run file at ``path``, its
-    particle count and the snapshot's time [orbits]."""
+    alternating rounds) of the sheet of the last snapshot of the run file at ``path``, with
+    the P3M mesh every ``interval`` steps, its particle count and the snapshot's time
+    [orbits]."""
     with h5py.File(path, "r") as f:
         sc = scenario_from_text(f.attrs["scenario_yaml"], source=path)
         orbits = float(f.attrs["Omega"]) * float(list(f["snapshots"].values())[-1].attrs["t"]) \
@@ -110,9 +115,11 @@ def state_cost(path: str, gravity: bool, steps: int, repeats: int
     sc = started(sc, os.path.abspath(path), Start(case="", snapshot=-1))
     if not gravity:
         sc = without_gravity(sc)
+    elif interval != 1:
+        sc = with_overrides(sc, {"sheet.p3m_mesh_interval": interval})
     built = build_sheet(sc)
     sim = built.sim
-    sim.steps(2)
+    sim.steps(2 * interval)
     times: dict[int, list[float]] = {1: [], 2: []}
     for _ in range(repeats):
         for threads, found in times.items():
@@ -125,29 +132,32 @@ def state_cost(path: str, gravity: bool, steps: int, repeats: int
     return {k: statistics.median(v) for k, v in times.items()}, sim.N, orbits
 
 
-def state_table(paths: list[str], steps: int, repeats: int) -> str:
+def state_table(paths: list[str], steps: int, repeats: int, intervals: list[int]) -> str:
     rows = []
     for path in paths:
         base, n, orbits = state_cost(path, False, steps, repeats)
-        grav, _, _ = state_cost(path, True, steps, repeats)
-        rows.append(f"| `{os.path.basename(path)}` | {orbits:.1f} | {n} | "
-                    f"{base[1] * 1e9:.0f} | {base[2] * 1e9:.0f} | {base[2] / base[1]:.2f} | "
-                    f"{grav[1] * 1e9:.0f} | {grav[2] * 1e9:.0f} | {grav[2] / grav[1]:.2f} | "
-                    f"{grav[1] / base[1]:.2f} | {grav[2] * n * STEPS_PER_ORBIT / 60:.1f} |")
+        for k in intervals:
+            grav, _, _ = state_cost(path, True, steps, repeats, k)
+            rows.append(f"| `{os.path.basename(path)}` | {orbits:.1f} | {n} | {k} | "
+                        f"{base[1] * 1e9:.0f} | {base[2] * 1e9:.0f} | {base[2] / base[1]:.2f} | "
+                        f"{grav[1] * 1e9:.0f} | {grav[2] * 1e9:.0f} | {grav[2] / grav[1]:.2f} | "
+                        f"{grav[1] / base[1]:.2f} | {grav[2] * n * STEPS_PER_ORBIT / 60:.1f} |")
     when = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     load = os.getloadavg()[0]
     head = (f"## The Saturn presets in their equilibrium\n\n`python benchmarks/saturn_presets.py "
-            f"--states RUN.h5 ... --steps {steps} --repeats {repeats} --write-doc`, {when}, "
+            f"--states RUN.h5 ... --steps {steps} --repeats {repeats} --mesh-intervals "
+            f"{' '.join(map(str, intervals))} --write-doc`, {when}, "
             f"{platform.machine()} {platform.system()}, wall time, median of {repeats} "
             f"rounds alternating 1 and 2 threads on the same sheet (the machine shared: load "
             f"average {load:.1f} at the end).  Each run file's last snapshot, the sheet as "
             "its run left it (the particles, P3M with its field-only particles, friction, the "
-            "law), stepped without self-gravity (the baseline) and as it runs.  Issue 39's "
-            "target: at most 1 us per particle-step with gravity on both cores.\n\n"
-            "| run file | orbit | particles | no gravity, 1 thread [ns per particle-step] "
+            "law), stepped without self-gravity (the baseline) and as it runs, with the P3M "
+            "mesh every k steps (`sheet.p3m_mesh_interval`; the preset's default 1).  Issue "
+            "39's target: at most 1 us per particle-step with gravity on both cores.\n\n"
+            "| run file | orbit | particles | mesh every k steps | no gravity, 1 thread [ns per particle-step] "
             "| 2 threads [ns] | 2 / 1 | with gravity, 1 thread [ns] | 2 threads [ns] | 2 / 1 "
             "| gravity / no gravity (1 thread) | wall minutes per orbit (2 threads) |\n"
-            "|---|---|---|---|---|---|---|---|---|---|---|\n")
+            "|---|---|---|---|---|---|---|---|---|---|---|---|\n")
     return head + "\n".join(rows) + "\n"
 
 
@@ -158,10 +168,12 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--states", nargs="+", default=None,
                         help="run files: measure their last snapshots on 1 and 2 threads")
+    parser.add_argument("--mesh-intervals", nargs="+", type=int, default=[1],
+                        help="state mode: P3M mesh intervals k to measure (odd)")
     parser.add_argument("--write-doc", action="store_true")
     args = parser.parse_args()
     if args.states:
-        text = state_table(args.states, args.steps, args.repeats)
+        text = state_table(args.states, args.steps, args.repeats, args.mesh_intervals)
         section = "## The Saturn presets in their equilibrium"
     else:
         text = table(args.presets, args.steps, args.repeats)
