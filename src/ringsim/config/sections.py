@@ -133,6 +133,9 @@ class SheetConfig:
     p3m_mesh_interval : float [steps] or None
         Steps per evaluation of P3M's mesh (a whole number; 1: every step); None without
         P3M.
+    p3m_core_min_radius : float [m] or None
+        With a tail fraction, the particles whose heights set P3M's mesh core are those of
+        at least this radius (0: all); None without P3M.
     z_box : float [mean radii] or "auto"
         Initial vertical height of the box.
     initial_state : InitialStateFile or None
@@ -154,6 +157,7 @@ class SheetConfig:
     p3m_pair_min_radius: float | None = None
     p3m_tail_fraction: float | None = None
     p3m_mesh_interval: float | None = None
+    p3m_core_min_radius: float | None = None
 
     def gravity_dict(self) -> dict[str, Any]:
         """The self-gravity keys as a scenario gives them ({} without gravity; no softening

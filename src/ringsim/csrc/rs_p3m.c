@@ -195,6 +195,20 @@ void rs_p3m_heights(const struct reb_simulation* const r, double* out){
     }
 }
 
+/* The heights [m] of the particles of radius at least rmin [m] into out, in the order of
+ * REBOUND's particles; returns their count (the particles whose heights set the mesh's
+ * core with `sheet.p3m_core_min_radius`). */
+int rs_p3m_heights_from(const struct reb_simulation* const r, double rmin, double* out){
+    const size_t n = r->N - r->N_var;
+    int count = 0;
+    for (size_t k = 0; k < n; k++){
+        if (r->particles[k].r >= rmin){
+            out[count++] = r->particles[k].z;
+        }
+    }
+    return count;
+}
+
 /* The cloud-in-cell stencil of one particle: its two node columns in x and y (periodic),
  * the lower of its two layers, and the weights of both nodes along each axis.  Assignment
  * and interpolation use the same stencil, so the mesh force is the exact adjoint of the

@@ -378,6 +378,8 @@ def _declare_p3m(lib: ctypes.CDLL) -> None:
                             ("rs_p3m_prepare_core", [sim_p, p3m_p, ctypes.c_double,
                                                      ctypes.c_double], ctypes.c_int),
                             ("rs_p3m_heights", [sim_p, double_p], None),
+                            ("rs_p3m_heights_from", [sim_p, ctypes.c_double, double_p],
+                             ctypes.c_int),
                             ("rs_p3m_assign", [sim_p, p3m_p, double_p], None),
                             ("rs_p3m_interpolate", [sim_p, p3m_p, double_p, double_p, double_p],
                              None),

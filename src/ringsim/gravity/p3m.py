@@ -83,7 +83,7 @@ def p3m_parameters(Lx, Ly, split, cutoff=None, cell=None, dz=None) -> dict:
 
 
 def describe(Lx, Ly, softening, split, auto=False, pair_min_radius=0.0,
-             tail_fraction=0.0, mesh_interval=1) -> dict:
+             tail_fraction=0.0, mesh_interval=1, core_min_radius=0.0) -> dict:
     """Root attributes of a run file for the P3M solver at its defaults, each with
     ``units_<name>`` beside it; with ``auto`` the split, cutoff, mesh and layers given are
     those of the first rung, and ``p3m_split_auto`` says that the split follows the height
@@ -99,6 +99,9 @@ def describe(Lx, Ly, softening, split, auto=False, pair_min_radius=0.0,
         Fraction of the particles the mesh may leave beyond its layers (0: none).
     mesh_interval : int [steps]
         Steps per mesh evaluation (1: every step; recorded only when above 1).
+    core_min_radius : float [m]
+        The particles whose heights set the mesh's core are those of at least this radius
+        (0: all; recorded only when above 0).
     """
     p = p3m_parameters(Lx, Ly, split)
     largest = p3m_auto_split(split, math.inf, 1, Lx, Ly) if auto else p["split"]
@@ -106,6 +109,11 @@ def describe(Lx, Ly, softening, split, auto=False, pair_min_radius=0.0,
         "p3m_mesh_interval": int(mesh_interval), "units_p3m_mesh_interval":
             "steps (the mesh force acts as an impulse of this many steps on the middle "
             "step of every group of this many; 1: every step)"}
+    if core_min_radius > 0.0:
+        interval.update({"p3m_core_min_radius": float(core_min_radius),
+                         "units_p3m_core_min_radius":
+                             "m (the heights of the particles of at least this radius set "
+                             "the mesh's core; 0: every particle's)"})
     return {"gravity_solver": P3M.name, **interval,
             "p3m_split": p["split"], "units_p3m_split": "m",
             "p3m_split_auto": int(bool(auto)),
@@ -181,13 +189,19 @@ class P3MSolver:
         out on the others; the pair sum and the mean vertical field act every step.  The
         schedule is a function of t and dt alone, so a resumed run takes the same steps.
         :meth:`apply` called directly gives the whole force.  1: the mesh every step.
+    core_min_radius : float [m]
+        ``sheet.p3m_core_min_radius``: with ``tail_fraction``, the core's order statistics
+        and robust scale are those of the heights of the particles of at least this radius
+        (all particles if there are none); the layers never reach beyond the particles.
+        0: every particle's height.
     """
 
     def __init__(self, Lx: float, Ly: float, softening: float, split: float,
                  cutoff: float | None = None, cell: float | None = None,
                  dz: float | None = None, G: float = G_SI, workers: int = 1,
                  auto: bool = False, pair_min_radius: float = 0.0,
-                 tail_fraction: float = 0.0, mesh_interval: int = 1) -> None:
+                 tail_fraction: float = 0.0, mesh_interval: int = 1,
+                 core_min_radius: float = 0.0) -> None:
         if not HAS_P3M:
             raise ImportError("ringsim._resolver was built without rs_p3m.c; rebuild the "
                               "extension (`python setup.py build_ext --inplace`)")
@@ -201,6 +215,9 @@ class P3MSolver:
         if not 0.0 <= tail_fraction < 1.0:
             raise ValueError(f"P3M tail fraction {tail_fraction} must be in [0, 1)")
         self.tail_fraction = float(tail_fraction)
+        if not core_min_radius >= 0.0:
+            raise ValueError(f"P3M core radius {core_min_radius} m must be at least 0")
+        self.core_min_radius = float(core_min_radius)
         if (mesh_interval != int(mesh_interval) or int(mesh_interval) % 2 == 0
                 or not 1 <= mesh_interval <= 99):
             raise ValueError(f"P3M mesh interval {mesh_interval} must be an odd whole number "
@@ -269,8 +286,13 @@ class P3MSolver:
         if self.tail_fraction > 0.0 and count.value > 0:
             heights = np.empty(count.value)
             _LIB.rs_p3m_heights(sim_address, heights)
-            zlo, zhi = core_heights(heights, self.tail_fraction)
-            q1, q3 = core_heights(heights, 0.5)      # the quartiles: a robust scale
+            core = heights
+            if self.core_min_radius > 0.0:
+                core = np.empty(count.value)
+                large = _LIB.rs_p3m_heights_from(sim_address, self.core_min_radius, core)
+                core = core[:large] if large > 0 else heights
+            zlo, zhi = core_heights(core, self.tail_fraction)
+            q1, q3 = core_heights(core, 0.5)      # the quartiles: a robust scale
             margin = max(P3M_TAIL_MARGIN_SPLITS * p.split,
                          P3M_TAIL_MARGIN_SCALES * (q3 - q1) / GAUSSIAN_IQR)
             nz = _LIB.rs_p3m_prepare_core(sim_address, ctypes.byref(p),
@@ -364,36 +386,39 @@ def set_threads(sim: rebound.Simulation, threads: int) -> None:
 
 def install(sim: rebound.Simulation, *, p3m_setting: tuple[float, bool],
             p3m_pair_min_radius: float = 0.0, p3m_tail_fraction: float = 0.0,
-            p3m_mesh_interval: int = 1) -> None:
+            p3m_mesh_interval: int = 1, p3m_core_min_radius: float = 0.0) -> None:
     """A `P3MSolver` of ``sim``'s box and softening with ``p3m_setting`` = (split scale
     [m], auto: the split follows the height span from there up), the field-only radius
-    ``p3m_pair_min_radius`` [m], the tail fraction ``p3m_tail_fraction`` [-] and the steps
-    per mesh evaluation ``p3m_mesh_interval``, the other
-    parameters at their defaults (``physics.p3m_scales.P3M_*``)."""
+    ``p3m_pair_min_radius`` [m], the tail fraction ``p3m_tail_fraction`` [-], the steps
+    per mesh evaluation ``p3m_mesh_interval`` and the core's radius ``p3m_core_min_radius``
+    [m], the other parameters at their defaults (``physics.p3m_scales.P3M_*``)."""
     split, auto = p3m_setting
     Lx = sim.root_size * sim.N_root_x
     Ly = sim.root_size * sim.N_root_y
     install_p3m(sim, P3MSolver(Lx, Ly, sim.softening, split, G=G_SI, auto=auto,
                                pair_min_radius=p3m_pair_min_radius,
                                tail_fraction=p3m_tail_fraction,
-                               mesh_interval=p3m_mesh_interval))
+                               mesh_interval=p3m_mesh_interval,
+                               core_min_radius=p3m_core_min_radius))
 
 
-def _interval(mesh_interval: int) -> dict:
-    """``p3m_mesh_interval`` as a keyword where it is not 1 (the default leaves the
-    keywords of earlier runs as they were)."""
-    return {} if mesh_interval == 1 else {"p3m_mesh_interval": int(mesh_interval)}
+def _interval(mesh_interval: int, core_min_radius: float = 0.0) -> dict:
+    """``p3m_mesh_interval`` where it is not 1 and ``p3m_core_min_radius`` where it is not
+    0, as keywords (the defaults leave the keywords of earlier runs as they were)."""
+    return ({} if mesh_interval == 1 else {"p3m_mesh_interval": int(mesh_interval)}) | (
+        {} if core_min_radius == 0.0 else {"p3m_core_min_radius": float(core_min_radius)})
 
 
 def arguments(scenario) -> dict:
     """``p3m_setting`` (split [m], auto), ``p3m_pair_min_radius`` [m],
-    ``p3m_tail_fraction`` [-] and, where not 1, ``p3m_mesh_interval`` [steps] of a
-    scenario's P3M solver."""
+    ``p3m_tail_fraction`` [-] and, where not at their defaults, ``p3m_mesh_interval``
+    [steps] and ``p3m_core_min_radius`` [m] of a scenario's P3M solver."""
     tail = scenario.sheet.p3m_tail_fraction
     return {"p3m_setting": scenario.p3m_setting,
             "p3m_pair_min_radius": float(scenario.sheet.p3m_pair_min_radius or 0.0),
             "p3m_tail_fraction": 0.0 if tail is None else float(tail),
-            **_interval(int(scenario.sheet.p3m_mesh_interval or 1))}
+            **_interval(int(scenario.sheet.p3m_mesh_interval or 1),
+                        float(scenario.sheet.p3m_core_min_radius or 0.0))}
 
 
 def recognise(sim: rebound.Simulation) -> dict | None:
@@ -402,7 +427,8 @@ def recognise(sim: rebound.Simulation) -> dict | None:
     return None if solver is None else {"p3m_setting": solver.setting,
                                         "p3m_pair_min_radius": solver.pair_min_radius,
                                         "p3m_tail_fraction": solver.tail_fraction,
-                                        **_interval(solver.mesh_interval)}
+                                        **_interval(solver.mesh_interval,
+                                                    solver.core_min_radius)}
 
 
 def attributes(keywords: dict, geometry) -> dict:
@@ -411,7 +437,8 @@ def attributes(keywords: dict, geometry) -> dict:
     return describe(geometry.Lx, geometry.Ly, keywords["softening"], split, auto,
                     pair_min_radius=keywords.get("p3m_pair_min_radius", 0.0),
                     tail_fraction=keywords.get("p3m_tail_fraction", 0.0),
-                    mesh_interval=keywords.get("p3m_mesh_interval", 1))
+                    mesh_interval=keywords.get("p3m_mesh_interval", 1),
+                    core_min_radius=keywords.get("p3m_core_min_radius", 0.0))
 
 
 SOLVER = GravitySolver(P3M, install=install, arguments=arguments, recognise=recognise,

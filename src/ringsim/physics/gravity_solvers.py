@@ -87,6 +87,18 @@ P3M_MESH_INTERVAL = Parameter(
            "multiple time scale molecular dynamics); docs/gravity.md, section \"The mesh "
            "every k steps\" (its error against k = 1; benchmarks/p3m_thick.py)")
 
+P3M_CORE_MIN_RADIUS = Parameter(
+    "p3m_core_min_radius", "m", default=0.0, lower=0.0, lower_closed=True,
+    implicit_at_default=True, example=0.25,
+    meaning="with p3m_tail_fraction: the heights of the particles of at least this radius "
+            "set the core the mesh's layers span (their order statistics and robust "
+            "sigma), so that a ring whose small particles (field-only, little of the mass) "
+            "stand higher than its large ones keeps a mesh as tall as the layer that holds "
+            "its mass; the particles beyond are on the mesh as the tail is; 0: every "
+            "particle's height counts",
+    source="docs/gravity.md, section \"The core of the pair-summed particles\" (the force "
+           "error against the direct sum in the A-ring preset's equilibrium)")
+
 
 @dataclass(frozen=True)
 class SolverDeclaration:
@@ -161,7 +173,8 @@ TREE = SolverDeclaration(
     implied_by=("opening_angle",))
 P3M = SolverDeclaration(
     "p3m", "ringsim's shear-periodic P3M: a layered mesh with scipy.fft plus a pair sum in C",
-    (SOFTENING, P3M_SPLIT, P3M_PAIR_MIN_RADIUS, P3M_TAIL, P3M_MESH_INTERVAL),
+    (SOFTENING, P3M_SPLIT, P3M_PAIR_MIN_RADIUS, P3M_TAIL, P3M_MESH_INTERVAL,
+     P3M_CORE_MIN_RADIUS),
     check_box=_p3m_box)
 SLAB = SolverDeclaration(
     "slab", "the vertical field of the horizontally averaged layer only (hot rings)",
