@@ -167,3 +167,35 @@ def test_partial_report_keeps_a_case_with_some_of_its_seeds(scoped, tmp_path):
                  and e["quantity"] == "velocity_dispersion")
     assert ratio["mean"] == pytest.approx(c01 / c0, rel=1e-12)
     assert list(part["variants"]) == ["ref_600g"]     # its seed-1 runs are all there
+
+
+LENGTHS = SCOPED.replace("  k02: {restitution.kappa: 0.2, seeds: [1]}\n",
+                         "  k02: {restitution.kappa: 0.2, seeds: [1],\n"
+                         "        length: {until_equilibrium: true, max_orbits: 0.9}}\n")
+
+
+def test_a_case_length_replaces_the_studys_in_the_full_form_only(tmp_path):
+    """A case's ``length`` sets its runs' length (its variants' runs too) in the full form;
+    the other cases keep the study's; the quick form's length applies to every case; the
+    full report's set-up names it."""
+    study = load_study(write_study(tmp_path, LENGTHS))
+    full = {spec.label: spec.scenario.integration for spec in study.specs(False)}
+    assert (full["k02 seed 1"].orbits, full["k02 seed 1"].until_equilibrium) == (0.9, True)
+    assert (full["k02 [ref_600g] seed 1"].orbits,
+            full["k02 [ref_600g] seed 1"].until_equilibrium) == (0.9, True)
+    for label in ("k0 seed 1", "k01 seed 2", "k01 [ref_600g] seed 1"):
+        assert (full[label].orbits, full[label].until_equilibrium) == (0.6, False)
+    quick = {spec.label: spec.scenario.integration for spec in study.specs(True)}
+    assert {(q.orbits, q.until_equilibrium) for q in quick.values()} == {(0.3, False)}
+    # the same runs as before for the cases without a length of their own
+    plain = load_study(write_study(tmp_path / "plain", SCOPED))
+    assert collect(plain.specs(True))[1] == collect(study.specs(True))[1]
+    assert collect(plain.specs(False))[1][:2] == collect(study.specs(False))[1][:2]
+    assert collect(plain.specs(False))[1][2] != collect(study.specs(False))[1][2]
+
+
+def test_a_bad_case_length_is_bad_input(tmp_path, capsys):
+    text = LENGTHS.replace("length: {until_equilibrium: true, max_orbits: 0.9}",
+                           "length: {until_equilibrium: true, orbits: 0.9}")
+    assert_refused(write_study(tmp_path, text, SCENARIO), capsys, "cases.k02.length.orbits",
+                   "not with until_equilibrium: true")

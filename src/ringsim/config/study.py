@@ -155,6 +155,10 @@ class Study:
         The values the cases are checked against (``config.study_references``).
     starts : dict of case name -> Start
         The cases that start from another case's run (``config.study_start``).
+    case_lengths : dict of case name -> dict
+        The full form's run length of the cases that name their own (the case key
+        ``length``, as the study's), in place of the study's ``length``; the quick form's
+        length applies to every case.
     case_seeds : dict of case name -> tuple of int
         The seeds of the cases that name their own (``config.study_scope``).
     keep : tuple of str
@@ -177,6 +181,7 @@ class Study:
     references: tuple[Reference, ...] = ()
     starts: Mapping[str, Start] = field(default_factory=dict)
     case_seeds: Mapping[str, tuple[int, ...]] = field(default_factory=dict)
+    case_lengths: Mapping[str, dict] = field(default_factory=dict)
     keep: tuple[str, ...] = ()
 
     @property
@@ -217,19 +222,21 @@ class Study:
         starts from another's run has that run, of the same variant, as its ``origin``."""
         changes = mode.changes(variant, case)
         start = self.starts.get(case)
-        scenario = _scenario(self, mode, dict(self.cases)[case], changes, seed, start)
+        length = mode.length if mode.quick else self.case_lengths.get(case, mode.length)
+        scenario = _scenario(self, mode, dict(self.cases)[case], changes, seed, start, length)
         origin = (self.spec(mode, start.case, variant, seed if start.seed is None
                             else start.seed) if start is not None else None)
         return RunSpec(case, variant, seed, scenario, origin)
 
 
 def _scenario(study: Study, mode: Mode, case: Mapping, variant: Mapping,
-              seed: int, start: Start | None = None) -> Scenario:
-    """The base with the length, the study's and the case's overrides, the quick
-    overrides, the variant and the seed; with a start, without the keys the start file
-    replaces, from the placeholder file `START_FILE`."""
-    changes = {**mode.length, **study.overrides, **case, **mode.overrides, **variant,
-               "seed": seed}
+              seed: int, start: Start | None = None, length: Mapping | None = None
+              ) -> Scenario:
+    """The base with the length (``length``, else the form's), the study's and the case's
+    overrides, the quick overrides, the variant and the seed; with a start, without the
+    keys the start file replaces, from the placeholder file `START_FILE`."""
+    changes = {**(mode.length if length is None else length), **study.overrides, **case,
+               **mode.overrides, **variant, "seed": seed}
     if start is None:
         return with_overrides(study.base, changes)
     return started(with_overrides(study.base, without_file_keys(changes)), START_FILE, start)
@@ -296,14 +303,15 @@ def _check_override(sec: Section, dotted: str, value: Any, base: Scenario,
 
 def _cases(top: Section, base: Scenario, length: dict, seeds: Sequence[int]
            ) -> tuple[tuple[tuple[str, dict], ...], dict[str, Start],
-                      dict[str, tuple[int, ...]]]:
-    """The cases' overrides, the starts of the cases that start from another's run, and
-    the seeds of the cases that name their own."""
+                      dict[str, tuple[int, ...]], dict[str, dict]]:
+    """The cases' overrides, the starts of the cases that start from another's run, the
+    seeds of the cases that name their own, and the lengths of those that name their own
+    (``length`` is the study's length with its overrides)."""
     cases = top.section("cases", required=True, allowed="case name -> dotted overrides")
     if not cases.mapping:
         raise top.error("cases", "is empty", "case name -> dotted overrides (may be {})")
     names = [str(key) for key in cases.mapping]
-    out, starts, case_seeds = [], {}, {}
+    out, starts, case_seeds, case_lengths = [], {}, {}, {}
     for key in cases.mapping:
         name = _name(cases, str(key), key, "case")
         value = cases.mapping[key]
@@ -313,14 +321,20 @@ def _cases(top: Section, base: Scenario, length: dict, seeds: Sequence[int]
             case_seeds[name] = read_seeds(Section(cases.file, cases.key(name), value),
                                           "seeds", within=seeds)
             value = {k: v for k, v in value.items() if k != "seeds"}
+        own = length
+        if isinstance(value, Mapping) and "length" in value:
+            case_lengths[name] = _length(Section(cases.file, cases.key(name), value),
+                                         "length")
+            own = {**length, **case_lengths[name]}
+            value = {k: v for k, v in value.items() if k != "length"}
         if isinstance(value, Mapping) and "start" in value:
             starts[name] = read_start(cases, name, value["start"], names)
             value = {k: v for k, v in value.items() if k != "start"}
             check_case_keys(cases, name, value)
         here = Section(cases.file, cases.prefix, {name: value})
-        out.append((name, _check_overrides(here, name, base, length)))
+        out.append((name, _check_overrides(here, name, base, own)))
     check_cycles(cases, starts)
-    return tuple(out), starts, case_seeds
+    return tuple(out), starts, case_seeds, case_lengths
 
 
 def _ratios(top: Section, cases: Sequence[str]) -> tuple[tuple[str, str], ...]:
@@ -478,7 +492,8 @@ def load_study(path: str | PathLike, quantities: Sequence[str] | None = None) ->
     length = _length(top, "length") if top.has("length") else {}
     overrides = (_check_overrides(top, "overrides", base, length)
                  if top.has("overrides") else {})
-    cases, starts, case_seeds = _cases(top, base, {**length, **overrides}, seeds)
+    cases, starts, case_seeds, case_lengths = _cases(top, base, {**length, **overrides},
+                                                     seeds)
     ratios = _ratios(top, [case for case, _ in cases])
     ratio_cases = [case for case, _ in cases if any(case in pair for pair in ratios)]
     full = _full_mode(top, base, seeds, length, ratio_cases)
@@ -495,6 +510,7 @@ def load_study(path: str | PathLike, quantities: Sequence[str] | None = None) ->
                                 if top.has("quick") else None),
                   references=read_references(top, [case for case, _ in cases], quantities,
                                              ratios, study_quantities or quantities),
-                  starts=starts, case_seeds=case_seeds, keep=read_keep(top))
+                  starts=starts, case_seeds=case_seeds, case_lengths=case_lengths,
+                  keep=read_keep(top))
     _check_runs(study)
     return study

@@ -67,6 +67,8 @@ def setup_section(report: Mapping) -> list[str]:
                 if report["form"] == "quick" else "") + f". Seeds {report['seeds']}.", ""]
     lines += [f"- case `{case}`: {_changes(entry['overrides'])}" + _start(entry.get("start"))
               + (f" (seeds {entry['seeds']} only)" if "seeds" in entry else "")
+              + (f"; its length, in place of every run's: {_changes(entry['length'])}"
+                 if "length" in entry else "")
               for case, entry in report["cases"].items()]
     lines += [f"- variant `{name}` (seeds {report['variant_seeds']}): "
               f"{_changes(v['overrides'])}" + _scope(v) for name, v in report["variants"].items()]

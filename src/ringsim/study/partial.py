@@ -57,6 +57,7 @@ def reduced(study, quick: bool, specs: Sequence, ids: Sequence[str],
         starts={c: s for c, s in study.starts.items() if c in names},
         case_seeds={c: tuple(seeds[c]) for c in names if seeds[c] != asked[c]
                     or c in study.case_seeds},
+        case_lengths={c: v for c, v in study.case_lengths.items() if c in names},
         **({"quick_mode": cut_mode} if quick else {"full": cut_mode}))
     cut_specs = cut.specs(quick)
     kept = list(zip(cut_specs, collect(cut_specs)[1], strict=True))

@@ -224,6 +224,9 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
         report["cases"][case]["start"] = start.to_dict()
     for case, seeds in study.case_seeds.items():
         report["cases"][case]["seeds"] = [s for s in mode.seeds if s in seeds]
+    if not mode.quick:
+        for case, length in study.case_lengths.items():
+            report["cases"][case]["length"] = dict(length)
     if study.references:
         report["references"] = reference_entries(study.references, report)
         report["references_rule"] = rule(study.references)
