@@ -4,6 +4,8 @@ stand higher than its large ones, the layers span the large particles' core; for
 against the converged shear-periodic image sum, momentum, the same bits where the core is
 unchanged, the choice as a function of the state, and the scenario key."""
 
+import ctypes
+
 import numpy as np
 import pytest
 
@@ -33,12 +35,19 @@ def layered_sheet(n, sigma_small, sigma_large, large_fraction=0.1, seed=5):
     return s, large
 
 
-def forces(s, core_min_radius):
+def forces(s, core_min_radius, **kwargs):
     """(accelerations [m/s^2], P3M parameters) of ``s``: auto split, the Saturn presets' tail
-    fraction, the core of the particles of at least ``core_min_radius`` [m]."""
+    fraction, the core of the particles of at least ``core_min_radius`` [m] (``kwargs``:
+    further arguments of ``P3MSolver``)."""
     sim = testing.p3m_simulation(s, t=T_REF, auto=True, tail_fraction=scales.P3M_TAIL_FRACTION,
-                                 core_min_radius=core_min_radius)
+                                 core_min_radius=core_min_radius, **kwargs)
     return testing.accelerations(sim), p3m.installed_solver(sim).params
+
+
+def momentum_residual(s, acc):
+    """|sum m a| over M rms|a| [dimensionless]: 0 where the forces cancel in pairs."""
+    scale = np.sum(s["mass"]) * np.sqrt(np.mean(np.sum(acc ** 2, axis=1)))
+    return np.abs(s["mass"] @ acc).max() / scale
 
 
 def reference(s, targets):
@@ -53,7 +62,9 @@ def test_thick_ring_keeps_its_accuracy_with_a_third_of_the_layers():
     span the large particles' core (94 -> 39 layers), and the rms per-particle force error
     against the direct sum rises by at most 0.05 % (absolute) over the core of every
     particle, for small and large targets alike (measured: 0.365 -> 0.381 % and 0.699 ->
-    0.700 %); the forces sum to zero to round-off (bound as tests/test_p3m_tail.py)."""
+    0.700 %; the bound is tests/test_p3m_tail.py's for the tail apart against the full
+    mesh); the forces sum to zero to round-off (|sum m a| below 1e-12 of M rms|a|, the
+    scale of tests/test_p3m_tail.py's bound on the forces' sum)."""
     s, large = layered_sheet(3000, 45.0, 20.0)
     assert np.std(s["pos"][:, 2]) >= 40.0
     rng = np.random.default_rng(0)
@@ -71,9 +82,7 @@ def test_thick_ring_keeps_its_accuracy_with_a_third_of_the_layers():
         before = testing.force_errors(every[targets], ref)["rms_relative"]
         after = testing.force_errors(core[targets], ref)["rms_relative"]
         assert after - before < 5e-4, (before, after)
-    total = np.abs(s["mass"] @ core).max()
-    scale = np.sum(s["mass"]) * np.sqrt(np.mean(np.sum(core ** 2, axis=1)))
-    assert total < 1e-12 * scale
+    assert momentum_residual(s, core) < 1e-12
 
 
 def test_thin_ring_core_is_unchanged_bit_for_bit():
@@ -88,8 +97,9 @@ def test_thin_ring_core_is_unchanged_bit_for_bit():
 
 
 def test_core_is_a_function_of_the_state():
-    """The particles in another order give the same layers and the same forces (==, up to
-    the order): a resumed run chooses as the run it continues."""
+    """The particles in another order give the same layers (==) and the same forces (to
+    1e-12: the sums run in another order): a resumed run chooses as the run it
+    continues."""
     s, _ = layered_sheet(1500, 45.0, 20.0)
     order = np.random.default_rng(2).permutation(1500)
     t = {k: (v[order] if isinstance(v, np.ndarray) and len(v) == 1500 else v)
@@ -100,12 +110,63 @@ def test_core_is_a_function_of_the_state():
     assert np.allclose(acc[order], acc_t, rtol=1e-12, atol=0.0)
 
 
-def test_no_particle_large_enough_takes_every_particle():
-    """A core radius above every particle's leaves the core to all of them."""
-    s, _ = layered_sheet(1500, 45.0, 20.0)
+@pytest.mark.parametrize("large_fraction, radius", [
+    (0.1, 10.0),       # no particle that large
+    (0.002, LARGE),    # 3 of 1500: fewer than P3M_CORE_MIN_COUNT
+    (0.1, 0.5),        # every particle: the core of every particle either way
+])
+def test_too_few_large_particles_leave_the_core_to_every_particle(large_fraction, radius):
+    """Where the particles of at least the core radius are too few (or none) the core is
+    every particle's, the same layers and forces (==) as without the key: with 3 large
+    particles among 1500 a core of their heights left 63 % of the sheet beyond it and a
+    6.5 % force error on the small particles."""
+    s, _ = layered_sheet(1500, 45.0, 20.0, large_fraction=large_fraction)
     every, par_every = forces(s, 0.0)
-    core, par_core = forces(s, 10.0)
+    core, par_core = forces(s, radius)
+    assert (par_core.nz, par_core.zlo, par_core.zhi) == (par_every.nz, par_every.zlo,
+                                                         par_every.zhi)
+    assert np.array_equal(core, every)
+
+
+def test_large_particles_holding_little_mass_leave_the_core_to_every_particle():
+    """Large particles that hold less than P3M_CORE_MIN_MASS_SHARE of the mass (here a
+    tenth of the particles, made as light as the small ones) do not set the core."""
+    s, large = layered_sheet(1500, 45.0, 20.0)
+    s["mass"] = np.where(large, s["mass"] / 64.0, s["mass"])
+    assert np.sum(s["mass"][large]) < scales.P3M_CORE_MIN_MASS_SHARE * np.sum(s["mass"])
+    every, par_every = forces(s, 0.0)
+    core, par_core = forces(s, LARGE)
     assert par_core.nz == par_every.nz and np.array_equal(core, every)
+
+
+def test_with_field_only_particles_and_the_mesh_interval():
+    """The intended use, the core radius equal to the field-only radius (the A-ring
+    preset's 25 cm): fewer layers, momentum conserved to round-off, the error over the full
+    mesh's within the thick-ring test's 0.05 %; and with the mesh every 5 steps the kick
+    step's mesh force is 5 times the one of every step, the pair sum's the same (==)."""
+    s, large = layered_sheet(3000, 45.0, 20.0)
+    targets = np.sort(np.random.default_rng(1).choice(3000, 150, replace=False))
+    ref = reference(s, targets)
+    every, par_every = forces(s, 0.0, pair_min_radius=LARGE)
+    core, par_core = forces(s, LARGE, pair_min_radius=LARGE)
+    assert par_core.nz < par_every.nz
+    assert momentum_residual(s, core) < 1e-12
+    before = testing.force_errors(every[targets], ref)["rms_relative"]
+    after = testing.force_errors(core[targets], ref)["rms_relative"]
+    assert after - before < 5e-4, (before, after)
+    sim = testing.p3m_simulation(s, t=T_REF, auto=True, tail_fraction=scales.P3M_TAIL_FRACTION,
+                                 core_min_radius=LARGE, pair_min_radius=LARGE)
+    solver = p3m.installed_solver(sim)
+    address = ctypes.addressof(sim)
+    parts = {}
+    for steps in (0, 1, 5):
+        for particle in sim.particles:
+            particle.ax = particle.ay = particle.az = 0.0
+        solver.apply(address, steps)
+        parts[steps] = np.array([[q.ax, q.ay, q.az] for q in sim.particles])
+    mesh_one, mesh_five = parts[1] - parts[0], parts[5] - parts[0]
+    assert np.allclose(mesh_five, 5.0 * mesh_one, rtol=1e-12, atol=1e-12 * np.abs(
+        mesh_one).max())
 
 
 def test_scenario_key_reaches_the_solver_and_the_run_file(scenario_dict):
@@ -133,4 +194,7 @@ def test_scenario_key_reaches_the_solver_and_the_run_file(scenario_dict):
         with_overrides(base, {"sheet.p3m_core_min_radius": -1.0})
     with pytest.raises(InputError):
         scenario_from_dict(scenario_dict("gravitating", {"sheet.gravity_solver": "tree",
+                                                         "sheet.p3m_core_min_radius": 0.5}))
+    with pytest.raises(InputError, match="acts only with sheet.p3m_tail_fraction above 0"):
+        scenario_from_dict(scenario_dict("gravitating", {"sheet.gravity_solver": "p3m",
                                                          "sheet.p3m_core_min_radius": 0.5}))

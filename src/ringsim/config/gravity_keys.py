@@ -13,7 +13,12 @@ from __future__ import annotations
 from typing import Any
 
 from ringsim.config.schema import Section
-from ringsim.physics.gravity_solvers import GRAVITY_SOLVERS, P3M, SOLVER_PARAMETERS
+from ringsim.physics.gravity_solvers import (
+    ACTS_ONLY_WITH,
+    GRAVITY_SOLVERS,
+    P3M,
+    SOLVER_PARAMETERS,
+)
 from ringsim.physics.laws import DIMENSIONLESS, Parameter
 from ringsim.physics.p3m_scales import p3m_first_split
 
@@ -79,6 +84,11 @@ def read_gravity_keys(sec: Section, d: dict[str, Any]) -> dict[str, Any]:
     values: dict[str, Any] = dict.fromkeys(SOLVER_KEYS)
     for par in GRAVITY_SOLVERS[solver].parameters:
         values[par.name] = _read_parameter(sec, par)
+    for key, needed in ACTS_ONLY_WITH.items():
+        if sec.has(key) and values[key] != SOLVER_PARAMETERS[key].default \
+                and not values[needed]:
+            raise sec.error(key, f"acts only with sheet.{needed} above 0",
+                            f"set sheet.{needed} (the Saturn presets: 0.08), or remove the key")
     return {"gravity": True, "gravity_solver": solver, **values}
 
 

@@ -196,16 +196,23 @@ void rs_p3m_heights(const struct reb_simulation* const r, double* out){
 }
 
 /* The heights [m] of the particles of radius at least rmin [m] into out, in the order of
- * REBOUND's particles; returns their count (the particles whose heights set the mesh's
- * core with `sheet.p3m_core_min_radius`). */
-int rs_p3m_heights_from(const struct reb_simulation* const r, double rmin, double* out){
+ * REBOUND's particles, and in *mass_share the fraction of the sheet's mass they hold;
+ * returns their count (the particles whose heights set the mesh's core with
+ * `sheet.p3m_core_min_radius`). */
+int rs_p3m_heights_from(const struct reb_simulation* const r, double rmin, double* out,
+                        double* mass_share){
     const size_t n = r->N - r->N_var;
     int count = 0;
+    double all = 0.0, large = 0.0;
     for (size_t k = 0; k < n; k++){
-        if (r->particles[k].r >= rmin){
-            out[count++] = r->particles[k].z;
+        const struct reb_particle* const p = &r->particles[k];
+        all += p->m;
+        if (p->r >= rmin){
+            out[count++] = p->z;
+            large += p->m;
         }
     }
+    *mass_share = all > 0.0 ? large / all : 0.0;
     return count;
 }
 

@@ -40,6 +40,8 @@ from ringsim.physics.gravity_solvers import P3M
 from ringsim.physics.p3m_mesh import P3MMesh, core_heights
 from ringsim.physics.p3m_scales import (
     P3M_CELL_SPLITS,
+    P3M_CORE_MIN_COUNT,
+    P3M_CORE_MIN_MASS_SHARE,
     P3M_CUTOFF_SPLITS,
     P3M_LAYER_SPLITS,
     P3M_TAIL_MARGIN_SCALES,
@@ -192,8 +194,9 @@ class P3MSolver:
     core_min_radius : float [m]
         ``sheet.p3m_core_min_radius``: with ``tail_fraction``, the core's order statistics
         and robust scale are those of the heights of the particles of at least this radius
-        (all particles if there are none); the layers never reach beyond the particles.
-        0: every particle's height.
+        where they hold enough of the mass and are enough in number (`_core`), else of
+        every particle's; the layers never reach beyond the particles.  0: every
+        particle's height.
     """
 
     def __init__(self, Lx: float, Ly: float, softening: float, split: float,
@@ -274,9 +277,10 @@ class P3MSolver:
 
     def _prepare(self, sim_address: int) -> P3MStruct:
         """Choose the split (``auto``: from the particles' whole height span) and the
-        layers (all particles, or with ``tail_fraction`` the core of `core_heights`
-        widened on each side by the larger of P3M_TAIL_MARGIN_SPLITS r_s and
-        P3M_TAIL_MARGIN_SCALES robust scales of the heights, within the particles'
+        layers (all particles, or with ``tail_fraction`` the core of `core_heights` of the
+        heights `_core` chooses (with ``core_min_radius``, the large particles'), widened
+        on each side by the larger of P3M_TAIL_MARGIN_SPLITS r_s and
+        P3M_TAIL_MARGIN_SCALES robust scales of those heights, within every particle's
         heights) for the state at ``sim_address``; returns the parameters made current."""
         count = ctypes.c_int(0)
         span = _LIB.rs_p3m_height_span(sim_address, ctypes.byref(count))
@@ -286,11 +290,7 @@ class P3MSolver:
         if self.tail_fraction > 0.0 and count.value > 0:
             heights = np.empty(count.value)
             _LIB.rs_p3m_heights(sim_address, heights)
-            core = heights
-            if self.core_min_radius > 0.0:
-                core = np.empty(count.value)
-                large = _LIB.rs_p3m_heights_from(sim_address, self.core_min_radius, core)
-                core = core[:large] if large > 0 else heights
+            core = self._core(sim_address, heights)
             zlo, zhi = core_heights(core, self.tail_fraction)
             q1, q3 = core_heights(core, 0.5)      # the quartiles: a robust scale
             margin = max(P3M_TAIL_MARGIN_SPLITS * p.split,
@@ -303,6 +303,22 @@ class P3MSolver:
         # padded to a fixed ladder of layer counts: a few kernel tables serve the whole run
         p.nz = layer_bucket(nz)
         return p
+
+    def _core(self, sim_address: int, heights: np.ndarray) -> np.ndarray:
+        """The heights [m] whose order statistics and quartiles set the mesh's core: those
+        of the particles of at least ``core_min_radius`` where they hold at least
+        P3M_CORE_MIN_MASS_SHARE of the mass and number at least P3M_CORE_MIN_COUNT and 2 /
+        ``tail_fraction``, else ``heights`` (every particle's)."""
+        if self.core_min_radius <= 0.0:
+            return heights
+        core = np.empty(heights.size)
+        share = ctypes.c_double(0.0)
+        large = _LIB.rs_p3m_heights_from(sim_address, self.core_min_radius, core,
+                                         ctypes.byref(share))
+        enough = max(P3M_CORE_MIN_COUNT, 2.0 / self.tail_fraction)
+        if large < enough or share.value < P3M_CORE_MIN_MASS_SHARE:
+            return heights
+        return core[:large]
 
     def apply(self, sim_address: int, mesh_steps: int = 1) -> None:
         """Add the P3M accelerations [m/s^2] to the simulation at ``sim_address``, the mesh

@@ -98,6 +98,9 @@ P3M_CORE_MIN_RADIUS = Parameter(
             "particle's height counts",
     source="docs/gravity.md, section \"The core of the pair-summed particles\" (the force "
            "error against the direct sum in the A-ring preset's equilibrium)")
+#: Keys that act only where another key of the same solver is above 0: given away from its
+#: default without that, the key would change a run's identity and nothing else.
+ACTS_ONLY_WITH = {"p3m_core_min_radius": "p3m_tail_fraction"}
 
 
 @dataclass(frozen=True)
