@@ -33,8 +33,10 @@ from ringsim.config.schema import (
 from ringsim.config.study_references import Reference, read_keep, read_references
 from ringsim.config.study_scope import (
     VARIANT_KEYS,
+    case_scope,
     check_form_seeds,
     form_seeds,
+    read_length,
     read_seeds,
     read_variant_cases,
 )
@@ -54,8 +56,6 @@ STUDY_KEYS = ("name", "description", "base", "seeds", "overrides", "cases", "rat
               "references", "keep")
 #: Keys of the ``quick`` section besides dotted scenario overrides.
 QUICK_KEYS = ("length", "seeds", "variant_seeds", "variants", "report")
-#: Keys of a ``length`` section.
-LENGTH_KEYS = ("orbits", "until_equilibrium", "max_orbits")
 #: Scenario keys a study sets itself, which cases, variants and ``quick`` may not set: the
 #: seed comes from ``seeds``; a run's name, description and output path are labels, set
 #: from the run's hash (``ringsim.study.runs``).
@@ -251,20 +251,6 @@ def _name(sec: Section, key: str, value: Any, what: str) -> str:
     return value
 
 
-def _length(sec: Section, key: str) -> dict:
-    """``{orbits: N}`` or ``{until_equilibrium: true, max_orbits: N}`` as dotted overrides."""
-    allowed = "{orbits: N} (a fixed length) or {until_equilibrium: true, max_orbits: N}"
-    length = sec.section(key, allowed=allowed)
-    length.check_keys(LENGTH_KEYS)
-    until = length.boolean("until_equilibrium", False)
-    need, refuse = ("max_orbits", "orbits") if until else ("orbits", "max_orbits")
-    if length.has(refuse):
-        raise length.error(refuse, f"not with until_equilibrium: {str(until).lower()}",
-                           f"give {need}")
-    orbits = length.number(need, unit="orbits", gt=0.0)
-    return {"integration.orbits": orbits, "integration.until_equilibrium": until}
-
-
 def _check_overrides(sec: Section, key: str, base: Scenario, before: Mapping) -> dict:
     """A mapping of dotted scenario overrides, valid together on ``base`` with ``before``
     applied.  When they are not, the first override invalid on its own is named, else the
@@ -317,16 +303,12 @@ def _cases(top: Section, base: Scenario, length: dict, seeds: Sequence[int]
         value = cases.mapping[key]
         if value is None:
             raise cases.error(name, "no value given", "a mapping of overrides ({} for none)")
-        if isinstance(value, Mapping) and "seeds" in value:
-            case_seeds[name] = read_seeds(Section(cases.file, cases.key(name), value),
-                                          "seeds", within=seeds)
-            value = {k: v for k, v in value.items() if k != "seeds"}
-        own = length
-        if isinstance(value, Mapping) and "length" in value:
-            case_lengths[name] = _length(Section(cases.file, cases.key(name), value),
-                                         "length")
-            own = {**length, **case_lengths[name]}
-            value = {k: v for k, v in value.items() if k != "length"}
+        value, own_seeds, own_length = case_scope(cases, name, value, seeds)
+        if own_seeds is not None:
+            case_seeds[name] = own_seeds
+        if own_length is not None:
+            case_lengths[name] = own_length
+        own = {**length, **(own_length or {})}
         if isinstance(value, Mapping) and "start" in value:
             starts[name] = read_start(cases, name, value["start"], names)
             value = {k: v for k, v in value.items() if k != "start"}
@@ -419,7 +401,7 @@ def _quick_mode(top: Section, base: Scenario, full: Mode, ratio_cases: Sequence[
             raise quick.error(name, f"unknown key {name!r}", f"did you mean {close[0]!r}? "
                               f"allowed here: {', '.join(QUICK_KEYS)} and dotted scenario "
                               "keys")
-    length = _length(quick, "length") if quick.has("length") else full.length
+    length = read_length(quick, "length") if quick.has("length") else full.length
     scenario_keys = {k: v for k, v in quick.mapping.items() if k not in QUICK_KEYS}
     overrides = _check_overrides(Section(top.file, "", {"quick": scenario_keys}), "quick",
                                  base, length)
@@ -489,7 +471,7 @@ def load_study(path: str | PathLike, quantities: Sequence[str] | None = None) ->
                         "a scenario file, relative to the study file")
     base = load_scenario(base_path)
     seeds = read_seeds(top, "seeds")
-    length = _length(top, "length") if top.has("length") else {}
+    length = read_length(top, "length") if top.has("length") else {}
     overrides = (_check_overrides(top, "overrides", base, length)
                  if top.has("overrides") else {})
     cases, starts, case_seeds, case_lengths = _cases(top, base, {**length, **overrides},

@@ -1,5 +1,7 @@
-"""Which runs a study's cases and variants ask for: the case key ``seeds`` and the variant
-key ``cases`` of a study file (docs/studies.md, "Fewer runs where they add nothing").
+"""Which runs a study's cases and variants ask for: the case keys ``seeds`` and
+``length`` and the variant key ``cases`` of a study file (docs/studies.md, "Fewer runs where
+they add nothing", "A case's own length"), and the ``length`` sections they share with the
+study.
 
 A case's ``seeds`` (among the study's seeds) are the seeds it runs: a case outside the
 headline ratio can run once where the headline pair runs three times.  In the quick form
@@ -21,6 +23,35 @@ from ringsim.config.schema import ScenarioError, Section, show
 
 #: Keys of a variant besides its dotted scenario overrides.
 VARIANT_KEYS = ("cases",)
+#: Keys of a ``length`` section.
+LENGTH_KEYS = ("orbits", "until_equilibrium", "max_orbits")
+
+
+def read_length(sec: Section, key: str) -> dict:
+    """``{orbits: N}`` or ``{until_equilibrium: true, max_orbits: N}`` as dotted overrides."""
+    allowed = "{orbits: N} (a fixed length) or {until_equilibrium: true, max_orbits: N}"
+    length = sec.section(key, allowed=allowed)
+    length.check_keys(LENGTH_KEYS)
+    until = length.boolean("until_equilibrium", False)
+    need, refuse = ("max_orbits", "orbits") if until else ("orbits", "max_orbits")
+    if length.has(refuse):
+        raise length.error(refuse, f"not with until_equilibrium: {str(until).lower()}",
+                           f"give {need}")
+    orbits = length.number(need, unit="orbits", gt=0.0)
+    return {"integration.orbits": orbits, "integration.until_equilibrium": until}
+
+
+def case_scope(cases: Section, name: str, value: object, seeds: Sequence[int]
+               ) -> tuple[object, tuple[int, ...] | None, dict | None]:
+    """A case's value without its keys ``seeds`` and ``length``, and those (None where the
+    case gives none): its own seeds among ``seeds``, its own length as dotted overrides."""
+    if not isinstance(value, Mapping):
+        return value, None, None
+    here = Section(cases.file, cases.key(name), value)
+    own_seeds = read_seeds(here, "seeds", within=seeds) if "seeds" in value else None
+    own_length = read_length(here, "length") if "length" in value else None
+    return {k: v for k, v in value.items() if k not in ("seeds", "length")}, own_seeds, \
+        own_length
 
 
 def read_seeds(sec: Section, key: str, within: Sequence[int] | None = None) -> tuple[int, ...]:
