@@ -43,7 +43,6 @@ from ringsim import testing
 from ringsim.config.scenario import load_scenario, scenario_from_dict, with_overrides
 from ringsim.engine.sheet import build_sheet, without_gravity
 from ringsim.gravity import p3m
-from ringsim.physics import selfgravity as sg
 from ringsim.report import replace_section
 
 B_RING = "scenarios/saturn-b-ring.yaml"
@@ -88,13 +87,8 @@ def force_error(sim, n_targets: int) -> float:
     """rms per-particle relative error of the forces of ``sim`` against the converged
     shear-periodic image sum on ``n_targets`` random particles."""
     n = sim.N
-    pos = np.array([[p.x, p.y, p.z] for p in sim.particles])
-    mass = np.array([p.m for p in sim.particles])
-    Lx, Ly = sim.root_size * sim.N_root_x, sim.root_size * sim.N_root_y
     targets = np.sort(np.random.default_rng(0).choice(n, min(n, n_targets), replace=False))
-    shift = sg.shear_offset(sim.OMEGA, Lx, Ly, sim.t)
-    ref = sg.direct_accelerations(pos, mass, Lx, Ly, shift, sim.softening, n_rows=4,
-                                  targets=targets, chunk=16, G=sim.G)
+    ref = testing.simulation_reference(sim, targets)
     acc = testing.accelerations(sim)
     return testing.force_errors(acc[targets], ref)["rms_relative"]
 

@@ -50,7 +50,6 @@ from ringsim.engine.native import set_detector_threads, use_threaded_sei
 from ringsim.engine.sheet import build_sheet, particle_arrays, without_gravity
 from ringsim.gravity import p3m
 from ringsim.gravity.registry import set_gravity_threads
-from ringsim.physics import selfgravity as sg
 from ringsim.report import replace_section
 
 STEPS_PER_ORBIT = 1000    # dt = 1e-3 orbit, the presets' dt: auto in line mode
@@ -153,19 +152,14 @@ def state_force_errors(path: str, cores: list[float], n_targets: int) -> list[st
     built = build_sheet(sc)
     sim = built.sim
     arrays = particle_arrays(sim)
-    pos = np.column_stack([arrays["x"], arrays["y"], arrays["z"]])
-    mass, radius = arrays["mass"], arrays["radius"]
+    radius = arrays["radius"]
     split_radius = float(sc.sheet.p3m_pair_min_radius or 0.0)
     rng = np.random.default_rng(0)
     groups = {"below": np.flatnonzero(radius < split_radius),
               "above": np.flatnonzero(radius >= split_radius)}
     targets = {k: np.sort(rng.choice(v, min(n_targets, v.size), replace=False))
                for k, v in groups.items() if v.size}
-    Lx, Ly = sim.root_size * sim.N_root_x, sim.root_size * sim.N_root_y
-    shift = sg.shear_offset(sim.OMEGA, Lx, Ly, sim.t)
-    ref = {k: sg.direct_accelerations(pos, mass, Lx, Ly, shift, sim.softening, n_rows=4,
-                                      targets=t, chunk=16, G=sim.G)
-           for k, t in targets.items()}
+    ref = {k: testing.simulation_reference(sim, t) for k, t in targets.items()}
     solver = p3m.installed_solver(sim)
     rows = []
     for core in cores:
@@ -173,7 +167,7 @@ def state_force_errors(path: str, cores: list[float], n_targets: int) -> list[st
         acc = testing.accelerations(sim)
         err = {k: 100.0 * testing.force_errors(acc[t], ref[k])["rms_relative"]
                for k, t in targets.items()}
-        z = pos[:, 2]
+        z = arrays["z"]
         rows.append(f"| `{os.path.basename(path)}` | {orbits:.1f} | {core:g} | "
                     f"{np.std(z):.1f} | {np.std(z[radius >= split_radius]):.1f} | "
                     f"{solver.params.nz} | {err.get('below', math.nan):.3f} % | "

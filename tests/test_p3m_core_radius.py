@@ -44,6 +44,15 @@ def forces(s, core_min_radius, **kwargs):
     return testing.accelerations(sim), p3m.installed_solver(sim).params
 
 
+def assert_core_of_every_particle(s, core_min_radius):
+    """``s`` with the core radius has the layers and the forces (==) it has without."""
+    every, par_every = forces(s, 0.0)
+    core, par_core = forces(s, core_min_radius)
+    assert (par_core.nz, par_core.zlo, par_core.zhi) == (par_every.nz, par_every.zlo,
+                                                         par_every.zhi)
+    assert np.array_equal(core, every)
+
+
 def momentum_residual(s, acc):
     """|sum m a| over M rms|a| [dimensionless]: 0 where the forces cancel in pairs."""
     scale = np.sum(s["mass"]) * np.sqrt(np.mean(np.sum(acc ** 2, axis=1)))
@@ -88,12 +97,7 @@ def test_thick_ring_keeps_its_accuracy_with_a_third_of_the_layers():
 def test_thin_ring_core_is_unchanged_bit_for_bit():
     """Where the large particles' core widened by its margin holds every particle, the mesh
     is the same and so is every force (==)."""
-    s, _ = layered_sheet(3000, 3.0, 1.5)
-    every, par_every = forces(s, 0.0)
-    core, par_core = forces(s, LARGE)
-    assert (par_core.nz, par_core.zlo, par_core.zhi) == (par_every.nz, par_every.zlo,
-                                                         par_every.zhi)
-    assert np.array_equal(core, every)
+    assert_core_of_every_particle(layered_sheet(3000, 3.0, 1.5)[0], LARGE)
 
 
 def test_core_is_a_function_of_the_state():
@@ -120,12 +124,8 @@ def test_too_few_large_particles_leave_the_core_to_every_particle(large_fraction
     every particle's, the same layers and forces (==) as without the key: with 3 large
     particles among 1500 a core of their heights left 63 % of the sheet beyond it and a
     6.5 % force error on the small particles."""
-    s, _ = layered_sheet(1500, 45.0, 20.0, large_fraction=large_fraction)
-    every, par_every = forces(s, 0.0)
-    core, par_core = forces(s, radius)
-    assert (par_core.nz, par_core.zlo, par_core.zhi) == (par_every.nz, par_every.zlo,
-                                                         par_every.zhi)
-    assert np.array_equal(core, every)
+    assert_core_of_every_particle(
+        layered_sheet(1500, 45.0, 20.0, large_fraction=large_fraction)[0], radius)
 
 
 def test_large_particles_holding_little_mass_leave_the_core_to_every_particle():
@@ -134,9 +134,7 @@ def test_large_particles_holding_little_mass_leave_the_core_to_every_particle():
     s, large = layered_sheet(1500, 45.0, 20.0)
     s["mass"] = np.where(large, s["mass"] / 64.0, s["mass"])
     assert np.sum(s["mass"][large]) < scales.P3M_CORE_MIN_MASS_SHARE * np.sum(s["mass"])
-    every, par_every = forces(s, 0.0)
-    core, par_core = forces(s, LARGE)
-    assert par_core.nz == par_every.nz and np.array_equal(core, every)
+    assert_core_of_every_particle(s, LARGE)
 
 
 def test_with_field_only_particles_and_the_mesh_interval():

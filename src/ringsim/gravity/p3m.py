@@ -107,16 +107,16 @@ def describe(Lx, Ly, softening, split, auto=False, pair_min_radius=0.0,
     """
     p = p3m_parameters(Lx, Ly, split)
     largest = p3m_auto_split(split, math.inf, 1, Lx, Ly) if auto else p["split"]
-    interval = {} if mesh_interval == 1 else {
+    optional = {} if mesh_interval == 1 else {
         "p3m_mesh_interval": int(mesh_interval), "units_p3m_mesh_interval":
             "steps (the mesh force acts as an impulse of this many steps on the middle "
             "step of every group of this many; 1: every step)"}
     if core_min_radius > 0.0:
-        interval.update({"p3m_core_min_radius": float(core_min_radius),
+        optional.update({"p3m_core_min_radius": float(core_min_radius),
                          "units_p3m_core_min_radius":
                              "m (the heights of the particles of at least this radius set "
                              "the mesh's core; 0: every particle's)"})
-    return {"gravity_solver": P3M.name, **interval,
+    return {"gravity_solver": P3M.name, **optional,
             "p3m_split": p["split"], "units_p3m_split": "m",
             "p3m_split_auto": int(bool(auto)),
             "units_p3m_split_auto": "1: the split follows the height span, 0: fixed",
@@ -418,7 +418,7 @@ def install(sim: rebound.Simulation, *, p3m_setting: tuple[float, bool],
                                core_min_radius=p3m_core_min_radius))
 
 
-def _interval(mesh_interval: int, core_min_radius: float = 0.0) -> dict:
+def _optional(mesh_interval: int, core_min_radius: float = 0.0) -> dict:
     """``p3m_mesh_interval`` where it is not 1 and ``p3m_core_min_radius`` where it is not
     0, as keywords (the defaults leave the keywords of earlier runs as they were)."""
     return ({} if mesh_interval == 1 else {"p3m_mesh_interval": int(mesh_interval)}) | (
@@ -433,7 +433,7 @@ def arguments(scenario) -> dict:
     return {"p3m_setting": scenario.p3m_setting,
             "p3m_pair_min_radius": float(scenario.sheet.p3m_pair_min_radius or 0.0),
             "p3m_tail_fraction": 0.0 if tail is None else float(tail),
-            **_interval(int(scenario.sheet.p3m_mesh_interval or 1),
+            **_optional(int(scenario.sheet.p3m_mesh_interval or 1),
                         float(scenario.sheet.p3m_core_min_radius or 0.0))}
 
 
@@ -443,7 +443,7 @@ def recognise(sim: rebound.Simulation) -> dict | None:
     return None if solver is None else {"p3m_setting": solver.setting,
                                         "p3m_pair_min_radius": solver.pair_min_radius,
                                         "p3m_tail_fraction": solver.tail_fraction,
-                                        **_interval(solver.mesh_interval,
+                                        **_optional(solver.mesh_interval,
                                                     solver.core_min_radius)}
 
 

@@ -25,6 +25,7 @@ from ringsim.testing.gravity import (
     p3m_simulation,
     random_sheet,
     reference_for,
+    simulation_reference,
     tree_accelerations,
     tree_simulation,
 )
@@ -53,6 +54,7 @@ __all__ = [
     "p3m_simulation",
     "random_sheet",
     "reference_for",
+    "simulation_reference",
     "run_file_datasets",
     "tree_accelerations",
     "tree_simulation",

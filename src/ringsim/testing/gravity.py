@@ -5,7 +5,8 @@ shearing sheet with the tree (`tree_simulation`) or P3M (`p3m_simulation`), thei
 accelerations at one instant (`accelerations`, through REBOUND's public C entry point
 ``reb_simulation_update_acceleration``; the ghost boxes carry the shear offset of
 ``sim.t``), and their errors (`force_errors`) against the converged shear-periodic image
-sum (`reference_for`, ``physics.selfgravity.direct_accelerations``).
+sum (`reference_for` of a random sheet, `simulation_reference` of a built simulation's
+particles; ``physics.selfgravity.direct_accelerations``).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 import rebound
 
 from ringsim.engine.box import box_geometry, configure_box
-from ringsim.engine.sheet import initial_state
+from ringsim.engine.sheet import initial_state, particle_arrays
 from ringsim.gravity.p3m import P3MSolver, install_p3m, raise_pending
 from ringsim.gravity.tree import DEFAULT_GHOST_BOXES, install_ghost_field
 from ringsim.physics.constants import G_SI
@@ -182,3 +183,15 @@ def reference_for(sheet, t=0.0, softening=None, n_rows=4, G=G_SI):
     shift = shear_offset(sheet["geometry"].Omega, sheet["Lx"], sheet["Ly"], t)
     return direct_accelerations(sheet["pos"], sheet["mass"], sheet["Lx"], sheet["Ly"], shift,
                                 _softening(sheet, softening), n_rows=n_rows, G=G)
+
+
+def simulation_reference(sim, targets, n_rows=4):
+    """Reference accelerations [m/s^2] of the particles ``targets`` (indices) of a built
+    shearing sheet ``sim`` at its time: the converged shear-periodic image sum of all its
+    particles with its softening and G (``physics.selfgravity.direct_accelerations``)."""
+    arrays = particle_arrays(sim)
+    pos = np.column_stack([arrays["x"], arrays["y"], arrays["z"]])
+    Lx, Ly = sim.root_size * sim.N_root_x, sim.root_size * sim.N_root_y
+    shift = shear_offset(sim.OMEGA, Lx, Ly, sim.t)
+    return direct_accelerations(pos, arrays["mass"], Lx, Ly, shift, sim.softening,
+                                n_rows=n_rows, targets=targets, chunk=16, G=sim.G)
