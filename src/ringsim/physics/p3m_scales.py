@@ -58,9 +58,8 @@ P3M_TAIL_MARGIN_SCALES = 1.5
 #: mass (the mesh's field is the mass's) and number at least P3M_CORE_MIN_COUNT and 2 /
 #: the tail fraction (so that the order statistics leave a tail apart and the quartiles
 #: are those of a sample, not of a few particles); otherwise every particle's height does.
-#: Three large particles among 1500 put 63 % of the sheet beyond a core of their heights
-#: and raised the small particles' force error from 0.36 to 6.5 % (docs/gravity.md, "The
-#: core of the pair-summed particles").
+#: A core of a few particles' heights leaves most of the sheet beyond it, at a large force
+#: error (docs/gravity.md, "The core of the pair-summed particles").
 P3M_CORE_MIN_MASS_SHARE = 0.5
 P3M_CORE_MIN_COUNT = 16
 #: Kernel tables a mesh keeps (least recently used dropped): 2 x 8193 x about 2 nz doubles each,
