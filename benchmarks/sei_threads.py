@@ -4,8 +4,9 @@ One sheet (line detection, no gravity, power law 0.5-5 m, q = 3, tau = 0.25, Bri
 dt = 1e-3 orbit) of ``--n`` particles is stepped in one process with each integrator on 1
 and 2 threads in turn (the detector's threads set alike), ``--steps`` steps a repeat; wall
 time per particle-step, median of the repeats.  Both integrators give the same bits
-(tests/test_sei.py); the difference is the drift and kick loops, serial in REBOUND's pip
-wheel.  With ``--write-doc`` the table replaces the section "## The SEI step on threads" of
+(tests/test_sei.py); the difference is the drift and kick loops and, with REBOUND's gravity
+off, the loop that sets every acceleration to zero, all serial in REBOUND's pip wheel.
+With ``--write-doc`` the table replaces the section "## The SEI step on threads" of
 docs/performance.md.
 
 Usage: python benchmarks/sei_threads.py [--n 100000] [--steps 20] [--repeats 5] [--write-doc]
@@ -92,7 +93,11 @@ def table(n: int, steps: int, repeats: int) -> str:
             "of the repeats.  The serial fraction s is Amdahl's, from the two: 2 / 1 threads "
             "= s + (1 - s) / 2 (an upper bound: thread overheads and the memory bandwidth the "
             "threads share count as serial), and the speed-up it implies on "
-            + " and ".join(str(c) for c in CORES) + " cores is 1 / (s + (1 - s) / cores)."
+            + " and ".join(str(c) for c in CORES) + " cores is 1 / (s + (1 - s) / cores).  "
+            "ringsim_sei threads the drift, the kick and, with REBOUND's gravity off (ringsim's "
+            "solvers are additional forces), the zeroing of the accelerations; serial in both "
+            "stay REBOUND's boundary check (a pass over every particle) and the detector's "
+            "time-ordered resolution of the contacts."
             "\n\n| integrator | 1 thread [ns per particle-step] | 2 threads [ns] | 2 / 1 "
             "threads | serial fraction s | speed-up on " + " / ".join(str(c) for c in CORES)
             + " cores |\n|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n")

@@ -14,8 +14,10 @@
  *      by Omega dt/2 written as three shears (x' = x - tan(Omega dt/4) y,
  *      y' = y + sin(Omega dt/2) x', x'' = x' - tan(Omega dt/4) y'), so that round-off
  *      keeps the rotation area-preserving; the guiding centre moves along y by the shear;
- *   2. t += dt/2; REBOUND computes the accelerations (reb_simulation_update_acceleration:
- *      gravity, then the additional forces);
+ *   2. t += dt/2; the accelerations as REBOUND's reb_simulation_update_acceleration
+ *      computes them (gravity, then the additional forces); with REBOUND's gravity off
+ *      (ringsim's solvers are additional forces) its serial loop that sets every
+ *      acceleration to zero runs here on the threads (rs_sei_accelerations);
  *   3. kick every particle's velocity by a dt and drift again by dt/2; t += dt/2.
  *
  * REBOUND's own functions are reached through pointers handed over by Python
@@ -90,6 +92,29 @@ static int rs_sei_team(const struct rs_sei_state* s, int n){
     return team > 1 ? team : 1;
 }
 
+/* Step 2: REBOUND's reb_simulation_update_acceleration.  With gravity off and no
+ * variational particles REBOUND sets every acceleration to zero and calls the additional
+ * forces; those zeros are set here on the team's threads, the same values.  Every other
+ * configuration (REBOUND's gravity, variational particles) is REBOUND's own call. */
+static void rs_sei_accelerations(struct reb_simulation* const r, int team){
+    if (r->gravity != REB_GRAVITY_NONE || r->N_var != 0){
+        rs_update_acceleration(r);
+        return;
+    }
+    struct reb_particle* const particles = r->particles;
+    const int n = (int)r->N;
+    (void)team;
+#pragma omp parallel for schedule(static) num_threads(team)
+    for (int i = 0; i < n; i++){
+        particles[i].ax = 0.;
+        particles[i].ay = 0.;
+        particles[i].az = 0.;
+    }
+    if (r->additional_forces){
+        r->additional_forces(r);
+    }
+}
+
 static void rs_sei_step(struct reb_simulation* const r, void* state){
     const struct rs_sei_state* s = state;
     r->gravity_ignore_terms = REB_GRAVITY_IGNORE_TERMS_NONE;
@@ -112,7 +137,7 @@ static void rs_sei_step(struct reb_simulation* const r, void* state){
     }
     r->t += dt / 2.;
 
-    rs_update_acceleration(r);
+    rs_sei_accelerations(r, team);
 
 #pragma omp parallel for schedule(static) num_threads(team)
     for (int i = 0; i < n; i++){
