@@ -9,8 +9,11 @@ sum on random target particles; then the whole step of a gravitating sheet built
 ``ringsim.engine.sheet.build_sheet`` (SEI + gravity + collision detection + ringsim's
 resolver): line detection with kicked paths (the default with gravity since it follows the
 gravity kick, docs/gravity.md) and, for comparison, tree detection; as the baseline run in
-the same process, the step of the same sheet without gravity in line mode.  The whole P3M +
-line step is also timed in wall-clock time on 1 and 2 threads (``integration.threads``).
+the same process, the step of the same sheet without gravity in line mode, and REBOUND's
+own step (its tree for gravity and for collisions, ringsim's resolver on the overlaps it
+reports).  The whole P3M + line step is also timed in wall-clock time on 1 and 2 threads
+(``integration.threads``).  A second table gives the ratios side by side: gravity over no
+gravity, 2 over 1 threads, and ringsim's step over REBOUND's.
 The sheet: tau = 0.5, 1 m ice, Omega = 2e-4 1/s, dispersion 2 r Omega (Gaussian layer of
 2 m).  Medians of the repeats (CPU time; the machine is shared).
 
@@ -136,6 +139,21 @@ def table(rows):
     return "\n".join(lines)
 
 
+def ratio_table(rows):
+    """Issue 41's ratios side by side, each from the same run's columns."""
+    lines = ["| N | step with / without gravity (P3M + line det., 1 thread, CPU) | "
+             "2 / 1 threads (P3M + line det., wall) | ringsim / REBOUND (P3M + line det. "
+             "against REBOUND's tree gravity + tree det., 1 thread, CPU) | REBOUND's step "
+             "[us per particle-step] |",
+             "|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(
+            f"| {r['n']} | {r['step_p3m'] / r['step_plain']:.1f} "
+            f"| {r['wall_2'] / r['wall_1']:.2f} | {r['step_p3m'] / r['step_rebound']:.3f} "
+            f"| {r['step_rebound'] * 1e6 / r['n']:.2f} |")
+    return "\n".join(lines)
+
+
 def document(rows, args):
     now = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M")
     last = rows[-1]
@@ -170,6 +188,12 @@ ring of ghost boxes, plus the field of the sheet beyond them (`rs_ghost_field`).
 r_s; docs/gravity.md, section "P3M").
 
 {table(rows)}
+
+The same run's ratios (issue 41's targets: the step with gravity at most 2 times the step
+without on one thread, 2 threads at most 0.55 of one; REBOUND's step is its tree for
+gravity and for collisions, the all-REBOUND way to run this sheet):
+
+{ratio_table(rows)}
 
 **Default for `gravity: true`: P3M** (`sheet.gravity_solver: p3m`): at equal accuracy
 (both below 1 % rms) it costs {last['p3m_s'] / last['tree_s']:.2f} of the tree's force
@@ -210,6 +234,7 @@ def main(argv=None):
         row["step_p3m"] = step_cost(n, True, "p3m")
         row["step_p3m_tree"] = step_cost(n, True, "p3m", detection="tree")
         row["step_plain"] = step_cost(n, False)
+        row["step_rebound"] = step_cost(n, True, "tree", detection="tree")
         row["wall_1"] = float(np.median([step_cost(n, True, "p3m", wall=True)
                                          for _ in range(args.repeats)]))
         row["wall_2"] = float(np.median([step_cost(n, True, "p3m", threads=2, wall=True)
