@@ -85,6 +85,22 @@ def test_c_count_equals_numpy_on_very_polydisperse_sheets(seed):
             assert c == numpy and c > 0, f"radii {low}-{high} m, t {t}: C {c}, numpy {numpy}"
 
 
+def test_the_count_on_threads_is_the_numpy_count():
+    """A sheet large enough for the count's search to run on several threads (4096
+    particles a thread at least), with thousands of deep pairs, some across the radial
+    boundary: every number of threads gives the numpy twin's count."""
+    rng = np.random.default_rng(7)
+    geometry = box.SheetGeometry(60.0, 1, 1, 2, OMEGA)
+    n = 14000
+    arrays = _sheet(rng, n, geometry, rng.uniform(0.2, 1.2, n), 1.0)
+    t = 0.27 * geometry.orbit
+    shift = 1.5 * geometry.Omega * geometry.Lx * t
+    numpy = count_overlaps_numpy(arrays, geometry.Lx, geometry.Ly, shift, 0.1)
+    counts = [box.count_overlaps(arrays, geometry, t, 0.1, threads=k) for k in (1, 2, 3, 4)]
+    assert numpy > 1000
+    assert counts == [numpy] * 4
+
+
 def test_two_particles_and_fewer():
     geometry = box.SheetGeometry(10.0, 1, 1, 1, OMEGA)
     t = 0.4 * geometry.orbit

@@ -19,12 +19,17 @@
  * The grids (`rs_grid`) find overlapping pairs for the initial placement
  * (ringsim.engine.placement) and count the deeply overlapping pairs of every time-series
  * output (`rs_count_overlaps`, ringsim.engine.box.count_overlaps: shear-periodic, the
- * same count as its numpy twin ringsim.testing.count_overlaps_numpy).
+ * same count as its numpy twin ringsim.testing.count_overlaps_numpy).  The count's search
+ * runs on the run's threads: each thread collects the pairs of its particles, and the
+ * pairs are sorted and counted once, so the count does not depend on the threads.
  */
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include "rebound.h"
 
@@ -56,6 +61,8 @@ int64_t rs_add_particles(struct reb_simulation* r, rs_add_function add, int64_t 
 
 /* --- overlap search of the initial placement ------------------------------------------- */
 
+/** Particles a thread at least in the overlap count (below, one thread). */
+#define RS_OVERLAP_PARTICLES_PER_THREAD 4096
 /** Radius classes of the overlap grid at most (ringsim.engine.placement.MAX_CLASSES). */
 #define RS_MAX_CLASSES 32
 /** Of an overlapping pair, a particle more than this many times smaller than the other is
@@ -499,7 +506,7 @@ static int64_t** rs_cell_starts(const struct rs_grid* g) {
  */
 int64_t rs_count_overlaps(int64_t n, const double* x, const double* y, const double* z,
                           const double* rad, double Lx, double Ly, double shift,
-                          double fraction) {
+                          double fraction, int threads) {
     if (n < 2) return 0;
     double r_min = rad[0], r_max = rad[0], z_lo = z[0], z_hi = z[0];
     for (int64_t i = 1; i < n; i++) {
@@ -539,10 +546,27 @@ int64_t rs_count_overlaps(int64_t n, const double* x, const double* y, const dou
     int64_t** first = g ? rs_cell_starts(g) : NULL;
     if (!first) { rs_grid_free(g); free(class_of); return -1; }
     struct rs_deep deep = {NULL, 0, 0, 0};
-    for (int64_t s = 0; s < n; s++) {   /* a pair from the particle of the smaller class */
-        int own = class_of[g->p[s].index];
-        for (int c = own; c < g->n_classes; c++)
-            rs_overlaps_class(g, &g->classes[c], first[c], s, c == own, &q, &deep);
+    const int team = threads > 1 && n >= RS_OVERLAP_PARTICLES_PER_THREAD
+        ? (int)(n / RS_OVERLAP_PARTICLES_PER_THREAD < threads
+                ? n / RS_OVERLAP_PARTICLES_PER_THREAD : threads)
+        : 1;
+    (void)team;
+#pragma omp parallel num_threads(team)
+    {
+        struct rs_deep local = {NULL, 0, 0, 0};
+#pragma omp for schedule(static)
+        for (int64_t s = 0; s < n; s++) {   /* a pair from the particle of the smaller class */
+            int own = class_of[g->p[s].index];
+            for (int c = own; c < g->n_classes; c++)
+                rs_overlaps_class(g, &g->classes[c], first[c], s, c == own, &q, &local);
+        }
+#pragma omp critical(rs_count_overlaps_join)
+        {   /* any order: the pairs are sorted below */
+            deep.failed |= local.failed;
+            for (int64_t k = 0; k < local.count && !deep.failed; k++)
+                rs_deep_add(&deep, local.pairs[k].i, local.pairs[k].j);
+        }
+        free(local.pairs);
     }
     for (int c = 0; c < g->n_classes; c++) free(first[c]);
     free(first);

@@ -117,15 +117,16 @@ def configure_box(sim: rebound.Simulation, geometry: SheetGeometry) -> None:
 
 
 def count_overlaps(arrays: dict[str, np.ndarray], geometry: SheetGeometry, t: float = 0.0,
-                   fraction: float = OVERLAP_REPORT_FRACTION) -> int:
+                   fraction: float = OVERLAP_REPORT_FRACTION, threads: int = 1) -> int:
     """Pairs overlapping by more than ``fraction`` of the smaller radius, each pair once.
 
     Shear-periodic like the sheet: periodic in y; across the radial boundary a particle's
     image at x +- Lx is shifted in y by -+ 1.5 Omega Lx t (the shear flow carries the
     neighbouring boxes along), so pairs straddling that boundary are counted correctly; not
     periodic in z.  Counted in C (``rs_count_overlaps`` in ``csrc/rs_setup.c``, on the
-    placement's per-radius-class grids); ``ringsim.testing.count_overlaps_numpy`` is the
-    numpy twin the tests compare it with.
+    placement's per-radius-class grids, its search on ``threads`` OpenMP threads: the count
+    does not depend on them); ``ringsim.testing.count_overlaps_numpy`` is the numpy twin the
+    tests compare it with.
 
     Parameters
     ----------
@@ -134,6 +135,8 @@ def count_overlaps(arrays: dict[str, np.ndarray], geometry: SheetGeometry, t: fl
     t : float [s]
         Time of the state (sets the shear offset of the radial images).
     fraction : float [dimensionless]
+    threads : int
+        OpenMP threads of the search (a speed setting).
     """
     columns = [np.ascontiguousarray(arrays[key], dtype=np.float64)
                for key in ("x", "y", "z", "radius")]
@@ -141,7 +144,8 @@ def count_overlaps(arrays: dict[str, np.ndarray], geometry: SheetGeometry, t: fl
     count = _LIB.rs_count_overlaps(columns[3].size, *(c.ctypes.data_as(double_p)
                                                       for c in columns),
                                    geometry.Lx, geometry.Ly,
-                                   SHEAR * geometry.Omega * geometry.Lx * t, fraction)
+                                   SHEAR * geometry.Omega * geometry.Lx * t, fraction,
+                                   max(1, int(threads)))
     if count < 0:
         raise MemoryError(f"rs_count_overlaps: no memory for {columns[3].size} particles")
     return int(count)

@@ -180,7 +180,8 @@ def _declare_setup(lib: ctypes.CDLL) -> None:
     lib.rs_grid_overlapping.restype = ctypes.c_int64
     lib.rs_grid_overlapping.argtypes = [ctypes.c_void_p, ctypes.c_int64, int64_p, int64_p]
     lib.rs_count_overlaps.restype = ctypes.c_int64
-    lib.rs_count_overlaps.argtypes = [ctypes.c_int64, *[double_p] * 4, *[ctypes.c_double] * 4]
+    lib.rs_count_overlaps.argtypes = [ctypes.c_int64, *[double_p] * 4, *[ctypes.c_double] * 4,
+                                      ctypes.c_int]
 
 
 #: OpenMP threads that wait for the next parallel region sleep instead of spinning, unless

@@ -202,7 +202,9 @@ class Runner:
             "mean_impact_speed": float(stats["mean_vn"]) if count else float("nan"),
             "max_vertical_amplitude": sheet.max_vertical_amplitude(arrays, self.Omega),
             "z_half_period": 0.5 * g.z_period,
-            "overlapping_pairs": box.count_overlaps(arrays, g, self.sim.t),
+            "overlapping_pairs": box.count_overlaps(
+                arrays, g, self.sim.t,
+                threads=self.scenario.integration.thread_count()),
             **resolver_rows(stats, self.edges, self.scenario.particles.density,
                             self.handle.log_capacity),
         }
