@@ -114,6 +114,27 @@ def test_search_finds_the_same_pairs_with_classes_and_one_grid(seed, boundary):
     assert np.count_nonzero(across & larger_first) >= 20
 
 
+@pytest.mark.skipif(not native.openmp_available(), reason="built without OpenMP")
+def test_the_threads_shares_of_the_classes_keep_the_serial_order():
+    """With classes, the threads' runs of the sorted particles are weighted by the grids
+    their particles look into (rs_search_share); joined in thread order they give the
+    serial search's reports in its order, on 2 and 3 threads."""
+    sim = dense_broad_sheet(5, 3 * native.particles_per_thread() + 500)
+    handle = install_resolver(sim, {"model": "constant", "epsilon": 0.5},
+                              collision_detection="line")
+    detector.set_classes(handle.address, detector.MAX_CLASSES)
+    found = {}
+    for threads in (1, 2, 3):
+        native.set_detector_threads(handle.address, threads)
+        found[threads] = handle.detect_pairs()
+        assert native.detector_threads_used(handle.address) == threads
+        assert handle.detector_stats()["classes"] >= 3
+    assert len(found[1][0]) > 1000, "too few swept contacts to test anything"
+    for threads in (2, 3):
+        np.testing.assert_array_equal(found[threads][0], found[1][0])
+        np.testing.assert_array_equal(found[threads][1], found[1][1])
+
+
 def broad_scenario(n: int, gravity: bool, sizes: dict) -> dict:
     return {
         "name": "classes", "seed": 7, "planet": {"Omega": OMEGA},

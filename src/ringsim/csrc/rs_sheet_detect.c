@@ -1080,6 +1080,63 @@ static int rs_search_from(struct rs_sheet_detector* d, const struct rs_sheet_poi
  * joined in thread order, which is the order of a serial search.  The result would not
  * depend on the order anyway: the contacts are resolved in the total order of
  * rs_event_before.  Returns 0 if memory ran out. */
+/* Thread `id`'s share [first, end) of the n sorted points of Method 3a, one of `team`
+ * contiguous runs (joined in thread order they are the order of a serial search, wherever
+ * the runs end).  Their ends balance the work: with reach classes (Method 2a), whose
+ * particles are sorted class after class, a particle of class k weighs as many as the
+ * grids it looks into (its own and those of the larger classes that hold particles), so
+ * that the runs of the small particles, which look into several grids, are shorter; with
+ * one grid every particle weighs 1. */
+static void rs_search_share(const struct rs_sheet_detector* d, int64_t n, int team, int id,
+                            int64_t* first, int64_t* end){
+    int64_t start[RS_MAX_CLASSES + 1];
+    int64_t weight[RS_MAX_CLASSES];
+    int classes = d->n_classes > 1 ? d->n_classes : 1;
+    int64_t total = 0;
+    if (classes == 1){
+        start[0] = 0;
+        start[1] = n;
+        weight[0] = 1;
+        total = n;
+    }else{
+        int grids = 0;
+        for (int k = 0; k < classes; k++){
+            const struct rs_cell_grid* c = &d->cells[k];
+            start[k] = d->cell_start[c->cell_base];
+            grids += c->n > 0;
+            weight[k] = grids;
+            total += weight[k] * c->n;
+        }
+        start[classes] = n;
+    }
+    /* the point at which a run's weight reaches `part` of the total */
+    int64_t bound[2];
+    for (int side = 0; side < 2; side++){
+        const int part = id + side;
+        if (part <= 0 || part >= team){
+            bound[side] = part <= 0 ? 0 : n;
+            continue;
+        }
+        /* the weight before the bound: total x part / team, without overflow for any n */
+        const double target = (double)total * (double)part / (double)team;
+        double before = 0.0;
+        int64_t at = n;
+        for (int k = 0; k < classes; k++){
+            const double here = (double)weight[k] * (double)(start[k + 1] - start[k]);
+            if (before + here >= target && weight[k] > 0){
+                const int64_t step = (int64_t)ceil((target - before) / (double)weight[k]);
+                at = start[k] + (step < start[k + 1] - start[k] ? step
+                                                                 : start[k + 1] - start[k]);
+                break;
+            }
+            before += here;
+        }
+        bound[side] = at;
+    }
+    *first = bound[0];
+    *end = bound[1] > bound[0] ? bound[1] : bound[0];
+}
+
 static int rs_search(struct rs_sheet_detector* d, int64_t n){
     const int threads = rs_team_size(d, n);
     if (d->list_capacity < threads){
@@ -1107,8 +1164,9 @@ static int rs_search(struct rs_sheet_detector* d, int64_t n){
         }
         /* a copy on this thread's stack: no false sharing of the counters */
         struct rs_pair_list list = d->lists[rs_thread_id()];
-#pragma omp for schedule(static)
-        for (int64_t a = 0; a < n; a++){
+        int64_t first, end;
+        rs_search_share(d, n, rs_team_threads(), rs_thread_id(), &first, &end);
+        for (int64_t a = first; a < end; a++){
             if (list.ok && !rs_search_from(d, &d->points[a], &list)){
                 list.ok = 0;
             }
