@@ -1075,11 +1075,6 @@ static int rs_search_from(struct rs_sheet_detector* d, const struct rs_sheet_poi
     return 1;
 }
 
-/* Method 3-4 for all particles.  The particles are split over d->threads OpenMP threads in
- * contiguous shares (schedule static), each thread filling its own list; the lists are
- * joined in thread order, which is the order of a serial search.  The result would not
- * depend on the order anyway: the contacts are resolved in the total order of
- * rs_event_before.  Returns 0 if memory ran out. */
 /* Thread `id`'s share [first, end) of the n sorted points of Method 3a, one of `team`
  * contiguous runs (joined in thread order they are the order of a serial search, wherever
  * the runs end).  Their ends balance the work: with reach classes (Method 2a), whose
@@ -1137,6 +1132,11 @@ static void rs_search_share(const struct rs_sheet_detector* d, int64_t n, int te
     *end = bound[1] > bound[0] ? bound[1] : bound[0];
 }
 
+/* Method 3-4 for all particles.  The particles are split over d->threads OpenMP threads in
+ * contiguous shares (rs_search_share), each thread filling its own list; the lists are
+ * joined in thread order, which is the order of a serial search.  The result would not
+ * depend on the order anyway: the contacts are resolved in the total order of
+ * rs_event_before.  Returns 0 if memory ran out. */
 static int rs_search(struct rs_sheet_detector* d, int64_t n){
     const int threads = rs_team_size(d, n);
     if (d->list_capacity < threads){
