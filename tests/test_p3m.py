@@ -306,8 +306,9 @@ def test_solver_defaults_and_the_run_file_records_the_solver(tmp_path, gravitati
 
 
 def test_p3m_gives_the_same_bits_on_one_and_two_threads():
-    """Interpolation and pair sum are gathers per particle (each sum in a fixed order) and
-    scipy's FFTs split independent transforms: the accelerations are identical (==) on
+    """Interpolation and pair sum are gathers per particle (each sum in a fixed order), the
+    pair sum's cell lists and the mean vertical field's interpolation per particle work,
+    and scipy's FFTs split independent transforms: the accelerations are identical (==) on
     1 and 2 threads.  5000 particles: above the 2048 per thread at which a second thread
     starts (RS_P3M_PARTICLES_PER_THREAD)."""
     s = testing.random_sheet(5000, seed=8)

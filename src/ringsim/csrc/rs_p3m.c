@@ -403,6 +403,10 @@ void rs_p3m_mean_vertical(struct reb_simulation* const r, struct rs_p3m* p){
     }
     free(erf_of);
     free(below);
+    /* each particle's field from the layers (independent: on the threads) */
+    const int team = rs_p3m_threads(p, n);
+    (void)team;
+#pragma omp parallel for schedule(static) num_threads(team)
     for (size_t k = 0; k < n; k++){
         const double f = (ps[k].z - zmin) / h;
         size_t l = (size_t)f;
@@ -763,10 +767,13 @@ static int rs_p3m_list_build(struct rs_p3m_list* l, const struct rs_p3m* p,
     l->sm = l->sx + 3 * m;
     l->sc = l->sx + 4 * m;
     l->sw = l->sx + 5 * m;
-    l->clamped = 0;
     l->nzb = 1;
     const double hx = Lx / ncx, hy = Ly / ncy;
-    for (size_t k = 0; k < n; k++){   /* wrap, then counting sort into cells (x-major) */
+    const int team = rs_p3m_threads(p, n);
+    (void)team;
+    /* each particle's wrapped position and cell (independent: on the threads) */
+#pragma omp parallel for schedule(static) num_threads(team)
+    for (size_t k = 0; k < n; k++){
         if (ps[k].r < r_min){
             cell_of[k] = cells;        /* not in this list */
             continue;
@@ -781,28 +788,38 @@ static int rs_p3m_list_build(struct rs_p3m_list* l, const struct rs_p3m* p,
         cx = cx < 0 ? 0 : (cx >= ncx ? ncx - 1 : cx);
         cy = cy < 0 ? 0 : (cy >= ncy ? ncy - 1 : cy);
         cell_of[k] = (size_t)cx * (size_t)ncy + (size_t)cy;
-        l->start[cell_of[k] + 1]++;
+    }
+    /* counting sort into cells (x-major), by index within a cell */
+    for (size_t k = 0; k < n; k++){
+        if (cell_of[k] != cells){
+            l->start[cell_of[k] + 1]++;
+        }
     }
     for (size_t c = 0; c < cells; c++){
         l->start[c + 1] += l->start[c];
     }
     for (size_t k = 0; k < n; k++){
-        if (cell_of[k] == cells){
-            continue;
+        if (cell_of[k] != cells){
+            l->order[l->start[cell_of[k]]++] = k;
         }
-        const size_t slot = l->start[cell_of[k]]++;
-        l->order[slot] = k;
-        l->sx[slot] = wrapped[2 * k];
-        l->sy[slot] = wrapped[2 * k + 1];
-        l->sz[slot] = ps[k].z;
-        l->sm[slot] = ps[k].m;
-        l->sc[slot] = rs_p3m_on_mesh(p, ps[k].z, Lx, Ly, &l->sw[slot]);
-        l->clamped |= l->sc[slot] != ps[k].z;
     }
     for (size_t c = cells; c > 0; c--){   /* restore the starts */
         l->start[c] = l->start[c - 1];
     }
     l->start[0] = 0;
+    /* each slot's copies, height on the mesh and damping (independent: on the threads) */
+    int clamped = 0;
+#pragma omp parallel for schedule(static) num_threads(team) reduction(|:clamped)
+    for (size_t slot = 0; slot < m; slot++){
+        const size_t k = l->order[slot];
+        l->sx[slot] = wrapped[2 * k];
+        l->sy[slot] = wrapped[2 * k + 1];
+        l->sz[slot] = ps[k].z;
+        l->sm[slot] = ps[k].m;
+        l->sc[slot] = rs_p3m_on_mesh(p, ps[k].z, Lx, Ly, &l->sw[slot]);
+        clamped |= l->sc[slot] != ps[k].z;
+    }
+    l->clamped = clamped;
     free(cell_of);
     free(wrapped);
     return 1;
