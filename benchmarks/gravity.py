@@ -140,8 +140,13 @@ def table(rows):
 
 
 def ratio_table(rows):
-    """Issue 41's ratios side by side, each from the same run's columns."""
-    lines = ["| N | step with / without gravity (P3M + line det., 1 thread, CPU) | "
+    """Issue 41's ratios side by side, each from the same run's columns, with their
+    introduction."""
+    lines = ["The same run's ratios (issue 41's targets: the step with gravity at most 2 "
+             "times the step\nwithout on one thread, 2 threads at most 0.55 of one; "
+             "REBOUND's step is its tree for\ngravity and for collisions, the all-REBOUND "
+             "way to run this sheet):", "",
+             "| N | step with / without gravity (P3M + line det., 1 thread, CPU) | "
              "2 / 1 threads (P3M + line det., wall) | ringsim / REBOUND (P3M + line det. "
              "against REBOUND's tree gravity + tree det., 1 thread, CPU) | REBOUND's step "
              "[us per particle-step] |",
@@ -188,10 +193,6 @@ ring of ghost boxes, plus the field of the sheet beyond them (`rs_ghost_field`).
 r_s; docs/gravity.md, section "P3M").
 
 {table(rows)}
-
-The same run's ratios (issue 41's targets: the step with gravity at most 2 times the step
-without on one thread, 2 threads at most 0.55 of one; REBOUND's step is its tree for
-gravity and for collisions, the all-REBOUND way to run this sheet):
 
 {ratio_table(rows)}
 
