@@ -288,6 +288,7 @@ struct rs_sheet_detector {
     int64_t n_saved;
     int64_t saved_capacity;
     struct rs_sheet_track* track;           /* by particle index */
+    int64_t track_n;                /* particles the track was last cleared for (0: never) */
     int32_t* cell_of;               /* the sort's cell of each particle */
     int64_t cell_capacity;
     int32_t* cell_start;            /* n_cells + 1 entries (slots: n < INT32_MAX) */
@@ -1253,6 +1254,21 @@ static int rs_sheet_find_pairs(struct reb_simulation* const r, struct rs_sheet_d
     return RS_DETECT_OK;
 }
 
+/* Every particle's track to zero before a resolution.  Only the particles saved by the
+ * last resolution (rs_save: every particle whose track it wrote) can hold anything else,
+ * so only theirs are cleared, unless the number of particles has changed (the track may
+ * then be new memory): then all of it. */
+static void rs_clear_track(struct rs_sheet_detector* d, int64_t n){
+    if (d->track_n != n){
+        memset(d->track, 0, (size_t)n * sizeof(struct rs_sheet_track));
+        d->track_n = n;
+        return;
+    }
+    for (int64_t k = 0; k < d->n_saved; k++){
+        memset(&d->track[d->saved[k].index], 0, sizeof(struct rs_sheet_track));
+    }
+}
+
 /* Method 6-7 after a collision of particle q with `partner`: its deviation, its count of
  * deflecting contacts (Method 8), then its new contacts within the last `window` of the
  * step.  Returns 0 if memory ran out. */
@@ -1345,7 +1361,7 @@ void rs_sheet_step(struct reb_simulation* const r){
     if (d->n_collisions == 0){
         return;
     }
-    memset(d->track, 0, (size_t)r->N * sizeof(struct rs_sheet_track));
+    rs_clear_track(d, (int64_t)r->N);
     d->n_events = 0;
     d->serial = 0;
     d->deviation_max = 0.0;
