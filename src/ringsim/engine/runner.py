@@ -97,6 +97,7 @@ class Runner:
         self.snap_every = out.snapshot_every * self.orbit
         self.ckpt_every = out.checkpoint_every * self.orbit
         self.t_end = scenario.integration.orbits * self.orbit
+        self.threads = scenario.integration.thread_count()   # ``auto`` resolved once
         self.check_momentum = not scenario.sheet.gravity
         self.gravity: dict | None = None  # engine.gravity.scenario_gravity of a gravitating run
         self.state = LoopState()
@@ -149,7 +150,7 @@ class Runner:
     def _set_threads(self) -> None:
         """The SEI step, line detection's search and the gravity solver (P3M) on
         ``integration.threads`` threads (no effect on results)."""
-        threads = self.scenario.integration.thread_count()
+        threads = self.threads
         use_threaded_sei(self.sim, threads)
         if isinstance(self.handle, ResolverHandle) and self.handle.collision_detection == "line":
             set_detector_threads(self.handle.address, threads)
@@ -202,9 +203,8 @@ class Runner:
             "mean_impact_speed": float(stats["mean_vn"]) if count else float("nan"),
             "max_vertical_amplitude": sheet.max_vertical_amplitude(arrays, self.Omega),
             "z_half_period": 0.5 * g.z_period,
-            "overlapping_pairs": box.count_overlaps(
-                arrays, g, self.sim.t,
-                threads=self.scenario.integration.thread_count()),
+            "overlapping_pairs": box.count_overlaps(arrays, g, self.sim.t,
+                                                    threads=self.threads),
             **resolver_rows(stats, self.edges, self.scenario.particles.density,
                             self.handle.log_capacity),
         }
