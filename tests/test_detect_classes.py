@@ -94,6 +94,7 @@ def test_search_finds_the_same_pairs_with_classes_and_one_grid(seed, boundary):
     sim = dense_broad_sheet(seed, 10000, boundary)
     handle = install_resolver(sim, {"model": "constant", "epsilon": 0.5},
                               collision_detection="line")
+    detector.set_lists(handle.address, 0)   # the cells' search, the subject here
     found = {}
     for classes in (detector.MAX_CLASSES, ONE_GRID):
         detector.set_classes(handle.address, classes)
@@ -123,6 +124,7 @@ def test_the_threads_shares_of_the_classes_keep_the_serial_order():
     handle = install_resolver(sim, {"model": "constant", "epsilon": 0.5},
                               collision_detection="line")
     detector.set_classes(handle.address, detector.MAX_CLASSES)
+    detector.set_lists(handle.address, 0)   # the cells' search, the subject here
     found = {}
     for threads in (1, 2, 3):
         native.set_detector_threads(handle.address, threads)
@@ -155,6 +157,7 @@ def evolve(scenario: dict, classes: int, threads: int, steps: int) -> tuple[dict
     resolution counters after ``steps`` steps."""
     built = build_sheet(scenario_from_dict(scenario, source="classes.yaml"))
     detector.set_classes(built.resolver.address, classes)
+    detector.set_lists(built.resolver.address, 0)   # the cells' search, the subject here
     native.set_detector_threads(built.resolver.address, threads)
     built.sim.steps(steps)
     stats = built.resolver.detector_stats()

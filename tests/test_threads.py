@@ -18,7 +18,7 @@ import pytest
 import rebound
 
 from ringsim.config.scenario import ScenarioError, scenario_from_dict
-from ringsim.engine import native
+from ringsim.engine import detector, native
 from ringsim.engine.binary import simulation_from_binary
 from ringsim.engine.resolver import install_resolver
 from ringsim.engine.runner import run
@@ -129,6 +129,7 @@ def test_search_finds_the_same_pairs_on_1_and_2_threads(seed):
     sim = dense_sheet(seed, N_SPLIT)
     handle = install_resolver(sim, {"model": "constant", "epsilon": 0.5},
                               collision_detection="line")
+    detector.set_lists(handle.address, 0)   # the cells' search (the lists: test_neighbour_lists)
     found = {}
     for threads in (1, 2):
         native.set_detector_threads(handle.address, threads)

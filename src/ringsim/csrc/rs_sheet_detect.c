@@ -148,12 +148,37 @@
  *    other back, while a metre-sized particle in a layer of centimetre grains meets
  *    hundreds of them in one step without being turned by any; were those counted, its
  *    later grains would pass into it unresolved.
+ * 9. Neighbour list (Verlet's, with a skin per particle).  Where the particles move little
+ *    in a step against their sizes (a cool sheet), the search of steps 3-4 goes through a
+ *    list of pairs kept over several steps instead of the cells: at its build, every pair
+ *    with |dr_0| <= (1 + a)(rho_i + rho_j) + b_i + b_j (found in the cells, Method 3's half
+ *    shell where the grid allows; each particle's position, reach and skin b_i kept as
+ *    its anchor).  At every step each particle's drift Delta_i from its anchor carried by
+ *    the shear flow (y0 - 1.5 Omega x0 T, T the time since the build) and the growth of
+ *    its reach give M (rs_list_margin): since dr = dr_0 + Delta_i - Delta_j - 1.5 Omega T
+ *    dx_0 e_y, no pair outside the list can be within the bound of step 1 while M > 0, nor
+ *    within the re-check bound of step 7 while D_i + D_j < M.  The list is built again when
+ *    M <= 0.  a covers the shear of d->list_steps steps; b_i covers steps + 1 steps of the
+ *    particle's own motion rho_i - R_i, at least RS_LIST_FLOOR times its rms over the
+ *    particles and at most RS_LIST_FAST times that.  Each listed pair is tested as the
+ *    search from its particle of lower index tests it, through its nearest image (the
+ *    only one in reach in a box wider than 2 s): the same reports, offsets and bits.  A
+ *    re-check goes through the particle's listed partners and the particles of the step
+ *    with D >= M / 2 (d->wide), unless the particle's own D >= M / 2, or the re-check
+ *    would be cut at RS_MAX_SPAN s or reach beyond half the box: then it searches the
+ *    cells, which are sorted for that step only then.  The cells are laid out every step
+ *    all the same (the reach classes' state is that of a search without lists).  Lists
+ *    are not built where the least pair skin exceeds RS_LIST_SKIN_RATIO smallest reaches
+ *    (particles that move their size in a step: the list would hold more partners than
+ *    the cells read), nor in boxes narrower than two list reaches.  rs_sheet_set_lists(res,
+ *    0) searches the cells at every step.  Neither changes any result.
  * No shuffle and no random numbers: sim.rand_seed is not used and does not advance.
  *
  * Parameters: none beyond the simulation's (box, OMEGA, boundary, dt_last_done, t) and the
  * resolver's, the number of threads of the search (rs_sheet_set_threads; the library
- * is compiled with OpenMP where the compiler has it, rs_sheet_openmp) and the most reach
- * classes (rs_sheet_set_classes; neither changes any result).  Counters
+ * is compiled with OpenMP where the compiler has it, rs_sheet_openmp), the most reach
+ * classes (rs_sheet_set_classes) and the steps a neighbour list is built to last
+ * (rs_sheet_set_lists; none of them changes any result).  Counters
  * (rs_sheet_detector_counters): steps, candidates (pairs whose path was tested, also in
  * re-checks), reports, cells and cell size of the last step, whether it used the half
  * shell, the reach classes it used; of the time
@@ -214,6 +239,23 @@
 #define RS_CLASS_RETRY 16
 /* A re-check looks at most this many times s (Method 1) away. */
 #define RS_MAX_SPAN 3
+/* Steps a neighbour list is built to last (Method 9), unless rs_sheet_set_lists says
+ * otherwise; 0 would turn the lists off. */
+#define RS_LIST_STEPS 10
+/* A list is built only if its skin is at most this many times the smallest reach: a skin
+ * wider than the particles (fast particles against small ones) would list more partners
+ * than the cells read. */
+/* A particle's skin is at most this many times the least skin (Method 9): the build looks
+ * as far as the largest list reach. */
+#ifndef RS_LIST_FLOOR
+#define RS_LIST_FLOOR 3.0
+#endif
+#ifndef RS_LIST_FAST
+#define RS_LIST_FAST 4.0
+#endif
+#ifndef RS_LIST_SKIN_RATIO
+#define RS_LIST_SKIN_RATIO 8.0
+#endif
 /* Particles per thread at least: below, the threads' start and join cost more than they
  * save (the search of 4096 particles takes about a millisecond). */
 #define RS_PARTICLES_PER_THREAD 4096
@@ -244,6 +286,7 @@ struct rs_sheet_track {
     int64_t last;           /* serial of its last collision in this step, 0: none */
     int64_t contacts;       /* collisions in this step that deflected it (Method 8) */
     int64_t saved;          /* 1 + its slot in d->saved, 0: not saved (not collided) */
+    int64_t wide;           /* 1: in d->wide (Method 9) */
 };
 
 /* A contact on the paths of the moment it was computed. */
@@ -251,6 +294,21 @@ struct rs_event {
     double back_time;       /* [s] before the end of the step */
     int64_t last1, last2;   /* serials of p1's and p2's last collisions then */
     struct reb_collision c; /* p1 < p2, gb of p1 */
+};
+
+/* A particle when its neighbour list was built (Method 9), by index. */
+struct rs_sheet_anchor {
+    double x, y, z;         /* [m] wrapped position */
+    double reach;           /* [m] */
+    double skin;            /* [m] b_i of Method 9 */
+};
+
+/* The pairs (lo, hi) one thread listed in its share of a list build, in search order. */
+struct rs_index_pairs {
+    int64_t n;
+    int64_t capacity;
+    int32_t* items;         /* 2 per pair */
+    int ok;                 /* 0 if memory ran out */
 };
 
 /* Pairs one thread found in its share of the search, in search order. */
@@ -276,6 +334,10 @@ struct rs_sheet_grid {
     double reach_max;       /* [m] */
     double slack;           /* [m] widening of the wrapped-coordinate pre-test (rs_cell_report) */
     double kick_time;       /* [s] back time of the step's kick (Method 1a), 0: no kick */
+    double shear_rate;      /* [1/s] 1.5 Omega (0 without the shear boundary) */
+    double reach_min;       /* [m] least reach of the step */
+    double excess_rms;      /* [m] rms of reach minus radius over the particles */
+    double budget_min;      /* [m] least m_i of Method 9 (-infinity: no list) */
     int half_shell;         /* 1: each pair of one box looked at from one side (Method 3) */
 };
 
@@ -314,6 +376,40 @@ struct rs_sheet_detector {
     uint8_t* class_of;              /* each particle's class, by index (n_classes > 1) */
     int64_t class_capacity;
     const struct reb_particle* particles;   /* r->particles of the last search (kicks) */
+    int64_t n_cells_step;           /* cells of this step's grid */
+    int grid_sorted;                /* this step's counting sort is done */
+    /* Method 9: the neighbour list */
+    int list_steps;                 /* steps a list is built to last, 0: no lists */
+    int list_ready;                 /* the list and its anchors hold list_n particles */
+    int list_on;                    /* this step's search and re-checks use the list */
+    int list_retry;                 /* steps before a list is weighed again */
+    int64_t list_n;
+    double list_time;               /* [s] r->t when the list was built */
+    double list_a;                  /* the list's relative widening of each pair's reaches */
+    double list_skin_floor;         /* [m] the least skin b_i */
+    double list_skin_scale;         /* b_i per metre moved in a step: (steps + 1) / keep */
+    double list_reach_of[RS_MAX_CLASSES];   /* [m] largest list reach of each class */
+    double list_reach_min, list_reach_max;  /* [m] the reaches then */
+    double list_margin;             /* [m] M of Method 9 at this step */
+    struct rs_sheet_anchor* anchors;        /* by particle index */
+    int64_t anchor_capacity;
+    int32_t* list_pairs;            /* (lo, hi), 2 per pair */
+    int64_t list_pair_n;
+    int64_t list_pair_capacity;
+    int32_t* partner_start;         /* list_n + 1 entries */
+    int64_t partner_start_capacity;
+    int32_t* partners;              /* each particle's listed partners */
+    int64_t partner_capacity;
+    struct rs_index_pairs* builders;        /* one per thread */
+    int64_t builder_capacity;
+    int list_half_shell[RS_MAX_CLASSES];    /* 1: the build looks at each pair of the
+                                             * class's grid from one side (Method 3) */
+    int64_t* wide;                  /* the particles of this step with D >= M / 2 */
+    int64_t n_wide;
+    int64_t wide_capacity;
+    int64_t list_builds;            /* counters */
+    int64_t list_steps_used;
+    int64_t list_fallbacks;
     double deviation_max;           /* [m] largest D of this step */
     int64_t serial;                 /* collisions resolved in this step */
     /* counters */
@@ -350,6 +446,15 @@ static void rs_sheet_detector_free(struct rs_sheet_detector* d){
     }
     free(d->lists);
     free(d->events);
+    free(d->anchors);
+    free(d->list_pairs);
+    free(d->partner_start);
+    free(d->partners);
+    free(d->wide);
+    for (int64_t k = 0; k < d->builder_capacity; k++){
+        free(d->builders[k].items);
+    }
+    free(d->builders);
     free(d);
 }
 
@@ -619,8 +724,8 @@ struct rs_image {
     int64_t cell_y;
 };
 
-static struct rs_image rs_image_of(const struct rs_sheet_grid* g, const struct rs_cell_grid* c,
-                                   double yw, int64_t box_x){
+static inline struct rs_image rs_image_at(const struct rs_sheet_grid* g, double yw,
+                                         int64_t box_x, double* yq_out){
     struct rs_image im;
     im.x = -(double)box_x * g->Lx;
     im.vy = (double)box_x * g->box_speed;
@@ -629,6 +734,15 @@ static struct rs_image rs_image_of(const struct rs_sheet_grid* g, const struct r
     const double wrap_y = rs_box_count(yq, g->Ly);
     yq -= wrap_y * g->Ly;
     im.y = image_y - wrap_y * g->Ly;
+    im.cell_y = 0;
+    *yq_out = yq;   /* the image's y, wrapped into the primary box's range [m] */
+    return im;
+}
+
+static struct rs_image rs_image_of(const struct rs_sheet_grid* g, const struct rs_cell_grid* c,
+                                   double yw, int64_t box_x){
+    double yq;
+    struct rs_image im = rs_image_at(g, yw, box_x, &yq);
     im.cell_y = rs_cell_coordinate(yq, -0.5 * g->Ly, c->iy, c->ny);
     return im;
 }
@@ -735,6 +849,31 @@ static struct reb_vec6d rs_offset_of_lower(const struct rs_sheet_grid* g,
     return rs_image_offset(lo, hi, im.x, gy, im.vy);
 }
 
+/* Method 4 for the pair (pi, pj), pi of lower index, seen through the ghost-box offset gb
+ * of pi: reported to `out` if it is within the bound of Method 1 and its straight relative
+ * path touched within the step.  Returns 0 if memory ran out. */
+static int rs_test_pair(const struct rs_sheet_grid* g, const struct rs_sheet_detector* d,
+                        const struct rs_sheet_particle* pi, const struct rs_sheet_particle* pj,
+                        struct reb_vec6d gb, struct rs_pair_list* out){
+    const double dx = pi->x + gb.x - pj->x;
+    const double dy = pi->y + gb.y - pj->y;
+    const double dz = pi->z - pj->z;
+    const double bound = pi->reach + pj->reach + g->shear_step * fabs(dx);
+    if (dx * dx + dy * dy + dz * dz > bound * bound){
+        return 1;
+    }
+    out->candidates++;
+    const double dvx = pi->vx - pj->vx;
+    const double dvy = pi->vy + gb.vy - pj->vy;
+    const double dvz = pi->vz - pj->vz;
+    const double sum_radii = pi->radius + pj->radius;
+    if (!rs_path_touches(dx, dy, dz, dvx, dvy, dvz, sum_radii, g->dt, g->kick_time,
+                         &d->particles[pi->index], &d->particles[pj->index])){
+        return 1;
+    }
+    return rs_report(out, (size_t)pi->index, (size_t)pj->index, gb);
+}
+
 /* Method 3-4 in the cells [first, end) of the sorted particles (a run of cells of one
  * row) for particle pi (image
  * offsets image_x, gy_i, image_vy of the box box_x): every partner j > i (every partner j
@@ -779,27 +918,31 @@ static int rs_cell_report(const struct rs_sheet_grid* g, const struct rs_sheet_d
         const struct reb_vec6d gb = later || box_x == 0
             ? rs_image_offset(pi, pj, image_x, gy, image_vy)
             : rs_offset_of_lower(g, c, pi, pj, box_x);
-        const double dx = pi->x + gb.x - pj->x;
-        const double dy = pi->y + gb.y - pj->y;
-        const double dz = pi->z - pj->z;
-        const double bound = pi->reach + pj->reach + g->shear_step * fabs(dx);
-        if (dx * dx + dy * dy + dz * dz > bound * bound){
-            continue;
-        }
-        out->candidates++;
-        const double dvx = pi->vx - pj->vx;
-        const double dvy = pi->vy + gb.vy - pj->vy;
-        const double dvz = pi->vz - pj->vz;
-        const double sum_radii = pi->radius + pj->radius;
-        if (!rs_path_touches(dx, dy, dz, dvx, dvy, dvz, sum_radii, g->dt, g->kick_time,
-                             &d->particles[pi->index], &d->particles[pj->index])){
-            continue;
-        }
-        if (!rs_report(out, (size_t)pi->index, (size_t)pj->index, gb)){
+        if (!rs_test_pair(g, d, pi, pj, gb, out)){
             return 0;
         }
     }
     return 1;
+}
+
+/* Method 6-7 for particle pi and partner pj (states before the resolution) seen through
+ * pi's image (image_x, gy_i [m], image_vy [m/s]): the pair's next contact within the last
+ * `window` of the step is queued if it is within the bound of Method 7.  Returns 0 if
+ * memory ran out. */
+static int rs_recheck_partner(const struct reb_simulation* const r, struct rs_sheet_detector* d,
+                              const struct rs_sheet_particle* pi,
+                              const struct rs_sheet_particle* pj, double image_x, double gy_i,
+                              double image_vy, double window){
+    const struct reb_vec6d gb = rs_image_offset(pi, pj, image_x, gy_i, image_vy);
+    const double dx = pi->x + gb.x - pj->x;
+    const double dy = pi->y + gb.y - pj->y;
+    const double dz = pi->z - pj->z;
+    const double bound = (pi->reach + pj->reach + d->grid.shear_step * fabs(dx))
+                         + (d->track[pi->index].deviation + d->track[pj->index].deviation);
+    if (dx * dx + dy * dy + dz * dz > bound * bound){
+        return 1;
+    }
+    return rs_recheck_pair(r, d, pi->index, pj->index, gb, window);
 }
 
 /* Method 6-7 in the cells [first, end) of one row for particle pi: partners j != i within
@@ -828,19 +971,43 @@ static int rs_cell_recheck(const struct reb_simulation* const r, struct rs_sheet
             continue;
         }
         const struct rs_sheet_particle sj = rs_before(d, q->index);
-        const struct rs_sheet_particle* const pj = &sj;
-        const struct reb_vec6d gb = rs_image_offset(pi, pj, image_x, gy_i, image_vy);
-        const double dx = pi->x + gb.x - pj->x;
-        const double dy = pi->y + gb.y - pj->y;
-        const double dz = pi->z - pj->z;
-        const double bound = (pi->reach + pj->reach + shear_step * fabs(dx))
-                             + (deviation_i + d->track[pj->index].deviation);
-        if (dx * dx + dy * dy + dz * dz > bound * bound){
-            continue;
-        }
-        if (!rs_recheck_pair(r, d, pi->index, pj->index, gb, window)){
+        if (!rs_recheck_partner(r, d, pi, &sj, image_x, gy_i, image_vy, window)){
             return 0;
         }
+    }
+    return 1;
+}
+
+/* Method 9 in the cells [first, end) of one row for particle p seen through its image
+ * (image_x, gy_i [m]): every partner j > i (every partner with `all`) within the sum of
+ * their list reaches (1 + a) rho + b, which the build keeps in the points' reach, goes to
+ * `out` as (lower index, higher index).  The
+ * distance is taken in wrapped coordinates and widened by g->slack, so that every pair
+ * within the reach in unwrapped coordinates is listed.  Returns 0 if memory ran out. */
+static int rs_cell_list(const struct rs_sheet_detector* d, const struct rs_sheet_point* p,
+                        int64_t first, int64_t end, double image_x, double gy_i,
+                        struct rs_index_pairs* out, int all){
+    const struct rs_sheet_point* const points = d->points;
+    const double slack = d->grid.slack;
+    const double xi = p->xw + image_x;
+    const double yi = p->yw + gy_i;
+    for (int64_t b = first; b < end; b++){
+        const struct rs_sheet_point* q = &points[b];
+        const double dxw = xi - q->xw;
+        const double dyw = yi - q->yw;
+        const double dzw = p->z - q->z;
+        const double cutoff = p->reach + q->reach + slack;     /* list reaches here */
+        const int near = dxw * dxw + dyw * dyw + dzw * dzw <= cutoff * cutoff;
+        const int later = q->index > p->index;
+        if (!(near & (later | all))){
+            continue;
+        }
+        if (!rs_grow((void**)&out->items, &out->capacity, 2 * (out->n + 1), sizeof(int32_t))){
+            return 0;
+        }
+        out->items[2 * out->n] = (int32_t)(later ? p->index : q->index);
+        out->items[2 * out->n + 1] = (int32_t)(later ? q->index : p->index);
+        out->n++;
     }
     return 1;
 }
@@ -849,6 +1016,8 @@ enum RS_SCAN {
     RS_SCAN_REPORT = 0,     /* Method 3-4: partners j > i, report swept contacts (to out) */
     RS_SCAN_RECHECK = 1,    /* Method 6-7: partners j != i, queue their next contacts */
     RS_SCAN_LARGER = 2,     /* Method 2a: all partners of a class of larger reaches, report */
+    RS_SCAN_LIST = 3,       /* Method 9: partners j > i within the list's reach, list them */
+    RS_SCAN_LIST_LARGER = 4,        /* Method 9 in a class of larger reaches: all partners */
 };
 
 /* Looks at every cell of the grid c within `distance` [m] of particle pi (state before the
@@ -860,7 +1029,8 @@ enum RS_SCAN {
  * memory ran out. */
 static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detector* d,
                    const struct rs_cell_grid* c, const struct rs_sheet_point* pi,
-                   double distance, int mode, double window, struct rs_pair_list* out){
+                   double distance, int mode, double window, struct rs_pair_list* out,
+                   struct rs_index_pairs* listed){
     const struct rs_sheet_grid* const g = &d->grid;
     const int32_t* const start = d->cell_start + c->cell_base;
     /* at most one box on each side (a box narrower than 2 s is outside the validity
@@ -875,7 +1045,8 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
     /* Method 3's half shell: in the primary box each pair is looked at from one side only,
      * the particle whose row (y cell of the grid, then layer) comes first, or within a row
      * the earlier slot; across the radial boundary, from the particle of lower index */
-    const int half = mode == RS_SCAN_REPORT && c->half_shell;
+    const int half = (mode == RS_SCAN_REPORT && c->half_shell)
+                     || (mode == RS_SCAN_LIST && d->list_half_shell[c - d->cells]);
     const int64_t cy = half ? rs_cell_coordinate(pi->yw, -0.5 * g->Ly, c->iy, c->ny) : 0;
     const int64_t slot = half ? (int64_t)(pi - d->points) : 0;
     for (int64_t kx = -span_x; kx <= span_x;){
@@ -906,10 +1077,16 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
                         first = slot + 1;   /* pi's row: the slots after pi's */
                     }
                 }
-                const int ok = mode == RS_SCAN_RECHECK
-                    ? rs_cell_recheck(r, d, pi, first, end, im.x, gy_i, im.vy, window)
-                    : rs_cell_report(g, d, pi, first, end, c, box_x, im.x, gy_i, im.vy, out,
-                                     shell || mode == RS_SCAN_LARGER);
+                int ok;
+                if (mode == RS_SCAN_RECHECK){
+                    ok = rs_cell_recheck(r, d, pi, first, end, im.x, gy_i, im.vy, window);
+                }else if (mode >= RS_SCAN_LIST){
+                    ok = rs_cell_list(d, pi, first, end, im.x, gy_i, listed,
+                                      shell || mode == RS_SCAN_LIST_LARGER);
+                }else{
+                    ok = rs_cell_report(g, d, pi, first, end, c, box_x, im.x, gy_i, im.vy,
+                                        out, shell || mode == RS_SCAN_LARGER);
+                }
                 if (!ok){
                     return 0;
                 }
@@ -918,6 +1095,30 @@ static int rs_scan(const struct reb_simulation* const r, struct rs_sheet_detecto
         kx += count;
     }
     return 1;
+}
+
+/* Method 9: the squared distance [m^2] of a particle at the wrapped position (xw, yw, z)
+ * from the point its anchor a would have reached moving with the shear flow since the list
+ * was built (shear_T = 1.5 Omega T [1], T the time since then): |Delta|^2 of Method 9.  The
+ * particle's continuous position is its wrapped one in the box (k in x) nearest the anchor
+ * (the ghost box k has slid by -k a in y, as in rs_wrap); the y difference is taken in the
+ * nearest periodic image.  A drift over a quarter of the box is ambiguous: infinite (the
+ * list is then built again). */
+static inline double rs_anchor_drift2(const struct rs_sheet_grid* g,
+                                      const struct rs_sheet_anchor* a, double xw, double yw,
+                                      double z, double shear_T){
+    const double half_x = 0.5 * g->Lx;
+    const double half_y = 0.5 * g->Ly;
+    const double k = a->x - xw > half_x ? 1.0 : (a->x - xw < -half_x ? -1.0 : 0.0);
+    const double ex = xw + k * g->Lx - a->x;
+    double ey = (yw - k * g->slide) - (a->y - shear_T * a->x);
+    ey -= ey > half_y ? g->Ly : (ey < -half_y ? -g->Ly : 0.0);
+    ey -= ey > half_y ? g->Ly : (ey < -half_y ? -g->Ly : 0.0);
+    const double ez = z - a->z;
+    if (!(fabs(ex) < 0.25 * g->Lx && fabs(ey) < 0.25 * g->Ly && fabs(ez) < INFINITY)){
+        return INFINITY;    /* also NaN */
+    }
+    return ex * ex + ey * ey + ez * ez;
 }
 
 /* Method 1: every particle's wrapped position and reach (d->wrapped), and
@@ -935,8 +1136,16 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
     double z_min = INFINITY;
     double z_max = -INFINITY;
     const double kick_time = 0.5 * g->dt;
+    double reach_min = INFINITY;
+    double excess_sum = 0.0;        /* [m^2] sum of (reach - radius)^2 */
+    double budget_min = INFINITY;
+    const int anchored = d->list_ready && d->list_n == n;
+    const double shear_T = g->shear_rate * (r->t - d->list_time);
+    const double keep_T = (1.0 - fabs(shear_T)) * (1.0 - g->shear_step);
+    const double drift_weight = 1.0 - g->shear_step;
 #pragma omp parallel for schedule(static) num_threads(rs_team_size(d, n)) \
-        reduction(max:reach_max, kick_max, z_max) reduction(min:z_min)
+        reduction(max:reach_max, kick_max, z_max) reduction(+:excess_sum) \
+        reduction(min:z_min, reach_min, budget_min)
     for (int64_t i = 0; i < n; i++){
         const struct reb_particle* const p = &r->particles[i];
         const double mx = rs_box_count(p->x, Lx);
@@ -957,12 +1166,27 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
         reach_max = fmax(reach_max, reach);
         z_min = fmin(z_min, p->z);
         z_max = fmax(z_max, p->z);
+        /* comparisons, not fmax/fmin (library calls here): a NaN reach fails above */
+        reach_min = reach < reach_min ? reach : reach_min;
+        excess_sum += (reach - p->r) * (reach - p->r);
+        if (anchored){
+            /* m_i = b_i keep - |Delta_i| (1 - 1.5 Omega dt) - (rho_i - rho0_i) */
+            const struct rs_sheet_anchor* const a = &d->anchors[i];
+            const double drift = sqrt(rs_anchor_drift2(g, a, d->wrapped[i].xw, yw, p->z,
+                                                       shear_T));
+            const double budget = a->skin * keep_T - drift * drift_weight
+                                  - (reach - a->reach);
+            budget_min = budget < budget_min ? budget : budget_min;
+        }
     }
     if (!isfinite(reach_max) || !isfinite(z_min) || !isfinite(z_max) || !isfinite(kick_max)){
         return 0;
     }
     g->kick_time = kick_max > 0.0 ? kick_time : 0.0;
     g->reach_max = reach_max;
+    g->reach_min = reach_min;
+    g->excess_rms = sqrt(excess_sum / (double)n);
+    g->budget_min = anchored && budget_min > -INFINITY ? budget_min : -INFINITY;
     g->z_min = z_min;
     g->z_range = z_max - z_min;
     return 1;
@@ -1015,10 +1239,11 @@ static int64_t rs_class_layout(struct rs_sheet_detector* d, int64_t n){
     return n_cells;
 }
 
-/* Method 2: the cells (one grid, or a grid per reach class: Method 2a) and the particles
- * sorted into them by a counting sort (stable: a cell holds its particles in index order)
- * into d->points.  Returns 0 if memory ran out. */
-static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
+/* Method 2: the cells (one grid, or a grid per reach class: Method 2a), laid out every
+ * step, whether or not the particles are sorted into them (rs_grid_sorted), so that the
+ * classes' state (d->one_grid_steps) is the same as if they were.  Returns 0 if memory ran
+ * out. */
+static int rs_grid_layout(struct rs_sheet_detector* d, int64_t n){
     struct rs_sheet_grid* const g = &d->grid;
     /* s: the largest distance at which two particles can touch within the step */
     const double s = rs_sheet_pair_reach(g->reach_max, g->shear_step);
@@ -1044,7 +1269,20 @@ static int rs_grid_sort(struct rs_sheet_detector* d, int64_t n){
     d->cell_capacity = capacity;
     d->cells_last = n_cells;
     d->cell_size_last = d->cells[0].side;
-    return rs_counting_sort(d, n, n_cells);
+    d->n_cells_step = n_cells;
+    d->grid_sorted = 0;
+    return 1;
+}
+
+/* Method 2's counting sort of this step's particles into its grid (stable: a cell holds
+ * its particles in index order) into d->points, once a step.  Returns 0 if memory ran
+ * out. */
+static int rs_grid_sorted(struct rs_sheet_detector* d, int64_t n){
+    if (d->grid_sorted){
+        return 1;
+    }
+    d->grid_sorted = rs_counting_sort(d, n, d->n_cells_step);
+    return d->grid_sorted;
 }
 
 /* Method 3-4 for particle pi: the grid of its class (Method 3's pairs), and with classes
@@ -1058,7 +1296,7 @@ static int rs_search_from(struct rs_sheet_detector* d, const struct rs_sheet_poi
         const double distance = (pi->reach + g->reach_max) / (1.0 - g->shear_step)
                                 * (1.0 + 1e-12) + g->slack;
         return rs_scan(NULL, d, &d->cells[0], pi, distance,
-                       RS_SCAN_REPORT, 0.0, out);
+                       RS_SCAN_REPORT, 0.0, out, NULL);
     }
     const int own = d->class_of[pi->index];
     for (int k = 0; k <= own; k++){
@@ -1069,7 +1307,7 @@ static int rs_search_from(struct rs_sheet_detector* d, const struct rs_sheet_poi
         const double distance = (pi->reach + c->reach_max) / (1.0 - g->shear_step)
                                 * (1.0 + 1e-12) + g->slack;
         if (!rs_scan(NULL, d, c, pi, distance,
-                     k == own ? RS_SCAN_REPORT : RS_SCAN_LARGER, 0.0, out)){
+                     k == own ? RS_SCAN_REPORT : RS_SCAN_LARGER, 0.0, out, NULL)){
             return 0;
         }
     }
@@ -1138,25 +1376,14 @@ static void rs_search_share(const struct rs_sheet_detector* d, int64_t n, int te
  * joined in thread order, which is the order of a serial search.  The result would not
  * depend on the order anyway: the contacts are resolved in the total order of
  * rs_event_before.  Returns 0 if memory ran out. */
+static int rs_search_lists(struct rs_sheet_detector* d, int threads);
+static int rs_join_lists(struct rs_sheet_detector* d, int threads);
+
 static int rs_search(struct rs_sheet_detector* d, int64_t n){
     const int threads = rs_team_size(d, n);
-    if (d->list_capacity < threads){
-        struct rs_pair_list* grown = realloc(d->lists,
-                                             (size_t)threads * sizeof(struct rs_pair_list));
-        if (grown == NULL){
-            return 0;
-        }
-        memset(&grown[d->list_capacity], 0,
-               (size_t)(threads - d->list_capacity) * sizeof(struct rs_pair_list));
-        d->lists = grown;
-        d->list_capacity = threads;
+    if (!rs_search_lists(d, threads)){
+        return 0;
     }
-    for (int k = 0; k < threads; k++){
-        d->lists[k].n = 0;
-        d->lists[k].candidates = 0;
-        d->lists[k].ok = 1;
-    }
-    d->team_last = 1;
 #pragma omp parallel num_threads(threads)
     {
 #pragma omp single nowait
@@ -1174,6 +1401,35 @@ static int rs_search(struct rs_sheet_detector* d, int64_t n){
         }
         d->lists[rs_thread_id()] = list;
     }
+    return rs_join_lists(d, threads);
+}
+
+/* The threads' lists of reports, emptied, for a search on `threads` threads.  Returns 0
+ * if memory ran out. */
+static int rs_search_lists(struct rs_sheet_detector* d, int threads){
+    if (d->list_capacity < threads){
+        struct rs_pair_list* grown = realloc(d->lists,
+                                             (size_t)threads * sizeof(struct rs_pair_list));
+        if (grown == NULL){
+            return 0;
+        }
+        memset(&grown[d->list_capacity], 0,
+               (size_t)(threads - d->list_capacity) * sizeof(struct rs_pair_list));
+        d->lists = grown;
+        d->list_capacity = threads;
+    }
+    for (int k = 0; k < threads; k++){
+        d->lists[k].n = 0;
+        d->lists[k].candidates = 0;
+        d->lists[k].ok = 1;
+    }
+    d->team_last = 1;
+    return 1;
+}
+
+/* The threads' lists of reports joined in thread order into d->collisions.  Returns 0 if
+ * memory ran out. */
+static int rs_join_lists(struct rs_sheet_detector* d, int threads){
     int64_t total = 0;
     int ok = 1;
     for (int k = 0; k < threads; k++){
@@ -1190,6 +1446,343 @@ static int rs_search(struct rs_sheet_detector* d, int64_t n){
         memcpy(&d->collisions[d->n_collisions], d->lists[k].items,
                (size_t)d->lists[k].n * sizeof(struct reb_collision));
         d->n_collisions += d->lists[k].n;
+    }
+    return 1;
+}
+
+/* ---------------------------------------------------------------------------------- */
+/* Method 9: the neighbour list.                                                      */
+
+/* The image of particle a (wrapped xw_a, yw_a [m]) nearest particle b (xw_b, yw_b): the
+ * image_x, gy and image_vy the search from a computes when it finds b (rs_scan: the box
+ * box_x in x, then the y box), the only image within reach in a box wider than 2 s. */
+static inline struct rs_image rs_pair_image(const struct rs_sheet_grid* g, double xw_a,
+                                            double yw_a, double xw_b, double yw_b){
+    const double dx = xw_a - xw_b;
+    const int64_t box_x = dx > 0.5 * g->Lx ? 1 : (dx < -0.5 * g->Lx ? -1 : 0);
+    double yq;
+    struct rs_image im = rs_image_at(g, yw_a, box_x, &yq);
+    const double dy = yq - yw_b;
+    const int64_t box_y = dy > 0.5 * g->Ly ? 1 : (dy < -0.5 * g->Ly ? -1 : 0);
+    im.y -= (double)box_y * g->Ly;
+    return im;
+}
+
+/* M of Method 9 at this step [m]: how much the list's reach exceeds the bound of Method 7
+ * (without the deviations) for every pair, whatever its reaches, after the particles have
+ * used their skins down to the least budget g->budget_min.  With T the time since the build
+ * and s_T = 1.5 |Omega| T, a pair not listed had |dr_0| > (1 + a)(rho0_i + rho0_j) + b_i +
+ * b_j, and now |dr| >= |dr_0| (1 - s_T) - |Delta_i| - |Delta_j|; it is within the bound
+ * only if |dr| <= (rho_i + rho_j + D_i + D_j) / (1 - 1.5 Omega dt).  With keep = (1 - s_T)
+ * (1 - 1.5 Omega dt), f = (1 + a) keep and m_i = b_i keep - |Delta_i| (1 - 1.5 Omega dt) -
+ * (rho_i - rho0_i) (rs_wrap), that is (f - 1)(rho0_i + rho0_j) + m_i + m_j < D_i + D_j.
+ * So no unlisted pair is within it while D_i + D_j < M = 2 (f - 1) rho0 + 2 min m, rho0
+ * the least reach at the build if f >= 1, else the largest.  Negative: the list must be
+ * built again. */
+static double rs_list_margin(const struct rs_sheet_detector* d, double T){
+    const struct rs_sheet_grid* const g = &d->grid;
+    const double s_T = fabs(g->shear_rate * T);
+    if (!(s_T < 0.5) || !(g->budget_min > -INFINITY)){
+        return -1.0;
+    }
+    const double keep = (1.0 - s_T) * (1.0 - g->shear_step);
+    const double f = (1.0 + d->list_a) * keep;
+    const double pairs = 2.0 * (f - 1.0) * (f >= 1.0 ? d->list_reach_min : d->list_reach_max);
+    return pairs + 2.0 * g->budget_min - 16.0 * g->slack;
+}
+
+/* Grows d's arrays of the list to n particles and `pairs` pairs.  Returns 0 if memory ran
+ * out. */
+static int rs_list_room(struct rs_sheet_detector* d, int64_t n, int64_t pairs){
+    return rs_grow((void**)&d->anchors, &d->anchor_capacity, n, sizeof(struct rs_sheet_anchor))
+        && rs_grow((void**)&d->partner_start, &d->partner_start_capacity, n + 1,
+                   sizeof(int32_t))
+        && rs_grow((void**)&d->list_pairs, &d->list_pair_capacity, 2 * pairs + 2,
+                   sizeof(int32_t))
+        && rs_grow((void**)&d->partners, &d->partner_capacity, 2 * pairs + 2,
+                   sizeof(int32_t));
+}
+
+/* Each particle's listed partners (d->partner_start, d->partners) from the pairs. */
+static void rs_list_partners(struct rs_sheet_detector* d, int64_t n){
+    int32_t* const start = d->partner_start;
+    memset(start, 0, (size_t)(n + 1) * sizeof(int32_t));
+    for (int64_t k = 0; k < d->list_pair_n; k++){
+        start[d->list_pairs[2 * k] + 1]++;
+        start[d->list_pairs[2 * k + 1] + 1]++;
+    }
+    for (int64_t i = 0; i < n; i++){
+        start[i + 1] += start[i];
+    }
+    for (int64_t k = 0; k < d->list_pair_n; k++){
+        const int32_t lo = d->list_pairs[2 * k];
+        const int32_t hi = d->list_pairs[2 * k + 1];
+        d->partners[start[lo]++] = hi;
+        d->partners[start[hi]++] = lo;
+    }
+    for (int64_t i = n; i > 0; i--){
+        start[i] = start[i - 1];
+    }
+    start[0] = 0;
+}
+
+/* Particle pi's partners of Method 9 in the grid of its class and of the classes of
+ * larger reaches (as rs_search_from), to `out`.  Returns 0 if memory ran out. */
+static int rs_list_from(struct rs_sheet_detector* d, const struct rs_sheet_point* pi,
+                        struct rs_index_pairs* out){
+    const struct rs_sheet_grid* const g = &d->grid;
+    const int own = d->n_classes == 1 ? 0 : d->class_of[pi->index];
+    for (int k = 0; k <= own; k++){
+        const struct rs_cell_grid* c = &d->cells[k];
+        if (c->n == 0){
+            continue;
+        }
+        const double distance = (pi->reach + d->list_reach_of[k]) * (1.0 + 1e-12)
+                                + 2.0 * g->slack;
+        if (!rs_scan(NULL, d, c, pi, distance, k == own ? RS_SCAN_LIST : RS_SCAN_LIST_LARGER,
+                     0.0, NULL, out)){
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* Method 9's anchors: each particle's position, reach and skin b_i = (steps + 1) e_i /
+ * keep with e_i = rho_i - R_i (what it moves in a step) kept between the skin floor and
+ * RS_LIST_FAST times it; and its list reach (1 + a) rho_i + b_i in the sorted points'
+ * reach (restored after the build), with the largest of each class. */
+static void rs_list_anchor(struct rs_sheet_detector* d, int64_t n){
+    const double floor_e = d->list_skin_floor / d->list_skin_scale;
+    const int team = rs_team_size(d, n);
+#pragma omp parallel for schedule(static) num_threads(team)
+    for (int64_t i = 0; i < n; i++){
+        const struct rs_sheet_point* w = &d->wrapped[i];
+        double e = w->reach - d->particles[i].r;
+        e = e > floor_e ? (e < RS_LIST_FAST * floor_e ? e : RS_LIST_FAST * floor_e) : floor_e;
+        d->anchors[i] = (struct rs_sheet_anchor){w->xw, w->yw, w->z, w->reach,
+                                                 d->list_skin_scale * e};
+    }
+    for (int k = 0; k < d->n_classes; k++){
+        const struct rs_cell_grid* c = &d->cells[k];
+        const int64_t first = d->cell_start[c->cell_base];
+        const int64_t end = first + c->n;
+        double largest = 0.0;
+#pragma omp parallel for schedule(static) num_threads(team) reduction(max:largest)
+        for (int64_t a = first; a < end; a++){
+            const struct rs_sheet_anchor* an = &d->anchors[d->points[a].index];
+            const double reach = (1.0 + d->list_a) * an->reach + an->skin;
+            d->points[a].reach = reach;
+            largest = reach > largest ? reach : largest;
+        }
+        d->list_reach_of[k] = largest;
+    }
+}
+
+/* Method 9's build: every pair within the list's reach, from this step's sorted grid, on
+ * the search's threads (shares as rs_search_share; joined in thread order, the order of a
+ * serial build), the particles' anchors and their partners.  Returns 0 if memory ran out. */
+static int rs_list_build(const struct reb_simulation* const r, struct rs_sheet_detector* d,
+                         int64_t n){
+    const int threads = rs_team_size(d, n);
+    if (d->builder_capacity < threads){
+        struct rs_index_pairs* grown = realloc(d->builders,
+                                               (size_t)threads * sizeof(struct rs_index_pairs));
+        if (grown == NULL){
+            return 0;
+        }
+        memset(&grown[d->builder_capacity], 0,
+               (size_t)(threads - d->builder_capacity) * sizeof(struct rs_index_pairs));
+        d->builders = grown;
+        d->builder_capacity = threads;
+    }
+    for (int k = 0; k < threads; k++){
+        d->builders[k].n = 0;
+        d->builders[k].ok = 1;
+    }
+    if (!rs_grow((void**)&d->anchors, &d->anchor_capacity, n, sizeof(struct rs_sheet_anchor))){
+        return 0;
+    }
+    rs_list_anchor(d, n);
+    /* Method 3's half shell where the grid is wider than two spans of the widest build */
+    for (int k = 0; k < d->n_classes; k++){
+        const struct rs_cell_grid* c = &d->cells[k];
+        const double widest = 2.0 * d->list_reach_of[k] * (1.0 + 1e-12)
+                              + 2.0 * d->grid.slack;
+        const int64_t span_x = rs_span_of(widest, c->ix, c->nx);
+        const int64_t span_y = rs_span_of(widest, c->iy, c->ny);
+        const int64_t span = span_x > span_y ? span_x : span_y;
+        d->list_half_shell[k] = c->nx >= 2 * span + 1 && c->ny >= 2 * span + 1;
+    }
+#pragma omp parallel num_threads(threads)
+    {
+        struct rs_index_pairs list = d->builders[rs_thread_id()];
+        int64_t first, end;
+        rs_search_share(d, n, rs_team_threads(), rs_thread_id(), &first, &end);
+        for (int64_t a = first; a < end; a++){
+            if (list.ok && !rs_list_from(d, &d->points[a], &list)){
+                list.ok = 0;
+            }
+        }
+        d->builders[rs_thread_id()] = list;
+    }
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (int64_t a = 0; a < n; a++){
+        d->points[a].reach = d->wrapped[d->points[a].index].reach;
+    }
+    int64_t total = 0;
+    int ok = 1;
+    for (int k = 0; k < threads; k++){
+        total += d->builders[k].n;
+        ok &= d->builders[k].ok;
+    }
+    if (!ok || total >= INT32_MAX / 2 || !rs_list_room(d, n, total)){
+        return 0;
+    }
+    d->list_pair_n = 0;
+    for (int k = 0; k < threads; k++){
+        memcpy(&d->list_pairs[2 * d->list_pair_n], d->builders[k].items,
+               (size_t)(2 * d->builders[k].n) * sizeof(int32_t));
+        d->list_pair_n += d->builders[k].n;
+    }
+    rs_list_partners(d, n);
+    d->list_time = r->t;
+    d->list_n = n;
+    d->list_ready = 1;
+    d->list_reach_min = d->grid.reach_min;
+    d->list_reach_max = d->grid.reach_max;
+    d->list_builds++;
+    return 1;
+}
+
+/* Whether this step searches through the list (Method 9), building it first if it must
+ * and may (d->list_on).  The list is used when the box is wider than 2 s, so that a pair
+ * is in reach through its nearest image only.  It is built again when M (rs_list_margin)
+ * is no longer positive, with the widening a = 1 / keep - 1 (keep = (1 - steps 1.5 Omega
+ * dt)(1 - 1.5 Omega dt)), which covers the shear of d->list_steps steps, and skins b_i
+ * that cover steps + 1 steps of each particle's own motion (rs_list_anchor), at least
+ * RS_LIST_FLOOR times the rms motion, unless the least pair skin exceeds
+ * RS_LIST_SKIN_RATIO smallest reaches (then the cells search this step and the next
+ * RS_CLASS_RETRY).  Returns 0 if memory ran out. */
+static int rs_list_choose(const struct reb_simulation* const r, struct rs_sheet_detector* d,
+                          int64_t n){
+    struct rs_sheet_grid* const g = &d->grid;
+    d->list_on = 0;
+    const double box = fmin(g->Lx, g->Ly);
+    if (d->list_steps <= 0 || n >= INT32_MAX / 2 || !(2.0 * g->pair_reach < box)){
+        return 1;
+    }
+    if (d->list_ready && d->list_n == n){
+        const double margin = rs_list_margin(d, r->t - d->list_time);
+        if (margin > 0.0){
+            d->list_margin = margin;
+            d->list_on = 1;
+            return 1;
+        }
+    }
+    d->list_ready = 0;
+    if (d->list_retry > 0){
+        d->list_retry--;
+        return 1;
+    }
+    const double s_K = (double)d->list_steps * g->shear_step;
+    const double keep = (1.0 - s_K) * (1.0 - g->shear_step);
+    const double scale = (double)(d->list_steps + 1) / keep;
+    const double skin_floor = scale * RS_LIST_FLOOR * g->excess_rms;
+    const double a = 1.0 / keep - 1.0;
+    const double widest = (1.0 + a) * 2.0 * g->reach_max + 2.0 * RS_LIST_FAST * skin_floor;
+    if (!(s_K < 0.5) || !(2.0 * skin_floor <= RS_LIST_SKIN_RATIO * g->reach_min)
+        || !(2.0 * widest * (1.0 + 1e-9) + 4.0 * g->slack < box)){
+        d->list_retry = RS_CLASS_RETRY;
+        return 1;
+    }
+    d->list_a = a;
+    d->list_skin_scale = scale;
+    d->list_skin_floor = skin_floor;
+    if (!rs_grid_sorted(d, n) || !rs_list_build(r, d, n)){
+        return 0;
+    }
+    /* at the build: Delta = 0, rho = rho0, so m_i = b_i (1 - 1.5 Omega dt) */
+    g->budget_min = skin_floor * (1.0 - g->shear_step);
+    d->list_margin = rs_list_margin(d, 0.0);
+    d->list_on = d->list_margin > 0.0;
+    return 1;
+}
+
+/* Method 3-4 through the list: each listed pair tested as the search from its particle of
+ * lower index would test it (through the nearest image; a first test on the wrapped
+ * points, widened by g->slack, as rs_cell_report's), on the search's threads (the pairs in
+ * contiguous shares, joined in thread order).  Returns 0 if memory ran out. */
+static int rs_list_search(struct rs_sheet_detector* d, int64_t n){
+    const int threads = rs_team_size(d, n);
+    if (!rs_search_lists(d, threads)){
+        return 0;
+    }
+    const struct rs_sheet_grid* const g = &d->grid;
+    const int64_t pairs = d->list_pair_n;
+#pragma omp parallel num_threads(threads)
+    {
+#pragma omp single nowait
+        {
+            d->team_last = rs_team_threads();
+        }
+        struct rs_pair_list list = d->lists[rs_thread_id()];
+        const int team = rs_team_threads();
+        const int id = rs_thread_id();
+        const int64_t first = pairs * id / team;
+        const int64_t end = pairs * (id + 1) / team;
+        for (int64_t k = first; k < end && list.ok; k++){
+            const struct rs_sheet_point* a = &d->wrapped[d->list_pairs[2 * k]];
+            const struct rs_sheet_point* b = &d->wrapped[d->list_pairs[2 * k + 1]];
+            const struct rs_image im = rs_pair_image(g, a->xw, a->yw, b->xw, b->yw);
+            const double dxw = a->xw + im.x - b->xw;
+            const double dyw = a->yw + im.y - b->yw;
+            const double dzw = a->z - b->z;
+            const double wide = a->reach + g->slack + b->reach + g->shear_step * fabs(dxw);
+            if (dxw * dxw + dyw * dyw + dzw * dzw > wide * wide){
+                continue;
+            }
+            const struct rs_sheet_particle si = rs_state(d, a->index);
+            const struct rs_sheet_particle sj = rs_state(d, b->index);
+            const struct reb_vec6d gb = rs_image_offset(&si, &sj, im.x, im.y, im.vy);
+            list.ok = rs_test_pair(g, d, &si, &sj, gb, &list);
+        }
+        d->lists[id] = list;
+    }
+    d->list_steps_used++;
+    return rs_join_lists(d, threads);
+}
+
+/* Method 6-7 through the list for particle pi (its state before the resolution): every
+ * listed partner, through the nearest image as pi's search would see it.  Returns 0 if
+ * memory ran out. */
+static int rs_list_recheck(const struct reb_simulation* const r, struct rs_sheet_detector* d,
+                           const struct rs_sheet_particle* pi, double window){
+    const struct rs_sheet_grid* const g = &d->grid;
+    const int32_t* const start = d->partner_start;
+    const int32_t first = start[pi->index];
+    const int32_t end = start[pi->index + 1];
+    for (int32_t k = first; k < end; k++){
+        const struct rs_sheet_particle sj = rs_before(d, d->partners[k]);
+        const struct rs_image im = rs_pair_image(g, pi->xw, pi->yw, sj.xw, sj.yw);
+        if (!rs_recheck_partner(r, d, pi, &sj, im.x, im.y, im.vy, window)){
+            return 0;
+        }
+    }
+    /* the particles whose deviation the list's margin does not cover, unless listed */
+    for (int64_t w = 0; w < d->n_wide; w++){
+        const int64_t j = d->wide[w];
+        int listed = j == pi->index;
+        for (int32_t k = first; k < end && !listed; k++){
+            listed = d->partners[k] == j;
+        }
+        if (listed){
+            continue;
+        }
+        const struct rs_sheet_particle sj = rs_before(d, j);
+        const struct rs_image im = rs_pair_image(g, pi->xw, pi->yw, sj.xw, sj.yw);
+        if (!rs_recheck_partner(r, d, pi, &sj, im.x, im.y, im.vy, window)){
+            return 0;
+        }
     }
     return 1;
 }
@@ -1211,6 +1804,7 @@ static int rs_sheet_find_pairs(struct reb_simulation* const r, struct rs_sheet_d
     const double Lx = g->Lx;
     const double Ly = g->Ly;
     const double Omega = shear ? r->OMEGA : 0.0;
+    g->shear_rate = 1.5 * Omega;
     g->dt = fabs(r->dt_last_done);
     g->shear_step = 1.5 * fabs(Omega) * g->dt;  /* relative shear drift per metre of dx */
     if (!(g->shear_step < RS_MAX_SHEAR_STEP) || !(Lx > 0.0) || !(Ly > 0.0)){
@@ -1238,16 +1832,19 @@ static int rs_sheet_find_pairs(struct reb_simulation* const r, struct rs_sheet_d
     }
     d->particle_capacity = capacity;
 
-    /* 1. Wrap, reach, vertical range (rs_wrap); 2. grid and counting sort (rs_grid_sort);
-     * 3-4. neighbour cells, images, exact path test (rs_search). */
+    /* 1. Wrap, reach, vertical range (rs_wrap); 2. grid (rs_grid_layout) and counting
+     * sort (rs_grid_sorted); 3-4. neighbour cells, images, exact path test (rs_search), or
+     * 9. the neighbour list (rs_list_choose, rs_list_search). */
     d->particles = r->particles;
     if (!rs_wrap(r, d)){
         return RS_DETECT_STEP_TOO_LONG;     /* non-finite state: nothing sensible to do */
     }
-    if (!rs_grid_sort(d, n)){
+    if (!rs_grid_layout(d, n) || !rs_list_choose(r, d, n)){
         return RS_DETECT_NO_MEMORY;
     }
-    if (!rs_search(d, n)){
+    const int found = d->list_on ? rs_list_search(d, n)
+                                 : rs_grid_sorted(d, n) && rs_search(d, n);
+    if (!found){
         return RS_DETECT_NO_MEMORY;
     }
     d->reports += d->n_collisions;
@@ -1284,6 +1881,13 @@ static int rs_after_collision(const struct reb_simulation* const r, struct rs_sh
     const double deviation = sqrt(ex * ex + ey * ey + ez * ez);
     t->deviation = fmax(t->deviation, deviation);
     d->deviation_max = fmax(d->deviation_max, t->deviation);
+    if (d->list_on && !t->wide && !(t->deviation < 0.5 * d->list_margin)){
+        if (!rs_grow((void**)&d->wide, &d->wide_capacity, d->n_wide + 1, sizeof(int64_t))){
+            return 0;
+        }
+        d->wide[d->n_wide++] = q;
+        t->wide = 1;
+    }
     t->last = d->serial;
     const int deflected = rs_deflects(r->particles[q].m, r->particles[partner].m);
     t->contacts += deflected;
@@ -1299,12 +1903,24 @@ static int rs_after_collision(const struct reb_simulation* const r, struct rs_sh
         d->span_limited += !(needed <= RS_MAX_SPAN * g->pair_reach);
     }
     d->rechecks++;
+    /* Method 9: with D_i < M / 2, the list holds every partner within the bound but those
+     * with D_j >= M / 2 (d->wide); a re-check cut at RS_MAX_SPAN s or wider than half the
+     * box looks at whole cells */
+    if (d->list_on && needed <= RS_MAX_SPAN * g->pair_reach
+        && 2.0 * needed * (1.0 + 1e-9) < fmin(g->Lx, g->Ly) && !t->wide){
+        return rs_list_recheck(r, d, before, window);
+    }
+    d->list_fallbacks += d->list_on;
+    if (!rs_grid_sorted(d, (int64_t)r->N)){
+        return 0;
+    }
     const struct rs_sheet_point point = {before->xw, before->yw, before->z, before->reach,
                                          before->index};
     if (d->n_classes == 1){
         const double distance = fmin(needed, RS_MAX_SPAN * g->pair_reach) * (1.0 + 1e-12)
                                 + g->slack;
-        return rs_scan(r, d, &d->cells[0], &point, distance, RS_SCAN_RECHECK, window, NULL);
+        return rs_scan(r, d, &d->cells[0], &point, distance, RS_SCAN_RECHECK, window, NULL,
+                       NULL);
     }
     /* every class (Method 2a), each over the bound with its own largest reach */
     for (int k = 0; k < d->n_classes; k++){
@@ -1316,7 +1932,7 @@ static int rs_after_collision(const struct reb_simulation* const r, struct rs_sh
                              / (1.0 - g->shear_step);
         const double distance = fmin(reach, RS_MAX_SPAN * g->pair_reach) * (1.0 + 1e-12)
                                 + g->slack;
-        if (!rs_scan(r, d, c, &point, distance, RS_SCAN_RECHECK, window, NULL)){
+        if (!rs_scan(r, d, c, &point, distance, RS_SCAN_RECHECK, window, NULL, NULL)){
             return 0;
         }
     }
@@ -1331,6 +1947,7 @@ static struct rs_sheet_detector* rs_detector_of(struct rs_resolver* res){
         }
         d->threads = 1;
         d->class_limit = RS_MAX_CLASSES;
+        d->list_steps = RS_LIST_STEPS;
         res->detector = d;
         /* rs_resolver.c frees it through this pointer: no link-time dependency on this
          * file, so the resolver also builds and works without the detector */
@@ -1366,6 +1983,7 @@ void rs_sheet_step(struct reb_simulation* const r){
     d->serial = 0;
     d->deviation_max = 0.0;
     d->n_saved = 0;
+    d->n_wide = 0;
     for (int64_t k = 0; k < d->n_collisions; k++){
         if (!rs_queue(r, d, d->collisions[k], d->grid.dt)){
             d->error = RS_DETECT_NO_MEMORY;
@@ -1494,6 +2112,38 @@ int rs_sheet_set_classes(struct rs_resolver* res, int classes){
     d->class_limit = classes < 1 ? 1 : (classes > RS_MAX_CLASSES ? RS_MAX_CLASSES : classes);
     d->one_grid_steps = 0;
     return d->class_limit;
+}
+
+/* Sets the steps a neighbour list is built to last (Method 9), 0 for no lists (every step
+ * searches the cells).  Neither changes any result.  Returns the number set, or -1 if
+ * memory ran out. */
+int rs_sheet_set_lists(struct rs_resolver* res, int steps){
+    struct rs_sheet_detector* const d = rs_detector_of(res);
+    if (d == NULL){
+        return -1;
+    }
+    d->list_steps = steps < 0 ? 0 : (steps > 1000 ? 1000 : steps);
+    d->list_ready = 0;
+    d->list_retry = 0;
+    return d->list_steps;
+}
+
+/* Counters of Method 9 since the detector was created: out[0] lists built, out[1] steps
+ * searched through a list, out[2] re-checks through the cells while a list was on, out[3]
+ * pairs in the last list, out[4] the steps a list is built to last.  Returns 0 (and zeros)
+ * if the detector has not run yet. */
+int rs_sheet_list_counters(const struct rs_resolver* res, int64_t* out){
+    const struct rs_sheet_detector* d = res->detector;
+    if (d == NULL){
+        memset(out, 0, 5 * sizeof(int64_t));
+        return 0;
+    }
+    out[0] = d->list_builds;
+    out[1] = d->list_steps_used;
+    out[2] = d->list_fallbacks;
+    out[3] = d->list_pair_n;
+    out[4] = d->list_steps;
+    return 1;
 }
 
 /* Threads the last search of the resolver's detector ran on (0 before the first). */

@@ -87,6 +87,40 @@ def set_classes(address: int, classes: int) -> int:
     return done
 
 
+#: Steps a neighbour list of the detector is built to last by default (RS_LIST_STEPS in
+#: rs_sheet_detect.c, Method 9).
+LIST_STEPS = 10
+
+
+def set_lists(address: int, steps: int) -> int:
+    """Let the sheet detector of the resolver at ``address`` keep a neighbour list built to
+    last ``steps`` steps (rs_sheet_detect.c, Method 9; the default is `LIST_STEPS`); 0
+    searches the cells at every step.
+
+    The pairs found and every result do not depend on it: it changes the cost only.
+    Returns the number set; ValueError outside 0 to 1000.
+    """
+    if (isinstance(steps, bool) or not isinstance(steps, (int, np.integer))
+            or not 0 <= steps <= 1000):
+        raise ValueError(f"steps: must be an integer from 0 to 1000, got {steps!r}")
+    done = int(_LIB.rs_sheet_set_lists(address, int(steps)))
+    if done < 0:
+        raise MemoryError("could not allocate the sheet detector")
+    return done
+
+
+def list_counters(address: int) -> dict[str, int]:
+    """Counters of the detector's neighbour lists (rs_sheet_detect.c, Method 9) since its
+    creation: ``builds`` (lists built), ``steps`` (steps searched through a list),
+    ``fallbacks`` (re-checks after a collision that searched the cells while a list was
+    on), ``pairs`` (pairs in the last list) and ``list_steps`` (the steps a list is built
+    to last, 0: no lists).  All zero before the first search."""
+    out = (ctypes.c_int64 * 5)()
+    _LIB.rs_sheet_list_counters(address, out)
+    names = ("builds", "steps", "fallbacks", "pairs", "list_steps")
+    return dict(zip(names, (int(v) for v in out), strict=True))
+
+
 def detect_pairs(sim: rebound.Simulation) -> tuple[np.ndarray, np.ndarray]:
     """The detector's search on the current state of ``sim`` (no resolution).
 

@@ -212,6 +212,10 @@ def _declare_detector(lib: ctypes.CDLL) -> None:
     lib.rs_sheet_openmp.argtypes = []
     lib.rs_sheet_set_classes.restype = ctypes.c_int
     lib.rs_sheet_set_classes.argtypes = [ctypes.c_void_p, ctypes.c_int]
+    lib.rs_sheet_set_lists.restype = ctypes.c_int
+    lib.rs_sheet_set_lists.argtypes = [ctypes.c_void_p, ctypes.c_int]
+    lib.rs_sheet_list_counters.restype = ctypes.c_int
+    lib.rs_sheet_list_counters.argtypes = [ctypes.c_void_p, int64_p]
     lib.rs_sheet_threads_used.restype = ctypes.c_int
     lib.rs_sheet_threads_used.argtypes = [ctypes.c_void_p]
     lib.rs_sheet_particles_per_thread.restype = ctypes.c_int64
