@@ -81,6 +81,7 @@ def test_cool_sheet_evolves_to_the_same_bits_with_and_without_lists(threads):
     states, list_order, counters = evolve(scenario, detector.LIST_STEPS, threads, 200)
     assert none["builds"] == 0 and none["steps"] == 0
     assert_lists_used(counters, 200)
+    assert counters["wide_checks"] > 0, "no re-check met a partner of large deviation"
     assert order["resolved"] > 1000, "too few collisions to test anything"
     assert list_order == order
     assert_same_states(states, reference)
@@ -115,33 +116,35 @@ def test_lists_with_reach_classes_give_the_same_bits():
 # --- one search after a change ---------------------------------------------------------------
 
 def cool_random_sheet(seed: int, n: int, boundary: str = "shear", collision: str = "none",
-                      step: bool = True) -> rebound.Simulation:
+                      step: bool = True, omega: float = OMEGA,
+                      roots: tuple[int, int] = (1, 1)) -> rebound.Simulation:
     """A random sheet of 0.5-2 m particles (tau = 0.4, overlaps allowed, speeds of 0.1
-    mm/s about the shear flow), after one step with ``step``; REBOUND's own ``collision``
-    search."""
+    mm/s about the shear flow of ``omega`` [1/s]) in a box of ``roots`` (x, y) square root
+    boxes, after one step with ``step``; REBOUND's own ``collision`` search."""
     rng = np.random.default_rng(seed)
     u = rng.uniform(0.0, 1.0, n)
     radii = (0.5**-2 + u * (2.0**-2 - 0.5**-2)) ** -0.5
-    box = math.sqrt(np.sum(np.pi * radii**2) / 0.4)
+    root = math.sqrt(np.sum(np.pi * radii**2) / 0.4 / (roots[0] * roots[1]))
     sim = rebound.Simulation()
     shear = boundary == "shear"
     sim.integrator = "sei" if shear else "leapfrog"
     if shear:
-        sim.OMEGA = sim.OMEGAZ = OMEGA
+        sim.OMEGA = sim.OMEGAZ = omega
     sim.boundary = boundary
-    sim.root_size = box
-    sim.N_root_x = sim.N_root_y = sim.N_root_z = 1
+    sim.root_size = root
+    sim.N_root_x, sim.N_root_y = roots
+    sim.N_root_z = 1
     sim.N_ghost_x = sim.N_ghost_y = 1
     sim.collision = collision
     sim.gravity = "none"
-    sim.dt = 1e-3 * 2.0 * math.pi / OMEGA
-    x = rng.uniform(-box / 2, box / 2, n)
-    y = rng.uniform(-box / 2, box / 2, n)
+    sim.dt = 1e-3 * 2.0 * math.pi / abs(omega)
+    x = rng.uniform(-root * roots[0] / 2, root * roots[0] / 2, n)
+    y = rng.uniform(-root * roots[1] / 2, root * roots[1] / 2, n)
     z = rng.normal(0.0, 1.0, n)
     for i in range(n):
         sim.add(m=900.0 * radii[i] ** 3, r=radii[i], x=x[i], y=y[i], z=z[i],
                 vx=rng.normal(0.0, 1e-4),
-                vy=-1.5 * OMEGA * x[i] * shear + rng.normal(0.0, 1e-4),
+                vy=-1.5 * omega * x[i] * shear + rng.normal(0.0, 1e-4),
                 vz=rng.normal(0.0, 1e-4))
     if step:
         sim.steps(1)
@@ -173,10 +176,11 @@ def small_moves(sim, rng):
 
 def along_the_flow(sim, rng):
     """Three steps later, every particle carried by the shear flow (the ghost boxes have
-    slid on)."""
+    slid on); in a periodic box, which has no flow, moved as the flow would move it."""
     later = 3.0 * sim.dt
     state = phase_space(sim)
-    state[:, 1] += -1.5 * OMEGA * state[:, 0] * later
+    omega = sim.OMEGA if sim.boundary == "shear" else OMEGA     # periodic: a real move
+    state[:, 1] += -1.5 * omega * state[:, 0] * later
     sim.t += later
     set_phase_space(sim, state)
 
@@ -201,13 +205,15 @@ def shifted_by_a_box(sim, rng):
     """A third of the particles not yet wrapped: shifted into the next box (as the detector
     sees them before REBOUND's boundary check)."""
     state = phase_space(sim)
-    box = sim.root_size
-    slide = math.fmod(1.5 * OMEGA * box * sim.t, box) if sim.boundary == "shear" else 0.0
+    lx = sim.root_size * sim.N_root_x
+    ly = sim.root_size * sim.N_root_y
+    shear = sim.boundary == "shear"
+    slide = math.fmod(1.5 * sim.OMEGA * lx * sim.t, ly) if shear else 0.0
     moved = np.arange(0, sim.N, 3)
-    state[moved, 0] += box
+    state[moved, 0] += lx
     state[moved, 1] -= slide
-    if sim.boundary == "shear":
-        state[moved, 4] -= 1.5 * OMEGA * box
+    if shear:
+        state[moved, 4] -= 1.5 * sim.OMEGA * lx
     set_phase_space(sim, state)
 
 
@@ -238,6 +244,40 @@ def test_search_through_the_list_after_a_change_finds_the_pairs_of_the_cells(cha
     through_cells = handle.detect_pairs()
     assert len(through_cells[0]) > 500, "too few swept contacts to test anything"
     np.testing.assert_array_equal(sorted_pairs(*through_list), sorted_pairs(*through_cells))
+
+
+@pytest.mark.parametrize("omega, roots", [(-OMEGA, (1, 1)), (OMEGA, (2, 1)), (OMEGA, (1, 2))])
+@pytest.mark.parametrize("change", ["small moves", "along the flow", "shifted by a box"])
+def test_list_in_other_boxes_and_flows_finds_the_pairs_of_the_cells(change, omega, roots):
+    """The same as above with the flow reversed and in boxes longer than wide and wider
+    than long (the slide then wraps in y over a box of another length)."""
+    sim = cool_random_sheet(19, 6000, omega=omega, roots=roots)
+    handle = install_resolver(sim, {"model": "constant", "epsilon": 0.5},
+                              collision_detection="line")
+    handle.detect_pairs()                                   # builds the list
+    built = detector.list_counters(handle.address)
+    assert built["builds"] == 1
+    CHANGES[change][0](sim, np.random.default_rng(3))
+    through_list = handle.detect_pairs()
+    after = detector.list_counters(handle.address)
+    assert after["steps"] > built["steps"] and after["builds"] == built["builds"]
+    detector.set_lists(handle.address, NO_LISTS)
+    through_cells = handle.detect_pairs()
+    assert len(through_cells[0]) > 500, "too few swept contacts to test anything"
+    np.testing.assert_array_equal(sorted_pairs(*through_list), sorted_pairs(*through_cells))
+
+
+def test_a_changed_box_builds_the_list_again():
+    sim = cool_random_sheet(23, 3000)
+    handle = install_resolver(sim, {"model": "constant", "epsilon": 0.5},
+                              collision_detection="line")
+    handle.detect_pairs()
+    sim.root_size *= 1.01
+    through_list = handle.detect_pairs()
+    assert detector.list_counters(handle.address)["builds"] == 2
+    detector.set_lists(handle.address, NO_LISTS)
+    np.testing.assert_array_equal(sorted_pairs(*through_list),
+                                  sorted_pairs(*handle.detect_pairs()))
 
 
 def test_search_through_the_list_finds_exactly_the_pairs_of_rebound_line_search():

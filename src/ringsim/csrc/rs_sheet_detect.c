@@ -158,9 +158,10 @@
  *    its reach give M (rs_list_margin): since dr = dr_0 + Delta_i - Delta_j - 1.5 Omega T
  *    dx_0 e_y, no pair outside the list can be within the bound of step 1 while M > 0, nor
  *    within the re-check bound of step 7 while D_i + D_j < M.  The list is built again when
- *    M <= 0.  a covers the shear of d->list_steps steps; b_i covers steps + 1 steps of the
- *    particle's own motion rho_i - R_i, at least RS_LIST_FLOOR times its rms over the
- *    particles and at most RS_LIST_FAST times that.  Each listed pair is tested as the
+ *    M <= 0, or when the box, Omega or the boundary has changed.  a covers the shear of
+ *    d->list_steps steps; b_i covers steps + 1 steps of the particle's own motion rho_i -
+ *    R_i, at least RS_LIST_FLOOR times its rms over the particles and at most RS_LIST_FAST
+ *    times that.  Each listed pair is tested as the
  *    search from its particle of lower index tests it, through its nearest image (the
  *    only one in reach in a box wider than 2 s): the same reports, offsets and bits.  A
  *    re-check goes through the particle's listed partners and the particles of the step
@@ -390,6 +391,7 @@ struct rs_sheet_detector {
     double list_skin_scale;         /* b_i per metre moved in a step: (steps + 1) / keep */
     double list_reach_of[RS_MAX_CLASSES];   /* [m] largest list reach of each class */
     double list_reach_min, list_reach_max;  /* [m] the reaches then */
+    double list_Lx, list_Ly, list_shear_rate;   /* [m], [m], [1/s] the box and flow then */
     double list_margin;             /* [m] M of Method 9 at this step */
     struct rs_sheet_anchor* anchors;        /* by particle index */
     int64_t anchor_capacity;
@@ -405,11 +407,15 @@ struct rs_sheet_detector {
     int list_half_shell[RS_MAX_CLASSES];    /* 1: the build looks at each pair of the
                                              * class's grid from one side (Method 3) */
     int64_t* wide;                  /* the particles of this step with D >= M / 2 */
+    int64_t* stamp;                 /* by index: the re-check that last listed it */
+    int64_t stamp_capacity;
+    int64_t stamp_serial;           /* re-checks through the list so far */
     int64_t n_wide;
     int64_t wide_capacity;
     int64_t list_builds;            /* counters */
     int64_t list_steps_used;
     int64_t list_fallbacks;
+    int64_t list_wide_checks;       /* unlisted partners of large deviation re-checked */
     double deviation_max;           /* [m] largest D of this step */
     int64_t serial;                 /* collisions resolved in this step */
     /* counters */
@@ -451,6 +457,7 @@ static void rs_sheet_detector_free(struct rs_sheet_detector* d){
     free(d->partner_start);
     free(d->partners);
     free(d->wide);
+    free(d->stamp);
     for (int64_t k = 0; k < d->builder_capacity; k++){
         free(d->builders[k].items);
     }
@@ -1114,6 +1121,9 @@ static inline double rs_anchor_drift2(const struct rs_sheet_grid* g,
     double ey = (yw - k * g->slide) - (a->y - shear_T * a->x);
     ey -= ey > half_y ? g->Ly : (ey < -half_y ? -g->Ly : 0.0);
     ey -= ey > half_y ? g->Ly : (ey < -half_y ? -g->Ly : 0.0);
+    if (!(fabs(ey) <= half_y)){
+        ey -= g->Ly * nearbyint(ey / g->Ly);    /* a box much wider than long */
+    }
     const double ez = z - a->z;
     if (!(fabs(ex) < 0.25 * g->Lx && fabs(ey) < 0.25 * g->Ly && fabs(ez) < INFINITY)){
         return INFINITY;    /* also NaN */
@@ -1139,7 +1149,10 @@ static int rs_wrap(const struct reb_simulation* const r, struct rs_sheet_detecto
     double reach_min = INFINITY;
     double excess_sum = 0.0;        /* [m^2] sum of (reach - radius)^2 */
     double budget_min = INFINITY;
-    const int anchored = d->list_ready && d->list_n == n;
+    /* a list holds for the box and the flow it was built in (a changed box, Omega or
+     * boundary: built again) */
+    const int anchored = d->list_ready && d->list_n == n && d->list_Lx == Lx
+                         && d->list_Ly == Ly && d->list_shear_rate == g->shear_rate;
     const double shear_T = g->shear_rate * (r->t - d->list_time);
     const double keep_T = (1.0 - fabs(shear_T)) * (1.0 - g->shear_step);
     const double drift_weight = 1.0 - g->shear_step;
@@ -1495,6 +1508,7 @@ static double rs_list_margin(const struct rs_sheet_detector* d, double T){
  * out. */
 static int rs_list_room(struct rs_sheet_detector* d, int64_t n, int64_t pairs){
     return rs_grow((void**)&d->anchors, &d->anchor_capacity, n, sizeof(struct rs_sheet_anchor))
+        && rs_grow((void**)&d->stamp, &d->stamp_capacity, n, sizeof(int64_t))
         && rs_grow((void**)&d->partner_start, &d->partner_start_capacity, n + 1,
                    sizeof(int32_t))
         && rs_grow((void**)&d->list_pairs, &d->list_pair_capacity, 2 * pairs + 2,
@@ -1645,9 +1659,15 @@ static int rs_list_build(const struct reb_simulation* const r, struct rs_sheet_d
         d->list_pair_n += d->builders[k].n;
     }
     rs_list_partners(d, n);
+    for (int64_t i = 0; i < n; i++){
+        d->stamp[i] = -1;       /* no re-check has listed it (serials are >= 1) */
+    }
     d->list_time = r->t;
     d->list_n = n;
     d->list_ready = 1;
+    d->list_Lx = d->grid.Lx;
+    d->list_Ly = d->grid.Ly;
+    d->list_shear_rate = d->grid.shear_rate;
     d->list_reach_min = d->grid.reach_min;
     d->list_reach_max = d->grid.reach_max;
     d->list_builds++;
@@ -1671,7 +1691,7 @@ static int rs_list_choose(const struct reb_simulation* const r, struct rs_sheet_
     if (d->list_steps <= 0 || n >= INT32_MAX / 2 || !(2.0 * g->pair_reach < box)){
         return 1;
     }
-    if (d->list_ready && d->list_n == n){
+    if (d->list_ready && g->budget_min > -INFINITY){     /* anchored in rs_wrap */
         const double margin = rs_list_margin(d, r->t - d->list_time);
         if (margin > 0.0){
             d->list_margin = margin;
@@ -1705,6 +1725,10 @@ static int rs_list_choose(const struct reb_simulation* const r, struct rs_sheet_
     g->budget_min = skin_floor * (1.0 - g->shear_step);
     d->list_margin = rs_list_margin(d, 0.0);
     d->list_on = d->list_margin > 0.0;
+    if (!d->list_on){
+        d->list_ready = 0;      /* no margin even at the build (particles at rest) */
+        d->list_retry = RS_CLASS_RETRY;
+    }
     return 1;
 }
 
@@ -1759,25 +1783,24 @@ static int rs_list_recheck(const struct reb_simulation* const r, struct rs_sheet
                            const struct rs_sheet_particle* pi, double window){
     const struct rs_sheet_grid* const g = &d->grid;
     const int32_t* const start = d->partner_start;
-    const int32_t first = start[pi->index];
-    const int32_t end = start[pi->index + 1];
-    for (int32_t k = first; k < end; k++){
+    const int64_t serial = ++d->stamp_serial;
+    d->stamp[pi->index] = serial;
+    for (int32_t k = start[pi->index]; k < start[pi->index + 1]; k++){
+        d->stamp[d->partners[k]] = serial;
         const struct rs_sheet_particle sj = rs_before(d, d->partners[k]);
         const struct rs_image im = rs_pair_image(g, pi->xw, pi->yw, sj.xw, sj.yw);
         if (!rs_recheck_partner(r, d, pi, &sj, im.x, im.y, im.vy, window)){
             return 0;
         }
     }
-    /* the particles whose deviation the list's margin does not cover, unless listed */
+    /* the particles whose deviation the list's margin does not cover, unless listed (or
+     * pi itself: stamped with this re-check's serial) */
     for (int64_t w = 0; w < d->n_wide; w++){
         const int64_t j = d->wide[w];
-        int listed = j == pi->index;
-        for (int32_t k = first; k < end && !listed; k++){
-            listed = d->partners[k] == j;
-        }
-        if (listed){
+        if (d->stamp[j] == serial){
             continue;
         }
+        d->list_wide_checks++;
         const struct rs_sheet_particle sj = rs_before(d, j);
         const struct rs_image im = rs_pair_image(g, pi->xw, pi->yw, sj.xw, sj.yw);
         if (!rs_recheck_partner(r, d, pi, &sj, im.x, im.y, im.vy, window)){
@@ -2130,12 +2153,13 @@ int rs_sheet_set_lists(struct rs_resolver* res, int steps){
 
 /* Counters of Method 9 since the detector was created: out[0] lists built, out[1] steps
  * searched through a list, out[2] re-checks through the cells while a list was on, out[3]
- * pairs in the last list, out[4] the steps a list is built to last.  Returns 0 (and zeros)
- * if the detector has not run yet. */
+ * pairs in the last list, out[4] the steps a list is built to last, out[5] unlisted
+ * partners of deviation D >= M / 2 re-checked through the list.  Returns 0 (and zeros) if
+ * the detector has not run yet. */
 int rs_sheet_list_counters(const struct rs_resolver* res, int64_t* out){
     const struct rs_sheet_detector* d = res->detector;
     if (d == NULL){
-        memset(out, 0, 5 * sizeof(int64_t));
+        memset(out, 0, 6 * sizeof(int64_t));
         return 0;
     }
     out[0] = d->list_builds;
@@ -2143,6 +2167,7 @@ int rs_sheet_list_counters(const struct rs_resolver* res, int64_t* out){
     out[2] = d->list_fallbacks;
     out[3] = d->list_pair_n;
     out[4] = d->list_steps;
+    out[5] = d->list_wide_checks;
     return 1;
 }
 

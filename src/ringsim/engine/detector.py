@@ -113,11 +113,13 @@ def list_counters(address: int) -> dict[str, int]:
     """Counters of the detector's neighbour lists (rs_sheet_detect.c, Method 9) since its
     creation: ``builds`` (lists built), ``steps`` (steps searched through a list),
     ``fallbacks`` (re-checks after a collision that searched the cells while a list was
-    on), ``pairs`` (pairs in the last list) and ``list_steps`` (the steps a list is built
-    to last, 0: no lists).  All zero before the first search."""
-    out = (ctypes.c_int64 * 5)()
+    on), ``pairs`` (pairs in the last list), ``list_steps`` (the steps a list is built
+    to last, 0: no lists) and ``wide_checks`` (unlisted partners whose deviation in the
+    step the list's margin did not cover, re-checked one by one).  All zero before the
+    first search."""
+    out = (ctypes.c_int64 * 6)()
     _LIB.rs_sheet_list_counters(address, out)
-    names = ("builds", "steps", "fallbacks", "pairs", "list_steps")
+    names = ("builds", "steps", "fallbacks", "pairs", "list_steps", "wide_checks")
     return dict(zip(names, (int(v) for v in out), strict=True))
 
 
