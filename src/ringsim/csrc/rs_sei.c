@@ -33,8 +33,8 @@
 #include "rebound.h"
 
 /* Particles a thread at least before the loops are split (below, starting the threads
- * costs more than the drift saves). */
-#define RS_SEI_PARTICLES_PER_THREAD 4096
+ * costs more than the drift saves; docs/performance.md, "The SEI step on threads"). */
+#define RS_SEI_PARTICLES_PER_THREAD 8192
 
 typedef void (*rs_update_acceleration_fn)(struct reb_simulation* r);
 typedef void (*rs_register_fn)(const struct reb_integrator integrator, const char* name);
