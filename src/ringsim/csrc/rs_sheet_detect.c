@@ -482,6 +482,22 @@ static int rs_grow(void** buffer, int64_t* capacity, int64_t needed, size_t item
     return 1;
 }
 
+/* Grows *buffer to exactly `needed` items of `item` bytes if it holds fewer, the new ones
+ * zeroed (the threads' lists, one per thread).  Returns 0 if memory ran out. */
+static int rs_grow_cleared(void** buffer, int64_t* capacity, int64_t needed, size_t item){
+    if (*capacity >= needed){
+        return 1;
+    }
+    char* grown = realloc(*buffer, (size_t)needed * item);
+    if (grown == NULL){
+        return 0;
+    }
+    memset(grown + (size_t)*capacity * item, 0, (size_t)(needed - *capacity) * item);
+    *buffer = grown;
+    *capacity = needed;
+    return 1;
+}
+
 /* Number of the calling thread in the current OpenMP team (0 without OpenMP). */
 static int rs_thread_id(void){
 #ifdef _OPENMP
@@ -1420,16 +1436,9 @@ static int rs_search(struct rs_sheet_detector* d, int64_t n){
 /* The threads' lists of reports, emptied, for a search on `threads` threads.  Returns 0
  * if memory ran out. */
 static int rs_search_lists(struct rs_sheet_detector* d, int threads){
-    if (d->list_capacity < threads){
-        struct rs_pair_list* grown = realloc(d->lists,
-                                             (size_t)threads * sizeof(struct rs_pair_list));
-        if (grown == NULL){
-            return 0;
-        }
-        memset(&grown[d->list_capacity], 0,
-               (size_t)(threads - d->list_capacity) * sizeof(struct rs_pair_list));
-        d->lists = grown;
-        d->list_capacity = threads;
+    if (!rs_grow_cleared((void**)&d->lists, &d->list_capacity, threads,
+                         sizeof(struct rs_pair_list))){
+        return 0;
     }
     for (int k = 0; k < threads; k++){
         d->lists[k].n = 0;
@@ -1598,16 +1607,9 @@ static void rs_list_anchor(struct rs_sheet_detector* d, int64_t n){
 static int rs_list_build(const struct reb_simulation* const r, struct rs_sheet_detector* d,
                          int64_t n){
     const int threads = rs_team_size(d, n);
-    if (d->builder_capacity < threads){
-        struct rs_index_pairs* grown = realloc(d->builders,
-                                               (size_t)threads * sizeof(struct rs_index_pairs));
-        if (grown == NULL){
-            return 0;
-        }
-        memset(&grown[d->builder_capacity], 0,
-               (size_t)(threads - d->builder_capacity) * sizeof(struct rs_index_pairs));
-        d->builders = grown;
-        d->builder_capacity = threads;
+    if (!rs_grow_cleared((void**)&d->builders, &d->builder_capacity, threads,
+                         sizeof(struct rs_index_pairs))){
+        return 0;
     }
     for (int k = 0; k < threads; k++){
         d->builders[k].n = 0;
