@@ -161,13 +161,13 @@
  *    M <= 0, or when the box, Omega or the boundary has changed.  a covers the shear of
  *    d->list_steps steps; b_i covers steps + 1 steps of the particle's own motion rho_i -
  *    R_i, at least RS_LIST_FLOOR times its rms over the particles and at most RS_LIST_FAST
- *    times that.  Each listed pair is tested as the
- *    search from its particle of lower index tests it, through its nearest image (the
- *    only one in reach in a box wider than 2 s): the same reports, offsets and bits.  A
- *    re-check goes through the particle's listed partners and the particles of the step
- *    with D >= M / 2 (d->wide), unless the particle's own D >= M / 2, or the re-check
- *    would be cut at RS_MAX_SPAN s or reach beyond half the box: then it searches the
- *    cells, which are sorted for that step only then.  The cells are laid out every step
+ *    times that.  Each listed pair is tested as the search from its particle of lower
+ *    index tests it, through its nearest image (the only one in reach in a box wider than
+ *    2 s): the same reports, offsets and bits.  A re-check goes through the particle's
+ *    listed partners and the particles of the step with D >= M / 2 (d->wide), unless the
+ *    particle's own D >= M / 2, or the re-check would be cut at RS_MAX_SPAN s or reach
+ *    beyond half the box: then it searches the cells, which are sorted for that step only
+ *    then.  The cells are laid out every step
  *    all the same (the reach classes' state is that of a search without lists).  Lists
  *    are not built where the least pair skin exceeds RS_LIST_SKIN_RATIO smallest reaches
  *    (particles that move their size in a step: the list would hold more partners than
@@ -243,17 +243,19 @@
 /* Steps a neighbour list is built to last (Method 9), unless rs_sheet_set_lists says
  * otherwise; 0 would turn the lists off. */
 #define RS_LIST_STEPS 10
-/* A list is built only if its skin is at most this many times the smallest reach: a skin
- * wider than the particles (fast particles against small ones) would list more partners
- * than the cells read. */
-/* A particle's skin is at most this many times the least skin (Method 9): the build looks
- * as far as the largest list reach. */
+/* A particle's skin covers at least this many times the rms motion of a step (Method 9):
+ * the slow particles share the typical one's skin. */
 #ifndef RS_LIST_FLOOR
 #define RS_LIST_FLOOR 3.0
 #endif
+/* A particle's skin is at most this many times the least skin (Method 9): the build looks
+ * as far as the largest list reach. */
 #ifndef RS_LIST_FAST
 #define RS_LIST_FAST 4.0
 #endif
+/* A list is built only if its least pair skin is at most this many times the smallest
+ * reach: a skin wider than the particles (particles that move their size in a step) would
+ * list more partners than the cells read. */
 #ifndef RS_LIST_SKIN_RATIO
 #define RS_LIST_SKIN_RATIO 8.0
 #endif
@@ -407,7 +409,8 @@ struct rs_sheet_detector {
     int list_half_shell[RS_MAX_CLASSES];    /* 1: the build looks at each pair of the
                                              * class's grid from one side (Method 3) */
     int64_t* wide;                  /* the particles of this step with D >= M / 2 */
-    int64_t* stamp;                 /* by index: the re-check that last listed it */
+    int64_t* stamp;                 /* by index: the re-check that last listed it (0: none;
+                                     * serials only grow, so an old stamp never matches) */
     int64_t stamp_capacity;
     int64_t stamp_serial;           /* re-checks through the list so far */
     int64_t n_wide;
@@ -1004,9 +1007,9 @@ static int rs_cell_recheck(const struct reb_simulation* const r, struct rs_sheet
 /* Method 9 in the cells [first, end) of one row for particle p seen through its image
  * (image_x, gy_i [m]): every partner j > i (every partner with `all`) within the sum of
  * their list reaches (1 + a) rho + b, which the build keeps in the points' reach, goes to
- * `out` as (lower index, higher index).  The
- * distance is taken in wrapped coordinates and widened by g->slack, so that every pair
- * within the reach in unwrapped coordinates is listed.  Returns 0 if memory ran out. */
+ * `out` as (lower index, higher index).  The distance is taken in wrapped coordinates and
+ * widened by g->slack, so that every pair within the reach in unwrapped coordinates is
+ * listed.  Returns 0 if memory ran out. */
 static int rs_cell_list(const struct rs_sheet_detector* d, const struct rs_sheet_point* p,
                         int64_t first, int64_t end, double image_x, double gy_i,
                         struct rs_index_pairs* out, int all){
@@ -1405,12 +1408,12 @@ static void rs_search_share(const struct rs_sheet_detector* d, int64_t n, int te
  * joined in thread order, which is the order of a serial search.  The result would not
  * depend on the order anyway: the contacts are resolved in the total order of
  * rs_event_before.  Returns 0 if memory ran out. */
-static int rs_search_lists(struct rs_sheet_detector* d, int threads);
-static int rs_join_lists(struct rs_sheet_detector* d, int threads);
+static int rs_reports_start(struct rs_sheet_detector* d, int threads);
+static int rs_reports_join(struct rs_sheet_detector* d, int threads);
 
 static int rs_search(struct rs_sheet_detector* d, int64_t n){
     const int threads = rs_team_size(d, n);
-    if (!rs_search_lists(d, threads)){
+    if (!rs_reports_start(d, threads)){
         return 0;
     }
 #pragma omp parallel num_threads(threads)
@@ -1430,12 +1433,12 @@ static int rs_search(struct rs_sheet_detector* d, int64_t n){
         }
         d->lists[rs_thread_id()] = list;
     }
-    return rs_join_lists(d, threads);
+    return rs_reports_join(d, threads);
 }
 
 /* The threads' lists of reports, emptied, for a search on `threads` threads.  Returns 0
  * if memory ran out. */
-static int rs_search_lists(struct rs_sheet_detector* d, int threads){
+static int rs_reports_start(struct rs_sheet_detector* d, int threads){
     if (!rs_grow_cleared((void**)&d->lists, &d->list_capacity, threads,
                          sizeof(struct rs_pair_list))){
         return 0;
@@ -1451,7 +1454,7 @@ static int rs_search_lists(struct rs_sheet_detector* d, int threads){
 
 /* The threads' lists of reports joined in thread order into d->collisions.  Returns 0 if
  * memory ran out. */
-static int rs_join_lists(struct rs_sheet_detector* d, int threads){
+static int rs_reports_join(struct rs_sheet_detector* d, int threads){
     int64_t total = 0;
     int ok = 1;
     for (int k = 0; k < threads; k++){
@@ -1513,11 +1516,10 @@ static double rs_list_margin(const struct rs_sheet_detector* d, double T){
     return pairs + 2.0 * g->budget_min - 16.0 * g->slack;
 }
 
-/* Grows d's arrays of the list to n particles and `pairs` pairs.  Returns 0 if memory ran
- * out. */
+/* Grows d's arrays of the list (beside the anchors) to n particles and `pairs` pairs.
+ * Returns 0 if memory ran out. */
 static int rs_list_room(struct rs_sheet_detector* d, int64_t n, int64_t pairs){
-    return rs_grow((void**)&d->anchors, &d->anchor_capacity, n, sizeof(struct rs_sheet_anchor))
-        && rs_grow((void**)&d->stamp, &d->stamp_capacity, n, sizeof(int64_t))
+    return rs_grow_cleared((void**)&d->stamp, &d->stamp_capacity, n, sizeof(int64_t))
         && rs_grow((void**)&d->partner_start, &d->partner_start_capacity, n + 1,
                    sizeof(int32_t))
         && rs_grow((void**)&d->list_pairs, &d->list_pair_capacity, 2 * pairs + 2,
@@ -1661,9 +1663,6 @@ static int rs_list_build(const struct reb_simulation* const r, struct rs_sheet_d
         d->list_pair_n += d->builders[k].n;
     }
     rs_list_partners(d, n);
-    for (int64_t i = 0; i < n; i++){
-        d->stamp[i] = -1;       /* no re-check has listed it (serials are >= 1) */
-    }
     d->list_time = r->t;
     d->list_n = n;
     d->list_ready = 1;
@@ -1740,7 +1739,7 @@ static int rs_list_choose(const struct reb_simulation* const r, struct rs_sheet_
  * contiguous shares, joined in thread order).  Returns 0 if memory ran out. */
 static int rs_list_search(struct rs_sheet_detector* d, int64_t n){
     const int threads = rs_team_size(d, n);
-    if (!rs_search_lists(d, threads)){
+    if (!rs_reports_start(d, threads)){
         return 0;
     }
     const struct rs_sheet_grid* const g = &d->grid;
@@ -1775,7 +1774,7 @@ static int rs_list_search(struct rs_sheet_detector* d, int64_t n){
         d->lists[id] = list;
     }
     d->list_steps_used++;
-    return rs_join_lists(d, threads);
+    return rs_reports_join(d, threads);
 }
 
 /* Method 6-7 through the list for particle pi (its state before the resolution): every
