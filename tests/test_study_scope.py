@@ -5,6 +5,9 @@ The study is tests/test_study.py's tiny sheet (200 particles, 0.3 orbit in line 
 few seconds a run)."""
 
 import json
+import os
+import subprocess
+import sys
 
 import pytest
 
@@ -167,6 +170,35 @@ def test_partial_report_keeps_a_case_with_some_of_its_seeds(scoped, tmp_path):
                  and e["quantity"] == "velocity_dispersion")
     assert ratio["mean"] == pytest.approx(c01 / c0, rel=1e-12)
     assert list(part["variants"]) == ["ref_600g"]     # its seed-1 runs are all there
+
+
+def test_partial_report_is_the_same_bits_whatever_the_hash_seed(scoped, tmp_path):
+    """Without k0's and k01's seed-2 summaries the note names both in the study's order,
+    and the report's bytes do not depend on the order of Python's sets (the hash seed of
+    the process that writes it)."""
+    report = json.loads((scoped / "study.quick.report" / "report.json").read_text())
+    gone = [next(r["run"] for r in report["cases"][case]["runs"] if r["seed"] == 2)
+            for case in ("k0", "k01")]
+    for rid in gone:
+        (scoped / "summaries" / f"{rid}.json").rename(tmp_path / f"{rid}.json")
+    texts = []
+    try:
+        for hash_seed in ("1", "2", "3", "4"):
+            out = tmp_path / f"partial{hash_seed}"
+            code = ("from ringsim.cli import main; raise SystemExit(main(['study', "
+                    f"{str(scoped / 'study.yaml')!r}, '--quick', '--report-only', "
+                    f"'--partial', '--out', {str(out)!r}]))")
+            subprocess.run([sys.executable, "-c", code], check=True, capture_output=True,
+                           env={**os.environ, "PYTHONHASHSEED": hash_seed})
+            both = (out / "report.md").read_text() + (out / "report.json").read_text()
+            texts.append(both.replace(str(out), "OUT"))     # the command line names it
+    finally:
+        for rid in gone:
+            (tmp_path / f"{rid}.json").rename(scoped / "summaries" / f"{rid}.json")
+    assert all(text == texts[0] for text in texts)
+    note = json.loads((tmp_path / "partial1" / "report.json").read_text())["partial"]
+    assert "fewer seeds than asked: k0 (seeds [1] of [1, 2]), k01 (seeds [1] of [1, 2])" \
+        in note
 
 
 LENGTHS = SCOPED.replace("  k02: {restitution.kappa: 0.2, seeds: [1]}\n",

@@ -39,8 +39,8 @@ def reduced(study, quick: bool, specs: Sequence, ids: Sequence[str],
     seeds = {name: [seed for seed in asked[name] if (name, None, seed) in done]
              for name in asked}
     cases = tuple((name, o) for name, o in study.cases if seeds[name])
-    names = {name for name, _ in cases}
-    ratios = tuple(pair for pair in study.ratios if set(pair) <= names)
+    names = [name for name, _ in cases]    # in the study's order: the report's text
+    ratios = tuple(pair for pair in study.ratios if set(pair) <= set(names))
     in_ratios = {name for pair in ratios for name in pair}
     mode = study.mode(quick)
     variants = tuple((v, o) for v, o in mode.variants if ratios and all(
