@@ -231,3 +231,33 @@ def test_a_bad_case_length_is_bad_input(tmp_path, capsys):
                            "length: {until_equilibrium: true, orbits: 0.9}")
     assert_refused(write_study(tmp_path, text, SCENARIO), capsys, "cases.k02.length.orbits",
                    "not with until_equilibrium: true")
+
+
+def test_only_runs_the_runs_asked_and_writes_no_report(tmp_path, capsys):
+    """``--only k02 'k01 seed 2'``: k02's one run and k01's seed-2 run get summaries, no
+    other run is made and no report is written; the summaries are those of the whole
+    study's runs (the same ids)."""
+    path = write_study(tmp_path, SCOPED)
+    study = load_study(path)
+    specs = study.specs(quick=True)
+    _, ids = collect(specs)
+    by_label = dict(zip([s.label for s in specs], ids, strict=True))
+    assert main(["study", str(path), "--quick", "--workers", "1", "--only", "k02",
+                 "k01 seed 2"]) == 0
+    made = sorted(p.stem for p in (tmp_path / "summaries").glob("*.json"))
+    assert made == sorted({by_label["k02 seed 1"], by_label["k01 seed 2"],
+                           by_label["k02 [ref_600g] seed 1"]})
+    assert not (tmp_path / "study.quick.report" / "report.json").exists()
+    assert "--only" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--only", "k9"], "'k9' is neither a case nor a run's label"),
+    (["--only", "k0", "--report-only"], "given with --report-only")])
+def test_only_with_an_unknown_run_or_with_report_only_is_bad_input(tmp_path, capsys, args,
+                                                                   words):
+    path = write_study(tmp_path, SCOPED)
+    assert main(["study", str(path), "--quick", *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0]
+    assert not (tmp_path / "summaries").exists() or not any((tmp_path / "summaries").iterdir())

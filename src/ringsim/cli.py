@@ -414,6 +414,9 @@ def _study_arguments(sub) -> None:
                    "<study>.partial.report/)")
     p.add_argument("--resummarise", action="store_true", help="remake the summary of every "
                    "finished run file in DIR/runs with today's analysis (cost kept)")
+    p.add_argument("--only", nargs="+", metavar="CASE_OR_RUN", help="run only these "
+                   "cases, or runs by their label (e.g. 'kappa0 seed 2'), and write no "
+                   "report")
     _add_threads_option(p)
     p.set_defaults(func=_cmd_study)
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -131,12 +131,36 @@ def _execute(waves: list[list], workers: int | None, scheduler: str | None,
     return results
 
 
+def only_runs(runs: dict, specs, ids, only: Sequence[str]) -> dict:
+    """The runs of ``runs`` that ``only`` asks for, each with the run it starts from:
+    an entry is a case (all of its runs, its variants' included) or a run's label as the
+    plan prints it (``"kappa0 seed 2"``, ``"kappa0.1 [smaller_box] seed 1"``).
+
+    Raises InputError for an entry that is neither."""
+    chosen: set[str] = set()
+    for entry in only:
+        hits = {rid for spec, rid in zip(specs, ids, strict=True)
+                if entry in (spec.case, spec.label)}
+        if not hits:
+            cases = ", ".join(dict.fromkeys(spec.case for spec in specs))
+            raise InputError("<command line>", "--only",
+                             f"{entry!r} is neither a case nor a run's label of the study "
+                             f"(cases: {cases}; a label: {specs[0].label!r})")
+        chosen |= hits
+    for rid in list(chosen):
+        while runs[rid].origin is not None:
+            rid = runs[rid].origin
+            chosen.add(rid)
+    return {rid: run for rid, run in runs.items() if rid in chosen}
+
+
 def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = None,
               workers: int | None = None, scheduler: str | None = None, quick: bool = False,
               report_only: bool = False, threads: int | None = None,
               resummarise: bool = False,
               echo: Callable[[str], None] | None = print,
-              command: str | None = None, partial: bool = False) -> StudyResult:
+              command: str | None = None, partial: bool = False,
+              only: Sequence[str] = ()) -> StudyResult:
     """Run a study (docs/studies.md) and write ``report.json``, ``report.md`` and
     ``ratios.png`` into ``out``.
 
@@ -154,6 +178,9 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
     echo : receives the progress lines (None: quiet)
     command : the command line the report names as the one that regenerates it
     partial : with ``report_only``, the report so far (``ringsim.study.partial``)
+    only : run only these cases or runs (`only_runs`) and write no report (a session
+        that has the time for some of a study's runs; ``--report-only --partial`` then
+        gives the report so far)
 
     Raises
     ------
@@ -167,6 +194,9 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
     if partial and not report_only:
         raise InputError("<command line>", "--partial", "given without --report-only "
                          "(--report-only --partial: the report of the runs done so far)")
+    if only and report_only:
+        raise InputError("<command line>", "--only", "given with --report-only (--only "
+                         "chooses the runs to run; the report is of every summary)")
     out_dir = (Path(out) if out is not None else partial_output_dir(study_path, quick)
                if partial else default_output_dir(study_path, quick))
     _check_options(workers, threads, out_dir)
@@ -176,11 +206,12 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
     summaries_dir = study.folder / SUMMARIES
     result = StudyResult(out_dir)
     if not report_only:
-        waves = plan_waves(runs, out_dir / "runs", summaries_dir, resummarise)
+        asked = only_runs(runs, specs, ids, only) if only else runs
+        waves = plan_waves(asked, out_dir / "runs", summaries_dir, resummarise)
         tasks = [task for wave in waves for task in wave]
         result.results = _execute(waves, workers, scheduler, say, lambda where: _plan_line(
-            study_path, len(runs), tasks, out_dir, where))
-        if result.n_failed or result.n_stopped:
+            study_path, len(asked), tasks, out_dir, where))
+        if result.n_failed or result.n_stopped or only:
             return result
     study, specs, ids, summaries, note = _reported(study, quick, specs, ids, runs,
                                                    summaries_dir, partial)
@@ -244,7 +275,7 @@ def _shown(path: str) -> str:
 
 def study_command(args) -> int:
     """``ringsim study STUDY.yaml [--out DIR] [--workers N] [--scheduler ADDRESS] [--quick]
-    [--report-only] [--resummarise] [--threads N]``.
+    [--report-only] [--resummarise] [--threads N] [--only CASE_OR_RUN ...]``.
 
     Returns 0 when the report is written, 1 when a run failed, 130 when a run was
     interrupted (InputError for bad input propagates: exit status 2).
@@ -259,11 +290,14 @@ def study_command(args) -> int:
                        scheduler=args.scheduler, quick=args.quick,
                        report_only=args.report_only, threads=args.threads,
                        resummarise=args.resummarise, echo=echo,
-                       command=command, partial=args.partial)
+                       command=command, partial=args.partial, only=args.only or ())
     if result.n_failed or result.n_stopped:
         bad = [f"{r.run_id} ({'; '.join(r.labels)}): {r.status}" for r in result.results
                if r.status != "finished"]
         print(f"ringsim study: {len(bad)} run(s) did not finish, no report written: "
               f"{', '.join(bad)}", file=sys.stderr)
         return 1 if result.n_failed else 130
+    if args.only:
+        print(f"ringsim study: ran the runs of {', '.join(args.only)} (--only); no report "
+              "written: --report-only --partial gives the report so far", flush=True)
     return 0
