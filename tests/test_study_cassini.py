@@ -146,6 +146,29 @@ def test_the_rule_of_consistent_with(summaries, verdict):
     assert table is not None and table["cases"]["case"]["verdict"] == verdict
 
 
+
+def test_bar_model_errors_hold_the_fits_misfit():
+    """A seed's bar-model errors are scaled by sqrt(reduced chi^2) when that exceeds 1
+    (Birge's ratio), not when it is below: H/W 0.45 +- 0.02 with chi^2 = 1 is 3.5 sigma
+    from the A ring's 0.37 (excluded); with chi^2 = 16 the error is 0.08 and 0.45 - 0.16
+    reaches 0.37 (the A ring)."""
+    def with_chi2(chi2):
+        summary = _summary(hw=(0.45, 0.02), gap=(0.8, 0.02))
+        summary["occultation"]["fit_reduced_chi2"] = chi2
+        return summary
+
+    for chi2, verdict, err in ((1.0, "excluded", 0.02), (0.25, "excluded", 0.02),
+                               (16.0, "A ring", 0.08), (None, "excluded", 0.02)):
+        table = cassini.against_cassini({"c": [with_chi2(chi2)]})
+        assert table is not None
+        entry = table["cases"]["c"]
+        assert entry["verdict"] == verdict
+        assert entry["height_over_width"]["stderr"] == pytest.approx(err, rel=1e-12)
+        assert entry["gap_optical_depth"]["stderr"] == pytest.approx(err, rel=1e-12)
+        # the asymmetry is not the fit's: never scaled
+        assert entry["asymmetry_amplitude"]["stderr"] == pytest.approx(0.05, rel=1e-12)
+        assert entry["fit_reduced_chi2_max"] == chi2
+
 def test_seed_mean_and_a_seed_without_occultations():
     """The case is the mean over the seeds that have the occultations (budget.replica_mean);
     a seed whose summary lacks them is left out and counted."""

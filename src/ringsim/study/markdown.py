@@ -153,10 +153,13 @@ def cassini_section(report: Mapping) -> list[str]:
     b = f"{table['asymmetry_elevation_deg']:g}°"
     header = ["case", "κ", "size distribution", "friction", "seeds measured", "H/W",
               "gap τ", "wake angle from radial [deg]", f"asymmetry of τ_n at B = {b}",
-              f"peak T at B = {b}", "geometric τ", "consistent with"]
+              f"peak T at B = {b}", "geometric τ", "fit's reduced χ² (largest seed)",
+              "consistent with"]
     rows = [[case, _num(e["kappa"]), e["size_distribution"], e["friction"],
              _seeds_cell(e) if e["gravity"] else "-"]
-            + [_cassini_cell(e, q) for q in cassini.QUANTITIES] + [f"**{e['verdict']}**"]
+            + [_cassini_cell(e, q) for q in cassini.QUANTITIES]
+            + [_num(e["fit_reduced_chi2_max"]) if e.get("fit_reduced_chi2_max") is not None
+               else "-", f"**{e['verdict']}**"]
             for case, e in table["cases"].items()]
     published = [[p["ring"], p["quantity"], p["text"], p["source"]]
                  for p in table["published"].values()]
@@ -167,7 +170,9 @@ def cassini_section(report: Mapping) -> list[str]:
              "measured\": summaries made before they kept the occultations; n/a: no "
              "number (an asymmetry of views some of which let no ray through). The bar model's "
              "H/W, gap τ and wake angle are means over the seeds with a significant wake "
-             "and a fit (\"no wake\": no such seed). "
+             "and a fit (\"no wake\": no such seed), each seed's error scaled by the "
+             "square root of its fit's reduced χ² where that exceeds 1 (Birge's ratio: "
+             "the bar model's misfit to the views counts as error). "
              f"Rule: {table['rule']}.", ""]
             + _table(header, rows) + ["", "The published values:", ""]
             + _table(["ring", "quantity", "published", "source"], published) + [""])
