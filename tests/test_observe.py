@@ -264,6 +264,7 @@ def test_observe_on_a_tiny_run_writes_every_view(tiny_run_file, tmp_path):
 
 @pytest.mark.parametrize("args, key", [
     (["--elevation", "0"], "--elevation"),
+    (["--elevation", "1e-6"], "--elevation"),     # below the lowest opening angle, 0.5 deg
     (["--elevation", "95"], "--elevation"),
     (["--snapshot", "999"], "--snapshot"),
     (["--rays", "10"], "--rays"),
