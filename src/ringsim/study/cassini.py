@@ -59,9 +59,9 @@ RULE_RANGES = {"A ring": ("A_height_over_width", "A_wake_angle"),
 #: The rule, in words (report.json and report.md say it).
 RULE = ("a case is consistent with a ring when analyze finds a significant wake in the "
         "equilibrium window of every seed measured, the bar model was fitted, and the "
-        "interval mean +- 2 stderr (over the seeds; each seed's bar-model errors scaled "
-        "by the square root of its fit's reduced chi^2 where that is above 1, so that they "
-        "hold the model's misfit to the views) of each quantity the ring's published "
+        "interval mean +- 2 stderr (over the seeds; each seed's bar-model errors are the "
+        "fit's, scaled by the square root of its reduced chi^2 where that is above 1, so "
+        "that they hold the model's misfit to the views) of each quantity the ring's published "
         "values constrain overlaps the published range: for the A ring H/W and the wake "
         "angle from radial, for the B ring H/W and the gap optical depth; excluded when it "
         "is consistent with neither; the azimuthal asymmetry and the peak transmission are "
@@ -156,19 +156,8 @@ def lacks_occultation(summary: Mapping) -> bool:
     return is_gravitating(summary) and "occultation" not in summary
 
 
-def birge_ratio(summary: Mapping) -> float:
-    """sqrt(max(1, reduced chi^2)) of a seed's bar-model fit: the factor its parameters'
-    errors are scaled by, so that they also hold the misfit of the model to the views
-    (the scale factor of Birge 1932; the Particle Data Group's for inconsistent data).  A
-    fit that describes the views within their errors keeps its errors; a seed without a
-    reduced chi^2 (NaN): 1."""
-    chi2 = summary["occultation"].get("fit_reduced_chi2")
-    return math.sqrt(chi2) if chi2 is not None and chi2 > 1.0 else 1.0
-
-
 def _seed_value(summary: Mapping, quantity: str) -> dict:
-    """One seed's ``{"mean", "stderr", "units"}`` of a table quantity, null read as NaN;
-    a `BAR_MODEL` parameter's error scaled by the fit's `birge_ratio`."""
+    """One seed's ``{"mean", "stderr", "units"}`` of a table quantity, null read as NaN."""
     occ = summary["occultation"]
     entry = occ.get(quantity)
     if quantity in ("asymmetry_amplitude", "peak_transmission"):
@@ -176,10 +165,7 @@ def _seed_value(summary: Mapping, quantity: str) -> dict:
         entry = rows[0][quantity] if rows else None
     if entry is None:
         return _value(math.nan, math.nan, "dimensionless")
-    value = budget.replica_value(entry)
-    if quantity in BAR_MODEL:
-        value["stderr"] *= birge_ratio(summary)
-    return value
+    return budget.replica_value(entry)
 
 
 def _overlaps(value: Mapping, published: Mapping) -> bool:
