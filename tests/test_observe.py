@@ -304,3 +304,15 @@ def test_observe_figures_label_their_axes_and_show_the_model():
             assert len(labels) >= 3, labels
         assert len(ax.get_lines()) >= 3   # model curves and the geometric tau
         fig.clf()
+
+
+def test_a_fit_without_wakes_says_so(tiny_run_file, capsys):
+    """A run in which analyze finds no significant wake (no self-gravity) still gets a bar
+    model fitted to its views, and the output says that its parameters are not wake
+    parameters."""
+    code = main(["observe", str(tiny_run_file), "--elevation", "30", "60", "--azimuth", "0",
+                 "60", "120", "--rays", "2000"])
+    printed = capsys.readouterr().out
+    assert code == 0
+    assert "H/W = " in printed
+    assert "analyze finds no significant wake in these snapshots" in printed

@@ -258,6 +258,10 @@ def observation_table(obs: dict) -> str:
         lines.append(f"analyze's wake pitch {pitch['mean']:.3g} +- {pitch['stderr']:.2g} deg "
                      f"({pitch['snapshots']} snapshots): lines of sight along the wakes at "
                      f"phi = {pitch['parallel_azimuth_deg']:.1f} deg")
+    elif "height_over_width" in fit:
+        lines.append("analyze finds no significant wake in these snapshots: the bar model "
+                     "then describes no wakes, and its parameters are not wake parameters "
+                     "(a layer without wakes fits a range of H/W)")
     return "\n".join(lines)
 
 
