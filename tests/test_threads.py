@@ -164,7 +164,7 @@ def test_set_detector_threads_checks_its_argument():
 
 #: Attributes that record when and how long, not what: the wall clock, and the hash of the
 #: REBOUND binary (which embeds wall-clock fields).
-WALL_CLOCK_ATTRIBUTES = ("wall_time_s", "created_utc", "sha256")
+WALL_CLOCK_ATTRIBUTES = ("wall_time_s", "cpu_time_s", "created_utc", "sha256")
 
 
 def _datasets(path) -> dict[str, object]:

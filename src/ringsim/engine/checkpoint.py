@@ -97,6 +97,9 @@ class Resumed:
         The run file as it was read (time series, attributes).
     wall_before : float [s]
         Wall time of the run's earlier sessions.
+    cpu_before : float or None [s]
+        CPU time of the run's earlier sessions (None: a file written before run files
+        kept it).
     orbits : (float, float) [orbits]
         The file's and the scenario's ``integration.orbits`` (the second larger: an
         extended run).
@@ -111,6 +114,7 @@ class Resumed:
     run: runfile.Run
     wall_before: float
     orbits: tuple[float, float]
+    cpu_before: float | None = None
 
 
 def _counters(path: Path, st: dict, Omega: float) -> tuple[LoopState, box.SheetGeometry, int]:
@@ -183,5 +187,7 @@ def resume(path: Path, scenario: Scenario) -> Resumed:
     wall = run.attrs.get("wall_time_s", 0.0)
     if not isinstance(wall, (int, float)):
         raise runfile.RunFileError(path, f"{wall!r} is not a number", "wall_time_s")
+    cpu = run.attrs.get("cpu_time_s")
     return Resumed(sim, handle, geometry, state, n_particles, momentum, run, float(wall),
-                   orbits)
+                   orbits,
+                   float(cpu) if isinstance(cpu, (int, float)) else None)

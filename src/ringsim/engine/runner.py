@@ -109,6 +109,10 @@ class Runner:
         self.wall_start = time.perf_counter()
         self.last_checkpoint_wall = self.wall_start   # perf_counter() of the last checkpoint
         self.wall_before = 0.0  # wall time [s] of earlier sessions of this run
+        self.cpu_start = time.process_time()
+        # CPU time [s] of earlier sessions of this run (None: unknown, a file written before
+        # run files kept it; the run file then keeps none)
+        self.cpu_before: float | None = 0.0
         # c and H so far (number- and mass-weighted), for until_equilibrium: orbits
         # [orbits], c [m/s], H [m]
         self.history: dict[str, list[float]] = {
@@ -164,6 +168,7 @@ class Runner:
         self.sim, self.handle, self.geometry = resumed.sim, resumed.handle, resumed.geometry
         self.state, self.n_particles = resumed.state, resumed.n_particles
         self.momentum, self.wall_before = resumed.momentum, resumed.wall_before
+        self.cpu_before = resumed.cpu_before
         self._set_threads()
         for key, values in self.history.items():
             values.extend(float(x) for x in resumed.run.timeseries[key][:self.state.rows])
@@ -358,6 +363,8 @@ class Runner:
         attributes = dict(attributes or {})
         self.last_checkpoint_wall = time.perf_counter()
         attributes["wall_time_s"] = self.wall_before + self.last_checkpoint_wall - self.wall_start
+        if self.cpu_before is not None:
+            attributes["cpu_time_s"] = self.cpu_before + time.process_time() - self.cpu_start
         self._commit(snapshot=snapshot, attributes=attributes,
                      checkpoint=checkpoint_of(self.sim, self.state, self.geometry,
                                               self.n_particles, self.momentum, self.handle))

@@ -368,7 +368,9 @@ def _run_task(task: RunTask) -> TaskResult:
                         task.action, task.labels)
     if status == "finished":
         eq = equilibrium(run)
+        kept = run.attrs.get("cpu_time_s")     # the run file's, over all its sessions
         cpu = (None if task.action == "reuse"
+               else float(kept) if isinstance(kept, (int, float))
                else time.process_time() - cpu0 + (task.cpu_before or 0.0))
         wall = run.attrs.get("wall_time_s", 0.0)
         cost = task.cost if task.cost is not None else {
