@@ -73,7 +73,11 @@ def test_compare_ratios(two_runs, tmp_path, capsys):
     assert r["stderr"] > 0
     assert comp["ratios"][0]["mean_epsilon"]["mean"] == pytest.approx(0.6, rel=1e-9)
     assert (tmp_path / "p" / "compare_timeseries.png").exists()
-    assert "ratio k1 / k0" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "ratio k1 / k0" in printed
+    # every headline names its weighting, in the table and in the ratios
+    assert "velocity dispersion c, number-weighted [mm/s]" in printed
+    assert "  velocity dispersion c, number-weighted " in printed.split("ratio k1 / k0")[1]
 
 
 def test_analyze_missing_file_is_bad_input(tmp_path, capsys):

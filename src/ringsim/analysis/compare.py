@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+from ringsim import quantities
 from ringsim.analysis import aggregation, budget
 from ringsim.analysis.equilibrium import (
     NOT_IN_EQUILIBRIUM,
@@ -130,13 +131,13 @@ def comparison_table(comp: dict) -> str:
     runs = comp["runs"]
     width = max(22, *(len(eq["name"]) + 2 for eq in runs))
     lines = list(comp.get("warnings", []))
-    lines.append(f"{'quantity':<40}" + "".join(f"{eq['name']:>{width}}" for eq in runs))
-    for key, (label, unit, scale) in TABLE_ROWS.items():
-        lines.append(f"{label + (f' [{unit}]' if unit else ''):<40}"
+    lines.append(f"{'quantity':<48}" + "".join(f"{eq['name']:>{width}}" for eq in runs))
+    for key, (_label, _unit, scale) in TABLE_ROWS.items():
+        lines.append(f"{quantities.QUANTITY[key].headline_label:<48}"
                      + "".join(f"{_fmt(eq[key], scale):>{width}}" for eq in runs))
-    lines.append(f"{'in equilibrium':<40}"
+    lines.append(f"{'in equilibrium':<48}"
                  + "".join(f"{str(eq['in_equilibrium']):>{width}}" for eq in runs))
-    lines.append(f"{'aggregating (collisions withheld)':<40}"
+    lines.append(f"{'aggregating (collisions withheld)':<48}"
                  + "".join(f"{str(bool(eq.get('aggregating'))):>{width}}" for eq in runs))
     for eq in runs:
         line = size_ratio_line(eq.get("size_ratio"))
@@ -148,9 +149,10 @@ def comparison_table(comp: dict) -> str:
         caveat = "" if entry["in_equilibrium"] else "  [NOT IN EQUILIBRIUM: see the warning]"
         lines.append(f"ratio {entry['name']} / {entry['relative_to']} "
                      f"(difference in combined standard errors){caveat}")
-        for key, (label, _unit, _scale) in TABLE_ROWS.items():
+        for key in TABLE_ROWS:
             r = entry[key]
-            lines.append(f"  {label:<38} {_ratio_text(r):>44}   "
+            label = quantities.QUANTITY[key].headline_label.split(" [")[0]
+            lines.append(f"  {label:<46} {_ratio_text(r):>44}   "
                          f"({r['significance']:+.1f} sigma)")
         lines += _per_bin_lines(entry.get("per_size_bin"))
     lines.append(f"systematic budget: {comp.get('systematics', 'not measured')}")
