@@ -110,11 +110,8 @@ class Runner:
         self.last_checkpoint_wall = self.wall_start   # perf_counter() of the last checkpoint
         self.wall_before = 0.0  # wall time [s] of earlier sessions of this run
         self.cpu_start = time.process_time()
-        # CPU time [s] of earlier sessions of this run (None: unknown, a file written before
-        # run files kept it; the run file then keeps none)
-        self.cpu_before: float | None = 0.0
-        # c and H so far (number- and mass-weighted), for until_equilibrium: orbits
-        # [orbits], c [m/s], H [m]
+        self.cpu_before: float | None = 0.0   # [s]; None: unknown
+        # c and H so far (number-, mass-weighted), for until_equilibrium: [orbits], [m/s], [m]
         self.history: dict[str, list[float]] = {
             key: [] for key in ("orbits", "velocity_dispersion", "thickness",
                                 "velocity_dispersion_mass_weighted", "thickness_mass_weighted")}

@@ -154,6 +154,27 @@ def only_runs(runs: dict, specs, ids, only: Sequence[str]) -> dict:
     return {rid: run for rid, run in runs.items() if rid in chosen}
 
 
+def _run_asked(study_path, runs: dict, specs, ids, only: Sequence[str], out_dir: Path,
+               summaries_dir: Path, resummarise: bool, workers: int | None,
+               scheduler: str | None, say: Callable[[str], None]) -> list[TaskResult]:
+    """Plan and run the study's runs (those of ``only`` when given)."""
+    asked = only_runs(runs, specs, ids, only) if only else runs
+    waves = plan_waves(asked, out_dir / "runs", summaries_dir, resummarise)
+    tasks = [task for wave in waves for task in wave]
+    return _execute(waves, workers, scheduler, say, lambda where: _plan_line(
+        study_path, len(asked), tasks, out_dir, where))
+
+
+def _check_only(only: Sequence[str], report_only: bool, partial: bool) -> None:
+    """InputError for --partial without --report-only, or --only with it."""
+    if partial and not report_only:
+        raise InputError("<command line>", "--partial", "given without --report-only "
+                         "(--report-only --partial: the report of the runs done so far)")
+    if only and report_only:
+        raise InputError("<command line>", "--only", "given with --report-only (--only "
+                         "chooses the runs to run; the report is of every summary)")
+
+
 def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = None,
               workers: int | None = None, scheduler: str | None = None, quick: bool = False,
               report_only: bool = False, threads: int | None = None,
@@ -178,9 +199,7 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
     echo : receives the progress lines (None: quiet)
     command : the command line the report names as the one that regenerates it
     partial : with ``report_only``, the report so far (``ringsim.study.partial``)
-    only : run only these cases or runs (`only_runs`) and write no report (a session
-        that has the time for some of a study's runs; ``--report-only --partial`` then
-        gives the report so far)
+    only : run only these cases or runs (`only_runs`) and write no report
 
     Raises
     ------
@@ -191,12 +210,7 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
     from ringsim.analysis.equilibrium import QUANTITIES
 
     say = echo if echo is not None else (lambda line: None)
-    if partial and not report_only:
-        raise InputError("<command line>", "--partial", "given without --report-only "
-                         "(--report-only --partial: the report of the runs done so far)")
-    if only and report_only:
-        raise InputError("<command line>", "--only", "given with --report-only (--only "
-                         "chooses the runs to run; the report is of every summary)")
+    _check_only(only, report_only, partial)
     out_dir = (Path(out) if out is not None else partial_output_dir(study_path, quick)
                if partial else default_output_dir(study_path, quick))
     _check_options(workers, threads, out_dir)
@@ -206,11 +220,8 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
     summaries_dir = study.folder / SUMMARIES
     result = StudyResult(out_dir)
     if not report_only:
-        asked = only_runs(runs, specs, ids, only) if only else runs
-        waves = plan_waves(asked, out_dir / "runs", summaries_dir, resummarise)
-        tasks = [task for wave in waves for task in wave]
-        result.results = _execute(waves, workers, scheduler, say, lambda where: _plan_line(
-            study_path, len(asked), tasks, out_dir, where))
+        result.results = _run_asked(study_path, runs, specs, ids, only, out_dir,
+                                    summaries_dir, resummarise, workers, scheduler, say)
         if result.n_failed or result.n_stopped or only:
             return result
     study, specs, ids, summaries, note = _reported(study, quick, specs, ids, runs,
