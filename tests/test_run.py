@@ -266,7 +266,6 @@ def test_extending_a_finished_run_equals_a_longer_run(tmp_path, small_scenario):
         ringsim.run(other, output=path, resume=True, progress=False)
 
 
-
 def test_cpu_time_adds_up_over_a_runs_sessions(tmp_path, small_scenario):
     """`cpu_time_s` (a root attribute) is the run's CPU time over all its sessions: a
     lengthened run's is its first session's plus what the second spent, which is within
@@ -285,6 +284,7 @@ def test_cpu_time_adds_up_over_a_runs_sessions(tmp_path, small_scenario):
     second_call = time.process_time() - cpu0
     total = float(ringsim.open_run(path).attrs["cpu_time_s"])
     assert first < total <= first + second_call
+
 
 def test_until_equilibrium_stops_when_stationary_and_says_why(tmp_path, line_scenario):
     """A cold dense ring settles within an orbit or two: with until_equilibrium the run stops

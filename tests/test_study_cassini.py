@@ -146,7 +146,6 @@ def test_the_rule_of_consistent_with(summaries, verdict):
     assert table is not None and table["cases"]["case"]["verdict"] == verdict
 
 
-
 def test_the_table_shows_the_largest_reduced_chi2_of_the_fits():
     """The case's ``fit_reduced_chi2_max``: the largest of its seeds with a wake and a fit;
     the errors are the fits' as the summaries hold them (wake_model scales them by

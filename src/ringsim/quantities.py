@@ -82,11 +82,15 @@ class Quantity:
         return self.label + (f" [{self.shown}]" if self.shown else "")
 
     @property
+    def weighted_label(self) -> str:
+        """The label naming the weighting, without the unit (a ratio's row)."""
+        return (f"{self.label}, {self.weighting.replace(' ', '-')}-weighted" if self.weighting
+                else self.label)
+
+    @property
     def headline_label(self) -> str:
         """`table_label` naming the weighting, for the rows of ``analyze``'s table."""
-        named = (f"{self.label}, {self.weighting.replace(' ', '-')}-weighted" if self.weighting
-                 else self.label)
-        return named + (f" [{self.shown}]" if self.shown else "")
+        return self.weighted_label + (f" [{self.shown}]" if self.shown else "")
 
     def axis_label(self, separator: str = " ") -> str:
         """A figure axis' label: the label and, in brackets, the shown unit (the stored

@@ -132,9 +132,10 @@ def comparison_table(comp: dict) -> str:
     width = max(22, *(len(eq["name"]) + 2 for eq in runs))
     lines = list(comp.get("warnings", []))
     lines.append(f"{'quantity':<48}" + "".join(f"{eq['name']:>{width}}" for eq in runs))
-    for key, (_label, _unit, scale) in TABLE_ROWS.items():
-        lines.append(f"{quantities.QUANTITY[key].headline_label:<48}"
-                     + "".join(f"{_fmt(eq[key], scale):>{width}}" for eq in runs))
+    for key in TABLE_ROWS:
+        q = quantities.QUANTITY[key]
+        lines.append(f"{q.headline_label:<48}"
+                     + "".join(f"{_fmt(eq[key], q.scale):>{width}}" for eq in runs))
     lines.append(f"{'in equilibrium':<48}"
                  + "".join(f"{str(eq['in_equilibrium']):>{width}}" for eq in runs))
     lines.append(f"{'aggregating (collisions withheld)':<48}"
@@ -151,8 +152,8 @@ def comparison_table(comp: dict) -> str:
                      f"(difference in combined standard errors){caveat}")
         for key in TABLE_ROWS:
             r = entry[key]
-            label = quantities.QUANTITY[key].headline_label.split(" [")[0]
-            lines.append(f"  {label:<46} {_ratio_text(r):>44}   "
+            lines.append(f"  {quantities.QUANTITY[key].weighted_label:<46} "
+                         f"{_ratio_text(r):>44}   "
                          f"({r['significance']:+.1f} sigma)")
         lines += _per_bin_lines(entry.get("per_size_bin"))
     lines.append(f"systematic budget: {comp.get('systematics', 'not measured')}")

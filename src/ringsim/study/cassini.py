@@ -223,9 +223,9 @@ def case_cassini(members: Sequence[Mapping]) -> dict:
                            if seeds else None)
     entry["seeds_measured"] = len(measured)
     entry["seeds_with_wake"] = len(waking)
-    chi2 = [s["occultation"].get("fit_reduced_chi2") for s in waking]
-    entry["fit_reduced_chi2_max"] = (max(float(c) for c in chi2 if c is not None)
-                                     if any(c is not None for c in chi2) else None)
+    chi2 = [float(c) for s in waking
+            if (c := s["occultation"].get("fit_reduced_chi2")) is not None]
+    entry["fit_reduced_chi2_max"] = max(chi2) if chi2 else None
     entry["verdict"] = verdict(entry, measured)
     return entry
 

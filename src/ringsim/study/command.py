@@ -165,7 +165,7 @@ def _run_asked(study_path, runs: dict, specs, ids, only: Sequence[str], out_dir:
         study_path, len(asked), tasks, out_dir, where))
 
 
-def _check_only(only: Sequence[str], report_only: bool, partial: bool) -> None:
+def _check_modes(only: Sequence[str], report_only: bool, partial: bool) -> None:
     """InputError for --partial without --report-only, or --only with it."""
     if partial and not report_only:
         raise InputError("<command line>", "--partial", "given without --report-only "
@@ -210,7 +210,7 @@ def run_study(study_path: str | os.PathLike, out: str | os.PathLike | None = Non
     from ringsim.analysis.equilibrium import QUANTITIES
 
     say = echo if echo is not None else (lambda line: None)
-    _check_only(only, report_only, partial)
+    _check_modes(only, report_only, partial)
     out_dir = (Path(out) if out is not None else partial_output_dir(study_path, quick)
                if partial else default_output_dir(study_path, quick))
     _check_options(workers, threads, out_dir)

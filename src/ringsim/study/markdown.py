@@ -170,10 +170,8 @@ def cassini_section(report: Mapping) -> list[str]:
              "measured\": summaries made before they kept the occultations; n/a: no "
              "number (an asymmetry of views some of which let no ray through). The bar model's "
              "H/W, gap τ and wake angle are means over the seeds with a significant wake "
-             "and a fit (\"no wake\": no such seed), each seed's error the fit's, "
-             "scaled by the square root of its reduced χ² where that exceeds 1 (Birge's "
-             "ratio: the bar model's misfit to the views counts as error; the table shows "
-             "the largest seed's reduced χ²). "
+             "and a fit (\"no wake\": no such seed); the table shows the largest reduced "
+             "χ² of a case's fits. "
              f"Rule: {table['rule']}.", ""]
             + _table(header, rows) + ["", "The published values:", ""]
             + _table(["ring", "quantity", "published", "source"], published) + [""])
