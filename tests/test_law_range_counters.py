@@ -63,6 +63,20 @@ def test_below_and_above_each_measured_range_are_counted_apart():
     assert (s["masses_below"], s["masses_above"]) == (1, 2)
     assert s["outside_speeds"] == 3 and s["outside_sizes"] == 4
     assert s["critically_damped"] == 0
+    assert s["inside_all"] == 1
+
+
+def test_inside_all_needs_every_dimension_inside_at_once():
+    inside = (0.1, 0.1, 0.4, 0.4, 0.01)          # R_bar 5 cm, M_bar 200 g, 1 cm/s
+    # just inside every lower and every upper edge (0.1 % in, against the round-off of
+    # the reduced quantities and of the impact speed the resolver recomputes)
+    edges = [(0.05005, 0.05005, 0.1202, 0.1202, 1.001e-4),
+             (0.3996, 0.3996, 1.198, 1.198, 0.04995)]
+    # slow and light at once: one impact outside two ranges is not inside
+    slow_light = (0.1, 0.1, 0.02, 0.02, 1e-5)
+    s = impacts(DILLEY, [inside, *edges, slow_light])
+    assert s["inside_all"] == 3
+    assert s["speeds_below"] == 1 and s["masses_below"] == 1
 
 
 def test_a_law_without_a_stated_range_counts_nothing_outside():
@@ -71,6 +85,9 @@ def test_a_law_without_a_stated_range_counts_nothing_outside():
     assert all(s[k] == 0 for k in ("speeds_below", "speeds_above", "sizes_below",
                                    "sizes_above", "masses_below", "masses_above",
                                    "critically_damped"))
+    # no range stated: every impact lies inside the (0, inf) bounds the resolver is given,
+    # and analyze reports the share as NaN (law_range._inside_all)
+    assert s["inside_all"] == 2
 
 
 def test_critically_damped_impacts_are_counted():
@@ -92,9 +109,10 @@ def test_an_old_checkpoint_without_the_new_counters_restores_them_as_zero():
     sim.add(m=1.0, r=0.1)
     handle = install_resolver(sim, DILLEY)
     state = handle.stats_state()
-    for key in ("speeds_below", "masses_above", "critically_damped"):
+    for key in ("speeds_below", "masses_above", "critically_damped", "inside_all"):
         del state[key]
     values = checked(handle._open().stats, state)
     assert values["critically_damped"] == 0 and values["masses_above"] == 0
+    assert values["inside_all"] == 0
     handle.set_stats(state)
     assert handle.stats()["speeds_below"] == 0

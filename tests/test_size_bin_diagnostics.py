@@ -11,6 +11,7 @@ import pytest
 import ringsim
 from ringsim.analysis import window
 from ringsim.analysis.equilibrium import NO_WINDOW_SNAPSHOT, equilibrium_table
+from ringsim.analysis.law_range import law_range
 from ringsim.cli import main
 from ringsim.physics import restitution as rs
 from ringsim.physics.pair_bins import pair_bin_sums, pair_radii
@@ -179,6 +180,23 @@ def test_analyze_splits_the_law_range_below_and_above(broad_run, tmp_path, capsy
     assert ("100.0 % of impacts outside the reduced masses the dilley law was measured over "
             "(60-600 g): 0.0 % below, 100.0 % above") in text
     assert "of impacts critically damped (xi >= 1, eps = 0)" in text
+    # every impact is above the masses, so none lies inside all three ranges at once
+    assert ts["law_inside_all"][start:].sum() == 0 and rng["inside_all"] == 0.0
+    assert "0.0 % of impacts inside all three measured ranges at once" in text
+
+
+def test_the_joint_share_leaves_out_rows_written_before_its_counter():
+    # rows 0-1 were written before the counter existed (-1); the window's share counts
+    # only the impacts of the rows that hold it: (30 + 10) / (100 + 60)
+    ts = {"collisions": np.array([50, 70, 100, 60]),
+          "law_inside_all": np.array([-1, -1, 30, 10]),
+          "law_outside_speeds": np.zeros(4, int)}
+    assert law_range(ts, 0, "dilley")["inside_all"] == pytest.approx(40 / 160, rel=1e-15)
+    ts["law_inside_all"][:] = -1
+    assert math.isnan(law_range(ts, 0, "dilley")["inside_all"])
+    # a law that states no range has no joint share, whatever the counter says
+    ts["law_inside_all"][:] = 5
+    assert math.isnan(law_range(ts, 0, "constant")["inside_all"])
 
 
 @pytest.mark.slow

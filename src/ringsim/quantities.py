@@ -151,6 +151,9 @@ _DECLARED = (
                           ("masses", "reduced masses")) for side in ("below", "above")),
     Quantity("law_critically_damped", "count", "impacts of the interval whose law gives "
              "ε = 0 because its damping ratio ξ ≥ 1 (critical damping; dilley)"),
+    Quantity("law_inside_all", "count", "impacts of the interval inside the impact speeds, "
+             "the reduced radii and the reduced masses the restitution law was measured at, "
+             "all three at once (-1 in rows written before the counter existed)"),
     Quantity("momentum_residual", "m/s", "deviation of the sheet's mass-weighted mean motion "
              "relative to the shear flow from a free epicycle since the previous row (runtime "
              "invariant 3 below; 0 in row 0; NaN in rows written by format 1.0 before a "
@@ -261,6 +264,10 @@ _DECLARED = (
              "impacts whose law gives ε = 0 because ξ ≥ 1 (critical damping)"),
     Quantity("law_range.critically_damped_count", "count", "impacts of the window whose "
              "law gives ε = 0 because ξ ≥ 1"),
+    Quantity("law_range.inside_all", "fraction of impacts", "share of the window's impacts "
+             "inside the speeds, the reduced radii and the reduced masses the law was "
+             "measured at, all three at once (NaN where the law states no range in one of "
+             "them or the run file lacks the counter)"),
     # --- aggregation of the window (analysis.aggregation) -------------------------------------
     Quantity("aggregation.rows", "count", "time-series rows of the window"),
     Quantity("aggregation.overlap_rows", "count", "rows of the window with pairs overlapping "
@@ -377,7 +384,7 @@ TIMESERIES = ("t", "orbits", "dt", "velocity_dispersion", "velocity_dispersion_m
               "overlapping_pairs", "multi_encounters", "law_outside_speeds",
               "law_outside_sizes", "law_speeds_below", "law_speeds_above",
               "law_sizes_below", "law_sizes_above", "law_masses_below", "law_masses_above",
-              "law_critically_damped", "momentum_residual", "toomre_Q",
+              "law_critically_damped", "law_inside_all", "momentum_residual", "toomre_Q",
               "size_bin_velocity_dispersion", "size_bin_thickness", "size_bin_n",
               "size_bin_sigma_x", "size_bin_sigma_y", "size_bin_sigma_z",
               "size_bin_pair_collisions", "size_bin_pair_epsilon_sum",

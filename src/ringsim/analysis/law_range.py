@@ -2,10 +2,11 @@
 
 Each law declares the impact speeds [m/s], reduced radii [m] and reduced masses [kg] its
 parameters were measured at (``physics.restitution.RESTITUTION``, ``MeasuredRange``).  The
-C resolver counts, per output interval, the impacts below and above each range and those
-whose law gives eps = 0 because its damping ratio xi >= 1 (critical damping, Dilley 1993
-eq. 5.9); the run file holds them as the ``law_*`` time series.  This module turns the
-counts of an equilibrium window into shares of the window's impacts (``analyze``).
+C resolver counts, per output interval, the impacts below and above each range, those
+inside all three at once, and those whose law gives eps = 0 because its damping ratio
+xi >= 1 (critical damping, Dilley 1993 eq. 5.9); the run file holds them as the
+``law_*`` time series.  This module turns the counts of an equilibrium window into shares
+of the window's impacts (``analyze``).
 """
 
 from __future__ import annotations
@@ -37,7 +38,8 @@ def law_range(ts: dict, start: int, model: str) -> dict | None:
     dict with ``outside_X``, ``X_below``, ``X_above`` for X in speeds, sizes, masses
     [fraction of impacts; NaN without impacts, where the law states no range or where the
     run file lacks the count], ``critically_damped`` [fraction of impacts] and
-    ``critically_damped_count`` [count] (NaN / -1 without the count), the measured
+    ``critically_damped_count`` [count] (NaN / -1 without the count), ``inside_all``
+    [fraction of impacts] inside every measured range at once (`_inside_all`), the measured
     ranges ``speeds`` [m/s], ``sizes`` [m], ``masses`` [kg] (None where not stated),
     ``source`` and ``units``.
     """
@@ -64,10 +66,25 @@ def law_range(ts: dict, start: int, model: str) -> dict | None:
     out["critically_damped"] = share("law_critically_damped", True)
     out["critically_damped_count"] = (int(np.sum(ts["law_critically_damped"][start:]))
                                       if critical else -1)
+    out["inside_all"] = _inside_all(ts, start, measured)
     out["source"] = measured.source
     out["units"] = {key: quantities.unit(f"law_range.{key}") for key in out
                     if key != "source"}
     return out
+
+
+def _inside_all(ts: dict, start: int, measured) -> float:
+    """Share of the window's impacts inside every measured range at once [fraction]: NaN
+    where the law states no range in one of the dimensions, or no row of the window holds
+    the counter (rows written before it existed hold -1 and are left out, with their
+    impacts)."""
+    if "law_inside_all" not in ts or any(getattr(measured, what) is None
+                                         for what, _ in DIMENSIONS):
+        return math.nan
+    counts = np.asarray(ts["law_inside_all"][start:])
+    kept = counts >= 0
+    impacts = float(np.sum(np.asarray(ts["collisions"][start:])[kept]))
+    return float(np.sum(counts[kept])) / impacts if impacts else math.nan
 
 
 def law_range_lines(eq: dict) -> list[str]:
@@ -93,6 +110,10 @@ def law_range_lines(eq: dict) -> list[str]:
         warn = share > LAW_RANGE_WARNING
         lines.append(("WARNING: " if warn else "") + text
                      + ("; the result extrapolates the law" if warn else ""))
+    inside = rng.get("inside_all", math.nan)
+    if math.isfinite(inside):
+        lines.append(f"{100 * inside:.1f} % of impacts inside all three measured ranges "
+                     "at once (speeds, reduced radii and reduced masses)")
     if model == "dilley" and rng.get("critically_damped_count", -1) >= 0:
         lines.append(f"{100 * rng['critically_damped']:.2f} % of impacts critically damped "
                      f"(xi >= 1, eps = 0): {rng['critically_damped_count']} impacts")

@@ -471,6 +471,9 @@ static void rs_record(struct rs_resolver* res, double t, double v_n, double R_ba
     s->sizes_above += (R_bar > res->measured[3]);
     s->masses_below += (M_bar < res->measured_masses[0]);
     s->masses_above += (M_bar > res->measured_masses[1]);
+    s->inside_all += (v_n >= res->measured[0] && v_n <= res->measured[1]
+                      && R_bar >= res->measured[2] && R_bar <= res->measured[3]
+                      && M_bar >= res->measured_masses[0] && M_bar <= res->measured_masses[1]);
     if (eps == 0.0 && res->model == RS_MODEL_DILLEY
         && !(rs_dilley_xi(v_n, R_bar, M_bar, res->param) < 1.0)){
         s->critically_damped++;     /* xi >= 1: critically damped or overdamped */

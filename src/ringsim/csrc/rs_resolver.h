@@ -68,6 +68,8 @@ struct rs_stats {
     int64_t masses_above;                   /* M_bar > measured_masses[1] */
     int64_t critically_damped;              /* collisions whose law gives eps = 0 because
                                                its damping ratio xi >= 1 (dilley) */
+    int64_t inside_all;                     /* collisions inside the measured speeds,
+                                               reduced radii and reduced masses at once */
 };
 
 /* Pairs resolved in the current step of the swept-path modes (open-addressing set), and

@@ -34,7 +34,7 @@ from ringsim.physics import restitution as rs
 ABSENT_TIMESERIES = ("multi_encounters", "law_outside_speeds", "law_outside_sizes",
                      "law_speeds_below", "law_speeds_above", "law_sizes_below",
                      "law_sizes_above", "law_masses_below", "law_masses_above",
-                     "law_critically_damped", "one_minus_epsilon_histogram",
+                     "law_critically_damped", "law_inside_all", "one_minus_epsilon_histogram",
                      "impact_speed_histogram", "normal_dissipation")
 
 #: The counters a checkpoint saves (``/checkpoint_statistics``): collisions, sum of eps,

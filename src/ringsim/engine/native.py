@@ -32,11 +32,11 @@ FRICTION_CODES = {"none": 0, **{law.name: law.code for law in FRICTION}}
 #: Statistics fields of friction (after the others in the C struct): a checkpoint that
 #: lacks them restores them as zero.
 FRICTION_STATISTICS = ("tangential_dissipation", "n_sliding", "normal_dissipation")
-#: Statistics fields of the law's measured range split below and above it, and of the
-#: critically damped collisions (after the friction fields): a checkpoint that lacks them
-#: restores them as zero.
+#: Statistics fields of the law's measured range split below and above it, of the
+#: critically damped collisions and of those inside every measured range at once (after
+#: the friction fields): a checkpoint that lacks them restores them as zero.
 RANGE_STATISTICS = ("speeds_below", "speeds_above", "sizes_below", "sizes_above",
-                    "masses_below", "masses_above", "critically_damped")
+                    "masses_below", "masses_above", "critically_damped", "inside_all")
 
 #: Bin edges of the normal-impact-speed histogram [m/s].
 VN_BIN_EDGES = np.logspace(-7.0, 2.0, 91)
