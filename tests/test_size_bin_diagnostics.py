@@ -223,3 +223,16 @@ def test_compare_divides_each_size_bin(broad_run, tmp_path, ring_scenario, capsy
                 assert row[key]["mean"] == pytest.approx(x[key]["mean"] / y[key]["mean"],
                                                          rel=1e-12)
     assert "per size bin, ratio ± stat:" in text
+
+
+def test_a_layer_from_one_snapshot_has_no_error():
+    from ringsim.analysis import size_bins
+
+    snap = {"z": np.array([-1.0, 1.0, 3.0, -3.0]), "mass": np.ones(4)}
+    members = np.array([True, True, False, False])
+    mean, stderr = size_bins._group_thickness([snap], members)
+    assert mean == 1.0 and math.isnan(stderr)
+    # two snapshots: the standard error of their two values, |1 - 3| / 2
+    other = {"z": np.array([-3.0, 3.0, 0.0, 0.0]), "mass": np.ones(4)}
+    assert size_bins._group_thickness([snap, other], members) == (2.0, 1.0)
+    assert size_bins._fmt({"mean": 1.0, "stderr": math.nan}) == "1 (one sample: no error)"

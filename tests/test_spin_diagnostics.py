@@ -108,6 +108,40 @@ def test_spin_rows_are_the_snapshot_numbers(rough_run):
     assert np.all(ts["tangential_dissipation"][1:] > 0) and np.all(ts["sliding_collisions"] == 0)
 
 
+def test_size_bin_spin_rows_add_up_to_the_ring_and_are_the_snapshot_numbers(rough_run):
+    run = ringsim.open_run(rough_run)
+    ts, units = run.timeseries, run.units
+    assert units["size_bin_rotational_energy"] == "J"
+    assert units["size_bin_rotational_energy_ratio"] == "dimensionless"
+    edges = ts["size_bin_edges"]
+    Omega = run.scenario.orbital_frequency
+    k = run.scenario.particles.inertia_factor
+    # every particle lies in a bin: the bins' energies add up to the ring's, to round-off
+    np.testing.assert_allclose(np.nansum(ts["size_bin_rotational_energy"], axis=1),
+                               ts["rotational_energy"], rtol=1e-12)
+    s = run.snapshot(-1)
+    row = int(np.argmin(np.abs(ts["t"] - s["t"])))
+    assert ts["t"][row] == s["t"]
+    w = np.stack([s["wx"], s["wy"], s["wz"]], axis=1)
+    v = np.stack([s["vx"], s["vy"] + 1.5 * Omega * s["x"], s["vz"]])
+    dv = v - (v @ s["mass"] / s["mass"].sum())[:, None]
+    e_rot = fr.rotational_energy(s["mass"], s["radius"], w, k)
+    e_tr = 0.5 * s["mass"] * np.sum(dv * dv, axis=0)
+    index = np.clip(np.searchsorted(edges, s["radius"], side="right") - 1, 0, edges.size - 2)
+    filled = 0
+    for b in range(edges.size - 1):
+        members = index == b
+        if not members.any():
+            assert np.isnan(ts["size_bin_rotational_energy_ratio"][row, b])
+            continue
+        filled += 1
+        assert ts["size_bin_rotational_energy"][row, b] == pytest.approx(
+            e_rot[members].sum(), rel=1e-12)
+        assert ts["size_bin_rotational_energy_ratio"][row, b] == pytest.approx(
+            e_rot[members].sum() / e_tr[members].sum(), rel=1e-12)
+    assert filled >= 2
+
+
 def test_analyze_reports_spins_and_the_energy_budget(rough_run, tmp_path, capsys):
     out = tmp_path / "eq.json"
     assert main(["analyze", str(rough_run), "--json", str(out), "--plots",
@@ -126,6 +160,11 @@ def test_analyze_reports_spins_and_the_energy_budget(rough_run, tmp_path, capsys
     bins = spin["per_size_bin"]
     assert bins and all(b["rotational_energy"] > 0 and b["translational_energy"] > 0
                         for b in bins)
+    # the per-bin window means of the run file's series, beside the velocity ellipsoid
+    rows = [b for b in eq["per_size_bin"] if b["n"] > 0]
+    assert rows and all(0.0 < b["rotational_energy_ratio"]["mean"] < 1.0 for b in rows)
+    assert rows[0]["rotational_energy_ratio"]["units"] == "dimensionless"
+    assert "E_rot / E_tr (by mass)" in text
     budget = eq["energy_budget"]
     for key in ("heating", "normal_dissipation", "tangential_dissipation"):
         assert budget[key]["units"] == "W/m^2" and budget[key]["mean"] > 0

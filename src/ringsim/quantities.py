@@ -198,6 +198,13 @@ _DECLARED = (
     Quantity("rotational_energy_ratio", DIMENSIONLESS, _FRICTION + "`rotational_energy` / "
              "E_tr, E_tr = 3/2 Σm c_m² the kinetic energy relative to the shear flow (c_m = "
              "`velocity_dispersion_mass_weighted`; 0 while E_tr = 0)", "E_rot / E_tr"),
+    Quantity("size_bin_rotational_energy", "J", _FRICTION + _SIZES + "`rotational_energy` "
+             "of each size bin (`physics.spin_by_size`; NaN for an empty bin)"),
+    Quantity("size_bin_rotational_energy_ratio", DIMENSIONLESS, _FRICTION + _SIZES
+             + "each size bin's rotational energy over its translational energy 1/2 Σm |v − "
+               "⟨v⟩_m|², velocities relative to the shear flow about the sheet's "
+               "mass-weighted mean (`physics.spin_by_size`; NaN for an empty bin)",
+             "E_rot / E_tr per size bin"),
     Quantity("mean_spin_z", "Omega", _FRICTION + "mean w_z / Ω in the rotating frame (w_z > "
              "0 prograde; synchronous rotation 0; a particle not rotating in inertial space "
              "−1; turning with the mean shear flow −3/4)", "mean w_z / Omega", "",
@@ -390,7 +397,8 @@ TIMESERIES = ("t", "orbits", "dt", "velocity_dispersion", "velocity_dispersion_m
               "size_bin_pair_collisions", "size_bin_pair_epsilon_sum",
               "one_minus_epsilon_histogram", "impact_speed_histogram", "normal_dissipation",
               "tangential_dissipation", "sliding_collisions", "rotational_energy",
-              "rotational_energy_ratio", "mean_spin_z", "rms_spin")
+              "rotational_energy_ratio", "mean_spin_z", "rms_spin",
+              "size_bin_rotational_energy", "size_bin_rotational_energy_ratio")
 #: The bin edges stored once beside the time series.
 TIMESERIES_EDGES = ("size_bin_edges", "one_minus_epsilon_bin_edges", "impact_speed_bin_edges")
 #: The spin rows of a run with friction (``physics.friction.spin_row``).

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import numpy as np
+
 from ringsim import quantities
 from ringsim.analysis import aggregation, budget
 from ringsim.analysis.equilibrium import (
@@ -39,11 +41,42 @@ def _combined(members: Sequence[dict]) -> dict:
         eq["per_size_bin"] = [{**row, **{key: budget.replica_mean(
             [m["per_size_bin"][k][key] for m in members]) for key in PER_BIN if key in row}}
             for k, row in enumerate(members[0]["per_size_bin"])]
+    eq["vertical_segregation"] = _combined_layers(members)
+    eq["pair_epsilon"] = _combined_pairs(members)
     return eq
 
 
+def _combined_layers(members: Sequence[dict]) -> dict | None:
+    """The replicas' small- and large-particle layers (``analysis.size_bins``): each
+    thickness and their ratio as the replica mean; None unless every replica has them."""
+    found = [m.get("vertical_segregation") for m in members]
+    layers = [g for g in found if g]
+    if len(layers) < len(found):
+        return None
+    out = {name: {**layers[0][name], "thickness": budget.replica_mean(
+        [g[name]["thickness"] for g in layers])} for name in ("small", "large")}
+    out["ratio"] = budget.replica_mean([g["ratio"] for g in layers])
+    out["definition"] = layers[0]["definition"]
+    return out
+
+
+def _combined_pairs(members: Sequence[dict]) -> dict | None:
+    """The replicas' eps per pair of size bins: their sampled collisions pooled (counts
+    added, mean eps weighted by count); None unless every replica has the same table."""
+    tables = [m.get("pair_epsilon") or {} for m in members]
+    if not all(t.get("status") == "on" and t["edges"] == tables[0]["edges"] for t in tables):
+        return None
+    counts = np.sum([np.asarray(t["counts"], float) for t in tables], axis=0)
+    sums = np.sum([np.nan_to_num(np.asarray(t["mean_epsilon"], float))
+                   * np.asarray(t["counts"], float) for t in tables], axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(counts > 0, sums / counts, np.nan)
+    return {**tables[0], "counts": counts.astype(int).tolist(), "mean_epsilon": mean.tolist()}
+
+
 #: The per-size-bin numbers `compare` divides between runs.
-PER_BIN = ("velocity_dispersion", "thickness", "sigma_x", "sigma_y", "sigma_z")
+PER_BIN = ("velocity_dispersion", "thickness", "sigma_x", "sigma_y", "sigma_z",
+           "rotational_energy_ratio")
 
 
 def _same_bins(a: dict, b: dict) -> bool:
@@ -64,6 +97,33 @@ def per_bin_ratios(eq: dict, base: dict) -> list[dict] | None:
             for a, b in zip(eq["per_size_bin"], base["per_size_bin"], strict=True)]
 
 
+def layer_ratios(eq: dict, base: dict) -> dict | None:
+    """The ratios eq / base of the small- and the large-particle layers' thickness and of
+    their ratio H_small / H_large, with propagated standard errors; None unless both runs
+    have layers."""
+    a, b = eq.get("vertical_segregation"), base.get("vertical_segregation")
+    if not (a and b):
+        return None
+    return {"small": ratio(a["small"]["thickness"], b["small"]["thickness"]),
+            "large": ratio(a["large"]["thickness"], b["large"]["thickness"]),
+            "small_over_large": ratio(a["ratio"], b["ratio"])}
+
+
+def pair_epsilon_difference(eq: dict, base: dict) -> dict | None:
+    """eps(eq) - eps(base) of the law per pair of size bins, from the sampled collisions
+    (NaN where either run sampled none of that pair), with both runs' counts; None unless
+    both runs have the table over the same bins.  No error is given: the run file keeps
+    the sums of eps per pair, not their spread."""
+    a, b = eq.get("pair_epsilon") or {}, base.get("pair_epsilon") or {}
+    if not (a.get("status") == b.get("status") == "on" and a["edges"] == b["edges"]):
+        return None
+    diff = np.asarray(a["mean_epsilon"], float) - np.asarray(b["mean_epsilon"], float)
+    return {"edges": a["edges"], "difference": diff.tolist(), "counts": a["counts"],
+            "counts_base": b["counts"], "layout": a["layout"],
+            "units": {"edges": "m", "difference": "dimensionless", "counts": "count",
+                      "counts_base": "count"}}
+
+
 def comparison(equilibria: Sequence[dict], systematics: dict | None = None) -> dict:
     """Side-by-side equilibria with ratios to the first, each with its error budget.
 
@@ -82,7 +142,10 @@ def comparison(equilibria: Sequence[dict], systematics: dict | None = None) -> d
     table quantity's ratio with the keys ``mean``, ``stderr``, ``units``, ``statistical``,
     ``systematic``, ``systematic_parts``, ``total`` and ``significance``: ``stderr`` =
     ``statistical``; the systematic part is NaN where the budget has no entry;
-    ``significance`` is the difference in units of the combined statistical error),
+    ``significance`` is the difference in units of the combined statistical error; with
+    size bins also ``per_size_bin``, ``layers`` (`layer_ratios`) and
+    ``pair_epsilon_difference`` (`pair_epsilon_difference`), each None where a run lacks
+    it),
     ``all_in_equilibrium`` and
     ``warnings`` (one per run the finder did not call stationary and one per aggregating
     run, whose collision statistics are NaN and so are their ratios).
@@ -107,6 +170,8 @@ def comparison(equilibria: Sequence[dict], systematics: dict | None = None) -> d
             r["total"] = math.hypot(r["statistical"], r["systematic"])
             entry[key] = r
         entry["per_size_bin"] = per_bin_ratios(eq, base)
+        entry["layers"] = layer_ratios(eq, base)
+        entry["pair_epsilon_difference"] = pair_epsilon_difference(eq, base)
         ratios.append(entry)
     warnings = [NOT_IN_EQUILIBRIUM.format(name=eq["name"], reason=eq["reason"])
                 for eq in equilibria if not eq["in_equilibrium"]]
@@ -145,6 +210,12 @@ def comparison_table(comp: dict) -> str:
         if line:
             lines.append(f"{eq['name']}: {line}")
         lines += [f"{eq['name']}: {text}" for text in law_range_lines(eq)]
+        seg = eq.get("vertical_segregation")
+        if seg:
+            lines.append(f"{eq['name']}: layers (rms z, number-weighted within each) "
+                         f"H_small {_fmt(seg['small']['thickness'])} m, "
+                         f"H_large {_fmt(seg['large']['thickness'])} m, "
+                         f"H_small / H_large {_fmt(seg['ratio'])}")
     for entry in comp["ratios"]:
         lines.append("")
         caveat = "" if entry["in_equilibrium"] else "  [NOT IN EQUILIBRIUM: see the warning]"
@@ -156,6 +227,8 @@ def comparison_table(comp: dict) -> str:
                          f"{_ratio_text(r):>44}   "
                          f"({r['significance']:+.1f} sigma)")
         lines += _per_bin_lines(entry.get("per_size_bin"))
+        lines += _layer_lines(entry.get("layers"))
+        lines += _pair_difference_lines(entry.get("pair_epsilon_difference"))
     lines.append(f"systematic budget: {comp.get('systematics', 'not measured')}")
     return "\n".join(lines)
 
@@ -165,10 +238,36 @@ def _per_bin_lines(rows: list[dict] | None) -> list[str]:
     if not rows:
         return []
     keys = [key for key in PER_BIN if key in rows[0]]
-    names = {"velocity_dispersion": "c", "thickness": "H"}
+    names = {"velocity_dispersion": "c", "thickness": "H",
+             "rotational_energy_ratio": "E_rot/E_tr"}
     lines = ["  per size bin, ratio ± stat:",
              f"    {'r [m]':<17}" + "".join(f"{names.get(key, key):>18}" for key in keys)]
     for row in rows:
         cells = "".join(f"{_fmt(row[key]):>18}" for key in keys)
         lines.append(f"    {row['r_low']:7.3g} - {row['r_high']:<7.3g}{cells}")
+    return lines
+
+
+def _layer_lines(layers: dict | None) -> list[str]:
+    """The ratios of the small- and large-particle layers of one comparison."""
+    if not layers:
+        return []
+    return ["  layers, ratio ± stat: " + ", ".join(
+        f"{label} {_fmt(layers[key])}" for key, label in
+        (("small", "H_small"), ("large", "H_large"), ("small_over_large",
+                                                     "H_small / H_large")))]
+
+
+def _pair_difference_lines(diff: dict | None) -> list[str]:
+    """The table of eps differences per pair of size bins of one comparison."""
+    if not diff:
+        return []
+    edges = diff["edges"]
+    names = [f"{lo:.3g}-{hi:.3g}" for lo, hi in zip(edges[:-1], edges[1:], strict=True)]
+    lines = [f"  eps difference per pair of size bins (sampled collisions; {diff['layout']}; "
+             "no error: the run files keep sums, not spreads):",
+             "    r [m]            " + " ".join(f"{name:>12}" for name in names)]
+    for i, name in enumerate(names):
+        cells = [f"{d:+.3f}" if math.isfinite(d) else "-" for d in diff["difference"][i]]
+        lines.append(f"    {name:<16} " + " ".join(f"{c:>12}" for c in cells))
     return lines

@@ -31,28 +31,38 @@ def _value(mean: float, stderr: float, units: str) -> dict:
     return {"mean": float(mean), "stderr": float(stderr), "units": units}
 
 
+#: The per-bin window means `add_ellipsoid` adds: the velocity ellipsoid and, with
+#: friction, each bin's rotational over translational energy.
+BIN_SERIES = (*AXES, "rotational_energy_ratio")
+
+
 def add_ellipsoid(rows: list[dict], ts: dict, start: int) -> None:
-    """Add ``sigma_x``, ``sigma_y``, ``sigma_z`` [m/s] (window means of rows ``start:``) to
-    each per-size-bin row of an equilibrium; nothing for run files without the series."""
-    for axis in AXES:
-        key = f"size_bin_{axis}"
+    """Add ``sigma_x``, ``sigma_y``, ``sigma_z`` [m/s] and, with friction,
+    ``rotational_energy_ratio`` [1] (window means of rows ``start:`` with
+    autocorrelation-corrected errors) to each per-size-bin row of an equilibrium; nothing
+    for run files without the series (NaN rows, written before a series existed in a
+    file continued with ``--resume``, are dropped by ``autocorrelated_mean``)."""
+    for name in BIN_SERIES:
+        key = f"size_bin_{name}"
         if key not in ts or ts[key].shape[1] != len(rows):
             continue
         for k, row in enumerate(rows):
             mean, stderr, _ = timeseries.autocorrelated_mean(np.asarray(ts[key][start:, k],
                                                                         float))
-            row[axis] = _value(mean, stderr, quantities.unit(key))
+            row[name] = _value(mean, stderr, quantities.unit(key))
 
 
 def _group_thickness(snaps: list[dict], members: np.ndarray) -> tuple[float, float]:
     """Mean over snapshots of the members' rms z [m] about each snapshot's mass-weighted
-    mean height, and the standard error of that mean."""
+    mean height, and the standard error of that mean (NaN from one snapshot: no error can
+    be had from one sample)."""
     values = []
     for s in snaps:
         z_ref = float(np.average(s["z"], weights=s["mass"]))
         values.append(math.sqrt(float(np.mean((s["z"][members] - z_ref) ** 2))))
     v = np.asarray(values)
-    return float(v.mean()), float(v.std(ddof=1) / math.sqrt(v.size)) if v.size > 1 else 0.0
+    return float(v.mean()), float(v.std(ddof=1) / math.sqrt(v.size)) if v.size > 1 \
+        else math.nan
 
 
 def vertical_segregation(run, start: int) -> dict | None:
@@ -123,6 +133,8 @@ def pair_epsilon(run, start: int) -> dict:
 def _fmt(value: dict | None, scale: float = 1.0) -> str:
     if not value or not math.isfinite(value["mean"]):
         return "n/a"
+    if not math.isfinite(value["stderr"]):
+        return f"{value['mean'] * scale:.4g} (one sample: no error)"
     return f"{value['mean'] * scale:.4g} ± {value['stderr'] * scale:.2g}"
 
 
@@ -141,12 +153,15 @@ def size_bin_lines(eq: dict) -> list[str]:
     bins = eq.get("per_size_bin") or []
     if bins and "sigma_x" in bins[0]:
         speed = quantities.QUANTITY["size_bin_sigma_x"]
-        lines.append(f"  velocity ellipsoid per size bin [{speed.shown}], number-weighted:")
+        spin = "rotational_energy_ratio" in bins[0]
+        lines.append(f"  velocity ellipsoid per size bin [{speed.shown}], number-weighted"
+                     + (", and each bin's E_rot / E_tr (by mass)" if spin else "") + ":")
         lines.append("    r [m]              sigma_x (radial)    sigma_y (azimuthal) "
-                     "sigma_z (vertical)")
+                     "sigma_z (vertical)" + ("  E_rot / E_tr" if spin else ""))
         for b in bins:
             lines.append((f"    {b['r_low']:7.3g} - {b['r_high']:<7.3g}   " + " ".join(
-                f"{_fmt(b.get(axis), speed.scale):<19}" for axis in AXES)).rstrip())
+                f"{_fmt(b.get(axis), speed.scale):<19}" for axis in AXES)
+                + (f" {_fmt(b.get('rotational_energy_ratio'))}" if spin else "")).rstrip())
     seg = eq.get("vertical_segregation")
     if seg:
         lines.append("  vertical segregation (Cuzzi et al. 1979): " + seg["definition"])

@@ -39,12 +39,16 @@ REBOUND 5.x: examples/shearing_sheet_diagnostics/problem.c (nu_trans, the fillin
 from __future__ import annotations
 
 import math
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ringsim.checks import finite_array, nonnegative_array, positive, same_length
 from ringsim.physics.constants import SHEAR
+from ringsim.physics.friction import SOLID_SPHERE_INERTIA, spin_row
+from ringsim.physics.sizes import size_bin_index
+from ringsim.physics.spin_by_size import size_bin_spin_row
 
 FloatArray = NDArray[np.float64]
 
@@ -337,15 +341,6 @@ def _bin_edges(radius: FloatArray, size_bins: ArrayLike | int | None) -> FloatAr
     return edges
 
 
-def _bin_index(radius: FloatArray, edges: FloatArray) -> NDArray[np.intp]:
-    """Bin of each particle (np.histogram convention: last bin closed); -1 outside."""
-    n_bins = edges.size - 1
-    idx = np.searchsorted(edges, radius, side="right") - 1
-    idx[radius == edges[-1]] = n_bins - 1
-    idx[(radius < edges[0]) | (radius > edges[-1])] = -1
-    return idx
-
-
 def _binned_statistics(idx: NDArray[np.intp], n_bins: int, w: FloatArray, z: FloatArray,
                        w_ref: FloatArray, z_ref: float) -> dict[str, FloatArray]:
     """Per-bin count, 1-D dispersion and rms height about the SHEET's mean motion.
@@ -378,7 +373,8 @@ def _binned_statistics(idx: NDArray[np.intp], n_bins: int, w: FloatArray, z: Flo
 def snapshot_summary(x: ArrayLike, y: ArrayLike, z: ArrayLike, vx: ArrayLike, vy: ArrayLike,
                      vz: ArrayLike, radius: ArrayLike, mass: ArrayLike, Omega: float,
                      Lx: float, Ly: float, size_bins: ArrayLike | int | None = None,
-                     filling_half_width: float | None = None) -> dict[str, object]:
+                     filling_half_width: float | None = None, spins: ArrayLike | None = None,
+                     inertia_factor: float = SOLID_SPHERE_INERTIA) -> dict[str, object]:
     """All single-snapshot diagnostics of a shearing-sheet patch, SI.
 
     Parameters
@@ -398,6 +394,9 @@ def snapshot_summary(x: ArrayLike, y: ArrayLike, z: ArrayLike, vx: ArrayLike, vy
         radii present (``log_size_bins``); None means one bin holding every particle.
     filling_half_width : float [m], optional
         Half-width h of the midplane slab of the filling factor; default the mean radius.
+    spins : array (N, 3) [rad/s], optional
+        Spins relative to the rotating frame (rough spheres), with their moment-of-inertia
+        factor ``inertia_factor`` [1]: adds the spin entries below.
 
     Returns
     -------
@@ -413,27 +412,48 @@ def snapshot_summary(x: ArrayLike, y: ArrayLike, z: ArrayLike, vx: ArrayLike, vy
         ``size_bin_n``, ``size_bin_velocity_dispersion`` [m/s] and
         ``size_bin_thickness`` [m], ``size_bin_sigma_x/_y/_z`` [m/s] (the velocity
         ellipsoid's rms deviations; about the sheet's mass-weighted mean velocity and
-        height, see ``_binned_statistics``; NaN for an empty bin).
+        height, see ``_binned_statistics``; NaN for an empty bin).  With ``spins``: the
+        entries of ``physics.friction.spin_row`` and, per bin,
+        ``size_bin_rotational_energy`` [J] and ``size_bin_rotational_energy_ratio``
+        (``physics.spin_by_size``).
     """
     Omega = positive("Omega", Omega)
-    arrays, r, m, n, area = _snapshot_arrays(x, y, z, vx, vy, vz, radius, mass, Lx, Ly)
+    arrays, r, m, n, _ = _snapshot_arrays(x, y, z, vx, vy, vz, radius, mass, Lx, Ly)
     w = np.stack([arrays["vx"], arrays["vy"] + SHEAR * Omega * arrays["x"], arrays["vz"]])
     zz = arrays["z"]
     h = float(np.mean(r)) if filling_half_width is None else float(filling_half_width)
     summary: dict[str, object] = {"n_particles": n}
     summary.update(_velocity_entries(w, m, Omega))
-    summary.update({
-        "thickness": thickness(zz),
-        "thickness_mass_weighted": thickness(zz, m),
-        "filling_factor": filling_factor(zz, r, Lx, Ly, half_width=h),
-        "filling_half_width": h,
-        "optical_depth": float(math.pi * np.dot(r, r) / area),
-        "surface_density": float(np.sum(m) / area),
-        "mean_radius": float(np.mean(r)),
-        "mean_mass": float(np.mean(m)),
-    })
+    summary.update(_layer_entries(zz, r, m, Lx, Ly, h))
     summary.update(_size_bin_entries(r, m, w, zz, size_bins))
+    if spins is not None:
+        summary.update(_spin_entries(summary, m, r, w, spins, inertia_factor, Omega))
     return summary
+
+
+def _spin_entries(summary: dict[str, object], m: FloatArray, r: FloatArray, w: FloatArray,
+                  spins: ArrayLike, k: float, Omega: float) -> dict[str, object]:
+    """The spin entries of `snapshot_summary` (``physics.friction.spin_row``, and per size
+    bin ``physics.spin_by_size``), from its ``summary`` so far and the peculiar velocities
+    w (3, N) [m/s]."""
+    c_m = cast(float, summary["velocity_dispersion_mass_weighted"])
+    return {**spin_row(m, r, spins, k, Omega, 1.5 * float(np.sum(m)) * c_m**2),
+            **size_bin_spin_row(m, r, w, spins, k,
+                                cast(FloatArray, summary["size_bin_edges"]))}
+
+
+def _layer_entries(z: FloatArray, r: FloatArray, m: FloatArray, Lx: float, Ly: float,
+                   h: float) -> dict[str, float]:
+    """The layer's entries of `snapshot_summary`: thickness by number and by mass [m],
+    filling factor in the slab |z| < h [m], optical depth, surface density [kg/m^2], mean
+    radius [m] and mass [kg]."""
+    area = Lx * Ly
+    return {"thickness": thickness(z), "thickness_mass_weighted": thickness(z, m),
+            "filling_factor": filling_factor(z, r, Lx, Ly, half_width=h),
+            "filling_half_width": h,
+            "optical_depth": float(math.pi * np.dot(r, r) / area),
+            "surface_density": float(np.sum(m) / area),
+            "mean_radius": float(np.mean(r)), "mean_mass": float(np.mean(m))}
 
 
 def _velocity_entries(w: FloatArray, m: FloatArray, Omega: float) -> dict[str, float]:
@@ -469,7 +489,7 @@ def _size_bin_entries(r: FloatArray, m: FloatArray, w: FloatArray, z: FloatArray
     """The per-bin entries of `snapshot_summary` (``size_bin_*``): deviations from the
     sheet's mass-weighted mean velocity w (3, N) [m/s] and height z [m]."""
     edges = _bin_edges(r, size_bins)
-    binned = _binned_statistics(_bin_index(r, edges), edges.size - 1, w, z,
+    binned = _binned_statistics(size_bin_index(r, edges), edges.size - 1, w, z,
                                 w_ref=w @ m / np.sum(m), z_ref=float(np.dot(m, z) / np.sum(m)))
     return {"size_bin_edges": edges, "size_bin_n": binned["n"],
             "size_bin_velocity_dispersion": binned["velocity_dispersion"],

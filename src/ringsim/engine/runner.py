@@ -34,7 +34,6 @@ import os
 import sys
 import time
 from pathlib import Path
-from typing import cast
 
 import numpy as np
 
@@ -53,7 +52,6 @@ from ringsim.engine.statistics import histogram_edges, resolver_rows
 from ringsim.engine.stop import StopRequest as _StopRequest
 from ringsim.errors import InputError
 from ringsim.gravity.registry import raise_pending, set_gravity_threads
-from ringsim.physics import friction
 from ringsim.physics.gravity import toomre_q
 from ringsim.store import guarded, runfile
 from ringsim.store.background import CommitThread
@@ -192,7 +190,9 @@ class Runner:
         g = self.geometry
         summary = snapshot.snapshot_summary(
             arrays["x"], arrays["y"], arrays["z"], arrays["vx"], arrays["vy"], arrays["vz"],
-            arrays["radius"], arrays["mass"], self.Omega, g.Lx, g.Ly, size_bins=self.edges)
+            arrays["radius"], arrays["mass"], self.Omega, g.Lx, g.Ly, size_bins=self.edges,
+            spins=None if self.handle.friction is None else self.handle.spins(),
+            inertia_factor=self.scenario.particles.inertia_factor)
         count = int(stats["count"])
         row = {
             "t": self.sim.t,
@@ -210,15 +210,9 @@ class Runner:
             **resolver_rows(stats, self.edges, self.scenario.particles.density,
                             self.handle.log_capacity),
         }
-        if self.handle.friction is not None:     # spins: physics.friction.SPIN_ROW_UNITS
-            row.update(friction.spin_row(
-                arrays["mass"], arrays["radius"], self.handle.spins(),
-                self.scenario.particles.inertia_factor, self.Omega,
-                1.5 * float(np.sum(arrays["mass"]))
-                # snapshot_summary's values are typed object; this one is a float
-                * cast(float, summary["velocity_dispersion_mass_weighted"]) ** 2),
-                tangential_dissipation=float(stats["tangential_dissipation"]),
-                sliding_collisions=int(stats["n_sliding"]))
+        if self.handle.friction is not None:     # the spins' rows come with the summary
+            row.update(tangential_dissipation=float(stats["tangential_dissipation"]),
+                       sliding_collisions=int(stats["n_sliding"]))
         for key in runfile.TIMESERIES_UNITS:
             if key not in row and key in summary:
                 if key.startswith("size_bin_") and self.edges is None:

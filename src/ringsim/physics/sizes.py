@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ringsim.physics.laws import DIMENSIONLESS, Parameter
 
@@ -314,3 +315,15 @@ def size_bin_edges(size_distribution, n_bins: int = 6) -> np.ndarray | None:
     return np.geomspace(lo, hi * (1 + 1e-9), n_bins + 1)
 
 
+
+
+def size_bin_index(radius: ArrayLike, edges: ArrayLike) -> NDArray[np.intp]:
+    """Bin of each radius [m] among ``edges`` [m] (np.histogram's convention: each bin
+    includes its lower edge, the last also its upper); -1 outside the edges."""
+    r = np.asarray(radius, dtype=float)
+    e = np.asarray(edges, dtype=float)
+    n_bins = e.size - 1
+    idx = np.searchsorted(e, r, side="right") - 1
+    idx[r == e[-1]] = n_bins - 1
+    idx[(r < e[0]) | (r > e[-1])] = -1
+    return idx
