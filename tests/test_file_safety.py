@@ -189,6 +189,25 @@ def test_existing_outputs_need_force(good, tmp_path, capsys):
         assert out.read_text() != "keep me\n"
 
 
+def test_missing_output_folders_are_made_and_a_file_in_the_path_is_refused(good, tmp_path,
+                                                                            capsys):
+    # docs/interface.md "Output folders": made as mkdir -p makes them
+    for argv, target in ((["analyze", str(good["path"]), "--json"], "a/b/eq.json"),
+                         (["observe", str(good["path"]), "--elevation", "30", "--azimuth",
+                           "0", "--rays", "100", "--json"], "c/d/obs.json"),
+                         (["epsilon", "--json"], "e/eps.json")):
+        out = tmp_path / target
+        assert main([*argv, str(out)]) == 0
+        capsys.readouterr()
+        assert out.stat().st_size > 0
+    blocker = tmp_path / "afile"
+    blocker.write_text("keep me\n")
+    before = sorted(tmp_path.rglob("*"))
+    _bad_input(capsys, main(["analyze", str(good["path"]), "--json",
+                             str(blocker / "eq.json")]), "afile is not a folder")
+    assert sorted(tmp_path.rglob("*")) == before and blocker.read_text() == "keep me\n"
+
+
 def test_plots_folder_may_not_be_an_input(good, tmp_path, capsys):
     run = tmp_path / "r.h5"
     shutil.copyfile(good["path"], run)

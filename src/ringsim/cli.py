@@ -91,7 +91,7 @@ def _paper_epsilon(args) -> int:
             "curves": [{"panel": c.panel, "label": c.label, "v": c.v.tolist(),
                         "epsilon": [float(e) for e in c.epsilon]} for c in curves],
         }
-        Path(args.json).write_text(json.dumps(payload, indent=1))
+        _write_json(args.json, payload, indent=1)
     if args.plot:
         path = plot_epsilon_curves(curves, args.plot)
         print(f"wrote {path}")
@@ -177,9 +177,11 @@ def _sweep_summaries(paths: list[str]) -> list[str]:
     return found
 
 
-def _write_json(path: str, payload) -> None:
+def _write_json(path: str, payload, indent: int = 2) -> None:
+    """Write ``payload`` as JSON to ``path``, making its folder (docs/interface.md,
+    "Output folders")."""
     Path(path).parent.mkdir(parents=True, exist_ok=True)
-    Path(path).write_text(json.dumps(payload, indent=2, allow_nan=True) + "\n")
+    Path(path).write_text(json.dumps(payload, indent=indent, allow_nan=True) + "\n")
 
 
 def _cmd_analyze(args) -> int:
