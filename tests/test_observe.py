@@ -233,6 +233,11 @@ def test_observe_prints_the_asymmetry_and_the_fitted_height_over_width(
     assert obs["units"]["normal_optical_depth"] == "dimensionless"
     assert "height_over_width" in obs["bar_model"]
     assert len(list((tmp_path / "plots").glob("observe_*.png"))) == 4
+    # a vertical ray has no azimuth: no peak at B = 90 deg, one at the oblique views
+    peaks = {row["elevation_deg"]: row["peak_transmission_azimuth_deg"]
+             for row in obs["azimuthal_asymmetry"]}
+    assert math.isnan(peaks[90.0]) and 0.0 <= peaks[5.0] < 180.0
+    assert "none (a vertical ray has no azimuth)" in printed
 
 
 @pytest.fixture(scope="module")

@@ -90,7 +90,8 @@ def _combine(per_snapshot: list[dict], elevation: float) -> dict:
 def asymmetry(views: list[dict]) -> list[dict]:
     """Per opening angle: the smallest, largest and mean tau_n over azimuth, the relative
     amplitude (max - min) / mean [dimensionless] and the azimuth of peak transmission [deg,
-    folded into [0, 180)]."""
+    folded into [0, 180)]; NaN at B = 90 deg, where a vertical ray has no azimuth and the
+    views differ only by their rays' draws."""
     out = []
     for b in sorted({v["elevation_deg"] for v in views}):
         row = [v for v in views if v["elevation_deg"] == b]
@@ -104,7 +105,8 @@ def asymmetry(views: list[dict]) -> list[dict]:
                     "normal_optical_depth_max": float(np.max(tau)),
                     "normal_optical_depth_mean": mean,
                     "relative_amplitude": float((np.max(tau) - np.min(tau)) / mean),
-                    "peak_transmission_azimuth_deg": float(peak % 180.0),
+                    "peak_transmission_azimuth_deg": float(peak % 180.0) if b < 90.0
+                    else math.nan,
                     "azimuths": len(row)})
     return out
 
@@ -233,7 +235,9 @@ def observation_table(obs: dict) -> str:
                      f"   {row['normal_optical_depth_max']:9.4g}"
                      f"   {row['normal_optical_depth_mean']:7.4g}"
                      f"   {row['relative_amplitude']:12.3g}"
-                     f"    {row['peak_transmission_azimuth_deg']:6.1f}")
+                     + (f"    {row['peak_transmission_azimuth_deg']:6.1f}"
+                        if math.isfinite(row["peak_transmission_azimuth_deg"])
+                        else "    none (a vertical ray has no azimuth)"))
     for row in obs["azimuthal_asymmetry"]:
         if "reference_amplitudes" in row:
             ref = [r for r in row["reference_amplitudes"] if math.isfinite(r)]
@@ -290,6 +294,7 @@ def observation_pictures(run, obs: dict, resolution: float = UVIS_RESOLUTION) ->
     shift = shear_offset(run.scenario.orbital_frequency, Lx, Ly, float(snap["t"]))
     low = obs["azimuthal_asymmetry"][0]
     b, a = low["elevation_deg"], low["peak_transmission_azimuth_deg"]
+    a = a if math.isfinite(a) else 0.0     # B = 90 deg only: every azimuth is the same
     scan = occultation.radial_scan(snap, Lx, Ly, shift, b, a, resolution, boxes=3)
     images = [(phi, occultation.line_of_sight_image(snap, Lx, Ly, shift, b, phi))
               for phi in (a, (a + 90.0) % 180.0)]
