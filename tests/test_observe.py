@@ -189,6 +189,36 @@ def test_bar_model_fit_recovers_its_own_parameters():
     assert fit["wake_angle_from_radial_deg"]["value"] == pytest.approx(70.0, abs=1.0)
 
 
+def test_leaving_out_one_b_moves_a_fit_of_bars_little_and_one_of_no_bars_much():
+    # tau_n of the bar model itself with 1 % noise: every refit without one B keeps H/W
+    # within 5 % of the truth (the noise moves it by about its stderr, ~1 %)
+    rng = np.random.default_rng(3)
+    truth = (0.6, 0.08, 0.3, 110.0)
+    B, phi = np.meshgrid([5.0, 10.0, 20.0, 45.0, 90.0], np.arange(0.0, 360.0, 15.0))
+    B, phi = B.ravel(), phi.ravel()
+    tau = wake_model.bar_optical_depth(B, phi, *truth)
+    err = 0.01 * tau
+    noisy = tau + rng.normal(0.0, 1.0, tau.size) * err
+    dep = wake_model.view_dependence(B, phi, noisy, err)
+    hw = truth[1] / (1.0 - truth[0])
+    assert dep["left_out_deg"] == [5.0, 10.0, 20.0, 45.0, 90.0]
+    assert len(dep["height_over_width"]["values"]) == 5
+    assert hw * 0.95 < dep["height_over_width"]["min"] <= dep["height_over_width"]["max"] \
+        < hw * 1.05
+    assert dep["height_over_width"]["jackknife_stderr"] < 0.05 * hw
+    # a layer without bars whose tau_n rises at low B (a thick layer's slant-path excess,
+    # here tau (1 + 0.3 / sin B)): the bars fit it in several ways, and which B are given
+    # decides between them
+    layer = 0.5 * (1.0 + 0.3 / np.sin(np.radians(B)))
+    free = wake_model.view_dependence(B, phi, layer + rng.normal(0.0, 0.005, B.size),
+                                      np.full(B.size, 0.005))
+    spread = free["height_over_width"]["max"] - free["height_over_width"]["min"]
+    assert spread > 10 * (dep["height_over_width"]["max"] - dep["height_over_width"]["min"])
+    # fewer than three B: nothing to leave out
+    two = B < 15.0
+    assert wake_model.view_dependence(B[two], phi[two], noisy[two], err[two]) is None
+
+
 def test_bar_model_is_the_hand_calculation():
     """T = (S/lambda - (H/lambda) |sin(phi - phi_W)| / tan B) exp(-tau_G / sin B): along the
     bars the gap fraction times the gap's slant transmission; across them at B = 45 deg the
@@ -238,6 +268,9 @@ def test_observe_prints_the_asymmetry_and_the_fitted_height_over_width(
              for row in obs["azimuthal_asymmetry"]}
     assert math.isnan(peaks[90.0]) and 0.0 <= peaks[5.0] < 180.0
     assert "none (a vertical ray has no azimuth)" in printed
+    dep = obs["bar_model_view_dependence"]
+    assert dep["left_out_deg"] == [5.0, 20.0, 90.0]
+    assert "with each B left out in turn (5, 20, 90 deg): H/W" in printed
 
 
 @pytest.fixture(scope="module")

@@ -178,8 +178,6 @@ def _sweep_summaries(paths: list[str]) -> list[str]:
 
 
 def _write_json(path: str, payload, indent: int = 2) -> None:
-    """Write ``payload`` as JSON to ``path``, making its folder (docs/interface.md,
-    "Output folders")."""
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     Path(path).write_text(json.dumps(payload, indent=indent, allow_nan=True) + "\n")
 

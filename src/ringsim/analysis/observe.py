@@ -206,9 +206,10 @@ def observe(run, elevations=DEFAULT_ELEVATIONS, azimuths=DEFAULT_AZIMUTHS,
                    snaps, Lx, Ly, b, azimuths, reference, rng, tau_of_view)),
            "ray_seed": RAY_SEED, "precision": None if rays is not None else precision,
            "rays_per_view": rays}
-    out["bar_model"] = wake_model.fit_bar_model(*(np.array([v[k] for v in views]) for k in (
-        "elevation_deg", "azimuth_deg", "normal_optical_depth",
-        "normal_optical_depth_stderr")))
+    columns = [np.array([v[k] for v in views]) for k in (
+        "elevation_deg", "azimuth_deg", "normal_optical_depth", "normal_optical_depth_stderr")]
+    out["bar_model"] = wake_model.fit_bar_model(*columns)
+    out["bar_model_view_dependence"] = wake_model.view_dependence(*columns)
     out["wake_pitch_angle_deg"] = (_analyze_pitch(snaps, Lx, Ly, Omega)
                                    if run.scenario.sheet.gravity else None)
     out["units"] = UNITS
@@ -255,6 +256,7 @@ def observation_table(obs: dict) -> str:
                      f"wake axis phi_W = {pm('wake_orientation_deg')} deg "
                      f"({pm('wake_angle_from_radial_deg')} deg from radial), "
                      f"reduced chi2 {fit['reduced_chi2']:.3g}")
+        lines += _view_dependence_lines(obs.get("bar_model_view_dependence"))
     else:
         lines.append(f"bar model: no fit ({fit.get('message', 'failed')})")
     pitch = obs.get("wake_pitch_angle_deg")
@@ -300,3 +302,15 @@ def observation_pictures(run, obs: dict, resolution: float = UVIS_RESOLUTION) ->
               for phi in (a, (a + 90.0) % 180.0)]
     return {"elevation_deg": b, "azimuth_deg": a, "snapshot": index, "resolution": resolution,
             "scan": scan, "images": images, "Lx": Lx, "Ly": Ly}
+
+
+def _view_dependence_lines(dep: dict | None) -> list[str]:
+    """The bar model's refits with each B left out, as ``observe`` prints them."""
+    if not dep:
+        return []
+    hw = dep["height_over_width"]
+    angle = dep["wake_angle_from_radial_deg"]
+    return [f"  with each B left out in turn ({', '.join(f'{b:g}' for b in dep['left_out_deg'])}"
+            f" deg): H/W {hw['min']:.3g}-{hw['max']:.3g} (jackknife +- "
+            f"{hw['jackknife_stderr']:.2g}), angle from radial {angle['min']:.3g}-"
+            f"{angle['max']:.3g} deg; the fit's errors above hold the rays' statistics only"]

@@ -131,3 +131,40 @@ def _fit_result(res, n: int) -> dict:
     out.update({"chi2": chi2, "reduced_chi2": chi2 / dof, "n_points": int(n),
                 "success": bool(res.success)})
     return out
+
+
+def view_dependence(elevation_deg, azimuth_deg, tau_n, tau_n_err) -> dict | None:
+    """How the fit depends on which opening angles it is given: the fit repeated with the
+    views of each B left out in turn (a jackknife over the opening angles).
+
+    The fit's own errors hold the rays' statistics only; when the bar model does not
+    describe the sheet (no wakes, or wakes that are not bars), leaving out one B moves the
+    parameters by far more.  Returns None with fewer than three opening angles.
+
+    Returns
+    -------
+    dict: ``left_out_deg`` (the B of each refit), and for ``height_over_width``,
+    ``gap_optical_depth`` and ``wake_angle_from_radial_deg`` the refits' ``values``, their
+    ``min`` and ``max`` and the jackknife standard error
+    sqrt((n - 1) / n sum (x_i - mean)^2) (``jackknife_stderr``), with ``units``; NaN for a
+    refit that failed.
+    """
+    B, phi, tau, err = (np.asarray(v, dtype=float) for v in (elevation_deg, azimuth_deg,
+                                                             tau_n, tau_n_err))
+    angles = sorted(set(B.tolist()))
+    if len(angles) < 3:
+        return None
+    fits = [fit_bar_model(B[B != b], phi[B != b], tau[B != b], err[B != b]) for b in angles]
+    out: dict[str, object] = {"left_out_deg": angles}
+    for key in ("height_over_width", "gap_optical_depth", "wake_angle_from_radial_deg"):
+        values = np.array([f[key]["value"] if f.get("success") is not None and key in f
+                           else math.nan for f in fits])
+        ok = values[np.isfinite(values)]
+        n = ok.size
+        out[key] = {"values": values.tolist(),
+                    "min": float(ok.min()) if n else math.nan,
+                    "max": float(ok.max()) if n else math.nan,
+                    "jackknife_stderr": float(math.sqrt((n - 1) / n * np.sum(
+                        (ok - ok.mean()) ** 2))) if n > 1 else math.nan,
+                    "units": "deg" if key.endswith("_deg") else "dimensionless"}
+    return out
