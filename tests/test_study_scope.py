@@ -136,6 +136,13 @@ def test_partial_report_leaves_out_what_is_not_summarised_and_says_so(scoped, tm
     assert part["partial"].startswith("PARTIAL REPORT: 5 of 7 runs have summaries")
     assert "cases k02" in part["partial"] and "variants ref_600g" in part["partial"]
     assert f"**{part['partial']}**" in (out / "report.md").read_text()
+    # the variant's summarised k02 run is named with its numbers; its base run is gone
+    waiting = part["partial"].split("waiting for the ratios they measure: ")[1]
+    k02 = report["variants"]["ref_600g"]["runs"]["k02"][0]["run"]
+    c = json.loads((scoped / "summaries" / f"{k02}.json").read_text())["equilibrium"][
+        "velocity_dispersion"]["mean"]
+    assert waiting.startswith(f"ref_600g (k02 seed 1: c {1e3 * c:.4g} mm/s, H ")
+    assert "without it" not in waiting
 
 
 def test_partial_without_report_only_is_bad_input(scoped, capsys):

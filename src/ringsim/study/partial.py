@@ -71,9 +71,38 @@ def reduced(study, quick: bool, specs: Sequence, ids: Sequence[str],
                 if len(ratios) < len(study.ratios) else ""]
     if not (fewer or any(left_out)):
         return cut, [s for s, _ in kept], [rid for _, rid in kept], None
+    waiting = _waiting_variant_runs(specs, ids, summaries, set(dict(variants)))
     note = (f"PARTIAL REPORT: {len(summaries)} of {len(set(ids))} runs have summaries"
             + (f"; fewer seeds than asked: {', '.join(fewer)}" if fewer else "")
             + (f"; not in it yet: {'; '.join(part for part in left_out if part)}"
                if any(left_out) else "")
+            + (f"; summarised variant runs waiting for the ratios they measure: {waiting}"
+               if waiting else "")
             + ". The study's result is its full report, when every run is done.")
     return cut, [s for s, _ in kept], [rid for _, rid in kept], note
+
+
+def _waiting_variant_runs(specs: Sequence, ids: Sequence[str], summaries: Mapping[str, dict],
+                          shown: set[str]) -> str:
+    """The summarised runs of variants the partial report leaves out, each with its c and
+    H by number beside the same case and seed without the variant (when summarised), so
+    that prose quoting them can be checked against the report."""
+    by_key = {(s.case, s.variant, s.seed): rid for s, rid in zip(specs, ids, strict=True)}
+    parts = []
+    for (case, variant, seed), rid in by_key.items():
+        base_id = by_key.get((case, None, seed), "")
+        if variant is None or variant in shown or rid not in summaries or rid == base_id:
+            continue    # not a variant, shown, not summarised, or the base run itself
+        base = summaries.get(base_id)
+        parts.append(f"{variant} ({case} seed {seed}: {_c_and_h(summaries[rid])}"
+                     + (f"; without it {_c_and_h(base)}" if base else "") + ")")
+    return ", ".join(parts)
+
+
+def _c_and_h(summary: Mapping) -> str:
+    """c [mm/s] and H [m] by number of a run's summary."""
+    eq = summary.get("equilibrium") or {}
+    c, h = eq.get("velocity_dispersion"), eq.get("thickness")
+    if not (c and h):
+        return "no equilibrium"
+    return f"c {1e3 * c['mean']:.4g} mm/s, H {h['mean']:.4g} m by number"
