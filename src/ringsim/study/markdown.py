@@ -197,13 +197,20 @@ def _cpu_s(summary: Mapping) -> float | None:
     return None if value is None else float(value)
 
 
+def _cpu_hours(group: list[Mapping]) -> str:
+    """The CPU-hours of a group of runs' summaries, naming the runs without a CPU time."""
+    known = [c for c in (_cpu_s(s) for s in group) if c is not None]
+    text = f"{sum(known) / 3600:.3g}" if known else "not recorded"
+    missing = len(group) - len(known)
+    return text + (f" (+ {missing} run(s) not recorded)" if known and missing else "")
+
+
 def cost_section(report: Mapping, summaries: Mapping[str, dict]) -> list[str]:
     """CPU-hours of each case and variant, from the summaries' ``cost``."""
     groups = [(case, entry["runs"]) for case, entry in report["cases"].items()]
     groups += [(f"{case} [{name}]", runs) for name, v in report["variants"].items()
                for case, runs in v["runs"].items()]
-    rows = [[name, str(len(runs)),
-             f"{sum(_cpu_s(summaries[r['run']]) or 0.0 for r in runs) / 3600:.3g}"]
+    rows = [[name, str(len(runs)), _cpu_hours([summaries[r["run"]] for r in runs])]
             for name, runs in groups]
     distinct = sorted({r["run"] for _, runs in groups for r in runs})
     unknown = [rid for rid in distinct if _cpu_s(summaries[rid]) is None]
