@@ -42,6 +42,27 @@ def test_a_size_distribution_run_keeps_its_size_bins_and_weightings(reference): 
         # every pair of 0.5-5 m ice spheres is heavier than Dilley's 60 g reference
         assert sizes["law_range"]["masses_below"] == 0.0
         assert sizes["law_range"]["sizes_above"] == pytest.approx(1.0)
+        # so no impact lies inside all three measured ranges at once
+        assert sizes["law_range"]["inside_all"] == 0.0
+
+
+def test_a_seed_without_the_joint_count_leaves_the_case_without_it():
+    shares = {"speeds_below": 0.1, "inside_all": 0.4}
+    with_it = _with_law_range(shares)
+    without = _with_law_range({"speeds_below": 0.3})
+    both = case_by_size([with_it, with_it])["law_range"]
+    assert both["inside_all"] == pytest.approx(0.4) and both["speeds_below"] == 0.1
+    mixed = case_by_size([with_it, without])["law_range"]
+    assert math.isnan(mixed["inside_all"]) and mixed["speeds_below"] == pytest.approx(0.2)
+    lines = by_size_lines(by_size_report({"a": [with_it], "b": [without]}, []))
+    assert any(line.startswith("| a |") and line.endswith("| 40.0 % |") for line in lines)
+    assert any(line.startswith("| b |") and line.endswith("| – |") for line in lines)
+
+
+def _with_law_range(shares):
+    summary = _constructed([[0.5, 0.5], [0.5, 0.5]], [[10, 10], [0, 10]])
+    summary["by_size"]["law_range"] = shares
+    return summary
 
 
 def test_report_divides_c_and_h_bin_by_bin(reference):  # noqa: F811

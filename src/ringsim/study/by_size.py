@@ -31,7 +31,7 @@ WEIGHTINGS = {"number": "thickness", "mass": "thickness_mass_weighted",
 #: The law-range shares kept (fractions of the equilibrium window's impacts).
 LAW_SHARES = ("outside_speeds", "speeds_below", "speeds_above", "outside_sizes",
               "sizes_below", "sizes_above", "outside_masses", "masses_below", "masses_above",
-              "critically_damped")
+              "critically_damped", "inside_all")
 
 
 def _number(x) -> float:
@@ -113,7 +113,8 @@ def case_by_size(summaries: Sequence[Mapping]) -> dict | None:
         "thickness": {w: _seed_mean([e["thickness"][w] for e in entries]) for w in WEIGHTINGS},
         "layers": {name: _seed_mean([e["layers"][name]["thickness"] for e in entries])
                    for name in ("small", "large")},
-        "law_range": ({key: sum(_number(x[key]) for x in law) / len(law) for key in LAW_SHARES}
+        "law_range": ({key: sum(_number(x.get(key)) for x in law) / len(law)
+                       for key in LAW_SHARES}
                       if law else None),
         "law_masses": entries[0].get("law_masses"),
         "pair_epsilon": _pooled_pairs([e.get("pair_epsilon") for e in entries]),
@@ -219,16 +220,20 @@ def by_size_lines(section: Mapping) -> list[str]:
               "are the pairs lighter than its reference mass, where κ > 0 makes collisions "
               "less elastic, not more):", "",
               "| case | speeds below / above | sizes below / above | masses below / above | "
-              "ξ ≥ 1 (ε = 0) |", "|---|---|---|---|---|"]
+              "ξ ≥ 1 (ε = 0) | inside all three at once |", "|---|---|---|---|---|---|"]
     for case, e in cases.items():
         law = e["law_range"]
         if law is None:
-            lines.append(f"| {case} | – | – | – | – |")
+            lines.append(f"| {case} | – | – | – | – | – |")
             continue
         lines.append(f"| {case} | {_share(law['speeds_below'])} / {_share(law['speeds_above'])}"
                      f" | {_share(law['sizes_below'])} / {_share(law['sizes_above'])} | "
                      f"{_share(law['masses_below'])} / {_share(law['masses_above'])} | "
-                     f"{_share(law['critically_damped'])} |")
+                     f"{_share(law['critically_damped'])} | "
+                     f"{_share(_number(law.get('inside_all')))} |")
+    lines += ["", "Inside all three at once: the impacts whose speed, reduced radius and "
+              "reduced mass all lie where the law was measured ('–': summaries made before "
+              "the resolver counted them, or a seed without the count)."]
     for ratio in section.get("ratios", []):
         lines += ["", f"Ratio {ratio['numerator']} / {ratio['denominator']} in each size bin "
                   "(statistical errors):", "",
