@@ -18,6 +18,7 @@ import ringsim
 from ringsim.analysis import occultation as oc
 from ringsim.analysis import wake_model, wakes
 from ringsim.analysis.observe import asymmetry, window_snapshots
+from ringsim.analysis.observe import observe as observe_run
 from ringsim.cli import main
 
 
@@ -354,3 +355,54 @@ def test_a_fit_without_wakes_says_so(tiny_run_file, capsys):
     assert code == 0
     assert "H/W = " in printed
     assert "analyze finds no significant wake in these snapshots" in printed
+
+
+def _simulated_ring(tmp_path, name, tau, epsilon, dispersion, orbits):
+    """A run of 1000 identical 1 m ice particles, constant eps, line detection."""
+    from ringsim.config.scenario import scenario_from_dict
+
+    d = {"name": name, "seed": 3, "planet": {"Omega": 2.0e-4},
+         "particles": {"density": 900.0, "size_distribution": {"kind": "monodisperse",
+                                                               "radius": 1.0}},
+         "sheet": {"optical_depth": tau, "n_particles": 1000,
+                   "initial_dispersion": dispersion},
+         "restitution": {"model": "constant", "epsilon": epsilon},
+         "integration": {"orbits": orbits, "collision_detection": "line"},
+         "output": {"timeseries_every": 0.05, "snapshot_every": 0.25}}
+    return ringsim.open_run(ringsim.run(scenario_from_dict(d, source="<test>"),
+                                        output=tmp_path / f"{name}.h5", progress=False))
+
+
+def _depth_ratio(obs: dict, b: float) -> tuple[float, float]:
+    """tau_n over the geometric optical depth at opening angle b, averaged over the
+    azimuths, with its standard error (the views' errors, independent draws of rays)."""
+    views = [v for v in obs["views"] if v["elevation_deg"] == b]
+    tau = np.array([v["normal_optical_depth"] for v in views])
+    err = np.array([v["normal_optical_depth_stderr"] for v in views])
+    g = obs["geometric_optical_depth"]
+    return float(tau.mean() / g), float(np.sqrt(np.sum(err**2)) / tau.size / g)
+
+
+def test_a_simulated_sparse_thick_ring_is_seen_at_its_geometric_depth(tmp_path):
+    # tau = 0.05, started and kept hot (eps = 0.9): rms height ~20 m against 1 m radii,
+    # a midplane filling factor ~1e-3: no shadowing between particles to speak of
+    run = _simulated_ring(tmp_path, "sparse", 0.05, 0.9, 20.0, 0.5)
+    assert run.timeseries["thickness"][-1] > 10.0
+    obs = observe_run(run, elevations=[10, 30, 60, 90], azimuths=[0, 45, 90, 135],
+                      snapshot=-1, rays=40_000)
+    for b in (10, 30, 60, 90):
+        ratio, err = _depth_ratio(obs, b)
+        assert abs(ratio - 1.0) < 4.0 * err, (b, ratio, err)
+
+
+def test_a_simulated_dense_cold_ring_is_seen_deeper_than_its_geometric_depth(tmp_path):
+    # tau = 0.5, eps = 0.1: a layer a few radii thick in which particles cannot overlap,
+    # so they hide less of each other than randomly placed ones: tau_n > tau, but below
+    # a perfect monolayer's -ln(1 - tau) / tau = 1.386 face on
+    run = _simulated_ring(tmp_path, "dense", 0.5, 0.1, 2.0, 1.0)
+    assert run.timeseries["thickness"][-1] < 3.0
+    obs = observe_run(run, elevations=[30, 60, 90], azimuths=[0, 45, 90, 135],
+                      snapshot=-1, rays=40_000)
+    for b in (30, 60, 90):
+        ratio, err = _depth_ratio(obs, b)
+        assert ratio > 1.0 + 10.0 * err and ratio < -math.log(0.5) / 0.5, (b, ratio, err)
