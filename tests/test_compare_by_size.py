@@ -72,3 +72,21 @@ def test_replicas_pool_their_sampled_collisions():
     # two seeds 2 m apart: the seed scatter (1 m) exceeds the propagated error
     assert layers["small"]["thickness"]["stderr"] == pytest.approx(1.0, rel=1e-12)
     assert compare._combined_layers([{"vertical_segregation": None}, {}]) is None
+
+
+def test_replicas_of_one_snapshot_layers_take_their_error_from_the_scatter():
+    # each replica's layer from one snapshot has no error (NaN); two replicas 2 m apart
+    # have a seed-to-seed standard error of 1 m, one alone has none
+    one = [{"vertical_segregation": _layers((6.0, math.nan), (3.0, math.nan))},
+           {"vertical_segregation": _layers((4.0, math.nan), (3.4, math.nan))}]
+    layers = compare._combined_layers(one)
+    assert layers["small"]["thickness"]["stderr"] == pytest.approx(1.0, rel=1e-12)
+    assert layers["large"]["thickness"]["stderr"] == pytest.approx(0.2, rel=1e-12)
+    assert "the mean over 2 replicas" in layers["definition"]
+    alone = compare._combined_layers(one[:1])
+    assert math.isnan(alone["small"]["thickness"]["stderr"])
+
+
+def test_replicas_with_and_without_the_pair_table_have_none():
+    a = {"pair_epsilon": _pairs([[0.5]], [[1]])}
+    assert compare._combined_pairs([a, {"pair_epsilon": {"status": "off"}}])["status"] == "off"

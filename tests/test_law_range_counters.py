@@ -15,7 +15,7 @@ from rebound.simulation import CollisionS
 from rebound.vectors import Vec6d
 
 from ringsim.engine.resolver import install_resolver
-from ringsim.engine.statistics import checked
+from ringsim.engine.statistics import UNCOUNTED, checked
 from ringsim.physics import restitution as rs
 
 GB = Vec6d(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -113,6 +113,8 @@ def test_an_old_checkpoint_without_the_new_counters_restores_them_as_zero():
         del state[key]
     values = checked(handle._open().stats, state)
     assert values["critically_damped"] == 0 and values["masses_above"] == 0
-    assert values["inside_all"] == 0
+    # the joint count of the open interval is unknown: negative whatever it adds, so its
+    # row is left out of the share (analysis.law_range)
+    assert values["inside_all"] == UNCOUNTED < -1e18
     handle.set_stats(state)
     assert handle.stats()["speeds_below"] == 0

@@ -192,7 +192,7 @@ def test_bar_model_fit_recovers_its_own_parameters():
 
 def test_leaving_out_one_b_moves_a_fit_of_bars_little_and_one_of_no_bars_much():
     # tau_n of the bar model itself with 1 % noise: every refit without one B keeps H/W
-    # within 5 % of the truth (the noise moves it by about its stderr, ~1 %)
+    # within 1 % of the truth (the noise moves it by about its stderr, ~0.5 %)
     rng = np.random.default_rng(3)
     truth = (0.6, 0.08, 0.3, 110.0)
     B, phi = np.meshgrid([5.0, 10.0, 20.0, 45.0, 90.0], np.arange(0.0, 360.0, 15.0))
@@ -204,17 +204,17 @@ def test_leaving_out_one_b_moves_a_fit_of_bars_little_and_one_of_no_bars_much():
     hw = truth[1] / (1.0 - truth[0])
     assert dep["left_out_deg"] == [5.0, 10.0, 20.0, 45.0, 90.0]
     assert len(dep["height_over_width"]["values"]) == 5
-    assert hw * 0.95 < dep["height_over_width"]["min"] <= dep["height_over_width"]["max"] \
-        < hw * 1.05
-    assert dep["height_over_width"]["jackknife_stderr"] < 0.05 * hw
+    assert hw * 0.99 < dep["height_over_width"]["min"] <= dep["height_over_width"]["max"] \
+        < hw * 1.01
+    assert dep["height_over_width"]["jackknife_stderr"] < 0.01 * hw
     # a layer without bars whose tau_n rises at low B (a thick layer's slant-path excess,
     # here tau (1 + 0.3 / sin B)): the bars fit it in several ways, and which B are given
     # decides between them
     layer = 0.5 * (1.0 + 0.3 / np.sin(np.radians(B)))
     free = wake_model.view_dependence(B, phi, layer + rng.normal(0.0, 0.005, B.size),
                                       np.full(B.size, 0.005))
-    spread = free["height_over_width"]["max"] - free["height_over_width"]["min"]
-    assert spread > 10 * (dep["height_over_width"]["max"] - dep["height_over_width"]["min"])
+    # (refits from H/W ~ 400 to ~ 1e14 here: orders of magnitude apart)
+    assert free["height_over_width"]["max"] > 100 * free["height_over_width"]["min"]
     # fewer than three B: nothing to leave out
     two = B < 15.0
     assert wake_model.view_dependence(B[two], phi[two], noisy[two], err[two]) is None
@@ -401,8 +401,12 @@ def test_a_simulated_dense_cold_ring_is_seen_deeper_than_its_geometric_depth(tmp
     # a perfect monolayer's -ln(1 - tau) / tau = 1.386 face on
     run = _simulated_ring(tmp_path, "dense", 0.5, 0.1, 2.0, 1.0)
     assert run.timeseries["thickness"][-1] < 3.0
-    obs = observe_run(run, elevations=[30, 60, 90], azimuths=[0, 45, 90, 135],
+    obs = observe_run(run, elevations=[10, 30, 60, 90], azimuths=[0, 45, 90, 135],
                       snapshot=-1, rays=40_000)
-    for b in (30, 60, 90):
+    for b in (10, 30, 60, 90):
         ratio, err = _depth_ratio(obs, b)
         assert ratio > 1.0 + 10.0 * err and ratio < -math.log(0.5) / 0.5, (b, ratio, err)
+    # slant rays cross more of the layer's rarefied upper part: less excess at B = 10 deg
+    # (1.091 against 1.131 at 30 deg, docs/validation.md; 7 combined standard errors)
+    (low, e_low), (mid, e_mid) = _depth_ratio(obs, 10), _depth_ratio(obs, 30)
+    assert mid - low > 4.0 * math.hypot(e_low, e_mid)

@@ -13,6 +13,7 @@ from ringsim.analysis import window
 from ringsim.analysis.equilibrium import NO_WINDOW_SNAPSHOT, equilibrium_table
 from ringsim.analysis.law_range import law_range
 from ringsim.cli import main
+from ringsim.engine.statistics import UNCOUNTED
 from ringsim.physics import restitution as rs
 from ringsim.physics.pair_bins import pair_bin_sums, pair_radii
 
@@ -186,11 +187,12 @@ def test_analyze_splits_the_law_range_below_and_above(broad_run, tmp_path, capsy
 
 
 def test_the_joint_share_leaves_out_rows_written_before_its_counter():
-    # rows 0-1 were written before the counter existed (-1); the window's share counts
-    # only the impacts of the rows that hold it: (30 + 10) / (100 + 60)
-    ts = {"collisions": np.array([50, 70, 100, 60]),
-          "law_inside_all": np.array([-1, -1, 30, 10]),
-          "law_outside_speeds": np.zeros(4, int)}
+    # rows 0-1 were written before the counter existed (-1), row 2 ends the interval
+    # resumed from a checkpoint without it (UNCOUNTED plus what it counted); the window's
+    # share counts only the impacts of the rows that hold a count: (30 + 10) / (100 + 60)
+    ts = {"collisions": np.array([50, 70, 80, 100, 60]),
+          "law_inside_all": np.array([-1, -1, UNCOUNTED + 20, 30, 10]),
+          "law_outside_speeds": np.zeros(5, int)}
     assert law_range(ts, 0, "dilley")["inside_all"] == pytest.approx(40 / 160, rel=1e-15)
     ts["law_inside_all"][:] = -1
     assert math.isnan(law_range(ts, 0, "dilley")["inside_all"])

@@ -359,3 +359,13 @@ def test_bundled_selfgravity_quick_report_comes_back_from_its_summaries(tmp_path
     assert (tmp_path / "report.md").read_text() == (committed / "report.md").read_text(
         ).replace(f"ringsim {version} ", f"ringsim {ringsim.__version__} ")
 
+
+
+def test_a_vertical_view_has_no_peak_azimuth():
+    from ringsim.study.cassini import _asymmetry
+
+    views = [{"elevation_deg": b, "azimuth_deg": a, "normal_optical_depth": 0.5 + 0.01 * a / 45,
+              "normal_optical_depth_stderr": 0.01, "transmission": 0.6 - 0.01 * a / 45,
+              "transmission_stderr": 0.005} for b in (10.0, 90.0) for a in (0.0, 45.0, 90.0)]
+    assert _asymmetry(views, 10.0)["peak_transmission_azimuth_deg"] == 0.0
+    assert math.isnan(_asymmetry(views, 90.0)["peak_transmission_azimuth_deg"])

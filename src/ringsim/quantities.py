@@ -153,7 +153,8 @@ _DECLARED = (
              "ε = 0 because its damping ratio ξ ≥ 1 (critical damping; dilley)"),
     Quantity("law_inside_all", "count", "impacts of the interval inside the impact speeds, "
              "the reduced radii and the reduced masses the restitution law was measured at, "
-             "all three at once (-1 in rows written before the counter existed)"),
+             "all three at once (-1 in rows written before the counter existed, below -1e18 "
+             "in the row of an interval resumed from a checkpoint without it: not counted)"),
     Quantity("momentum_residual", "m/s", "deviation of the sheet's mass-weighted mean motion "
              "relative to the shear flow from a free epicycle since the previous row (runtime "
              "invariant 3 below; 0 in row 0; NaN in rows written by format 1.0 before a "

@@ -39,7 +39,8 @@ def _combined(members: Sequence[dict]) -> dict:
     eq["replicas"] = [m["name"] for m in members]
     if all(_same_bins(m, members[0]) for m in members):
         eq["per_size_bin"] = [{**row, **{key: budget.replica_mean(
-            [m["per_size_bin"][k][key] for m in members]) for key in PER_BIN if key in row}}
+            [m["per_size_bin"][k][key] for m in members]) for key in PER_BIN
+            if all(key in m["per_size_bin"][k] for m in members)}}
             for k, row in enumerate(members[0]["per_size_bin"])]
     eq["vertical_segregation"] = _combined_layers(members)
     eq["pair_epsilon"] = _combined_pairs(members)
@@ -53,19 +54,35 @@ def _combined_layers(members: Sequence[dict]) -> dict | None:
     layers = [g for g in found if g]
     if len(layers) < len(found):
         return None
-    out = {name: {**layers[0][name], "thickness": budget.replica_mean(
+    out: dict[str, object] = {name: {**layers[0][name], "thickness": _replica_layer(
         [g[name]["thickness"] for g in layers])} for name in ("small", "large")}
-    out["ratio"] = budget.replica_mean([g["ratio"] for g in layers])
-    out["definition"] = layers[0]["definition"]
+    out["ratio"] = _replica_layer([g["ratio"] for g in layers])
+    out["definition"] = (f"{layers[0]['definition'].split('; mean over')[0]}; the mean over "
+                         f"{len(layers)} replicas")
+    out["in_window"] = all(g.get("in_window", True) for g in layers)
+    out["units"] = layers[0].get("units", {})
     return out
 
 
-def _combined_pairs(members: Sequence[dict]) -> dict | None:
+def _replica_layer(values: Sequence[dict]) -> dict:
+    """`budget.replica_mean` of layer values whose errors may be NaN (a layer from one
+    snapshot has none): the propagated part from the finite errors, so that the replicas'
+    scatter still gives an error; NaN only for one replica without an error."""
+    finite = [v if math.isfinite(v["stderr"]) else {**v, "stderr": 0.0} for v in values]
+    out = budget.replica_mean(finite)
+    if len(values) == 1 and not math.isfinite(values[0]["stderr"]):
+        out["stderr"] = out["stderr_propagated"] = math.nan
+    return out
+
+
+def _combined_pairs(members: Sequence[dict]) -> dict:
     """The replicas' eps per pair of size bins: their sampled collisions pooled (counts
-    added, mean eps weighted by count); None unless every replica has the same table."""
+    added, mean eps weighted by count); ``status`` off unless every replica has the same
+    table."""
     tables = [m.get("pair_epsilon") or {} for m in members]
     if not all(t.get("status") == "on" and t["edges"] == tables[0]["edges"] for t in tables):
-        return None
+        return {"status": "off", "reason": "not every replica sampled collisions over the "
+                "same size bins"}
     counts = np.sum([np.asarray(t["counts"], float) for t in tables], axis=0)
     sums = np.sum([np.nan_to_num(np.asarray(t["mean_epsilon"], float))
                    * np.asarray(t["counts"], float) for t in tables], axis=0)

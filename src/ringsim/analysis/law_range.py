@@ -76,8 +76,9 @@ def law_range(ts: dict, start: int, model: str) -> dict | None:
 def _inside_all(ts: dict, start: int, measured) -> float:
     """Share of the window's impacts inside every measured range at once [fraction]: NaN
     where the law states no range in one of the dimensions, or no row of the window holds
-    the counter (rows written before it existed hold -1 and are left out, with their
-    impacts)."""
+    the counter (rows written before it existed hold -1, and the row of an interval
+    resumed from a checkpoint without it a large negative number: both are left out, with
+    their impacts)."""
     if "law_inside_all" not in ts or any(getattr(measured, what) is None
                                          for what, _ in DIMENSIONS):
         return math.nan

@@ -313,4 +313,4 @@ def _view_dependence_lines(dep: dict | None) -> list[str]:
     return [f"  with each B left out in turn ({', '.join(f'{b:g}' for b in dep['left_out_deg'])}"
             f" deg): H/W {hw['min']:.3g}-{hw['max']:.3g} (jackknife +- "
             f"{hw['jackknife_stderr']:.2g}), angle from radial {angle['min']:.3g}-"
-            f"{angle['max']:.3g} deg; the fit's errors above hold the rays' statistics only"]
+            f"{angle['max']:.3g} deg; the fit's errors above do not hold this"]

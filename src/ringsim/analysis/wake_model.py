@@ -137,9 +137,10 @@ def view_dependence(elevation_deg, azimuth_deg, tau_n, tau_n_err) -> dict | None
     """How the fit depends on which opening angles it is given: the fit repeated with the
     views of each B left out in turn (a jackknife over the opening angles).
 
-    The fit's own errors hold the rays' statistics only; when the bar model does not
-    describe the sheet (no wakes, or wakes that are not bars), leaving out one B moves the
-    parameters by far more.  Returns None with fewer than three opening angles.
+    The fit's own errors (scaled by the square root of the reduced chi^2 where it exceeds
+    1) do not hold this dependence; when the bar model does not describe the sheet (no
+    wakes, or wakes that are not bars), leaving out one B moves the parameters by far more.
+    Returns None with fewer than three opening angles.
 
     Returns
     -------
@@ -147,7 +148,9 @@ def view_dependence(elevation_deg, azimuth_deg, tau_n, tau_n_err) -> dict | None
     ``gap_optical_depth`` and ``wake_angle_from_radial_deg`` the refits' ``values``, their
     ``min`` and ``max`` and the jackknife standard error
     sqrt((n - 1) / n sum (x_i - mean)^2) (``jackknife_stderr``), with ``units``; NaN for a
-    refit that failed.
+    refit that failed (too few views, or the optimiser did not converge).  The angles are
+    not unwrapped: a wake near the radial direction (0 or 180 deg) would inflate their
+    spread.
     """
     B, phi, tau, err = (np.asarray(v, dtype=float) for v in (elevation_deg, azimuth_deg,
                                                              tau_n, tau_n_err))
@@ -157,7 +160,7 @@ def view_dependence(elevation_deg, azimuth_deg, tau_n, tau_n_err) -> dict | None
     fits = [fit_bar_model(B[B != b], phi[B != b], tau[B != b], err[B != b]) for b in angles]
     out: dict[str, object] = {"left_out_deg": angles}
     for key in ("height_over_width", "gap_optical_depth", "wake_angle_from_radial_deg"):
-        values = np.array([f[key]["value"] if f.get("success") is not None and key in f
+        values = np.array([f[key]["value"] if f.get("success") and key in f
                            else math.nan for f in fits])
         ok = values[np.isfinite(values)]
         n = ok.size

@@ -20,13 +20,14 @@ The resolver accumulates, since its creation or the last reset:
   (``native.FRICTION_STATISTICS``);
 * ``speeds_below`` / ``_above``, ``sizes_below`` / ``_above``, ``masses_below`` /
   ``_above``: collisions below and above the measured speeds, reduced radii and reduced
-  masses, and ``critically_damped``: collisions whose law gives eps = 0 because its
-  damping ratio xi >= 1 (``native.RANGE_STATISTICS``).
+  masses, ``critically_damped``: collisions whose law gives eps = 0 because its
+  damping ratio xi >= 1, and ``inside_all``: collisions inside all three measured ranges
+  at once (``native.RANGE_STATISTICS``).
 
 ``ResolverHandle.stats`` reads them with `summary`; ``stats_state``/``set_stats`` save and
 restore them with `saved`, `checked` and `restore`, so that a checkpoint restores the
 statistics of the open output interval bit for bit.  The friction and range fields are
-restored as zero from a checkpoint that does not hold them.
+restored as zero from a checkpoint that does not hold them, ``inside_all`` as `UNCOUNTED`.
 """
 
 from __future__ import annotations
@@ -50,6 +51,10 @@ from ringsim.physics.pair_bins import pair_bin_sums
 #: The counters of the law's measured range a run file's row holds, each as the time
 #: series ``law_<name>``.
 LAW_RANGE_COUNTERS = ("outside_speeds", "outside_sizes", *RANGE_STATISTICS)
+
+#: ``inside_all`` restored from a checkpoint that lacks it: far below any count, so that the
+#: open interval's row stays negative (not counted) whatever it adds.
+UNCOUNTED = -(2**62)
 
 #: numpy type of each scalar ctypes type of the statistics struct.
 _NUMPY_TYPES = {ctypes.c_int64: np.int64, ctypes.c_double: np.float64}
@@ -197,6 +202,10 @@ def checked(stats: ctypes.Structure, state: Mapping[str, Any]) -> dict[str, np.n
     for name, ctype in _fields(stats):
         if name in state:
             value = np.asarray(state[name])
+        elif name == "inside_all":
+            # a checkpoint from before the joint count: the open interval's count is
+            # unknown, so its row is written negative and left out (analysis.law_range)
+            value = np.asarray(UNCOUNTED, _NUMPY_TYPES[ctype])
         elif name in FRICTION_STATISTICS or name in RANGE_STATISTICS:
             # a checkpoint from before friction or before the split ranges
             value = np.zeros((), _NUMPY_TYPES[ctype])

@@ -433,8 +433,8 @@ RESTITUTION = LawTable("restitution", n_slots=4, laws=[
         source="Bridges, Hatzes & Lin (1984), Nature 309, 333",
         measured=MeasuredRange(speeds=None, sizes=None, masses=None, source=(
             "not checked here: frost-covered ice spheres on a disc pendulum, an effective mass "
-            f"({_D93} sect. 2); its follow-up (Hatzes et al. 1988): 5 cm spheres, 0.015-2 "
-            "cm/s (Hill et al. 2015, A&A 573, A49, Table 2)")),
+            f"({_D93} sect. 2); its follow-up, Hatzes et al. (1988): spheres of 5 cm diameter, "
+            "0.015-2 cm/s in Hill et al. (2015, A&A 573, A49) Table 2")),
         parameters=(
             Parameter("v_c", "m/s", default=BRIDGES_V_C, lower=0.0, slot=0,
                       meaning="speed below which collisions are elastic",

@@ -95,7 +95,8 @@ def _value(mean, stderr, units: str) -> dict:
 def _asymmetry(views: Sequence[Mapping], elevation: float) -> dict:
     """At one B: the relative amplitude (max - min) / mean of tau_n over phi with the error
     of max and min added in quadrature over the mean (NaN when a view let no ray through:
-    its tau_n is only a lower bound), and the largest transmission with its error."""
+    its tau_n is only a lower bound), and the largest transmission with its error and
+    azimuth (NaN at B = 90 deg)."""
     row = [v for v in views if v["elevation_deg"] == elevation]
     tau = np.array([v["normal_optical_depth"] for v in row], dtype=float)
     err = np.array([v["normal_optical_depth_stderr"] for v in row], dtype=float)
@@ -108,7 +109,9 @@ def _asymmetry(views: Sequence[Mapping], elevation: float) -> dict:
     return {"elevation_deg": float(elevation), "asymmetry_amplitude": amplitude,
             "peak_transmission": _value(T[peak], row[peak]["transmission_stderr"],
                                         "dimensionless"),
-            "peak_transmission_azimuth_deg": float(row[peak]["azimuth_deg"] % 180.0)}
+            # a vertical ray has no azimuth (analysis.observe.asymmetry)
+            "peak_transmission_azimuth_deg": float(row[peak]["azimuth_deg"] % 180.0)
+            if elevation < 90.0 else math.nan}
 
 
 def condense(obs: Mapping, wake_significant: bool | None) -> dict:
