@@ -171,16 +171,26 @@ def test_transmission_peaks_along_the_wakes_at_analyzes_pitch():
     assert fit["wake_orientation_deg"]["value"] == pytest.approx(parallel, abs=3.0)
 
 
+#: The bar model's parameters of the synthetic views (S/lambda, H/lambda, tau_G, phi_W).
+TRUTH = (0.6, 0.08, 0.3, 110.0)
+
+
+def _bar_views(seed: int):
+    """tau_n of the bar model `TRUTH` at B = 5-90 deg and phi every 15 deg with 1 % Gaussian
+    noise: (B, phi, noisy tau_n, its error)."""
+    rng = np.random.default_rng(seed)
+    B, phi = np.meshgrid([5.0, 10.0, 20.0, 45.0, 90.0], np.arange(0.0, 360.0, 15.0))
+    B, phi = B.ravel(), phi.ravel()
+    tau = wake_model.bar_optical_depth(B, phi, *TRUTH)
+    err = 0.01 * tau
+    return B, phi, tau + rng.normal(0.0, 1.0, tau.size) * err, err
+
+
 def test_bar_model_fit_recovers_its_own_parameters():
     """tau_n of the bar model itself, with 1 % Gaussian noise: the fit returns the four
     parameters and H/W within 4 of their standard errors."""
-    rng = np.random.default_rng(2)
-    truth = (0.6, 0.08, 0.3, 110.0)
-    B, phi = np.meshgrid([5.0, 10.0, 20.0, 45.0, 90.0], np.arange(0.0, 360.0, 15.0))
-    B, phi = B.ravel(), phi.ravel()
-    tau = wake_model.bar_optical_depth(B, phi, *truth)
-    err = 0.01 * tau
-    fit = wake_model.fit_bar_model(B, phi, tau + rng.normal(0.0, 1.0, tau.size) * err, err)
+    truth = TRUTH
+    fit = wake_model.fit_bar_model(*_bar_views(2))
     for name, value in zip(wake_model.PARAMETERS, truth, strict=True):
         got = fit[name]
         assert abs(got["value"] - value) < 4.0 * got["stderr"] + 1e-9, (name, got, value)
@@ -193,15 +203,10 @@ def test_bar_model_fit_recovers_its_own_parameters():
 def test_leaving_out_one_b_moves_a_fit_of_bars_little_and_one_of_no_bars_much():
     # tau_n of the bar model itself with 1 % noise: every refit without one B keeps H/W
     # within 1 % of the truth (the noise moves it by about its stderr, ~0.5 %)
-    rng = np.random.default_rng(3)
-    truth = (0.6, 0.08, 0.3, 110.0)
-    B, phi = np.meshgrid([5.0, 10.0, 20.0, 45.0, 90.0], np.arange(0.0, 360.0, 15.0))
-    B, phi = B.ravel(), phi.ravel()
-    tau = wake_model.bar_optical_depth(B, phi, *truth)
-    err = 0.01 * tau
-    noisy = tau + rng.normal(0.0, 1.0, tau.size) * err
+    B, phi, noisy, err = _bar_views(3)
+    rng = np.random.default_rng(4)
     dep = wake_model.view_dependence(B, phi, noisy, err)
-    hw = truth[1] / (1.0 - truth[0])
+    hw = TRUTH[1] / (1.0 - TRUTH[0])
     assert dep["left_out_deg"] == [5.0, 10.0, 20.0, 45.0, 90.0]
     assert len(dep["height_over_width"]["values"]) == 5
     assert hw * 0.99 < dep["height_over_width"]["min"] <= dep["height_over_width"]["max"] \
