@@ -628,3 +628,21 @@ def test_stop_inside_an_interval_then_resume_is_identical(tmp_path, tiny_scenari
     ringsim.run(sc, output=path, resume=True, progress=False)
     assert_same_datasets(reference, path)
     assert _checkpoint_state(reference) == _checkpoint_state(path)
+
+
+@pytest.mark.parametrize("name, value, readable", [
+    ("law_inside_all", -1, True),               # a row written before the series existed
+    ("law_inside_all", -(2**62) + 5, True),     # an interval resumed without the count
+    ("law_speeds_below", -1, True),
+    ("law_speeds_below", -(2**62) + 5, False),  # only the joint count has that marker
+    ("law_inside_all", -2, False),
+    ("collisions", -1, True)])
+def test_counts_not_counted_are_read_and_other_negative_counts_refused(
+        good_run, tmp_path, capsys, name, value, readable):
+    path = tmp_path / "r.h5"
+    _edit(lambda f: f[f"timeseries/{name}"].__setitem__(0, value))(good_run["path"], path)
+    status = main(["analyze", str(path)])
+    if readable:
+        assert status == 0, capsys.readouterr().err
+    else:
+        _expect_bad_input(capsys, status, path, name)

@@ -74,6 +74,19 @@ def _is_count(name: str) -> bool:
     return quantity is not None and quantity.unit == "count"
 
 
+#: A count below this is `law_inside_all`'s row of an interval resumed from a checkpoint
+#: without it (``engine.statistics.UNCOUNTED`` plus what the interval counted).
+_UNCOUNTED_BELOW = -1e18
+
+
+def _counted(name: str, values: np.ndarray) -> np.ndarray:
+    """Where a count is valid: >= 0, or -1 in the rows written before the series existed
+    (``store.runfile._append_rows``), or for ``law_inside_all`` not counted (below
+    `_UNCOUNTED_BELOW`)."""
+    ok = (values >= 0) | (values == -1)
+    return ok | (values < _UNCOUNTED_BELOW) if name == "law_inside_all" else ok
+
+
 def _per_bin(name: str) -> bool:
     """A time series with one column per bin (size bins, histograms): rows x bins."""
     return name.startswith("size_bin_") or name.endswith("_histogram")
@@ -95,11 +108,14 @@ def check_arrays(run) -> None:
         if not (good and _is_numbers(values)):
             raise RunFileError(run.path, f"the time series {name} has shape {values.shape} "
                                f"and type {values.dtype} ({t.size} rows of numbers)", name)
-        if name in _FINITE or _is_count(name):
-            low = 0.0 if _is_count(name) else -np.inf
-            if not bool(np.all(np.isfinite(values) & (values >= low))):
+        if _is_count(name):
+            if not bool(np.all(np.isfinite(values) & _counted(name, values))):
                 raise RunFileError(run.path, f"the time series {name} holds values that are "
-                                   "not finite" + (" or negative" if low == 0 else ""), name)
+                                   "not finite or negative (other than a row not counted)",
+                                   name)
+        elif name in _FINITE and not bool(np.all(np.isfinite(values))):
+            raise RunFileError(run.path, f"the time series {name} holds values that are not "
+                               "finite", name)
     with h5py.File(run.path, "r") as f:   # shapes and types only: no data is read
         for i, name in enumerate(sorted(f["snapshots"])):
             _check_snapshot(run.path, i, f["snapshots"][name])
