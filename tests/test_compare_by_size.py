@@ -85,6 +85,9 @@ def test_replicas_of_one_snapshot_layers_take_their_error_from_the_scatter():
     assert "the mean over 2 replicas" in layers["definition"]
     alone = compare._combined_layers(one[:1])
     assert math.isnan(alone["small"]["thickness"]["stderr"])
+    ratios = compare.layer_ratios({"vertical_segregation": alone},
+                                  {"vertical_segregation": _layers((4.0, 0.2), (3.0, 0.1))})
+    assert "H_small 1.5 (one sample: no error)" in compare._layer_lines(ratios)[0]
 
 
 def test_replicas_with_and_without_the_pair_table_have_none():

@@ -230,9 +230,9 @@ def comparison_table(comp: dict) -> str:
         seg = eq.get("vertical_segregation")
         if seg:
             lines.append(f"{eq['name']}: layers (rms z, number-weighted within each) "
-                         f"H_small {_fmt(seg['small']['thickness'])} m, "
-                         f"H_large {_fmt(seg['large']['thickness'])} m, "
-                         f"H_small / H_large {_fmt(seg['ratio'])}")
+                         f"H_small {_layer_fmt(seg['small']['thickness'])} m, "
+                         f"H_large {_layer_fmt(seg['large']['thickness'])} m, "
+                         f"H_small / H_large {_layer_fmt(seg['ratio'])}")
     for entry in comp["ratios"]:
         lines.append("")
         caveat = "" if entry["in_equilibrium"] else "  [NOT IN EQUILIBRIUM: see the warning]"
@@ -265,12 +265,19 @@ def _per_bin_lines(rows: list[dict] | None) -> list[str]:
     return lines
 
 
+def _layer_fmt(value: dict) -> str:
+    """A layer's value with its error, or without one where a single snapshot gave none."""
+    if math.isfinite(value["mean"]) and not math.isfinite(value["stderr"]):
+        return f"{value['mean']:.4g} (one sample: no error)"
+    return _fmt(value)
+
+
 def _layer_lines(layers: dict | None) -> list[str]:
     """The ratios of the small- and large-particle layers of one comparison."""
     if not layers:
         return []
     return ["  layers, ratio ± stat: " + ", ".join(
-        f"{label} {_fmt(layers[key])}" for key, label in
+        f"{label} {_layer_fmt(layers[key])}" for key, label in
         (("small", "H_small"), ("large", "H_large"), ("small_over_large",
                                                      "H_small / H_large")))]
 
