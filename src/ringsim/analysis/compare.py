@@ -17,6 +17,7 @@ from ringsim.analysis.equilibrium import (
     law_range_lines,
     size_ratio_line,
 )
+from ringsim.analysis.size_bins import _fmt as _layer_fmt  # a layer may have no error
 
 #: a / b with first-order propagated standard error (independent a and b).
 ratio = _ratio_of
@@ -263,13 +264,6 @@ def _per_bin_lines(rows: list[dict] | None) -> list[str]:
         cells = "".join(f"{_fmt(row[key]):>18}" for key in keys)
         lines.append(f"    {row['r_low']:7.3g} - {row['r_high']:<7.3g}{cells}")
     return lines
-
-
-def _layer_fmt(value: dict) -> str:
-    """A layer's value with its error, or without one where a single snapshot gave none."""
-    if math.isfinite(value["mean"]) and not math.isfinite(value["stderr"]):
-        return f"{value['mean']:.4g} (one sample: no error)"
-    return _fmt(value)
 
 
 def _layer_lines(layers: dict | None) -> list[str]:
