@@ -18,6 +18,7 @@ from ringsim.analysis.equilibrium import (
     size_ratio_line,
 )
 from ringsim.analysis.size_bins import _fmt as _layer_fmt  # a layer may have no error
+from ringsim.analysis.size_bins import pooled_pair_means
 
 #: a / b with first-order propagated standard error (independent a and b).
 ratio = _ratio_of
@@ -84,12 +85,9 @@ def _combined_pairs(members: Sequence[dict]) -> dict:
     if not all(t.get("status") == "on" and t["edges"] == tables[0]["edges"] for t in tables):
         return {"status": "off", "reason": "not every replica sampled collisions over the "
                 "same size bins"}
-    counts = np.sum([np.asarray(t["counts"], float) for t in tables], axis=0)
-    sums = np.sum([np.nan_to_num(np.asarray(t["mean_epsilon"], float))
-                   * np.asarray(t["counts"], float) for t in tables], axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean = np.where(counts > 0, sums / counts, np.nan)
-    return {**tables[0], "counts": counts.astype(int).tolist(), "mean_epsilon": mean.tolist()}
+    counts, mean = pooled_pair_means([t["counts"] for t in tables],
+                                     [t["mean_epsilon"] for t in tables])
+    return {**tables[0], "counts": counts, "mean_epsilon": mean}
 
 
 #: The per-size-bin numbers `compare` divides between runs.

@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -128,6 +129,25 @@ def pair_epsilon(run, start: int) -> dict:
                        "output interval (output.log_collisions)"),
             "layout": "row: size bin of the smaller partner, column: of the larger",
             "units": {"edges": "m", "counts": "count", "mean_epsilon": "dimensionless"}}
+
+
+def pooled_pair_means(counts: Sequence, means: Sequence) -> tuple[list, list]:
+    """Sampled collisions of several runs pooled per pair of size bins: the counts added and
+    the mean eps weighted by each run's count (NaN where no run sampled the pair; a run's
+    NaN mean counts only where its count is 0).
+
+    counts : sequence of (n, n) arrays [count], one per run
+    means : sequence of (n, n) arrays [dimensionless], the runs' mean eps, NaN or None where
+        not sampled
+    """
+    n = np.asarray(counts, float)
+    m = np.asarray([[[math.nan if x is None else x for x in row] for row in table]
+                    for table in means], float)
+    total = np.sum(n, axis=0)
+    sums = np.sum(np.where(n > 0, m, 0.0) * n, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(total > 0, sums / total, np.nan)
+    return total.astype(int).tolist(), mean.tolist()
 
 
 def _fmt(value: dict | None, scale: float = 1.0) -> str:

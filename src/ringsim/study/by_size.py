@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 
-from ringsim.analysis import budget, compare
+from ringsim.analysis import budget, compare, size_bins
 
 #: Full vertical thickness of Saturn's dense rings [m]: "a few to about ten metres"; the
 #: A ring's self-gravity wakes have height/width 0.15-0.37 (Colwell et al. 2006, GRL 33,
@@ -127,11 +127,8 @@ def _pooled_pairs(pairs: Sequence[Mapping | None]) -> dict | None:
     given = [p for p in pairs if p is not None]
     if not given or len(given) < len(pairs):
         return None
-    counts = [[sum(p["counts"][i][j] for p in given) for j in range(len(row))]
-              for i, row in enumerate(given[0]["counts"])]
-    means = [[sum(_number(p["mean"][i][j]) * p["counts"][i][j] for p in given
-                  if p["counts"][i][j]) / n if n else math.nan
-              for j, n in enumerate(row)] for i, row in enumerate(counts)]
+    counts, means = size_bins.pooled_pair_means([p["counts"] for p in given],
+                                                 [p["mean"] for p in given])
     return {"mean": means, "counts": counts}
 
 
