@@ -137,6 +137,60 @@ def test_the_threads_shares_of_the_classes_keep_the_serial_order():
         np.testing.assert_array_equal(found[threads][1], found[1][1])
 
 
+def hot_broad_sheet(seed: int, n: int) -> rebound.Simulation:
+    """A shear-periodic sheet of 2-30 cm particles (q = 3, tau = 0.3) moving at 1 cm/s
+    rms per component, with 20 spheres of 4 m: the small particles' reaches, set by their
+    speeds (dt w, 0.1-1.5 m), put most of them in the class just below the largest, as
+    in the A ring's hot equilibria; after one step."""
+    rng = np.random.default_rng(seed)
+    radii = power_law_radii(rng, n, 0.02, 0.3)
+    radii[:20] = 4.0
+    box = math.sqrt(np.sum(np.pi * radii**2) / 0.3)
+    sim = rebound.Simulation()
+    sim.integrator = "sei"
+    sim.OMEGA = sim.OMEGAZ = OMEGA
+    sim.boundary = "shear"
+    sim.root_size = box
+    sim.N_root_x = sim.N_root_y = sim.N_root_z = 1
+    sim.N_ghost_x = sim.N_ghost_y = 1
+    sim.collision = "none"
+    sim.gravity = "none"
+    sim.dt = 1e-3 * 2.0 * math.pi / OMEGA
+    x = rng.uniform(-box / 2, box / 2, n)
+    y = rng.uniform(-box / 2, box / 2, n)
+    z = rng.normal(0.0, 3.0, n)
+    speed = 1e-2        # [m/s]
+    for i in range(n):
+        sim.add(m=900.0 * radii[i] ** 3, r=radii[i], x=x[i], y=y[i], z=z[i],
+                vx=rng.normal(0.0, speed), vy=-1.5 * OMEGA * x[i] + rng.normal(0.0, speed),
+                vz=rng.normal(0.0, speed))
+    sim.steps(1)
+    return sim
+
+
+def test_classes_are_used_where_most_particles_reach_a_quarter_of_the_largest():
+    """The choice of the classes weighs the cost of both searches (rs_layout_cost): here
+    the class holding the most particles reaches about a quarter of the largest reach,
+    where a rule on that ratio alone kept one grid whose cells, set by the 4 m spheres,
+    hold dozens of small particles each.  The classes find the same pairs."""
+    sim = hot_broad_sheet(8, 20000)
+    handle = install_resolver(sim, {"model": "constant", "epsilon": 0.5},
+                              collision_detection="line")
+    detector.set_lists(handle.address, 0)   # the cells' search, the subject here
+    reaches = np.array([p.r + sim.dt * math.hypot(p.vx, p.vy + 1.5 * OMEGA * p.x, p.vz)
+                        for p in sim.particles])
+    classes = np.minimum((np.log(reaches.max() / reaches) / math.log(4.0)).astype(int), 7)
+    most = np.bincount(classes).argmax()
+    assert most == 1 and 8.0 * reaches[classes == most].max() > reaches.max()
+    found = {}
+    for limit in (detector.MAX_CLASSES, ONE_GRID):
+        detector.set_classes(handle.address, limit)
+        found[limit] = sorted_pairs(*handle.detect_pairs())
+        assert (handle.detector_stats()["classes"] >= 3) == (limit > 1)
+    assert len(found[ONE_GRID]) > 1000, "too few swept contacts to test anything"
+    np.testing.assert_array_equal(found[detector.MAX_CLASSES], found[ONE_GRID])
+
+
 def broad_scenario(n: int, gravity: bool, sizes: dict) -> dict:
     return {
         "name": "classes", "seed": 7, "planet": {"Omega": OMEGA},

@@ -26,12 +26,13 @@
  *   just wider than the search from a smaller class into it, so that such a search looks
  *   at three cells along each side; s_k / RS_NARROW_DIVISIONS where the box is too narrow
  *   for the half shell with those; at most RS_CELLS_PER_PARTICLE per particle.
- * - The classes are used only where they pay: where the class holding the most particles
- *   reaches at most 1 / RS_CLASS_GAIN of the largest reach (else one grid costs less: the
- *   rows looked at in several grids cost more than the neighbours a finer grid spares),
- *   and only if each class's grid is wider than two spans of the widest search into it
- *   (Method 3's half shell: then a pair is in reach through one image only, whatever the
- *   grid's cells).
+ * - The classes are used only where they pay: where the search's estimated cost with them
+ *   (rs_layout_cost: the particles and the rows of cells it looks at, each particle with
+ *   its class's typical reach, in uniformly filled grids) is below the one grid's (else
+ *   the rows looked at in several grids cost more than the neighbours a finer grid
+ *   spares), and only if each class's grid is wider than two spans of the widest search
+ *   into it (Method 3's half shell: then a pair is in reach through one image only,
+ *   whatever the grid's cells).
  * - The pairs found do not depend on the grids (the search is complete in any grid and the
  *   reports are an exact set), so neither does any result.
  *
@@ -55,10 +56,14 @@
 /* Cells per s_k of a class grid in a box too narrow for the half shell with the wider
  * cells (as the one grid's RS_CELL_DIVISIONS). */
 #define RS_NARROW_DIVISIONS 4
-/* The classes are used where most particles reach at most 1 / RS_CLASS_GAIN of the
- * largest reach. */
-#ifndef RS_CLASS_GAIN
-#define RS_CLASS_GAIN 8.0
+/* Particles tested that one row of cells costs as much as, in the estimate of a layout's
+ * cost (rs_layout_cost): with 8 the estimate's ratio of the classes to the one grid falls
+ * on the measured side of 1 in every sheet measured: 1.29 in the 0.5-5 m sheet (measured
+ * 1.3), 1.37 in the B-ring preset (1.1-1.2), 0.26-0.33 in sheets of 0.2-5, 0.1-5 and
+ * 0.05-5 m (0.49-0.67), 0.53 in the A ring's kappa = 0.1 equilibrium (0.37-0.39)
+ * (docs/performance.md, "The detector's choice of classes by estimated cost"). */
+#ifndef RS_ROW_COST
+#define RS_ROW_COST 8.0
 #endif
 
 /* The cells of grid c (its reach_max, z_min, z_range and n set) in a box of Lx x Ly [m]:
@@ -160,20 +165,61 @@ int rs_sheet_classify(const struct rs_sheet_point* wrapped, int64_t n, int threa
     return used;
 }
 
+/* The estimated cost of one search over `distance` [m] into grid c (uniformly filled):
+ * the particles of the cells it looks at plus RS_ROW_COST per row of cells, halved for
+ * Method 3's half shell. */
+static double rs_look_cost(const struct rs_cell_grid* c, double distance, int half){
+    const double x = fmin(2.0 * (double)rs_sheet_span(distance, c->sx) + 1.0, (double)c->nx);
+    const double y = fmin(2.0 * (double)rs_sheet_span(distance, c->sy) + 1.0, (double)c->ny);
+    const double z = c->nz > 1
+        ? fmin(2.0 * (double)rs_sheet_span(distance, c->sz) + 1.0, (double)c->nz) : 1.0;
+    const double cells = (double)c->nx * (double)c->ny * (double)c->nz;
+    const double cost = x * y * z * (double)c->n / cells + RS_ROW_COST * y * z;
+    return half && c->half_shell ? 0.5 * cost : cost;
+}
+
+/* The estimated cost of the search of every particle in the class grids (classes > 1) or
+ * in one grid `one` (classes 1, cells[0 .. classes - 1] still giving the particles'
+ * classes): each particle of class k searches with half its class's largest reach
+ * (its reaches lie within a factor RS_CLASS_RATIO), as rs_search_from does.  A cost
+ * only: it decides the layout, never a pair. */
+static double rs_layout_cost(const struct rs_cell_grid* cells, int classes,
+                             const struct rs_cell_grid* one, double shear_step){
+    double cost = 0.0;
+    for (int i = 0; i < classes; i++){
+        const struct rs_cell_grid* ci = &cells[i];
+        if (ci->n == 0){
+            continue;
+        }
+        const double reach = 0.5 * ci->reach_max;
+        if (one != NULL){
+            cost += (double)ci->n * rs_look_cost(one, (reach + one->reach_max)
+                                                 / (1.0 - shear_step), 1);
+            continue;
+        }
+        for (int j = 0; j <= i; j++){
+            const struct rs_cell_grid* cj = &cells[j];
+            if (cj->n > 0){
+                cost += (double)ci->n * rs_look_cost(cj, (reach + cj->reach_max)
+                                                     / (1.0 - shear_step), j == i);
+            }
+        }
+    }
+    return cost;
+}
+
 /* The grids of the classes rs_sheet_classify filled (cells[0 .. classes - 1]; box Lx x Ly
  * [m], slack [m] of the pre-test, shear_step = 1.5 |Omega| dt, reach_max [m]), their cells
- * numbered one after the other (cell_base).  Returns the number of cells of all classes,
- * 0 if the classes do not pay or a class grid is too narrow for its half shell (see the
- * Method above). */
+ * numbered one after the other (cell_base), against the one grid of all the particles
+ * (`one`: n, z_min, z_range and reach_max set; cells of at least one_side [m]; laid out
+ * here).  Returns the number of cells of all classes, 0 if the classes do not pay (their
+ * estimated search cost, rs_layout_cost, is not below the one grid's) or a class grid is
+ * too narrow for its half shell (see the Method above). */
 int64_t rs_sheet_class_layout(struct rs_cell_grid* cells, int classes, double Lx, double Ly,
-                              double slack, double shear_step, double reach_max){
-    int most = 0;
-    for (int k = 1; k < classes; k++){
-        most = cells[k].n > cells[most].n ? k : most;
-    }
-    if (cells[most].reach_max * RS_CLASS_GAIN > reach_max){
-        return 0;
-    }
+                              double slack, double shear_step, double reach_max,
+                              struct rs_cell_grid* one, double one_side){
+    rs_sheet_cell_layout(one, Lx, Ly, slack, rs_sheet_pair_reach(reach_max, shear_step),
+                         one_side);
     int64_t n_cells = 0;
     double below = reach_max;
     for (int k = 0; k < classes; k++){
@@ -200,7 +246,8 @@ int64_t rs_sheet_class_layout(struct rs_cell_grid* cells, int classes, double Lx
         }
         n_cells += here;
     }
-    return n_cells;
+    const double with_classes = rs_layout_cost(cells, classes, NULL, shear_step);
+    return with_classes < rs_layout_cost(cells, classes, one, shear_step) ? n_cells : 0;
 }
 
 /* The counting sort of the n particles (`wrapped`, by index) into the cells of `cells`

@@ -69,7 +69,8 @@ int rs_sheet_classify(const struct rs_sheet_point* wrapped, int64_t n, int threa
                       double reach_max, int classes, uint8_t* class_of,
                       struct rs_cell_grid* cells);
 int64_t rs_sheet_class_layout(struct rs_cell_grid* cells, int classes, double Lx, double Ly,
-                              double slack, double shear_step, double reach_max);
+                              double slack, double shear_step, double reach_max,
+                              struct rs_cell_grid* one, double one_side);
 void rs_sheet_counting_sort(const struct rs_sheet_point* wrapped, struct rs_sheet_point* points,
                             int64_t n, int asked, const struct rs_cell_grid* cells,
                             const uint8_t* class_of, double Lx, double Ly, int32_t* counts,

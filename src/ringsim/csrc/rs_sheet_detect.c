@@ -1258,9 +1258,12 @@ static int64_t rs_class_layout(struct rs_sheet_detector* d, int64_t n){
     const struct rs_sheet_grid* const g = &d->grid;
     const int used = rs_sheet_classify(d->wrapped, n, rs_team_size(d, n), g->reach_max,
                                        classes, d->class_of, d->cells);
-    const int64_t n_cells = used < 2 ? 0 : rs_sheet_class_layout(d->cells, classes, g->Lx,
-                                                                 g->Ly, g->slack,
-                                                                 g->shear_step, g->reach_max);
+    /* the one grid rs_grid_layout would lay out, for the comparison of their costs */
+    struct rs_cell_grid one = {.z_min = g->z_min, .z_range = g->z_range,
+                               .reach_max = g->reach_max, .n = n};
+    const int64_t n_cells = used < 2 ? 0
+        : rs_sheet_class_layout(d->cells, classes, g->Lx, g->Ly, g->slack, g->shear_step,
+                                g->reach_max, &one, g->pair_reach / RS_CELL_DIVISIONS);
     if (n_cells > 0){
         d->n_classes = classes;
         d->classes_used = used;
