@@ -936,6 +936,13 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
     reduction(+:scanned, within)
     for (size_t slot = 0; slot < n; slot++){
         struct reb_particle* const q = &ps[all.order[slot]];
+        if (slot + 1 < n){
+            /* the next target's particle, read and written at the ends of a long pair sum
+             * and far from this one in REBOUND's array: asked for now, not waited for */
+            const struct reb_particle* const next = &ps[all.order[slot + 1]];
+            __builtin_prefetch(&next->r, 0);
+            __builtin_prefetch(&next->ax, 1);
+        }
         const struct rs_p3m_list* src = q->r < r_pair ? &large : &all;
         double acc[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
         const double target[5] = {all.sx[slot], all.sy[slot], all.sz[slot], all.sc[slot],
