@@ -46,17 +46,26 @@ def test_a_size_distribution_run_keeps_its_size_bins_and_weightings(reference): 
         assert sizes["law_range"]["inside_all"] == 0.0
 
 
-def test_a_seed_without_the_joint_count_leaves_the_case_without_it():
+def test_the_joint_count_is_the_mean_over_the_seeds_that_counted_it():
     shares = {"speeds_below": 0.1, "inside_all": 0.4}
     with_it = _with_law_range(shares)
+    other = _with_law_range({"speeds_below": 0.1, "inside_all": 0.5})
     without = _with_law_range({"speeds_below": 0.3})
-    both = case_by_size([with_it, with_it])["law_range"]
-    assert both["inside_all"] == pytest.approx(0.4) and both["speeds_below"] == 0.1
+    both = case_by_size([with_it, other])["law_range"]
+    assert both["inside_all"] == pytest.approx(0.45) and both["speeds_below"] == 0.1
+    assert (both["inside_all_seeds"], both["seeds"]) == (2, 2)
+    # a summary made before the count: left out of that share only, and said so
     mixed = case_by_size([with_it, without])["law_range"]
-    assert math.isnan(mixed["inside_all"]) and mixed["speeds_below"] == pytest.approx(0.2)
-    lines = by_size_lines(by_size_report({"a": [with_it], "b": [without]}, []))
-    assert any(line.startswith("| a |") and line.endswith("| 40.0 % |") for line in lines)
-    assert any(line.startswith("| b |") and line.endswith("| – |") for line in lines)
+    assert mixed["inside_all"] == pytest.approx(0.4) and mixed["speeds_below"] == pytest.approx(0.2)
+    assert (mixed["inside_all_seeds"], mixed["seeds"]) == (1, 2)
+    none = case_by_size([without, without])["law_range"]
+    assert math.isnan(none["inside_all"]) and none["inside_all_seeds"] == 0
+    lines = by_size_lines(by_size_report({"a": [with_it, other], "b": [with_it, without],
+                                          "c": [without]}, []))
+    assert any(line.startswith("| a |") and line.endswith("| 45.0 % |") for line in lines)
+    assert any(line.startswith("| b |") and line.endswith("| 40.0 % (1 of 2 seeds) |")
+               for line in lines)
+    assert any(line.startswith("| c |") and line.endswith("| – |") for line in lines)
 
 
 def _with_law_range(shares):

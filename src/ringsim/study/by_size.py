@@ -113,12 +113,20 @@ def case_by_size(summaries: Sequence[Mapping]) -> dict | None:
         "thickness": {w: _seed_mean([e["thickness"][w] for e in entries]) for w in WEIGHTINGS},
         "layers": {name: _seed_mean([e["layers"][name]["thickness"] for e in entries])
                    for name in ("small", "large")},
-        "law_range": ({key: sum(_number(x.get(key)) for x in law) / len(law)
-                       for key in LAW_SHARES}
-                      if law else None),
+        "law_range": _law_shares(law) if law else None,
         "law_masses": entries[0].get("law_masses"),
         "pair_epsilon": _pooled_pairs([e.get("pair_epsilon") for e in entries]),
     }
+
+
+def _law_shares(law: Sequence[Mapping]) -> dict:
+    """The seeds' mean of each share of `LAW_SHARES`; ``inside_all`` over the seeds that
+    counted it (summaries made before the count have none), with ``inside_all_seeds``,
+    how many, of ``seeds``."""
+    out = {key: sum(_number(x.get(key)) for x in law) / len(law) for key in LAW_SHARES}
+    counted = [v for v in (_number(x.get("inside_all")) for x in law) if math.isfinite(v)]
+    out["inside_all"] = sum(counted) / len(counted) if counted else math.nan
+    return {**out, "inside_all_seeds": len(counted), "seeds": len(law)}
 
 
 def _pooled_pairs(pairs: Sequence[Mapping | None]) -> dict | None:
@@ -227,10 +235,11 @@ def by_size_lines(section: Mapping) -> list[str]:
                      f" | {_share(law['sizes_below'])} / {_share(law['sizes_above'])} | "
                      f"{_share(law['masses_below'])} / {_share(law['masses_above'])} | "
                      f"{_share(law['critically_damped'])} | "
-                     f"{_share(_number(law.get('inside_all')))} |")
+                     f"{_inside_all(law)} |")
     lines += ["", "Inside all three at once: the impacts whose speed, reduced radius and "
-              "reduced mass all lie where the law was measured ('–': summaries made before "
-              "the resolver counted them, or a seed without the count)."]
+              "reduced mass all lie where the law was measured, the mean over the seeds "
+              "whose summaries counted them ('–': none did; summaries made before the "
+              "resolver counted them have no count)."]
     for ratio in section.get("ratios", []):
         lines += ["", f"Ratio {ratio['numerator']} / {ratio['denominator']} in each size bin "
                   "(statistical errors):", "",
@@ -240,6 +249,15 @@ def by_size_lines(section: Mapping) -> list[str]:
                          f"{_pm(b['velocity_dispersion'])} | {_pm(b['thickness'])} |")
         lines += _pair_lines(ratio)
     return lines + [""]
+
+
+def _inside_all(law: Mapping) -> str:
+    """The share inside all three ranges, with how many seeds counted it where not all."""
+    share = _share(_number(law.get("inside_all")))
+    seeds, counted = law.get("seeds"), law.get("inside_all_seeds")
+    if seeds is None or counted in (None, 0) or counted == seeds:
+        return share
+    return f"{share} ({counted} of {seeds} seeds)"
 
 
 def _pair_lines(ratio: Mapping) -> list[str]:
