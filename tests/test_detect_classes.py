@@ -46,16 +46,10 @@ def power_law_radii(rng: np.random.Generator, n: int, r_min: float, r_max: float
     return (a + u * (b - a)) ** (1.0 / (1.0 - q))
 
 
-def dense_broad_sheet(seed: int, n: int, boundary: str = "shear") -> rebound.Simulation:
-    """A random shear-periodic (or periodic, without the shear flow: ``boundary``) sheet
-    of 1 cm - 1 m particles (q = 3, tau = 0.3, overlaps
-    allowed, random speeds of 0.3 mm/s: reaches from about 2 cm to 1 m), half of them
-    crowded within 1.5 m of the radial boundary with the 20 of lowest index 1 m large,
-    after one step."""
-    rng = np.random.default_rng(seed)
-    radii = power_law_radii(rng, n, 0.01, 1.0)
-    radii[:20] = 1.0    # large particles of low index, in the crowd at the boundary
-    box = math.sqrt(np.sum(np.pi * radii**2) / 0.3)
+def empty_sheet(box: float, boundary: str) -> rebound.Simulation:
+    """An empty sheet of one box ``box`` [m] wide: shear-periodic with SEI, or periodic
+    with leapfrog and no shear flow (``boundary``); no collisions or gravity of REBOUND's,
+    dt = 1e-3 orbit."""
     sim = rebound.Simulation()
     shear = boundary == "shear"
     sim.integrator = "sei" if shear else "leapfrog"
@@ -68,6 +62,21 @@ def dense_broad_sheet(seed: int, n: int, boundary: str = "shear") -> rebound.Sim
     sim.collision = "none"
     sim.gravity = "none"
     sim.dt = 1e-3 * 2.0 * math.pi / OMEGA
+    return sim
+
+
+def dense_broad_sheet(seed: int, n: int, boundary: str = "shear") -> rebound.Simulation:
+    """A random shear-periodic (or periodic, without the shear flow: ``boundary``) sheet
+    of 1 cm - 1 m particles (q = 3, tau = 0.3, overlaps
+    allowed, random speeds of 0.3 mm/s: reaches from about 2 cm to 1 m), half of them
+    crowded within 1.5 m of the radial boundary with the 20 of lowest index 1 m large,
+    after one step."""
+    rng = np.random.default_rng(seed)
+    radii = power_law_radii(rng, n, 0.01, 1.0)
+    radii[:20] = 1.0    # large particles of low index, in the crowd at the boundary
+    box = math.sqrt(np.sum(np.pi * radii**2) / 0.3)
+    sim = empty_sheet(box, boundary)
+    shear = boundary == "shear"
     x = rng.uniform(-box / 2, box / 2, n)
     edge = rng.uniform(0.5 * box - 1.5, 0.5 * box + 1.5, n // 2)
     x[: n // 2] = edge - box * (edge >= 0.5 * box)
@@ -146,16 +155,7 @@ def hot_broad_sheet(seed: int, n: int) -> rebound.Simulation:
     radii = power_law_radii(rng, n, 0.02, 0.3)
     radii[:20] = 4.0
     box = math.sqrt(np.sum(np.pi * radii**2) / 0.3)
-    sim = rebound.Simulation()
-    sim.integrator = "sei"
-    sim.OMEGA = sim.OMEGAZ = OMEGA
-    sim.boundary = "shear"
-    sim.root_size = box
-    sim.N_root_x = sim.N_root_y = sim.N_root_z = 1
-    sim.N_ghost_x = sim.N_ghost_y = 1
-    sim.collision = "none"
-    sim.gravity = "none"
-    sim.dt = 1e-3 * 2.0 * math.pi / OMEGA
+    sim = empty_sheet(box, "shear")
     x = rng.uniform(-box / 2, box / 2, n)
     y = rng.uniform(-box / 2, box / 2, n)
     z = rng.normal(0.0, 3.0, n)
