@@ -171,8 +171,8 @@ def hot_broad_sheet(seed: int, n: int) -> rebound.Simulation:
 def test_classes_are_used_where_most_particles_reach_a_quarter_of_the_largest():
     """The choice of the classes weighs the cost of both searches (rs_layout_cost): here
     the class holding the most particles reaches about a quarter of the largest reach,
-    where a rule on that ratio alone kept one grid whose cells, set by the 4 m spheres,
-    hold dozens of small particles each.  The classes find the same pairs."""
+    where a rule on that ratio alone kept one grid with cells set by the 4 m spheres.  The
+    classes find the same pairs."""
     sim = hot_broad_sheet(8, 20000)
     handle = install_resolver(sim, {"model": "constant", "epsilon": 0.5},
                               collision_detection="line")
@@ -247,6 +247,17 @@ def test_self_gravitating_broad_sheet_gives_the_same_bits_with_classes_and_one_g
     assert order["resolved"] > 500, "too few collisions to test anything"
     assert class_order == order
     assert_same_states(states, reference)
+
+
+def test_classes_are_refused_where_they_do_not_pay():
+    """The 0.5-5 m sheet at tau = 0.25 (benchmarks/scale.yaml's), where the classes cost
+    1.3 times the one grid (docs/performance.md), keeps its one grid: the estimate weighs
+    the rows of cells the classes add against the neighbours they spare."""
+    sizes = {"kind": "powerlaw", "q": 3.0, "r_min": 0.5, "r_max": 5.0}    # [m]
+    scenario = broad_scenario(5000, False, sizes)
+    scenario["sheet"]["optical_depth"] = 0.25
+    _, stats, _ = evolve(scenario, detector.MAX_CLASSES, 1, 3)
+    assert stats["classes"] == 1
 
 
 def test_equal_sizes_are_one_class_and_the_same_bits():

@@ -932,11 +932,13 @@ void rs_p3m_short(struct reb_simulation* const r, struct rs_p3m* p){
     /* targets in cell order (sources cached); each target's sum is its own, in a fixed
      * order: the same bits on any number of threads (and either way of rs_p3m_pairs) */
     double scanned = 0.0, within = 0.0;
+    /* the list of all particles leaves out only negative or NaN radii */
+    const size_t targets = all.n;
 #pragma omp parallel for schedule(dynamic, 256) num_threads(rs_p3m_threads(p, n)) \
     reduction(+:scanned, within)
-    for (size_t slot = 0; slot < n; slot++){
+    for (size_t slot = 0; slot < targets; slot++){
         struct reb_particle* const q = &ps[all.order[slot]];
-        if (slot + 1 < n){
+        if (slot + 1 < targets){
             /* the next target's particle, read and written at the ends of a long pair sum
              * and far from this one in REBOUND's array: asked for now, not waited for */
             const struct reb_particle* const next = &ps[all.order[slot + 1]];

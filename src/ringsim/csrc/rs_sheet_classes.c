@@ -34,7 +34,10 @@
  *   into it (Method 3's half shell: then a pair is in reach through one image only,
  *   whatever the grid's cells).
  * - The pairs found do not depend on the grids (the search is complete in any grid and the
- *   reports are an exact set), so neither does any result.
+ *   reports are an exact set), so neither does any result, except after a re-check cut
+ *   at RS_MAX_SPAN s or reaching beyond half the box: that looks at whole cells, which
+ *   differ between the layouts (rs_sheet_detect.c, "Validity limits"; counted as
+ *   span_limited).
  *
  * No global mutable state.
  */
@@ -178,11 +181,12 @@ static double rs_look_cost(const struct rs_cell_grid* c, double distance, int ha
     return half && c->half_shell ? 0.5 * cost : cost;
 }
 
-/* The estimated cost of the search of every particle in the class grids (classes > 1) or
- * in one grid `one` (classes 1, cells[0 .. classes - 1] still giving the particles'
- * classes): each particle of class k searches with half its class's largest reach
- * (its reaches lie within a factor RS_CLASS_RATIO), as rs_search_from does.  A cost
- * only: it decides the layout, never a pair. */
+/* The estimated cost of the search of every particle: in the class grids
+ * cells[0 .. classes - 1] (one NULL), or in the one grid `one` (the class grids then give
+ * only how many particles reach how far).  Each particle of class k is taken to search with
+ * half its class's largest reach, an assumption of the estimate (rs_search_from uses each
+ * particle's own reach; the last class holds every smaller reach).  A cost only: it
+ * decides the layout, never a pair. */
 static double rs_layout_cost(const struct rs_cell_grid* cells, int classes,
                              const struct rs_cell_grid* one, double shear_step){
     double cost = 0.0;
