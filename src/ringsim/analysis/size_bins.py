@@ -136,9 +136,12 @@ def pooled_pair_means(counts: Sequence, means: Sequence) -> tuple[list, list]:
     the mean eps weighted by each run's count (NaN where no run sampled the pair; a run's
     NaN mean counts only where its count is 0).
 
-    counts : sequence of (n, n) arrays [count], one per run
-    means : sequence of (n, n) arrays [dimensionless], the runs' mean eps, NaN or None where
-        not sampled
+    Parameters
+    ----------
+    counts : sequence of (n, n) arrays [count]
+        One per run.
+    means : sequence of (n, n) arrays [dimensionless]
+        The runs' mean eps, NaN or None where not sampled.
     """
     n = np.asarray(counts, float)
     m = np.asarray([[[math.nan if x is None else x for x in row] for row in table]
