@@ -418,3 +418,23 @@ def test_bundled_study_report_comes_back_from_its_committed_summaries(tmp_path):
     assert new == old
     assert (tmp_path / "report.md").read_text() == (committed / "report.md").read_text(
         ).replace(f"ringsim {version} ", f"ringsim {ringsim.__version__} ")
+
+
+def test_cost_of_a_run_with_only_its_last_sessions_is_a_lower_bound():
+    """A run file begun before runs kept their CPU time and resumed since: its summary has
+    ``cpu_time_s`` null and the measured part of its last sessions; the cost section
+    shows the sum as a lower bound, and a run without either as not recorded."""
+    from ringsim.study.markdown import cost_section
+
+    summaries = {"a": {"cost": {"cpu_time_s": 7200.0}},
+                 "b": {"cost": {"cpu_time_s": None, "cpu_time_s_part": 3600.0}},
+                 "c": {"cost": {"cpu_time_s": None}}}
+    report = {"cases": {"k0": {"runs": [{"run": "a"}]}, "k01": {"runs": [{"run": "b"}]},
+                        "k02": {"runs": [{"run": "a"}, {"run": "c"}]}},
+              "variants": {}}
+    lines = cost_section(report, summaries)
+    assert "| k0 | 1 | 2 |" in lines
+    assert "| k01 | 1 | ≥ 1 (1 run(s): their last sessions only) |" in lines
+    assert "| k02 | 2 | 2 (+ 1 run(s) not recorded) |" in lines
+    total = next(line for line in lines if line.startswith("Total:"))
+    assert total.startswith("Total: ≥ 3 CPU-hours for 3 distinct runs. 1 run(s) count only")

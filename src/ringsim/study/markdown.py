@@ -198,8 +198,17 @@ def _cpu_s(summary: Mapping) -> float | None:
 
 
 def _cpu_hours(group: list[Mapping]) -> str:
-    """The CPU-hours of a group of runs' summaries, naming the runs without a CPU time."""
+    """The CPU-hours of a group of runs' summaries, naming the runs without a CPU time; a
+    run with only the part of its last sessions (``cpu_time_s_part``) makes the sum a
+    lower bound."""
     known = [c for c in (_cpu_s(s) for s in group) if c is not None]
+    parts = [float(s["cost"]["cpu_time_s_part"]) for s in group
+             if _cpu_s(s) is None and s["cost"].get("cpu_time_s_part") is not None]
+    if parts:
+        missing = len(group) - len(known) - len(parts)
+        return (f"≥ {(sum(known) + sum(parts)) / 3600:.3g} ({len(parts)} run(s): their "
+                "last sessions only" + (f"; + {missing} not recorded" if missing else "")
+                + ")")
     text = f"{sum(known) / 3600:.3g}" if known else "not recorded"
     missing = len(group) - len(known)
     return text + (f" (+ {missing} run(s) not recorded)" if known and missing else "")
@@ -213,12 +222,19 @@ def cost_section(report: Mapping, summaries: Mapping[str, dict]) -> list[str]:
     rows = [[name, str(len(runs)), _cpu_hours([summaries[r["run"]] for r in runs])]
             for name, runs in groups]
     distinct = sorted({r["run"] for _, runs in groups for r in runs})
-    unknown = [rid for rid in distinct if _cpu_s(summaries[rid]) is None]
-    total = sum(_cpu_s(summaries[rid]) or 0.0 for rid in distinct) / 3600
+    part = [rid for rid in distinct if _cpu_s(summaries[rid]) is None
+            and summaries[rid]["cost"].get("cpu_time_s_part") is not None]
+    unknown = [rid for rid in distinct if _cpu_s(summaries[rid]) is None and rid not in part]
+    total = sum(_cpu_s(summaries[rid]) or summaries[rid]["cost"].get("cpu_time_s_part")
+                or 0.0 for rid in distinct) / 3600
     lines = ["## Cost", "", "CPU time of the sessions that ran each run, from the "
              "summaries (a session killed before its run finished is not counted).", ""]
     lines += _table(["case", "runs", "CPU-hours"], rows)
-    lines += ["", f"Total: {total:.3g} CPU-hours for {len(distinct)} distinct runs."]
+    lines += ["", f"Total: {'≥ ' if part else ''}{total:.3g} CPU-hours for {len(distinct)} "
+              "distinct runs."]
+    if part:
+        lines[-1] += (f" {len(part)} run(s) count only their last sessions: their run files "
+                      "began before runs kept their CPU time.")
     if unknown:
         wall = sum(summaries[rid]["cost"].get("run_wall_time_s") or 0.0 for rid in unknown)
         lines[-1] += (f" {len(unknown)} run(s) were summarised from a finished run file "

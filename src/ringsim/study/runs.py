@@ -369,13 +369,17 @@ def _run_task(task: RunTask) -> TaskResult:
     if status == "finished":
         eq = equilibrium(run)
         kept = run.attrs.get("cpu_time_s")     # the run file's, over all its sessions
-        cpu = (None if task.action == "reuse"
-               else float(kept) if isinstance(kept, (int, float))
-               else time.process_time() - cpu0 + (task.cpu_before or 0.0))
+        measured = time.process_time() - cpu0 + (task.cpu_before or 0.0)
+        # a resumed file without the count began before CPU time was kept: its earlier
+        # sessions are unknown, and this session's time is only a part
+        partial = task.action == "resume" and not isinstance(kept, (int, float))
+        cpu = (None if task.action == "reuse" or partial
+               else float(kept) if isinstance(kept, (int, float)) else measured)
         wall = run.attrs.get("wall_time_s", 0.0)
         cost = task.cost if task.cost is not None else {
             "cpu_time_s": cpu,
-            "run_wall_time_s": float(wall) if isinstance(wall, (int, float)) else None}
+            "run_wall_time_s": float(wall) if isinstance(wall, (int, float)) else None,
+            **({"cpu_time_s_part": measured} if partial else {})}
         write_json(task.summary, make_summary(task.run_id, run, eq, QUANTITIES, cost,
                                               task.keep))
     elif status == "stopped":
