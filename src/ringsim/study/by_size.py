@@ -123,10 +123,11 @@ def _law_shares(law: Sequence[Mapping]) -> dict:
     """The seeds' mean of each share of `LAW_SHARES`; ``inside_all`` over the seeds that
     counted it (summaries made before the count have none), with ``inside_all_seeds``,
     how many, of ``seeds``."""
-    out = {key: sum(_number(x.get(key)) for x in law) / len(law) for key in LAW_SHARES}
     counted = [v for v in (_number(x.get("inside_all")) for x in law) if math.isfinite(v)]
-    out["inside_all"] = sum(counted) / len(counted) if counted else math.nan
-    return {**out, "inside_all_seeds": len(counted), "seeds": len(law)}
+    inside = sum(counted) / len(counted) if counted else math.nan
+    return {**{key: inside if key == "inside_all" else sum(_number(x.get(key)) for x in law)
+               / len(law) for key in LAW_SHARES},
+            "inside_all_seeds": len(counted), "seeds": len(law)}
 
 
 def _pooled_pairs(pairs: Sequence[Mapping | None]) -> dict | None:

@@ -197,20 +197,25 @@ def _cpu_s(summary: Mapping) -> float | None:
     return None if value is None else float(value)
 
 
+def _cpu_part_s(summary: Mapping) -> float | None:
+    """The CPU time [s] of a run's last sessions where its whole is unknown (its run file
+    began before runs kept their CPU time), else None."""
+    value = summary["cost"].get("cpu_time_s_part")
+    return None if _cpu_s(summary) is not None or value is None else float(value)
+
+
 def _cpu_hours(group: list[Mapping]) -> str:
     """The CPU-hours of a group of runs' summaries, naming the runs without a CPU time; a
     run with only the part of its last sessions (``cpu_time_s_part``) makes the sum a
     lower bound."""
     known = [c for c in (_cpu_s(s) for s in group) if c is not None]
-    parts = [float(s["cost"]["cpu_time_s_part"]) for s in group
-             if _cpu_s(s) is None and s["cost"].get("cpu_time_s_part") is not None]
+    parts = [c for c in (_cpu_part_s(s) for s in group) if c is not None]
+    missing = len(group) - len(known) - len(parts)
     if parts:
-        missing = len(group) - len(known) - len(parts)
         return (f"≥ {(sum(known) + sum(parts)) / 3600:.3g} ({len(parts)} run(s): their "
                 "last sessions only" + (f"; + {missing} not recorded" if missing else "")
                 + ")")
     text = f"{sum(known) / 3600:.3g}" if known else "not recorded"
-    missing = len(group) - len(known)
     return text + (f" (+ {missing} run(s) not recorded)" if known and missing else "")
 
 
@@ -222,11 +227,10 @@ def cost_section(report: Mapping, summaries: Mapping[str, dict]) -> list[str]:
     rows = [[name, str(len(runs)), _cpu_hours([summaries[r["run"]] for r in runs])]
             for name, runs in groups]
     distinct = sorted({r["run"] for _, runs in groups for r in runs})
-    part = [rid for rid in distinct if _cpu_s(summaries[rid]) is None
-            and summaries[rid]["cost"].get("cpu_time_s_part") is not None]
+    part = [rid for rid in distinct if _cpu_part_s(summaries[rid]) is not None]
     unknown = [rid for rid in distinct if _cpu_s(summaries[rid]) is None and rid not in part]
-    total = sum(_cpu_s(summaries[rid]) or summaries[rid]["cost"].get("cpu_time_s_part")
-                or 0.0 for rid in distinct) / 3600
+    total = sum(_cpu_s(summaries[rid]) or _cpu_part_s(summaries[rid]) or 0.0
+                for rid in distinct) / 3600
     lines = ["## Cost", "", "CPU time of the sessions that ran each run, from the "
              "summaries (a session killed before its run finished is not counted).", ""]
     lines += _table(["case", "runs", "CPU-hours"], rows)
