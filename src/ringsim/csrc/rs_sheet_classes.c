@@ -60,11 +60,9 @@
  * cells (as the one grid's RS_CELL_DIVISIONS). */
 #define RS_NARROW_DIVISIONS 4
 /* Particles tested that one row of cells costs as much as, in the estimate of a layout's
- * cost (rs_layout_cost): with 8 the estimate's ratio of the classes to the one grid falls
- * on the measured side of 1 in every sheet measured: 1.29 in the 0.5-5 m sheet (measured
- * 1.3), 1.37 in the B-ring preset (1.1-1.2), 0.26-0.33 in sheets of 0.2-5, 0.1-5 and
- * 0.05-5 m (0.49-0.67), 0.53 in the A ring's kappa = 0.1 equilibrium (0.37-0.39)
- * (docs/performance.md, "The detector's choice of classes by estimated cost"). */
+ * cost (rs_layout_cost): chosen so that the estimate picks the layout that was measured
+ * faster in every sheet measured (docs/performance.md, "The detector's choice of classes
+ * by estimated cost"). */
 #ifndef RS_ROW_COST
 #define RS_ROW_COST 8.0
 #endif
