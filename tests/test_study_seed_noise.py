@@ -49,3 +49,35 @@ def test_one_seed_has_no_scatter():
     assert seed_scatter(runs, "a", "b", "velocity_dispersion") is None
     entry = ratio_entry(runs, ("a", "b"), "velocity_dispersion", ["v"], [1])
     assert entry["syst_parts"]["v"]["seed_noise"] is None
+
+
+def test_the_paired_ratio_divides_out_what_a_realisation_gives_both_cases():
+    """Each seed multiplies both cases by its own factor (its draw of the largest
+    particles): the ratio of the seed means keeps that scatter, the seed-paired ratio is
+    exact."""
+    factor = {1: 0.9, 2: 1.0, 3: 1.15}
+    values = {("a", None, s): 1.2 * f for s, f in factor.items()}
+    values.update({("b", None, s): 1.0 * f for s, f in factor.items()})
+    entry = ratio_entry(_runs(values), ("a", "b"), "velocity_dispersion", [], [1])
+    paired = entry["paired"]
+    assert paired["by_seed"] == {str(s): pytest.approx(1.2, rel=1e-14) for s in factor}
+    assert paired["mean"] == pytest.approx(1.2, rel=1e-14)
+    assert paired["stderr"] == pytest.approx(0.0, abs=1e-14)
+    assert entry["stat"] > 0.03   # the seed means' scatter, propagated into their ratio
+
+
+def test_the_paired_ratio_error_is_the_standard_error_of_the_seeds_ratios():
+    num = {1: 5.2, 2: 5.0, 3: 5.3}
+    den = {1: 1.0, 2: 1.1, 3: 0.9}
+    values = {("a", None, s): v for s, v in num.items()}
+    values.update({("b", None, s): v for s, v in den.items()})
+    values[("a", None, 4)] = 7.0          # a seed the denominator did not run
+    paired = ratio_entry(_runs(values), ("a", "b"), "velocity_dispersion", [], [1])["paired"]
+    ratios = [num[s] / den[s] for s in (1, 2, 3)]
+    assert set(paired["by_seed"]) == {"1", "2", "3"}
+    assert paired["mean"] == pytest.approx(float(np.mean(ratios)), rel=1e-12)
+    assert paired["stderr"] == pytest.approx(float(np.std(ratios, ddof=1)) / math.sqrt(3),
+                                             rel=1e-12)
+    one = ratio_entry(_runs({("a", None, 1): 2.0, ("b", None, 1): 1.0}), ("a", "b"),
+                      "velocity_dispersion", [], [1])["paired"]
+    assert one == {"mean": 2.0, "stderr": None, "by_seed": {"1": 2.0}}

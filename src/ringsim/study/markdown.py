@@ -100,6 +100,29 @@ def _ratio_text(entry: Mapping) -> str:
     return f"**{entry['mean']:.4g}** ± {_num(entry['stat'], 2)} (stat){syst_text}"
 
 
+def _paired_lines(report: Mapping) -> list[str]:
+    """Each seed's ratio and their mean (the seed-paired ratio), where a ratio has two or
+    more common seeds."""
+    entries = [e for e in report["ratios"]
+               if e.get("paired") and e["paired"]["stderr"] is not None]
+    if not entries:
+        return []
+    seeds = sorted({int(s) for e in entries for s in e["paired"]["by_seed"]})
+    rows = [[f"{e['numerator']} / {e['denominator']}", _label(e["quantity"])]
+            + [_num(e["paired"]["by_seed"][str(s)]) if str(s) in e["paired"]["by_seed"]
+               else "–" for s in seeds]
+            + [f"**{e['paired']['mean']:.4g}** ± {_num(e['paired']['stderr'], 2)}"]
+            for e in entries]
+    return (["### Seed by seed", "",
+             "Each seed's ratio, of the runs of the two cases with that seed (the same radii "
+             "and starting positions), and their mean with its standard error (the seeds' "
+             "scatter over the square root of their number): the seed-paired ratio. It "
+             "divides out what a realisation gives both cases alike, which the ratio of the "
+             "seed means above keeps in its statistical error.", ""]
+            + _table(["ratio", "quantity", *(f"seed {s}" for s in seeds), "paired mean"],
+                     rows) + [""])
+
+
 def ratios_section(report: Mapping, figure: str | None) -> list[str]:
     if not report["ratios"]:
         return []
@@ -111,6 +134,7 @@ def ratios_section(report: Mapping, figure: str | None) -> list[str]:
     lines += _table(["quantity", *(f"{n} / {d}" for n, d in pairs)], rows) + [""]
     if figure:
         lines += [f"![The ratios with their statistical and total errors]({figure})", ""]
+    lines += _paired_lines(report)
     shifts = [[f"{e['numerator']} / {e['denominator']}", _label(e["quantity"]), variant,
                _num(part["ratio"]), _num(part["ratio_without"]), _num(part["shift"], 2),
                _num(part["noise"], 2), _num(part.get("seed_noise"), 2)]

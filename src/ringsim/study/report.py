@@ -120,19 +120,38 @@ def _case_ratio(runs: Runs, num: str, den: str, quantity: str, variant: str | No
                  seed_mean(runs.of(den, variant, seeds), quantity))
 
 
-def seed_scatter(runs: Runs, num: str, den: str, quantity: str) -> float | None:
-    """The standard deviation over the seeds of one seed's ratio num / den (the seeds both
-    cases ran; None with fewer than two): how far two runs of the ratio differ by
-    realisation alone."""
+def seed_ratios(runs: Runs, num: str, den: str, quantity: str) -> dict[int, float]:
+    """One seed's ratio num / den for every seed both cases ran (a seed whose denominator
+    is 0 is left out).  The cases of a study draw the same radii and positions from one
+    seed, so each seed's ratio divides out what that realisation gives both cases."""
     def by_seed(case: str) -> dict[int, float]:
         return {seed: float(runs.summaries[rid]["equilibrium"][quantity]["mean"])
                 for seed, rid in runs.by_key[(case, None)]}
     top, bottom = by_seed(num), by_seed(den)
-    ratios = [top[s] / bottom[s] for s in sorted(set(top) & set(bottom)) if bottom[s]]
+    return {s: top[s] / bottom[s] for s in sorted(set(top) & set(bottom)) if bottom[s]}
+
+
+def seed_scatter(runs: Runs, num: str, den: str, quantity: str) -> float | None:
+    """The standard deviation over the seeds of one seed's ratio num / den (the seeds both
+    cases ran; None with fewer than two): how far two runs of the ratio differ by
+    realisation alone."""
+    ratios = list(seed_ratios(runs, num, den, quantity).values())
     if len(ratios) < 2:
         return None
     mean = sum(ratios) / len(ratios)
     return math.sqrt(sum((r - mean) ** 2 for r in ratios) / (len(ratios) - 1))
+
+
+def paired_ratio(runs: Runs, num: str, den: str, quantity: str) -> dict:
+    """The seed-paired ratio: the mean over the common seeds of each seed's ratio, with the
+    standard error of that mean (the scatter of the seeds' ratios over sqrt(seeds); None
+    with fewer than two), and each seed's ratio (``by_seed``, keyed by the seed)."""
+    ratios = seed_ratios(runs, num, den, quantity)
+    scatter = seed_scatter(runs, num, den, quantity)
+    mean = sum(ratios.values()) / len(ratios) if ratios else None
+    return {"mean": mean,
+            "stderr": None if scatter is None else scatter / math.sqrt(len(ratios)),
+            "by_seed": {str(s): r for s, r in ratios.items()}}
 
 
 def _variant_part(runs: Runs, num: str, den: str, quantity: str, variant: str,
@@ -165,7 +184,7 @@ def ratio_entry(runs: Runs, pair: tuple[str, str], quantity: str,
             "mean": value["mean"], "stat": value["stderr"], "syst": syst,
             "total": math.hypot(value["stderr"], syst), "units": value["units"],
             "quantity_units": QUANTITIES[quantity][1], "syst_parts": parts,
-            "seed_scatter": scatter,
+            "seed_scatter": scatter, "paired": paired_ratio(runs, num, den, quantity),
             "in_equilibrium": all(s["in_equilibrium"] for s in members)}
 
 
