@@ -143,3 +143,38 @@ def test_pair_eps_is_pooled_by_collisions_and_divided_where_both_sampled_enough(
     text = "\n".join(by_size_lines(by_size_report({"k01": k01, "k0": k0},
                                                   [["k01", "k0"]])))
     assert "| 0.025–0.1 | 0.400 | – |" in text
+
+
+def _bins_of(c_small: float, c_large: float) -> dict:
+    """A summary whose two size bins have the given c (and H = c, in other units)."""
+    summary = _constructed([[0.5, 0.6], [None, 0.9]], [[100, 30], [0, 40]])
+    for b, c in zip(summary["by_size"]["bins"], (c_small, c_large), strict=True):
+        b["velocity_dispersion"] = b["thickness"] = {"mean": c, "stderr": 0.001 * c,
+                                                     "units": "m"}
+    return summary
+
+
+def test_the_bins_seed_paired_ratio_divides_out_each_seeds_draw():
+    """Each seed scales both cases' bins by its own factor: the ratio of the seed means
+    keeps the scatter, the seed-paired ratio of each bin is exact."""
+    factor = {1: 0.9, 2: 1.0, 3: 1.15}
+    k0 = [_bins_of(2.0 * f, 1.0 * f) for f in factor.values()]
+    k01 = [_bins_of(2.4 * f, 0.9 * f) for f in factor.values()]
+    seeds = {"k01": list(factor), "k0": list(factor)}
+    (ratio,) = by_size_report({"k01": k01, "k0": k0}, [["k01", "k0"]], seeds)["ratios"]
+    small, large = ratio["bins"]
+    for b, expected in ((small, 1.2), (large, 0.9)):
+        for q in ("velocity_dispersion", "thickness"):
+            assert b["paired"][q]["mean"] == pytest.approx(expected, rel=1e-14)
+            assert b["paired"][q]["stderr"] == pytest.approx(0.0, abs=1e-14)
+            assert b["paired"][q]["seeds"] == 3
+            assert b[q]["stat"] > 0.05 * expected    # the realisations' scatter
+    text = "\n".join(by_size_lines(by_size_report({"k01": k01, "k0": k0},
+                                                  [["k01", "k0"]], seeds)))
+    assert "c ratio, seed-paired" in text and "| 1.2 ± 0 | 1.2 ± 0 |" in text
+    # a seed only the numerator ran is not paired; without seeds there is no paired ratio
+    seeds_off = {"k01": [1, 2, 4], "k0": [1, 2, 3]}
+    (ratio,) = by_size_report({"k01": k01, "k0": k0}, [["k01", "k0"]], seeds_off)["ratios"]
+    assert ratio["bins"][0]["paired"]["velocity_dispersion"]["seeds"] == 2
+    (plain,) = by_size_report({"k01": k01, "k0": k0}, [["k01", "k0"]])["ratios"]
+    assert "paired" not in plain["bins"][0]

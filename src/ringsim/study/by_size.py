@@ -154,11 +154,37 @@ def _pair_ratio(a: Mapping | None, b: Mapping | None) -> list | None:
                                       strict=True)]
 
 
+def _paired_bins(num: Mapping[int, Mapping], den: Mapping[int, Mapping]) -> list[dict]:
+    """Per size bin, the seed-paired ratio of c and of H: the mean over the common seeds of
+    each seed's bin ratio, with its standard error (None with fewer than two seeds)."""
+    common = [s for s in sorted(set(num) & set(den))
+              if num[s].get("by_size") and den[s].get("by_size")]
+    n_bins = len(num[common[0]]["by_size"]["bins"]) if common else 0
+    out = []
+    for k in range(n_bins):
+        entry = {}
+        for q in ("velocity_dispersion", "thickness"):
+            values = []
+            for s in common:
+                a = _kept(num[s]["by_size"]["bins"][k][q])
+                b = _kept(den[s]["by_size"]["bins"][k][q])
+                if a and b and b["mean"] and math.isfinite(a["mean"] / b["mean"]):
+                    values.append(a["mean"] / b["mean"])
+            mean = sum(values) / len(values) if values else math.nan
+            err = (math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1)
+                             / len(values)) if len(values) > 1 else None)
+            entry[q] = {"mean": mean, "stderr": err, "seeds": len(values)}
+        out.append(entry)
+    return out
+
+
 def by_size_report(cases: Mapping[str, Sequence[Mapping]],
-                   ratios: Sequence[Sequence[str]]) -> dict:
+                   ratios: Sequence[Sequence[str]],
+                   seeds: Mapping[str, Sequence[int]] | None = None) -> dict:
     """The report's ``by_size``: per case its `case_by_size` and whether it is as thin as
     Saturn's rings; per ratio the ratio of c and H in every size bin (cases with the same
-    bins only)."""
+    bins only), and with ``seeds`` (each case's seeds, in the order of its summaries) also
+    their seed-paired ratio in every bin (``paired``)."""
     per_case = {case: case_by_size(summaries) for case, summaries in cases.items()}
     for entry in per_case.values():
         if entry is None:
@@ -173,11 +199,17 @@ def by_size_report(cases: Mapping[str, Sequence[Mapping]],
         if a is None or b is None or [(x["r_low"], x["r_high"]) for x in a["bins"]] != \
                 [(x["r_low"], x["r_high"]) for x in b["bins"]]:
             continue
-        out_ratios.append({"numerator": num, "denominator": den, "bins": [
-            {"r_low": x["r_low"], "r_high": x["r_high"],
-             **{q: _ratio(x[q], y[q]) for q in ("velocity_dispersion", "thickness")}}
-            for x, y in zip(a["bins"], b["bins"], strict=True)],
-            "pair_epsilon": _pair_ratio(a.get("pair_epsilon"), b.get("pair_epsilon"))})
+        bins = [{"r_low": x["r_low"], "r_high": x["r_high"],
+                 **{q: _ratio(x[q], y[q]) for q in ("velocity_dispersion", "thickness")}}
+                for x, y in zip(a["bins"], b["bins"], strict=True)]
+        if seeds is not None:
+            paired = _paired_bins(dict(zip(seeds[num], cases[num], strict=True)),
+                                  dict(zip(seeds[den], cases[den], strict=True)))
+            for entry, pair in zip(bins, paired, strict=True):
+                entry["paired"] = pair
+        out_ratios.append({"numerator": num, "denominator": den, "bins": bins,
+                           "pair_epsilon": _pair_ratio(a.get("pair_epsilon"),
+                                                       b.get("pair_epsilon"))})
     return {"cases": {c: e for c, e in per_case.items() if e is not None},
             "ratios": out_ratios,
             "saturn": {"full_thickness_m": SATURN_FULL_THICKNESS,
@@ -242,14 +274,34 @@ def by_size_lines(section: Mapping) -> list[str]:
               "whose summaries counted them ('–': none did; summaries made before the "
               "resolver counted them have no count)."]
     for ratio in section.get("ratios", []):
-        lines += ["", f"Ratio {ratio['numerator']} / {ratio['denominator']} in each size bin "
-                  "(statistical errors):", "",
-                  "| size bin [m] | c ratio | H ratio |", "|---|---|---|"]
-        for b in ratio["bins"]:
-            lines.append(f"| {b['r_low']:.3g}–{b['r_high']:.3g} | "
-                         f"{_pm(b['velocity_dispersion'])} | {_pm(b['thickness'])} |")
-        lines += _pair_lines(ratio)
+        lines += _bin_ratio_lines(ratio) + _pair_lines(ratio)
     return lines + [""]
+
+
+def _bin_ratio_lines(ratio: Mapping) -> list[str]:
+    """The ratio of c and H in each size bin, of the seed means and, where two or more
+    seeds are common to both cases, seed-paired."""
+    paired = any(b.get("paired", {}).get("velocity_dispersion", {}).get("stderr")
+                 is not None for b in ratio["bins"])
+    head = "| size bin [m] | c ratio | H ratio |" + (
+        " c ratio, seed-paired | H ratio, seed-paired |" if paired else "")
+    lines = ["", f"Ratio {ratio['numerator']} / {ratio['denominator']} in each size bin "
+             "(statistical errors" + ("; seed-paired: the mean of each common seed's ratio "
+                                      "with its standard error" if paired else "") + "):",
+             "", head, "|---|---|---|" + ("---|---|" if paired else "")]
+    for b in ratio["bins"]:
+        row = (f"| {b['r_low']:.3g}–{b['r_high']:.3g} | {_pm(b['velocity_dispersion'])} | "
+               f"{_pm(b['thickness'])} |")
+        if paired:
+            row += "".join(f" {_pm(_paired_value(b['paired'][q]))} |"
+                           for q in ("velocity_dispersion", "thickness"))
+        lines.append(row)
+    return lines
+
+
+def _paired_value(value: Mapping) -> dict:
+    return {"mean": value["mean"],
+            "stderr": math.nan if value["stderr"] is None else value["stderr"]}
 
 
 def _inside_all(law: Mapping) -> str:

@@ -254,5 +254,7 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
 
 def _by_size(study, runs: Runs) -> dict:
     """``{"by_size": ...}`` when a case has runs of more than one radius, else {}."""
-    section = by_size_report({case: runs.of(case) for case, _ in study.cases}, study.ratios)
+    section = by_size_report({case: runs.of(case) for case, _ in study.cases}, study.ratios,
+                             {case: [seed for seed, _ in runs.by_key[(case, None)]]
+                              for case, _ in study.cases})
     return {"by_size": section} if section["cases"] else {}
