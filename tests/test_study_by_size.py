@@ -178,3 +178,19 @@ def test_the_bins_seed_paired_ratio_divides_out_each_seeds_draw():
     assert ratio["bins"][0]["paired"]["velocity_dispersion"]["seeds"] == 2
     (plain,) = by_size_report({"k01": k01, "k0": k0}, [["k01", "k0"]])["ratios"]
     assert "paired" not in plain["bins"][0]
+
+
+def test_each_bins_share_of_the_mass_is_its_count_times_its_mean_mass():
+    """Two bins: 90 particles of 10 g and 10 of 1 kg hold 0.9 and 10 kg."""
+    one = _constructed([[0.5, 0.6], [None, 0.9]], [[100, 30], [0, 40]])
+    other = _constructed([[0.5, 0.6], [None, 0.9]], [[100, 30], [0, 40]])
+    other["by_size"]["bins"][1]["n"] = 12       # another seed draws two more large ones
+    small, large = case_by_size([one, other])["bins"]
+    assert large["n"] == 11.0 and small["n"] == 90.0
+    shares = [(0.9 / 10.9, 0.9 / 12.9), (10 / 10.9, 12 / 12.9)]
+    for b, (a, c) in zip((small, large), shares, strict=True):
+        assert b["mass_share"]["mean"] == pytest.approx((a + c) / 2, rel=1e-12)
+        assert b["mass_share"]["stderr"] == pytest.approx(abs(a - c) / 2, rel=1e-12)
+    assert small["mass_share"]["mean"] + large["mass_share"]["mean"] == pytest.approx(1.0)
+    text = "\n".join(by_size_lines(by_size_report({"a": [one, other]}, [])))
+    assert "| a | 90 (7.62 ± 0.64 %) | 11 (92.4 ± 0.64 %) |" in text

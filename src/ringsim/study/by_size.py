@@ -101,10 +101,13 @@ def case_by_size(summaries: Sequence[Mapping]) -> dict | None:
     edges = [[(b["r_low"], b["r_high"]) for b in e["bins"]] for e in entries]
     if any(e != edges[0] for e in edges):
         return None
+    shares = [_mass_shares(e["bins"]) for e in entries]
     bins = []
     for k, (low, high) in enumerate(edges[0]):
         bins.append({"r_low": low, "r_high": high,
                      "mean_mass": entries[0]["bins"][k]["mean_mass"],
+                     "n": sum(e["bins"][k]["n"] for e in entries) / len(entries),
+                     "mass_share": _spread([share[k] for share in shares]),
                      **{q: _seed_mean([e["bins"][k][q] for e in entries])
                         for q in ("velocity_dispersion", "thickness")}})
     law = [e["law_range"] for e in entries if e["law_range"]]
@@ -117,6 +120,21 @@ def case_by_size(summaries: Sequence[Mapping]) -> dict | None:
         "law_masses": entries[0].get("law_masses"),
         "pair_epsilon": _pooled_pairs([e.get("pair_epsilon") for e in entries]),
     }
+
+
+def _mass_shares(bins: Sequence[Mapping]) -> list[float]:
+    """Each size bin's share of the sheet's mass (its count times its mean mass)."""
+    masses = [b["n"] * _number(b["mean_mass"]) for b in bins]
+    total = sum(masses)
+    return [m / total if total > 0 else math.nan for m in masses]
+
+
+def _spread(values: Sequence[float]) -> dict:
+    """The mean over the seeds and its standard error (NaN with one seed)."""
+    mean = sum(values) / len(values)
+    err = (math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1) / len(values))
+           if len(values) > 1 else math.nan)
+    return {"mean": mean, "stderr": err, "units": "fraction of the mass"}
 
 
 def _law_shares(law: Sequence[Mapping]) -> dict:
@@ -273,9 +291,40 @@ def by_size_lines(section: Mapping) -> list[str]:
               "reduced mass all lie where the law was measured, the mean over the seeds "
               "whose summaries counted them ('–': none did; summaries made before the "
               "resolver counted them have no count)."]
+    lines += _population_lines(cases)
     for ratio in section.get("ratios", []):
         lines += _bin_ratio_lines(ratio) + _pair_lines(ratio)
     return lines + [""]
+
+
+def _population_lines(cases: Mapping[str, Mapping]) -> list[str]:
+    """Each size bin's particles and share of the mass, one table per set of bin edges:
+    where a few large particles hold most of the mass, the seeds' realisations of them
+    differ in surface density, and the mass-weighted field is grainy."""
+    groups: dict[tuple, list[str]] = {}
+    for case, e in cases.items():
+        groups.setdefault(tuple((b["r_low"], b["r_high"]) for b in e["bins"]), []).append(case)
+    lines = []
+    for edges, names in groups.items():
+        lines += ["", "Particles in each size bin and the bin's share of the mass (mean over "
+                  "the seeds, with its standard error):", "",
+                  "| case | " + " | ".join(f"{lo:.3g}–{hi:.3g} m" for lo, hi in edges) + " |",
+                  "|---|" + "---|" * len(edges)]
+        for case in names:
+            lines.append(f"| {case} | " + " | ".join(
+                f"{_count(b['n'])} ({_percent(b['mass_share'])})"
+                for b in cases[case]["bins"]) + " |")
+    return lines
+
+
+def _count(n: float) -> str:
+    """A seed mean of counts: whole above 100, three figures below."""
+    return f"{n:.0f}" if n >= 100 else f"{n:.3g}"
+
+
+def _percent(share: Mapping) -> str:
+    mean, err = 100.0 * share["mean"], 100.0 * share["stderr"]
+    return f"{mean:.3g} ± {err:.2g} %" if math.isfinite(err) else f"{mean:.3g} %"
 
 
 def _bin_ratio_lines(ratio: Mapping) -> list[str]:
