@@ -166,16 +166,19 @@ def test_the_bins_seed_paired_ratio_divides_out_each_seeds_draw():
     for b, expected in ((small, 1.2), (large, 0.9)):
         for q in ("velocity_dispersion", "thickness"):
             assert b["paired"][q]["mean"] == pytest.approx(expected, rel=1e-14)
-            assert b["paired"][q]["stderr"] == pytest.approx(0.0, abs=1e-14)
-            assert b["paired"][q]["seeds"] == 3
+            assert b["paired"][q]["stderr_seeds"] == pytest.approx(0.0, abs=1e-14)
+            # left: the window errors, 0.1 % per case: sqrt(2/3) 0.1 % on the mean ratio
+            assert b["paired"][q]["stderr"] == pytest.approx(
+                expected * 0.001 * math.sqrt(2.0 / 3.0), rel=1e-12)
+            assert b["paired"][q]["n_replicas"] == 3
             assert b[q]["stat"] > 0.05 * expected    # the realisations' scatter
     text = "\n".join(by_size_lines(by_size_report({"k01": k01, "k0": k0},
                                                   [["k01", "k0"]], seeds)))
-    assert "c ratio, seed-paired" in text and "| 1.2 ± 0 | 1.2 ± 0 |" in text
+    assert "c ratio, seed-paired" in text and "| 1.2 ± 0.00098 | 1.2 ± 0.00098 |" in text
     # a seed only the numerator ran is not paired; without seeds there is no paired ratio
     seeds_off = {"k01": [1, 2, 4], "k0": [1, 2, 3]}
     (ratio,) = by_size_report({"k01": k01, "k0": k0}, [["k01", "k0"]], seeds_off)["ratios"]
-    assert ratio["bins"][0]["paired"]["velocity_dispersion"]["seeds"] == 2
+    assert ratio["bins"][0]["paired"]["velocity_dispersion"]["n_replicas"] == 2
     (plain,) = by_size_report({"k01": k01, "k0": k0}, [["k01", "k0"]])["ratios"]
     assert "paired" not in plain["bins"][0]
 

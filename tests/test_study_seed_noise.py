@@ -62,8 +62,10 @@ def test_the_paired_ratio_divides_out_what_a_realisation_gives_both_cases():
     paired = entry["paired"]
     assert paired["by_seed"] == {str(s): pytest.approx(1.2, rel=1e-14) for s in factor}
     assert paired["mean"] == pytest.approx(1.2, rel=1e-14)
-    assert paired["stderr"] == pytest.approx(0.0, abs=1e-14)
-    assert entry["stat"] > 0.03   # the seed means' scatter, propagated into their ratio
+    assert paired["stderr_seeds"] == pytest.approx(0.0, abs=1e-14)
+    # what is left is each seed's window error: 1 % on each case, sqrt(2) % on a ratio
+    assert paired["stderr"] == pytest.approx(1.2 * 0.01 * math.sqrt(2.0 / 3.0), rel=1e-12)
+    assert entry["stat"] > 5 * paired["stderr"]   # the seed means keep the scatter
 
 
 def test_the_paired_ratio_error_is_the_standard_error_of_the_seeds_ratios():
@@ -76,8 +78,11 @@ def test_the_paired_ratio_error_is_the_standard_error_of_the_seeds_ratios():
     ratios = [num[s] / den[s] for s in (1, 2, 3)]
     assert set(paired["by_seed"]) == {"1", "2", "3"}
     assert paired["mean"] == pytest.approx(float(np.mean(ratios)), rel=1e-12)
-    assert paired["stderr"] == pytest.approx(float(np.std(ratios, ddof=1)) / math.sqrt(3),
-                                             rel=1e-12)
+    sem = float(np.std(ratios, ddof=1)) / math.sqrt(3)
+    assert paired["stderr_seeds"] == pytest.approx(sem, rel=1e-12)
+    assert paired["stderr"] == pytest.approx(sem, rel=1e-12)   # above the window errors
+    assert paired["n_replicas"] == 3
     one = ratio_entry(_runs({("a", None, 1): 2.0, ("b", None, 1): 1.0}), ("a", "b"),
-                      "velocity_dispersion", [], [1])["paired"]
-    assert one == {"mean": 2.0, "stderr": None, "by_seed": {"1": 2.0}}
+                      "velocity_dispersion", [], [1])
+    assert one["paired"]["n_replicas"] == 1 and one["paired"]["by_seed"] == {"1": 2.0}
+    assert one["paired"]["stderr"] == pytest.approx(one["stat"], rel=1e-12)

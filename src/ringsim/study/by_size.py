@@ -173,8 +173,8 @@ def _pair_ratio(a: Mapping | None, b: Mapping | None) -> list | None:
 
 
 def _paired_bins(num: Mapping[int, Mapping], den: Mapping[int, Mapping]) -> list[dict]:
-    """Per size bin, the seed-paired ratio of c and of H: the mean over the common seeds of
-    each seed's bin ratio, with its standard error (None with fewer than two seeds)."""
+    """Per size bin, the seed-paired ratio of c and of H: each common seed's bin ratio
+    (``_ratio``) combined over the seeds as a case's seeds are (``budget.replica_mean``)."""
     common = [s for s in sorted(set(num) & set(den))
               if num[s].get("by_size") and den[s].get("by_size")]
     n_bins = len(num[common[0]]["by_size"]["bins"]) if common else 0
@@ -182,16 +182,12 @@ def _paired_bins(num: Mapping[int, Mapping], den: Mapping[int, Mapping]) -> list
     for k in range(n_bins):
         entry = {}
         for q in ("velocity_dispersion", "thickness"):
-            values = []
-            for s in common:
-                a = _kept(num[s]["by_size"]["bins"][k][q])
-                b = _kept(den[s]["by_size"]["bins"][k][q])
-                if a and b and b["mean"] and math.isfinite(a["mean"] / b["mean"]):
-                    values.append(a["mean"] / b["mean"])
-            mean = sum(values) / len(values) if values else math.nan
-            err = (math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1)
-                             / len(values)) if len(values) > 1 else None)
-            entry[q] = {"mean": mean, "stderr": err, "seeds": len(values)}
+            found = [_ratio(_kept(num[s]["by_size"]["bins"][k][q]),
+                            _kept(den[s]["by_size"]["bins"][k][q])) for s in common]
+            values = [{"mean": r["mean"], "stderr": r["stat"], "units": r["units"]}
+                      for r in found if r is not None and math.isfinite(r["mean"])]
+            entry[q] = (budget.replica_mean(values) if values else
+                        {"mean": math.nan, "stderr": math.nan, "n_replicas": 0})
         out.append(entry)
     return out
 
@@ -330,27 +326,22 @@ def _percent(share: Mapping) -> str:
 def _bin_ratio_lines(ratio: Mapping) -> list[str]:
     """The ratio of c and H in each size bin, of the seed means and, where two or more
     seeds are common to both cases, seed-paired."""
-    paired = any(b.get("paired", {}).get("velocity_dispersion", {}).get("stderr")
-                 is not None for b in ratio["bins"])
+    paired = any(b.get("paired", {}).get("velocity_dispersion", {}).get("n_replicas", 0)
+                 > 1 for b in ratio["bins"])
     head = "| size bin [m] | c ratio | H ratio |" + (
         " c ratio, seed-paired | H ratio, seed-paired |" if paired else "")
     lines = ["", f"Ratio {ratio['numerator']} / {ratio['denominator']} in each size bin "
-             "(statistical errors" + ("; seed-paired: the mean of each common seed's ratio "
-                                      "with its standard error" if paired else "") + "):",
+             "(statistical errors" + ("; seed-paired: the mean of each common seed's ratio, "
+                                      "combined as a case's seeds are" if paired else "") + "):",
              "", head, "|---|---|---|" + ("---|---|" if paired else "")]
     for b in ratio["bins"]:
         row = (f"| {b['r_low']:.3g}–{b['r_high']:.3g} | {_pm(b['velocity_dispersion'])} | "
                f"{_pm(b['thickness'])} |")
         if paired:
-            row += "".join(f" {_pm(_paired_value(b['paired'][q]))} |"
+            row += "".join(f" {_pm(b['paired'][q])} |"
                            for q in ("velocity_dispersion", "thickness"))
         lines.append(row)
     return lines
-
-
-def _paired_value(value: Mapping) -> dict:
-    return {"mean": value["mean"],
-            "stderr": math.nan if value["stderr"] is None else value["stderr"]}
 
 
 def _inside_all(law: Mapping) -> str:

@@ -104,7 +104,7 @@ def _paired_lines(report: Mapping) -> list[str]:
     """Each seed's ratio and their mean (the seed-paired ratio), where a ratio has two or
     more common seeds."""
     entries = [e for e in report["ratios"]
-               if e.get("paired") and e["paired"]["stderr"] is not None]
+               if e.get("paired") and e["paired"]["n_replicas"] > 1]
     if not entries:
         return []
     seeds = sorted({int(s) for e in entries for s in e["paired"]["by_seed"]})
@@ -115,8 +115,8 @@ def _paired_lines(report: Mapping) -> list[str]:
             for e in entries]
     return (["### Seed by seed", "",
              "Each seed's ratio, of the runs of the two cases with that seed (the same radii "
-             "and starting positions), and their mean with its standard error (the seeds' "
-             "scatter over the square root of their number): the seed-paired ratio. It "
+             "and starting positions), and their mean with the larger of the propagated window "
+             "error and the seeds' standard error of the mean: the seed-paired ratio. It "
              "divides out what a realisation gives both cases alike, which the ratio of the "
              "seed means above keeps in its statistical error.", ""]
             + _table(["ratio", "quantity", *(f"seed {s}" for s in seeds), "paired mean"],

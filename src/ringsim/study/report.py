@@ -143,15 +143,20 @@ def seed_scatter(runs: Runs, num: str, den: str, quantity: str) -> float | None:
 
 
 def paired_ratio(runs: Runs, num: str, den: str, quantity: str) -> dict:
-    """The seed-paired ratio: the mean over the common seeds of each seed's ratio, with the
-    standard error of that mean (the scatter of the seeds' ratios over sqrt(seeds); None
-    with fewer than two), and each seed's ratio (``by_seed``, keyed by the seed)."""
-    ratios = seed_ratios(runs, num, den, quantity)
-    scatter = seed_scatter(runs, num, den, quantity)
-    mean = sum(ratios.values()) / len(ratios) if ratios else None
-    return {"mean": mean,
-            "stderr": None if scatter is None else scatter / math.sqrt(len(ratios)),
-            "by_seed": {str(s): r for s, r in ratios.items()}}
+    """The seed-paired ratio: the mean over the common seeds of each seed's ratio (its
+    window errors propagated, ``analysis.compare.ratio``), with the larger of the
+    propagated error and the seeds' standard error of the mean (``budget.replica_mean``),
+    and each seed's ratio (``by_seed``, keyed by the seed).  None without a common seed."""
+    def by_seed(case: str) -> dict[int, dict]:
+        return {seed: budget.replica_value(runs.summaries[rid]["equilibrium"][quantity])
+                for seed, rid in runs.by_key[(case, None)]}
+    top, bottom = by_seed(num), by_seed(den)
+    ratios = {s: ratio(top[s], bottom[s]) for s in sorted(set(top) & set(bottom))
+              if bottom[s]["mean"]}
+    if not ratios:
+        return {"mean": None, "stderr": None, "n_replicas": 0, "by_seed": {}}
+    return {**budget.replica_mean(list(ratios.values())),
+            "by_seed": {str(s): r["mean"] for s, r in ratios.items()}}
 
 
 def _variant_part(runs: Runs, num: str, den: str, quantity: str, variant: str,
