@@ -2,7 +2,9 @@
 
 Each ratio of the study (numerator case / denominator case) is one series: its value for
 every quantity of the report, a thick error bar for the statistical error and a thin one
-for the total (statistical and systematic in quadrature, where measured).  The ratios are
+for the total (statistical and systematic in quadrature, where measured).  Where its cases
+have two or more seeds in common, an open marker beside it gives the seed-paired ratio
+with its statistical error.  The ratios are
 pure numbers; the dashed line marks 1 (no change).  The legend sits above the axes, off
 the data.
 """
@@ -21,6 +23,19 @@ from ringsim.plots.common import pyplot, run_style, save_figure, set_readable_ax
 
 def _finite(x) -> float:
     return float(x) if x is not None and math.isfinite(x) else math.nan
+
+
+def _paired_series(ax, entries: list[Mapping], x, style: Mapping, label: str) -> list[float]:
+    """The seed-paired ratios (open markers, their statistical error) beside the ratios of
+    the seed means, where two or more seeds are common; the values they reach."""
+    paired = [e.get("paired") or {} for e in entries]
+    if not any(p.get("n_replicas", 0) > 1 for p in paired):
+        return []
+    mean = np.array([_finite(p.get("mean")) for p in paired])
+    err = np.nan_to_num(np.array([_finite(p.get("stderr")) for p in paired]))
+    ax.errorbar(x, mean, yerr=err, fmt=style["marker"], color=style["color"],
+                markerfacecolor="white", elinewidth=1.4, capsize=2, label=label)
+    return list(mean - err) + list(mean + err)
 
 
 def ratio_figure(report: Mapping):
@@ -49,6 +64,8 @@ def ratio_figure(report: Mapping):
                     elinewidth=2.6, capsize=0, label=f"{num} / {den}")
         reach = np.nan_to_num(total)   # a ratio without an error (one seed) is still shown
         shown += list(mean - reach) + list(mean + reach)
+        shown += _paired_series(ax, [by[(num, den, q)] for q in quantities], x + width / 3,
+                                style, f"{num} / {den}, seed-paired")
     ax.axhline(1.0, color="0.4", linestyle="--", linewidth=0.8, label="1 (no change)")
     positive = [v for v in shown if math.isfinite(v) and v > 0]
     set_readable_axis(ax, "y", positive if len(positive) == len(shown) else shown)
@@ -59,8 +76,10 @@ def ratio_figure(report: Mapping):
     ax.set_ylabel("ratio [dimensionless]")
     ax.grid(axis="y", color="0.9")
     form = f"{report['form']} form" + (", partial" if report.get("partial") else "")
+    paired = any((e.get("paired") or {}).get("n_replicas", 0) > 1 for e in entries)
     title = (f"study {report['study']} ({form}): thick bars statistical, "
-             "thin bars total error")
+             "thin bars total error" + ("\nopen markers: the seed-paired ratio" if paired
+                                        else ""))
     for ncols in range(min(len(pairs) + 1, 4), 0, -1):   # the most columns that fit
         legend = fig.legend(loc="outside upper center", ncols=ncols, frameon=False,
                             title=title)
