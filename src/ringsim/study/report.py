@@ -120,22 +120,24 @@ def _case_ratio(runs: Runs, num: str, den: str, quantity: str, variant: str | No
                  seed_mean(runs.of(den, variant, seeds), quantity))
 
 
-def seed_ratios(runs: Runs, num: str, den: str, quantity: str) -> dict[int, float]:
-    """One seed's ratio num / den for every seed both cases ran (a seed whose denominator
+def seed_ratios(runs: Runs, num: str, den: str, quantity: str) -> dict[int, dict]:
+    """Each seed's ratio num / den, its window errors propagated
+    (``analysis.compare.ratio``), for every seed both cases ran (a seed whose denominator
     is 0 is left out).  The cases of a study draw the same radii and positions from one
     seed, so each seed's ratio divides out what that realisation gives both cases."""
-    def by_seed(case: str) -> dict[int, float]:
-        return {seed: float(runs.summaries[rid]["equilibrium"][quantity]["mean"])
+    def by_seed(case: str) -> dict[int, dict]:
+        return {seed: budget.replica_value(runs.summaries[rid]["equilibrium"][quantity])
                 for seed, rid in runs.by_key[(case, None)]}
     top, bottom = by_seed(num), by_seed(den)
-    return {s: top[s] / bottom[s] for s in sorted(set(top) & set(bottom)) if bottom[s]}
+    return {s: ratio(top[s], bottom[s]) for s in sorted(set(top) & set(bottom))
+            if bottom[s]["mean"]}
 
 
 def seed_scatter(runs: Runs, num: str, den: str, quantity: str) -> float | None:
     """The standard deviation over the seeds of one seed's ratio num / den (the seeds both
     cases ran; None with fewer than two): how far two runs of the ratio differ by
     realisation alone."""
-    ratios = list(seed_ratios(runs, num, den, quantity).values())
+    ratios = [r["mean"] for r in seed_ratios(runs, num, den, quantity).values()]
     if len(ratios) < 2:
         return None
     mean = sum(ratios) / len(ratios)
@@ -143,16 +145,11 @@ def seed_scatter(runs: Runs, num: str, den: str, quantity: str) -> float | None:
 
 
 def paired_ratio(runs: Runs, num: str, den: str, quantity: str) -> dict:
-    """The seed-paired ratio: the mean over the common seeds of each seed's ratio (its
-    window errors propagated, ``analysis.compare.ratio``), with the larger of the
-    propagated error and the seeds' standard error of the mean (``budget.replica_mean``),
-    and each seed's ratio (``by_seed``, keyed by the seed).  None without a common seed."""
-    def by_seed(case: str) -> dict[int, dict]:
-        return {seed: budget.replica_value(runs.summaries[rid]["equilibrium"][quantity])
-                for seed, rid in runs.by_key[(case, None)]}
-    top, bottom = by_seed(num), by_seed(den)
-    ratios = {s: ratio(top[s], bottom[s]) for s in sorted(set(top) & set(bottom))
-              if bottom[s]["mean"]}
+    """The seed-paired ratio: the mean over the common seeds of each seed's ratio
+    (`seed_ratios`), with the larger of the propagated error and the seeds' standard error
+    of the mean (``budget.replica_mean``), and each seed's ratio (``by_seed``, keyed by the
+    seed); mean and error None without a common seed."""
+    ratios = seed_ratios(runs, num, den, quantity)
     if not ratios:
         return {"mean": None, "stderr": None, "n_replicas": 0, "by_seed": {}}
     return {**budget.replica_mean(list(ratios.values())),
