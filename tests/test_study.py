@@ -438,3 +438,23 @@ def test_cost_of_a_run_with_only_its_last_sessions_is_a_lower_bound():
     assert "| k02 | 2 | 2 (+ 1 run(s) not recorded) |" in lines
     total = next(line for line in lines if line.startswith("Total:"))
     assert total.startswith("Total: ≥ 3 CPU-hours for 3 distinct runs. 1 run(s) count only")
+
+
+def test_cost_of_a_variant_counts_the_runs_it_shares_with_its_case_once():
+    """A variant that does not change a case keeps that case's runs: its row names them as
+    counted in the case's row instead of counting their CPU time a second time, and the
+    total counts every distinct run once."""
+    from ringsim.study.markdown import cost_section
+
+    summaries = {"a": {"cost": {"cpu_time_s": 7200.0}},
+                 "b": {"cost": {"cpu_time_s": 3600.0}},
+                 "v": {"cost": {"cpu_time_s": 1800.0}}}
+    report = {"cases": {"k0": {"runs": [{"run": "a"}]}, "k01": {"runs": [{"run": "b"}]}},
+              "variants": {"box": {"runs": {"k0": [{"run": "v"}], "k01": [{"run": "b"}]}},
+                           "both": {"runs": {"k0": [{"run": "a"}, {"run": "v"}]}}}}
+    lines = cost_section(report, summaries)
+    assert "| k0 [box] | 1 | 0.5 |" in lines
+    assert "| k01 [box] | 1 | the runs of k01, counted in its row |" in lines
+    assert "| k0 [both] | 2 | 0.5 (+ 1 run(s) of k0, counted in its row) |" in lines
+    total = next(line for line in lines if line.startswith("Total:"))
+    assert total == "Total: 3.5 CPU-hours for 3 distinct runs."

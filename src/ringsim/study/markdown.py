@@ -228,7 +228,7 @@ def _cpu_part_s(summary: Mapping) -> float | None:
     return None if _cpu_s(summary) is not None or value is None else float(value)
 
 
-def _cpu_hours(group: list[Mapping]) -> str:
+def _cpu_hours(group: Sequence[Mapping]) -> str:
     """The CPU-hours of a group of runs' summaries, naming the runs without a CPU time; a
     run with only the part of its last sessions (``cpu_time_s_part``) makes the sum a
     lower bound."""
@@ -243,13 +243,29 @@ def _cpu_hours(group: list[Mapping]) -> str:
     return text + (f" (+ {missing} run(s) not recorded)" if known and missing else "")
 
 
+def _variant_cpu_hours(runs: list[Mapping], base: set[str], case: str,
+                      summaries: Mapping[str, dict]) -> str:
+    """The CPU-hours of a variant's runs of ``case``, without the runs it shares with the
+    case (``base``: a variant that does not change a case keeps that case's runs, whose
+    cost its own row counts)."""
+    own = [summaries[r["run"]] for r in runs if r["run"] not in base]
+    shared = len(runs) - len(own)
+    if not own:
+        return f"the runs of {case}, counted in its row"
+    return _cpu_hours(own) + (f" (+ {shared} run(s) of {case}, counted in its row)"
+                              if shared else "")
+
+
 def cost_section(report: Mapping, summaries: Mapping[str, dict]) -> list[str]:
     """CPU-hours of each case and variant, from the summaries' ``cost``."""
     groups = [(case, entry["runs"]) for case, entry in report["cases"].items()]
-    groups += [(f"{case} [{name}]", runs) for name, v in report["variants"].items()
-               for case, runs in v["runs"].items()]
     rows = [[name, str(len(runs)), _cpu_hours([summaries[r["run"]] for r in runs])]
             for name, runs in groups]
+    for name, v in report["variants"].items():
+        for case, runs in v["runs"].items():
+            groups.append((f"{case} [{name}]", runs))
+            rows.append([groups[-1][0], str(len(runs)), _variant_cpu_hours(
+                runs, {r["run"] for r in report["cases"][case]["runs"]}, case, summaries)])
     distinct = sorted({r["run"] for _, runs in groups for r in runs})
     part = [rid for rid in distinct if _cpu_part_s(summaries[rid]) is not None]
     unknown = [rid for rid in distinct if _cpu_s(summaries[rid]) is None and rid not in part]
