@@ -274,7 +274,9 @@ def test_gravitating_summary_holds_the_occultations_and_the_report_its_table(gra
     assert table["published"]["A_height_over_width"]["low"] == 0.15
     md = grav_study["md"]
     assert "## Against Cassini" in md and "Colwell et al. 2006" in md
-    row = "| gravity | 0 | kind monodisperse, radius 1.0 | none | 1 (0 with a wake) | no wake |"
+    q = markdown._pm(entry["toomre_Q_mass"])
+    row = (f"| gravity | 0 | kind monodisperse, radius 1.0 | none | 1 (0 with a wake) | {q} "
+           "| no wake |")
     assert row in md
     assert "**no significant wake** |" in md and "**no wakes (no self-gravity)** |" in md
 
@@ -369,3 +371,68 @@ def test_a_vertical_view_has_no_peak_azimuth():
               "transmission_stderr": 0.005} for b in (10.0, 90.0) for a in (0.0, 45.0, 90.0)]
     assert _asymmetry(views, 10.0)["peak_transmission_azimuth_deg"] == 0.0
     assert math.isnan(_asymmetry(views, 90.0)["peak_transmission_azimuth_deg"])
+
+
+def test_gravitating_summary_keeps_toomre_q_of_the_window_by_mass(grav_study):
+    """The summary's ``gravity`` holds analyze's Toomre Q from the mass-weighted sigma_x of
+    the window's snapshots: here recomputed by hand from the run file's snapshots,
+    sigma_x^2 = sum m (v_x - <v_x>_m)^2 / sum m (the shear flow is azimuthal, so v_x is
+    the velocity relative to it), Q = sigma_x Omega / (3.36 G Sigma) with Sigma = M / (Lx
+    Ly), averaged over the snapshots; the report gives it per case and the column."""
+    from ringsim.analysis.observe import window_snapshots
+    from ringsim.store.runfile import open_run
+
+    rid = grav_study["ids"]["gravity"]
+    summary = json.loads((grav_study["folder"] / "summaries" / f"{rid}.json").read_text())
+    gravity = summary["gravity"]
+    assert set(gravity) == set(cassini.GRAVITY)
+    assert gravity["toomre_Q_mass"]["units"] == "dimensionless"
+    assert gravity["lambda_cr"]["units"] == "m"
+    run = open_run(grav_study["out"] / "runs" / f"{rid}.h5")
+    Omega = run.scenario.orbital_frequency
+    Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
+    G = 6.6743e-11
+    qs = []
+    for i in window_snapshots(run)[0]:
+        snap = run.snapshot(i)
+        m, vx = np.asarray(snap["mass"]), np.asarray(snap["vx"])
+        mean = np.sum(m * vx) / np.sum(m)
+        sigma_x = math.sqrt(np.sum(m * (vx - mean) ** 2) / np.sum(m))
+        qs.append(sigma_x * Omega / (3.36 * G * np.sum(m) / (Lx * Ly)))
+    assert gravity["toomre_Q_mass"]["mean"] == pytest.approx(np.mean(qs), rel=1e-6)
+    assert "gravity" not in json.loads((grav_study["folder"] / "summaries" /
+                                        f"{grav_study['ids']['plain']}.json").read_text())
+    entry = json.loads(grav_study["json"])["against_cassini"]["cases"]["gravity"]
+    assert entry["toomre_Q_mass"]["mean"] == gravity["toomre_Q_mass"]["mean"]
+    assert entry["seeds_with_gravity"] == entry["seeds"] == 1
+    assert "| Toomre Q (mass-weighted σ_x) |" in grav_study["md"]
+
+
+def test_summary_without_gravity_is_completed_keeping_its_occultation(grav_study, tmp_path):
+    """A gravitating summary with ``occultation`` but without ``gravity`` (made before
+    summaries kept it) is completed from its run file with its occultation kept where it
+    observed the window's snapshots (a marked number survives), and observed again where
+    its snapshots are not the window's; the report without ``gravity`` has no Q column."""
+    path = _write(tmp_path / "nograv")
+    summaries = tmp_path / "nograv" / "summaries"
+    shutil.copytree(grav_study["folder"] / "summaries", summaries)
+    rid = grav_study["ids"]["gravity"]
+    full = json.loads((summaries / f"{rid}.json").read_text())
+    old = copy.deepcopy(full)
+    del old["gravity"]
+    old["occultation"]["geometric_optical_depth"]["mean"] = 0.123
+    (summaries / f"{rid}.json").write_text(json.dumps(old))
+    run_study(path, report_only=True, echo=None, command=COMMAND)
+    out = tmp_path / "nograv" / "study.report"
+    assert "Toomre Q" not in (out / "report.md").read_text()
+    shutil.copytree(grav_study["out"] / "runs", out / "runs")
+    run_study(path, workers=1, echo=None, command=COMMAND)
+    done = json.loads((summaries / f"{rid}.json").read_text())
+    assert done["gravity"] == full["gravity"]
+    assert done["occultation"]["geometric_optical_depth"]["mean"] == 0.123
+    del done["gravity"]
+    done["occultation"]["snapshot_orbits"] = [-1.0]
+    (summaries / f"{rid}.json").write_text(json.dumps(done))
+    run_study(path, workers=1, echo=None, command=COMMAND)
+    again = json.loads((summaries / f"{rid}.json").read_text())
+    assert again["occultation"] == full["occultation"]

@@ -162,7 +162,7 @@ _DECLARED = (
     Quantity("toomre_Q", DIMENSIONLESS, "gravitating runs only: Q = sqrt(sigma_xx) Ω / "
              "(3.36 G Σ), the stellar-disk form (`physics.gravity.toomre_q`; `analyze` adds "
              "`toomre_Q_mass`, from the mass-weighted sigma_xx of the snapshots)",
-             "Toomre Q (from sigma_x)", weighting="number"),
+             "Toomre Q (number-weighted sigma_x)", weighting="number"),
     _speed("size_bin_velocity_dispersion", _SIZES + "`velocity_dispersion` of each size bin "
            "about the sheet's mass-weighted mean velocity",
            weighting="number"),

@@ -82,6 +82,13 @@ QUANTITIES = ("height_over_width", "gap_optical_depth", "wake_angle_from_radial_
 #: holds only the seeds with a significant wake and a fit (a fit to views of a ring
 #: without wakes is unconstrained: its H/W can be anything).
 BAR_MODEL = ("height_over_width", "gap_optical_depth", "wake_angle_from_radial_deg")
+#: What a gravitating run's summary keeps of ``analyze``'s gravity quantities (``gravity``):
+#: Toomre Q from the number- and from the mass-weighted radial velocity dispersion of the
+#: window's snapshots, Toomre's critical wavelength and the mean pair's Hill parameter.  In
+#: a ring of many sizes the small particles hold the number and the large, cooler ones the
+#: mass, so the two Q differ by a factor of a few; the mass-weighted one is the Q of the
+#: mass a wake would be made of.
+GRAVITY = ("toomre_Q", "toomre_Q_mass", "lambda_cr", "r_h")
 #: Units of a summary's ``occultation`` numbers not given beside them.
 UNITS = {"snapshots": "count", "snapshot_orbits": "orbits", "elevations_deg": "deg",
          "azimuths": "count", "fit_reduced_chi2": "dimensionless",
@@ -149,6 +156,33 @@ def occultation_summary(run, wake_significant: bool | None) -> dict:
     return condense(observe(run), wake_significant)
 
 
+def kept_occultation(run, wake_significant: bool | None, old: Mapping | None) -> dict:
+    """The ``occultation`` of a run's summary: ``old`` (the summary's own, as a summary
+    remade to add `gravity` has it) when it observed the snapshots of the window
+    ``analyze`` finds now with the same wake verdict, since its rays are seeded
+    (``analysis.observe.RAY_SEED``) and the views would come out the same; else
+    `occultation_summary`."""
+    from ringsim.analysis.observe import window_snapshots
+
+    if old is not None and old.get("wake_significant") == wake_significant:
+        period = run.scenario.orbital_period
+        orbits = [float(run.snapshot(i)["t"]) / period for i in window_snapshots(run)[0]]
+        if orbits == old.get("snapshot_orbits"):
+            return dict(old)
+    return occultation_summary(run, wake_significant)
+
+
+def gravity_summary(eq: Mapping) -> dict:
+    """The ``gravity`` of a gravitating run's summary: ``analyze``'s `GRAVITY` quantities
+    of the equilibrium window, each ``{"mean", "stderr", "units"}``."""
+    return {key: dict(eq[key]) for key in GRAVITY}
+
+
+def lacks_gravity(summary: Mapping) -> bool:
+    """A gravitating run's summary made before summaries kept `gravity_summary`."""
+    return is_gravitating(summary) and "gravity" not in summary
+
+
 def is_gravitating(summary: Mapping) -> bool:
     """Whether the summary's run had self-gravity (``sheet.gravity``)."""
     return bool(summary.get("scenario", {}).get("sheet", {}).get("gravity"))
@@ -212,7 +246,9 @@ def describe_case(summary: Mapping) -> dict:
 def case_cassini(members: Sequence[Mapping]) -> dict:
     """One case's row: what it is, its seed means of `QUANTITIES` (null without a measured
     seed; the `BAR_MODEL` parameters null without a seed with a significant wake and a
-    fit), the counts of both kinds of seed, and its verdict."""
+    fit), the counts of both kinds of seed, and its verdict; where a seed's summary holds
+    ``gravity``, the seed means of `GRAVITY` over those seeds, with their count
+    (``seeds_with_gravity`` of ``seeds``)."""
     entry: dict[str, object] = describe_case(members[0])
     if not entry["gravity"]:
         entry.update({"seeds_measured": 0, "verdict": "no wakes (no self-gravity)"})
@@ -226,6 +262,12 @@ def case_cassini(members: Sequence[Mapping]) -> dict:
                            if seeds else None)
     entry["seeds_measured"] = len(measured)
     entry["seeds_with_wake"] = len(waking)
+    with_gravity = [s["gravity"] for s in members if "gravity" in s]
+    if with_gravity:
+        entry.update({key: budget.replica_mean([budget.replica_value(g[key])
+                                                for g in with_gravity]) for key in GRAVITY})
+        entry["seeds_with_gravity"] = len(with_gravity)
+        entry["seeds"] = len(members)
     chi2 = [float(c) for s in waking
             if (c := s["occultation"].get("fit_reduced_chi2")) is not None]
     entry["fit_reduced_chi2_max"] = max(chi2) if chi2 else None

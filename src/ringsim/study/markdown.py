@@ -168,6 +168,14 @@ def _seeds_cell(entry: Mapping) -> str:
     return str(n) if waking is None or waking == n else f"{n} ({waking} with a wake)"
 
 
+def _toomre_cell(entry: Mapping) -> str:
+    """The case's mass-weighted Toomre Q, with the seeds it is of where not all."""
+    if entry.get("toomre_Q_mass") is None:
+        return "-" if not entry["gravity"] else "not measured"
+    n, of = entry["seeds_with_gravity"], entry["seeds"]
+    return _pm(entry["toomre_Q_mass"]) + (f" ({n} of {of} seeds)" if n < of else "")
+
+
 def cassini_section(report: Mapping) -> list[str]:
     """The synthetic occultations of the gravitating cases beside the published Cassini
     values (``report.json``'s ``against_cassini``; none without one)."""
@@ -185,6 +193,15 @@ def cassini_section(report: Mapping) -> list[str]:
             + [_num(e["fit_reduced_chi2_max"]) if e.get("fit_reduced_chi2_max") is not None
                else "-", f"**{e['verdict']}**"]
             for case, e in table["cases"].items()]
+    toomre = ""
+    if any("toomre_Q_mass" in e for e in table["cases"].values()):
+        header.insert(5, "Toomre Q (mass-weighted σ_x)")
+        for row, e in zip(rows, table["cases"].values(), strict=True):
+            row.insert(5, _toomre_cell(e))
+        toomre = ("Toomre Q: σ_x Ω / (3.36 G Σ) with the mass-weighted radial velocity "
+                  "dispersion of the window's snapshots (`analyze`'s `toomre_Q_mass`), the "
+                  "Q of the mass a wake is made of, over the seeds whose summary holds it "
+                  "(report.json adds Q by number, λ_cr and r_h). ")
     published = [[p["ring"], p["quantity"], p["text"], p["source"]]
                  for p in table["published"].values()]
     return (["## Against Cassini", "",
@@ -195,7 +212,7 @@ def cassini_section(report: Mapping) -> list[str]:
              "number (an asymmetry of views some of which let no ray through). The bar model's "
              "H/W, gap τ and wake angle are means over the seeds with a significant wake "
              "and a fit (\"no wake\": no such seed); the table shows the largest reduced "
-             "χ² of a case's fits. "
+             "χ² of a case's fits. " + toomre +
              f"Rule: {table['rule']}.", ""]
             + _table(header, rows) + ["", "The published values:", ""]
             + _table(["ring", "quantity", "published", "source"], published) + [""])

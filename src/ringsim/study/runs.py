@@ -13,8 +13,9 @@ version that made the run and, apart in ``cost``, its CPU and wall time; a self-
 run's also keeps its synthetic occultations (``occultation``, ``study.cassini``).  A summary
 is written by the worker as soon as its run is finished; a run whose summary matches the
 scenario asked is not run again, even when its run file is gone.  A gravitating run's
-summary without ``occultation`` (made before summaries kept it) is completed from its run
-file when that is there and finished, keeping its ``cost``.
+summary without ``occultation`` or ``gravity`` (made before summaries kept them) is completed
+from its run file when that is there and finished, keeping its ``cost`` (and its
+``occultation`` where it observed the same snapshots).
 
 A run that starts from another run of the study (the case key ``start``) names that run's
 file by its hash alone (``sheet.initial_state.file: <origin>.h5``, found beside its own run
@@ -44,7 +45,12 @@ from ringsim.batch import LabelledStream, existing_action, run_to_file
 from ringsim.config.scenario import SPEED_ONLY_KEYS, with_overrides, without_keys
 from ringsim.errors import InputError
 from ringsim.study.by_size import size_summary
-from ringsim.study.cassini import lacks_occultation, occultation_summary
+from ringsim.study.cassini import (
+    gravity_summary,
+    kept_occultation,
+    lacks_gravity,
+    lacks_occultation,
+)
 from ringsim.study.kept import kept_summary, lacks_kept
 from ringsim.study.spin import spin_summary
 
@@ -199,15 +205,18 @@ def summary_state(summary: Mapping | None, scenario) -> str:
 
 
 def make_summary(rid: str, run, eq: Mapping, quantities: Iterable[str],
-                 cost: Mapping, keep: Iterable[str] = ()) -> dict:
+                 cost: Mapping, keep: Iterable[str] = (),
+                 occultation: Mapping | None = None) -> dict:
     """The summary of the finished run ``rid`` (``ringsim.open_run``) from its
     equilibrium (``ringsim.equilibrium``); ``cost``: ``cpu_time_s`` and
     ``run_wall_time_s``.  A self-gravitating run's also holds ``occultation``
-    (``study.cassini.occultation_summary``); ``keep``: the kept entries (``study.kept``)."""
+    (``study.cassini.kept_occultation``: ``occultation``, the one of the summary being
+    remade, where it still holds) and ``gravity`` (``study.cassini.gravity_summary``);
+    ``keep``: the kept entries (``study.kept``)."""
     kept = [*quantities, "equilibrium_from_orbit"]
     sizes, spin = size_summary(eq), spin_summary(eq)
-    extra = ({"occultation": occultation_summary(run, eq.get("wake_significant"))}
-             if run.scenario.sheet.gravity else {})
+    extra = ({"occultation": kept_occultation(run, eq.get("wake_significant"), occultation),
+              "gravity": gravity_summary(eq)} if run.scenario.sheet.gravity else {})
     if spin is not None:
         extra["spin"] = spin
     extra.update(kept_summary(eq, keep, run))
@@ -252,6 +261,9 @@ class RunTask:
         ``occultation`` or a kept entry, or with ``resummarise``), kept as it is.
     keep : tuple of str
         What the summary keeps beyond the equilibrium (``study.kept``).
+    occultation : dict or None
+        The ``occultation`` of a summary being completed (not with ``resummarise``), kept
+        where it still holds (``study.cassini.kept_occultation``).
     """
 
     run_id: str
@@ -263,6 +275,7 @@ class RunTask:
     cpu_before: float | None = None
     cost: dict | None = None
     keep: tuple[str, ...] = ()
+    occultation: dict | None = None
 
 
 def _cpu_of(summary: Mapping | None) -> float | None:
@@ -303,20 +316,22 @@ def plan_run(run: StudyRun, runs_dir: Path, summaries_dir: Path,
 def _completion(run: StudyRun, path: Path, summary_path: Path,
                 summary: Mapping | None, always: bool = False) -> RunTask | None:
     """The task that remakes a run's summary from its finished run file, keeping its
-    ``cost``: when the summary of a gravitating run lacks ``occultation`` or the summary
-    lacks an entry its study keeps, or ``always`` (None when the run file is not there
-    finished)."""
+    ``cost``: when the summary of a gravitating run lacks ``occultation`` or ``gravity``, or
+    the summary lacks an entry its study keeps, or ``always`` (None when the run file is not
+    there finished)."""
     from ringsim.store.runfile import open_run
 
     if summary is None or not path.exists() or not (
-            always or lacks_occultation(summary) or lacks_kept(summary, run.keep)):
+            always or lacks_occultation(summary) or lacks_gravity(summary)
+            or lacks_kept(summary, run.keep)):
         return None
     with contextlib.suppress(InputError):
         if (existing_action(path, run.scenario, extend=True, asker="the study") == "reuse"
                 and open_run(path).attrs.get("status") == "finished"):
             return RunTask(run.run_id, run_scenario(run, path), str(path.absolute()),
                            str(summary_path.absolute()), "reuse", tuple(run.labels),
-                           cost=dict(summary.get("cost", {})), keep=run.keep)
+                           cost=dict(summary.get("cost", {})), keep=run.keep,
+                           occultation=None if always else summary.get("occultation"))
     return None
 
 
@@ -381,7 +396,7 @@ def _run_task(task: RunTask) -> TaskResult:
             "run_wall_time_s": float(wall) if isinstance(wall, (int, float)) else None,
             **({"cpu_time_s_part": measured} if partial else {})}
         write_json(task.summary, make_summary(task.run_id, run, eq, QUANTITIES, cost,
-                                              task.keep))
+                                              task.keep, task.occultation))
     elif status == "stopped":
         result.error = "stopped before the end; start the study again to continue it"
     elif status == "failed":
