@@ -458,3 +458,15 @@ def test_cost_of_a_variant_counts_the_runs_it_shares_with_its_case_once():
     assert "| k0 [both] | 2 | 0.5 (+ 1 run(s) of k0, counted in its row) |" in lines
     total = next(line for line in lines if line.startswith("Total:"))
     assert total == "Total: 3.5 CPU-hours for 3 distinct runs."
+
+
+def test_an_error_at_the_round_off_of_its_value_is_shown_as_zero():
+    """The seeds' scatter of a quantity every seed has alike (the geometric optical depth
+    0.5 of three seeds: 4.5e-17) is round-off, shown as 0; an error above 1e-12 of the
+    value is shown as it is, and so is any error of a zero value."""
+    from ringsim.study.markdown import _pm
+
+    assert _pm({"mean": 0.5, "stderr": 4.5e-17}) == "0.5 ± 0"
+    assert _pm({"mean": 0.5, "stderr": 1e-11}) == "0.5 ± 1e-11"
+    assert _pm({"mean": 0.0, "stderr": 1e-17}) == "0 ± 1e-17"
+    assert _pm({"mean": 0.5, "stderr": None}) == "0.5 ± n/a"

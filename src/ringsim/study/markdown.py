@@ -17,10 +17,18 @@ def _num(x: float | None, digits: int = 4) -> str:
     return "n/a" if x is None or not math.isfinite(x) else f"{x:.{digits}g}"
 
 
+#: An error at most this fraction of its value is the round-off of equal values (the seeds'
+#: scatter of a quantity every seed has alike, such as the geometric optical depth), shown
+#: as 0; report.json keeps it as computed.
+ROUND_OFF = 1e-12
+
+
 def _pm(value: Mapping, scale: float = 1.0) -> str:
     mean, err = value["mean"], value["stderr"]
     if mean is None or not math.isfinite(mean):
         return "n/a"
+    if err is not None and math.isfinite(err) and abs(err) <= ROUND_OFF * abs(mean):
+        err = 0.0
     return f"{mean * scale:.4g} ± {_num(err * scale if err is not None else None, 2)}"
 
 
