@@ -86,3 +86,20 @@ def test_the_paired_ratio_error_is_the_standard_error_of_the_seeds_ratios():
                       "velocity_dispersion", [], [1])
     assert one["paired"]["n_replicas"] == 1 and one["paired"]["by_seed"] == {"1": 2.0}
     assert one["paired"]["stderr"] == pytest.approx(one["stat"], rel=1e-12)
+
+
+def test_a_ratio_of_cases_with_different_seeds_is_over_the_seeds_both_ran():
+    """A case of one seed (the case key ``seeds``) against a case of three: the ratio of
+    the seed means is taken over seed 1 alone, the realisation both ran, not that seed over
+    the other case's mean of three draws; cases of the same seeds name none."""
+    factor = {1: 0.8, 2: 1.0, 3: 1.2}
+    values = {("b", None, s): 1.0 * f for s, f in factor.items()}
+    values[("a", None, 1)] = 1.2 * factor[1]
+    entry = ratio_entry(_runs(values), ("a", "b"), "velocity_dispersion", [], [1])
+    assert entry["seeds"] == [1]
+    assert entry["mean"] == pytest.approx(1.2, rel=1e-14)
+    # seed 1's window errors alone: 1 % on each case
+    assert entry["stat"] == pytest.approx(1.2 * 0.01 * math.sqrt(2.0), rel=1e-12)
+    values[("a", None, 2)], values[("a", None, 3)] = 1.2, 1.2 * 1.2
+    assert ratio_entry(_runs(values), ("a", "b"), "velocity_dispersion", [],
+                       [1])["seeds"] is None

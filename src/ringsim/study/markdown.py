@@ -140,6 +140,14 @@ def ratios_section(report: Mapping, figure: str | None) -> list[str]:
             for q in report["quantities"]]
     lines = ["## Ratios", "", f"Systematic part: {report['systematics']}.", ""]
     lines += _table(["quantity", *(f"{n} / {d}" for n, d in pairs)], rows) + [""]
+    common = {(e["numerator"], e["denominator"]): e["seeds"] for e in report["ratios"]
+              if e.get("seeds")}
+    if common:
+        lines += ["Where the two cases ran different seeds, the ratio is of their seed means "
+                  "over the seeds both ran (a case's other seeds are other realisations, "
+                  "which would enter one side only): "
+                  + "; ".join(f"{n} / {d}: seeds {seeds}" for (n, d), seeds in common.items())
+                  + ".", ""]
     if figure:
         lines += [f"![The ratios with their statistical and total errors]({figure})", ""]
     lines += _paired_lines(report)

@@ -171,11 +171,27 @@ def _variant_part(runs: Runs, num: str, den: str, quantity: str, variant: str,
             "noise": noise, "seed_noise": seed_noise, "relative": relative}
 
 
+def common_seeds(runs: Runs, num: str, den: str) -> list[int] | None:
+    """The seeds a ratio's mean is taken over: None (all of each case's) where both cases
+    ran the same seeds, else those both ran (None where they share none).  A case's other
+    seeds are other realisations of the radii and positions, which would enter one side of
+    the ratio only: in a ring whose few largest particles hold most of the mass they move
+    both c and H by more than the ratio's own error (studies/kappa-saturn)."""
+    top = {seed for seed, _ in runs.by_key[(num, None)]}
+    bottom = {seed for seed, _ in runs.by_key[(den, None)]}
+    if top == bottom or not top & bottom:
+        return None
+    return sorted(top & bottom)
+
+
 def ratio_entry(runs: Runs, pair: tuple[str, str], quantity: str,
                 variants: Sequence[str], variant_seeds: Sequence[int]) -> dict:
-    """One ratio of one quantity, with its statistical and systematic errors."""
+    """One ratio of one quantity, with its statistical and systematic errors; the mean of
+    the cases' seed means over their `common_seeds` where they ran different seeds
+    (``seeds``, null where they ran the same)."""
     num, den = pair
-    value = _case_ratio(runs, num, den, quantity)
+    seeds = common_seeds(runs, num, den)
+    value = _case_ratio(runs, num, den, quantity, None, seeds)
     scatter = seed_scatter(runs, num, den, quantity)
     parts = {v: _variant_part(runs, num, den, quantity, v, variant_seeds, scatter)
              for v in variants}
@@ -187,7 +203,7 @@ def ratio_entry(runs: Runs, pair: tuple[str, str], quantity: str,
             "total": math.hypot(value["stderr"], syst), "units": value["units"],
             "quantity_units": QUANTITIES[quantity][1], "syst_parts": parts,
             "seed_scatter": scatter, "paired": paired_ratio(runs, num, den, quantity),
-            "in_equilibrium": all(s["in_equilibrium"] for s in members)}
+            "seeds": seeds, "in_equilibrium": all(s["in_equilibrium"] for s in members)}
 
 
 #: The warning for a run none of whose snapshots lies in its equilibrium window.
