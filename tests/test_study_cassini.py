@@ -309,19 +309,29 @@ def test_a_summary_without_a_window_snapshot_is_warned_about(grav_study, tmp_pat
     assert len(late) == 1 and f"(run {rid})" in late[0]
 
 
-def test_old_summary_renders_and_is_completed_from_its_run_file(grav_study, tmp_path):
-    """A gravitating summary without ``occultation`` (an older ringsim's): the report says
-    "not measured"; with the finished run file the study adds the occultations, keeps the
-    summary's cost and gives the report of the full summaries."""
-    path = _write(tmp_path / "old")
-    summaries = tmp_path / "old" / "summaries"
+def _with_edited_summary(grav_study, folder: Path, edit):
+    """A copy of the tiny study in ``folder`` whose gravitating run's summary is the
+    original after ``edit`` (a function changing a summary in place): the study file, the
+    summaries folder, the run's id, the original summary and the edited one."""
+    path = _write(folder)
+    summaries = folder / "summaries"
     shutil.copytree(grav_study["folder"] / "summaries", summaries)
     rid = grav_study["ids"]["gravity"]
     full = json.loads((summaries / f"{rid}.json").read_text())
     old = copy.deepcopy(full)
-    del old["occultation"]
-    old["cost"] = {"cpu_time_s": 123.0, "run_wall_time_s": 45.0}
+    edit(old)
     (summaries / f"{rid}.json").write_text(json.dumps(old))
+    return path, summaries, rid, full, old
+
+
+def test_old_summary_renders_and_is_completed_from_its_run_file(grav_study, tmp_path):
+    """A gravitating summary without ``occultation`` (an older ringsim's): the report says
+    "not measured"; with the finished run file the study adds the occultations, keeps the
+    summary's cost and gives the report of the full summaries."""
+    path, summaries, rid, full, old = _with_edited_summary(
+        grav_study, tmp_path / "old", lambda old: (
+            old.pop("occultation"),
+            old.update(cost={"cpu_time_s": 123.0, "run_wall_time_s": 45.0})))
     run_study(path, report_only=True, echo=None, command=COMMAND)
     out = tmp_path / "old" / "study.report"
     report = json.loads((out / "report.json").read_text())
@@ -413,15 +423,10 @@ def test_summary_without_gravity_is_completed_keeping_its_occultation(grav_study
     summaries kept it) is completed from its run file with its occultation kept where it
     observed the window's snapshots (a marked number survives), and observed again where
     its snapshots are not the window's; the report without ``gravity`` has no Q column."""
-    path = _write(tmp_path / "nograv")
-    summaries = tmp_path / "nograv" / "summaries"
-    shutil.copytree(grav_study["folder"] / "summaries", summaries)
-    rid = grav_study["ids"]["gravity"]
-    full = json.loads((summaries / f"{rid}.json").read_text())
-    old = copy.deepcopy(full)
-    del old["gravity"]
-    old["occultation"]["geometric_optical_depth"]["mean"] = 0.123
-    (summaries / f"{rid}.json").write_text(json.dumps(old))
+    path, summaries, rid, full, _ = _with_edited_summary(
+        grav_study, tmp_path / "nograv", lambda old: (
+            old.pop("gravity"),
+            old["occultation"]["geometric_optical_depth"].update(mean=0.123)))
     run_study(path, report_only=True, echo=None, command=COMMAND)
     out = tmp_path / "nograv" / "study.report"
     assert "Toomre Q" not in (out / "report.md").read_text()
