@@ -183,6 +183,23 @@ def test_the_bins_seed_paired_ratio_divides_out_each_seeds_draw():
     assert "paired" not in plain["bins"][0]
 
 
+def test_the_bins_ratio_of_cases_with_different_seeds_is_over_the_seeds_both_ran():
+    """A numerator of one seed against three: each bin's ratio is of seed 1's runs alone
+    (exact here, each seed scaling both cases alike), not of seed 1 over the mean of three
+    draws, and the section says over which seeds."""
+    factor = {1: 0.9, 2: 1.0, 3: 1.15}
+    k0 = [_bins_of(2.0 * f, 1.0 * f) for f in factor.values()]
+    k01 = [_bins_of(2.4 * factor[1], 0.9 * factor[1])]
+    seeds = {"k01": [1], "k0": list(factor)}
+    report = by_size_report({"k01": k01, "k0": k0}, [["k01", "k0"]], seeds)
+    (ratio,) = report["ratios"]
+    assert ratio["seeds"] == [1]
+    small, large = ratio["bins"]
+    assert small["velocity_dispersion"]["mean"] == pytest.approx(1.2, rel=1e-14)
+    assert large["thickness"]["mean"] == pytest.approx(0.9, rel=1e-14)
+    assert "over the seeds both cases ran, [1]" in "\n".join(by_size_lines(report))
+
+
 def test_each_bins_share_of_the_mass_is_its_count_times_its_mean_mass():
     """Two bins: 90 particles of 10 g and 10 of 1 kg hold 0.9 and 10 kg."""
     one = _constructed([[0.5, 0.6], [None, 0.9]], [[100, 30], [0, 40]])

@@ -410,11 +410,13 @@ def test_gravitating_summary_keeps_toomre_q_of_the_window_by_mass(grav_study):
         sigma_x = math.sqrt(np.sum(m * (vx - mean) ** 2) / np.sum(m))
         qs.append(sigma_x * Omega / (3.36 * G * np.sum(m) / (Lx * Ly)))
     assert gravity["toomre_Q_mass"]["mean"] == pytest.approx(np.mean(qs), rel=1e-6)
+    eq = ringsim.equilibrium(run)
+    assert gravity == {key: dict(eq[key]) for key in cassini.GRAVITY}
     assert "gravity" not in json.loads((grav_study["folder"] / "summaries" /
                                         f"{grav_study['ids']['plain']}.json").read_text())
     entry = json.loads(grav_study["json"])["against_cassini"]["cases"]["gravity"]
     assert entry["toomre_Q_mass"]["mean"] == gravity["toomre_Q_mass"]["mean"]
-    assert entry["seeds_with_gravity"] == entry["seeds"] == 1
+    assert entry["seeds_with_gravity"] == entry["n_seeds"] == 1
     assert "| Toomre Q (mass-weighted σ_x) |" in grav_study["md"]
 
 
@@ -441,3 +443,35 @@ def test_summary_without_gravity_is_completed_keeping_its_occultation(grav_study
     run_study(path, workers=1, echo=None, command=COMMAND)
     again = json.loads((summaries / f"{rid}.json").read_text())
     assert again["occultation"] == full["occultation"]
+
+
+@pytest.mark.parametrize("how", ["wake verdict changed", "resummarise"])
+def test_an_occultation_is_observed_anew_where_it_may_differ(grav_study, tmp_path, how):
+    """A stored occultation is not kept where the wake verdict it was made with differs
+    from today's (a summary completed to add ``gravity``), nor with ``--resummarise``
+    (today's analysis throughout): a number planted in it is gone afterwards."""
+    def edit(old):
+        occ = old["occultation"]
+        occ["geometric_optical_depth"]["mean"] = 0.123
+        if how == "wake verdict changed":
+            occ["wake_significant"] = not occ["wake_significant"]
+            del old["gravity"]
+
+    path, summaries, rid, full, _ = _with_edited_summary(grav_study, tmp_path / "anew", edit)
+    shutil.copytree(grav_study["out"] / "runs", tmp_path / "anew" / "study.report" / "runs")
+    run_study(path, workers=1, echo=None, command=COMMAND,
+              resummarise=how == "resummarise")
+    done = json.loads((summaries / f"{rid}.json").read_text())
+    assert done["occultation"] == full["occultation"]
+    assert done["gravity"] == full["gravity"]
+
+
+def test_toomre_cell_names_the_seeds_it_is_of():
+    """The mass-weighted Q of a case is over the seeds whose summaries hold ``gravity``;
+    the cell says how many of the case's seeds that is where not all."""
+    entry = {"gravity": True, "toomre_Q_mass": {"mean": 3.04, "stderr": 0.038},
+             "seeds_with_gravity": 2, "n_seeds": 3}
+    assert markdown._toomre_cell(entry) == "3.04 ± 0.038 (2 of 3 seeds)"
+    assert markdown._toomre_cell({**entry, "seeds_with_gravity": 3}) == "3.04 ± 0.038"
+    assert markdown._toomre_cell({"gravity": True}) == "not measured"
+    assert markdown._toomre_cell({"gravity": False}) == "-"

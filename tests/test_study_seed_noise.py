@@ -103,3 +103,26 @@ def test_a_ratio_of_cases_with_different_seeds_is_over_the_seeds_both_ran():
     values[("a", None, 2)], values[("a", None, 3)] = 1.2, 1.2 * 1.2
     assert ratio_entry(_runs(values), ("a", "b"), "velocity_dispersion", [],
                        [1])["seeds"] is None
+
+
+def test_the_report_says_which_ratios_are_over_the_seeds_both_cases_ran():
+    """The line under the ratio table names the seeds of a ratio of cases that ran
+    different seeds, and says so where they share none; ratios of the same seeds get no
+    line."""
+    from ringsim.study.markdown import ratios_section
+
+    values = {("b", None, s): 1.0 for s in (1, 2, 3)}
+    values.update({("a", None, 1): 1.2, ("c", None, 4): 0.9})
+    runs = _runs(values)
+    entries = [ratio_entry(runs, pair, "velocity_dispersion", [], [1])
+               for pair in (("a", "b"), ("c", "b"))]
+    assert [e["seeds"] for e in entries] == [[1], []]
+    assert entries[1]["mean"] == pytest.approx(0.9, rel=1e-12)   # all seeds, as before
+    report = {"ratios": entries, "quantities": ["velocity_dispersion"],
+              "systematics": "none", "variant_seeds": [1]}
+    text = "\n".join(ratios_section(report, None))
+    assert "a / b: seeds [1]" in text
+    assert "c / b: no seed in common, so of different realisations" in text
+    report["ratios"] = [ratio_entry(_runs({("a", None, 1): 1.2, ("b", None, 1): 1.0}),
+                                    ("a", "b"), "velocity_dispersion", [], [1])]
+    assert "over the seeds both ran" not in "\n".join(ratios_section(report, None))

@@ -124,3 +124,26 @@ def replica_mean(values: Sequence[Mapping]) -> dict:
     return {"mean": float(np.mean(means)), "stderr": max(propagated, scatter),
             "stderr_propagated": propagated, "stderr_seeds": scatter, "n_replicas": n,
             "units": values[0].get("units", "")}
+
+
+def common_replicas(top: Sequence[int], bottom: Sequence[int]) -> list[int] | None:
+    """The replicas (seeds) a ratio of two sets of replicas is taken over: None where both
+    sets are the same (all of them), else those both have, sorted ([] where they share
+    none: the ratio then compares different realisations, and says so).  A replica only
+    one side has is another realisation, which would enter that side alone."""
+    a, b = set(top), set(bottom)
+    return None if a == b else sorted(a & b)
+
+
+#: An error at most this fraction of its value is the round-off of equal values (the
+#: replicas' scatter of a quantity they all have alike, such as the geometric optical
+#: depth), which a table shows as 0 (`shown_error`).
+ROUND_OFF = 1e-12
+
+
+def shown_error(mean: float, error: float | None) -> float | None:
+    """The error a table shows for ``mean`` [its units]: 0 where it is at most `ROUND_OFF`
+    of the value, else as it is (None and NaN kept)."""
+    if error is None or not (math.isfinite(error) and math.isfinite(mean)):
+        return error
+    return 0.0 if abs(error) <= ROUND_OFF * abs(mean) else error

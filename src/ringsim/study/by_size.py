@@ -198,7 +198,8 @@ def by_size_report(cases: Mapping[str, Sequence[Mapping]],
     """The report's ``by_size``: per case its `case_by_size` and whether it is as thin as
     Saturn's rings; per ratio the ratio of c and H in every size bin (cases with the same
     bins only), and with ``seeds`` (each case's seeds, in the order of its summaries) also
-    their seed-paired ratio in every bin (``paired``)."""
+    their seed-paired ratio in every bin (``paired``), the ratios over the seeds both cases
+    ran where they ran different ones (``seeds``, as the report's ratios)."""
     per_case = {case: case_by_size(summaries) for case, summaries in cases.items()}
     for entry in per_case.values():
         if entry is None:
@@ -210,6 +211,11 @@ def by_size_report(cases: Mapping[str, Sequence[Mapping]],
     out_ratios = []
     for num, den in ratios:
         a, b = per_case.get(num), per_case.get(den)
+        common = budget.common_replicas(seeds[num], seeds[den]) if seeds is not None else None
+        if seeds is not None and common and a is not None and b is not None:
+            # the cases' other seeds are other realisations (``study.report.common_seeds``)
+            a, b = (case_by_size([s for k, s in zip(seeds[c], cases[c], strict=True)
+                                  if k in common]) for c in (num, den))
         if a is None or b is None or [(x["r_low"], x["r_high"]) for x in a["bins"]] != \
                 [(x["r_low"], x["r_high"]) for x in b["bins"]]:
             continue
@@ -222,6 +228,7 @@ def by_size_report(cases: Mapping[str, Sequence[Mapping]],
             for entry, pair in zip(bins, paired, strict=True):
                 entry["paired"] = pair
         out_ratios.append({"numerator": num, "denominator": den, "bins": bins,
+                           "seeds": common,
                            "pair_epsilon": _pair_ratio(a.get("pair_epsilon"),
                                                        b.get("pair_epsilon"))})
     return {"cases": {c: e for c, e in per_case.items() if e is not None},
@@ -237,9 +244,10 @@ def by_size_report(cases: Mapping[str, Sequence[Mapping]],
 def _pm(value: Mapping | None, scale: float = 1.0, digits: int = 3) -> str:
     if value is None or not math.isfinite(value["mean"]):
         return "–"
-    error = value.get("stderr", value.get("stat", math.nan))
+    error = budget.shown_error(value["mean"], value.get("stderr", value.get("stat", math.nan)))
     shown = f"{value['mean'] * scale:.{digits}g}"
-    return shown + (f" ± {error * scale:.2g}" if math.isfinite(error) else " (no error)")
+    return shown + (f" ± {error * scale:.2g}" if error is not None and math.isfinite(error)
+                    else " (no error)")
 
 
 def _share(x: float) -> str:
@@ -330,9 +338,13 @@ def _bin_ratio_lines(ratio: Mapping) -> list[str]:
                  > 1 for b in ratio["bins"])
     head = "| size bin [m] | c ratio | H ratio |" + (
         " c ratio, seed-paired | H ratio, seed-paired |" if paired else "")
+    seeds = ratio.get("seeds")
+    over = ("" if seeds is None else f"; over the seeds both cases ran, {seeds}" if seeds
+            else "; the cases share no seed: of different realisations")
     lines = ["", f"Ratio {ratio['numerator']} / {ratio['denominator']} in each size bin "
-             "(statistical errors" + ("; seed-paired: the mean of each common seed's ratio, "
-                                      "combined as a case's seeds are" if paired else "") + "):",
+             "(statistical errors" + over
+             + ("; seed-paired: the mean of each common seed's ratio, "
+                "combined as a case's seeds are" if paired else "") + "):",
              "", head, "|---|---|---|" + ("---|---|" if paired else "")]
     for b in ratio["bins"]:
         row = (f"| {b['r_low']:.3g}–{b['r_high']:.3g} | {_pm(b['velocity_dispersion'])} | "

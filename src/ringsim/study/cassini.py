@@ -159,14 +159,19 @@ def occultation_summary(run, wake_significant: bool | None) -> dict:
 def kept_occultation(run, wake_significant: bool | None, old: Mapping | None) -> dict:
     """The ``occultation`` of a run's summary: ``old`` (the summary's own, as a summary
     remade to add `gravity` has it) when it observed the snapshots of the window
-    ``analyze`` finds now with the same wake verdict, since its rays are seeded
-    (``analysis.observe.RAY_SEED``) and the views would come out the same; else
-    `occultation_summary`."""
-    from ringsim.analysis.observe import window_snapshots
+    ``analyze`` finds now, with the same wake verdict and ``observe``'s views and precision
+    of today, since its rays are seeded (``analysis.observe.RAY_SEED``) and the views would
+    come out the same; else `occultation_summary`.  A change of the ray tracer itself is
+    not seen here: ``--resummarise`` observes anew."""
+    from ringsim.analysis import observe
 
-    if old is not None and old.get("wake_significant") == wake_significant:
+    if old is not None and old.get("wake_significant") == wake_significant and (
+            old.get("elevations_deg") == sorted(observe.DEFAULT_ELEVATIONS)
+            and old.get("azimuths") == len(observe.DEFAULT_AZIMUTHS)
+            and old.get("precision") == observe.DEFAULT_PRECISION):
         period = run.scenario.orbital_period
-        orbits = [float(run.snapshot(i)["t"]) / period for i in window_snapshots(run)[0]]
+        orbits = [float(run.snapshot(i)["t"]) / period
+                  for i in observe.window_snapshots(run)[0]]
         if orbits == old.get("snapshot_orbits"):
             return dict(old)
     return occultation_summary(run, wake_significant)
@@ -248,7 +253,7 @@ def case_cassini(members: Sequence[Mapping]) -> dict:
     seed; the `BAR_MODEL` parameters null without a seed with a significant wake and a
     fit), the counts of both kinds of seed, and its verdict; where a seed's summary holds
     ``gravity``, the seed means of `GRAVITY` over those seeds, with their count
-    (``seeds_with_gravity`` of ``seeds``)."""
+    (``seeds_with_gravity`` of ``n_seeds``)."""
     entry: dict[str, object] = describe_case(members[0])
     if not entry["gravity"]:
         entry.update({"seeds_measured": 0, "verdict": "no wakes (no self-gravity)"})
@@ -267,7 +272,7 @@ def case_cassini(members: Sequence[Mapping]) -> dict:
         entry.update({key: budget.replica_mean([budget.replica_value(g[key])
                                                 for g in with_gravity]) for key in GRAVITY})
         entry["seeds_with_gravity"] = len(with_gravity)
-        entry["seeds"] = len(members)
+        entry["n_seeds"] = len(members)
     chi2 = [float(c) for s in waking
             if (c := s["occultation"].get("fit_reduced_chi2")) is not None]
     entry["fit_reduced_chi2_max"] = max(chi2) if chi2 else None

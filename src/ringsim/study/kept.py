@@ -124,6 +124,6 @@ def _shown(value: Mapping | None, scale: float) -> str:
     """``mean ± stderr`` in the shown unit, or – without a value."""
     if not value or value.get("mean") is None or not math.isfinite(value["mean"]):
         return "–"
-    err = value.get("stderr")
+    err = budget.shown_error(value["mean"], value.get("stderr"))
     return (f"{value['mean'] * scale:.4g} ± "
             + ("n/a" if err is None or not math.isfinite(err) else f"{err * scale:.2g}"))

@@ -6,6 +6,7 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 
+from ringsim.analysis import budget
 from ringsim.analysis.equilibrium import TABLE_ROWS
 from ringsim.study import cassini
 from ringsim.study.by_size import by_size_lines
@@ -17,18 +18,13 @@ def _num(x: float | None, digits: int = 4) -> str:
     return "n/a" if x is None or not math.isfinite(x) else f"{x:.{digits}g}"
 
 
-#: An error at most this fraction of its value is the round-off of equal values (the seeds'
-#: scatter of a quantity every seed has alike, such as the geometric optical depth), shown
-#: as 0; report.json keeps it as computed.
-ROUND_OFF = 1e-12
-
-
 def _pm(value: Mapping, scale: float = 1.0) -> str:
-    mean, err = value["mean"], value["stderr"]
+    """``mean ± error``, an error at the round-off of its value shown as 0
+    (``budget.shown_error``; report.json keeps it as computed)."""
+    mean = value["mean"]
     if mean is None or not math.isfinite(mean):
         return "n/a"
-    if err is not None and math.isfinite(err) and abs(err) <= ROUND_OFF * abs(mean):
-        err = 0.0
+    err = budget.shown_error(mean, value["stderr"])
     return f"{mean * scale:.4g} ± {_num(err * scale if err is not None else None, 2)}"
 
 
@@ -102,10 +98,11 @@ def equilibria_section(report: Mapping) -> list[str]:
 def _ratio_text(entry: Mapping) -> str:
     if entry["mean"] is None or not math.isfinite(entry["mean"]):
         return "n/a"
-    syst = entry["syst"]
+    syst = budget.shown_error(entry["mean"], entry["syst"])
     syst_text = (f" ± {_num(syst, 2)} (syst)" if syst is not None and math.isfinite(syst)
                  else " (syst. not measured)")
-    return f"**{entry['mean']:.4g}** ± {_num(entry['stat'], 2)} (stat){syst_text}"
+    stat = budget.shown_error(entry["mean"], entry["stat"])
+    return f"**{entry['mean']:.4g}** ± {_num(stat, 2)} (stat){syst_text}"
 
 
 def _paired_lines(report: Mapping) -> list[str]:
@@ -119,7 +116,8 @@ def _paired_lines(report: Mapping) -> list[str]:
     rows = [[f"{e['numerator']} / {e['denominator']}", _label(e["quantity"])]
             + [_num(e["paired"]["by_seed"][str(s)]) if str(s) in e["paired"]["by_seed"]
                else "–" for s in seeds]
-            + [f"**{e['paired']['mean']:.4g}** ± {_num(e['paired']['stderr'], 2)}"]
+            + [f"**{e['paired']['mean']:.4g}** ± "
+               f"{_num(budget.shown_error(e['paired']['mean'], e['paired']['stderr']), 2)}"]
             for e in entries]
     return (["### Seed by seed", "",
              "Each seed's ratio, of the runs of the two cases with that seed (the same radii "
@@ -141,13 +139,17 @@ def ratios_section(report: Mapping, figure: str | None) -> list[str]:
     lines = ["## Ratios", "", f"Systematic part: {report['systematics']}.", ""]
     lines += _table(["quantity", *(f"{n} / {d}" for n, d in pairs)], rows) + [""]
     common = {(e["numerator"], e["denominator"]): e["seeds"] for e in report["ratios"]
-              if e.get("seeds")}
+              if e.get("seeds") is not None}
     if common:
         lines += ["Where the two cases ran different seeds, the ratio is of their seed means "
                   "over the seeds both ran (a case's other seeds are other realisations, "
-                  "which would enter one side only): "
-                  + "; ".join(f"{n} / {d}: seeds {seeds}" for (n, d), seeds in common.items())
-                  + ".", ""]
+                  "which would enter one side only). Its statistical error is then that of "
+                  "those seeds' runs; of one seed, that run's window error alone, without "
+                  "the scatter between realisations. "
+                  + "; ".join(f"{n} / {d}: " + (f"seeds {seeds}" if seeds else
+                                                "no seed in common, so of different "
+                                                "realisations")
+                              for (n, d), seeds in common.items()) + ".", ""]
     if figure:
         lines += [f"![The ratios with their statistical and total errors]({figure})", ""]
     lines += _paired_lines(report)
@@ -188,7 +190,7 @@ def _toomre_cell(entry: Mapping) -> str:
     """The case's mass-weighted Toomre Q, with the seeds it is of where not all."""
     if entry.get("toomre_Q_mass") is None:
         return "-" if not entry["gravity"] else "not measured"
-    n, of = entry["seeds_with_gravity"], entry["seeds"]
+    n, of = entry["seeds_with_gravity"], entry["n_seeds"]
     return _pm(entry["toomre_Q_mass"]) + (f" ({n} of {of} seeds)" if n < of else "")
 
 

@@ -172,32 +172,29 @@ def _variant_part(runs: Runs, num: str, den: str, quantity: str, variant: str,
 
 
 def common_seeds(runs: Runs, num: str, den: str) -> list[int] | None:
-    """The seeds a ratio's mean is taken over: None (all of each case's) where both cases
-    ran the same seeds, else those both ran (None where they share none).  A case's other
-    seeds are other realisations of the radii and positions, which would enter one side of
-    the ratio only: in a ring whose few largest particles hold most of the mass they move
-    both c and H by more than the ratio's own error (studies/kappa-saturn)."""
-    top = {seed for seed, _ in runs.by_key[(num, None)]}
-    bottom = {seed for seed, _ in runs.by_key[(den, None)]}
-    if top == bottom or not top & bottom:
-        return None
-    return sorted(top & bottom)
+    """The seeds a ratio's mean is taken over (``budget.common_replicas`` of the cases'
+    seeds): a case's other seeds are other realisations of the radii and positions, which
+    in a ring whose few largest particles hold most of the mass move c and H by more than
+    the ratio's own error (studies/kappa-saturn)."""
+    return budget.common_replicas([seed for seed, _ in runs.by_key[(num, None)]],
+                                  [seed for seed, _ in runs.by_key[(den, None)]])
 
 
 def ratio_entry(runs: Runs, pair: tuple[str, str], quantity: str,
                 variants: Sequence[str], variant_seeds: Sequence[int]) -> dict:
-    """One ratio of one quantity, with its statistical and systematic errors; the mean of
+    """One ratio of one quantity, with its statistical and systematic errors; the ratio of
     the cases' seed means over their `common_seeds` where they ran different seeds
-    (``seeds``, null where they ran the same)."""
+    (``seeds``: null where they ran the same, [] where they share none and the ratio is of
+    all their seeds); ``in_equilibrium`` of the runs it is of."""
     num, den = pair
     seeds = common_seeds(runs, num, den)
-    value = _case_ratio(runs, num, den, quantity, None, seeds)
+    value = _case_ratio(runs, num, den, quantity, None, seeds or None)
     scatter = seed_scatter(runs, num, den, quantity)
     parts = {v: _variant_part(runs, num, den, quantity, v, variant_seeds, scatter)
              for v in variants}
     relative = {v: part["relative"] for v, part in parts.items()}
     syst, _ = budget.systematic({"relative": {quantity: relative}}, quantity, value["mean"])
-    members = runs.of(num) + runs.of(den)
+    members = runs.of(num, None, seeds or None) + runs.of(den, None, seeds or None)
     return {"numerator": num, "denominator": den, "quantity": quantity,
             "mean": value["mean"], "stat": value["stderr"], "syst": syst,
             "total": math.hypot(value["stderr"], syst), "units": value["units"],
