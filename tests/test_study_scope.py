@@ -153,7 +153,8 @@ def test_partial_without_report_only_is_bad_input(scoped, capsys):
 
 def test_partial_report_keeps_a_case_with_some_of_its_seeds(scoped, tmp_path):
     """Without k01's seed-2 summary the partial report holds k01 from seed 1 alone and
-    says so; its ratio to k0 is the mean of that seed over k0's two."""
+    says so; its ratio to k0 is over the seed both have, seed 1's over k0's seed 1 (k0's
+    seed 2 is another realisation, which would enter one side only)."""
     path = scoped / "study.yaml"
     report = json.loads((scoped / "study.quick.report" / "report.json").read_text())
     gone = next(r["run"] for r in report["cases"]["k01"]["runs"] if r["seed"] == 2)
@@ -172,9 +173,12 @@ def test_partial_report_keeps_a_case_with_some_of_its_seeds(scoped, tmp_path):
     one = part["cases"]["k01"]["runs"][0]["run"]
     summary = json.loads((scoped / "summaries" / f"{one}.json").read_text())
     c01 = summary["equilibrium"]["velocity_dispersion"]["mean"]
-    c0 = report["cases"]["k0"]["equilibrium"]["velocity_dispersion"]["mean"]
+    k0_one = next(r["run"] for r in report["cases"]["k0"]["runs"] if r["seed"] == 1)
+    c0 = json.loads((scoped / "summaries" / f"{k0_one}.json").read_text()
+                    )["equilibrium"]["velocity_dispersion"]["mean"]
     ratio = next(e for e in part["ratios"] if e["numerator"] == "k01"
                  and e["quantity"] == "velocity_dispersion")
+    assert ratio["seeds"] == [1]
     assert ratio["mean"] == pytest.approx(c01 / c0, rel=1e-12)
     assert list(part["variants"]) == ["ref_600g"]     # its seed-1 runs are all there
 
