@@ -106,7 +106,8 @@ def fake_run(snap, Omega, gravity=True):
     scenario = SimpleNamespace(sheet=sheet_section, orbital_frequency=Omega,
                                orbital_period=2 * np.pi / Omega)
     return SimpleNamespace(timeseries=ts, scenario=scenario, attrs={"Lx": LX, "Ly": LY},
-                           n_snapshots=1, snapshot=lambda i: snap)
+                           n_snapshots=1, snapshot=lambda i: snap,
+                           snapshot_times=np.array([snap["t"]]))
 
 
 @pytest.mark.parametrize("r_h, flagged", [(1.3, True), (0.6, False)])

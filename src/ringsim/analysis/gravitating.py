@@ -108,7 +108,7 @@ def window_snapshot_indices(run, from_orbit: float) -> list[int]:
     """Indices of the snapshots at or after ``from_orbit`` [orbits]."""
     period = run.scenario.orbital_period
     return [i for i in range(run.n_snapshots)
-            if run.snapshot(i)["t"] / period >= from_orbit - 1e-9]
+            if run.snapshot_times[i] / period >= from_orbit - 1e-9]
 
 
 def snapshot_wakes(snap: dict, Lx: float, Ly: float, Omega: float) -> dict:

@@ -211,11 +211,13 @@ def by_size_report(cases: Mapping[str, Sequence[Mapping]],
     out_ratios = []
     for num, den in ratios:
         a, b = per_case.get(num), per_case.get(den)
-        common = budget.common_replicas(seeds[num], seeds[den]) if seeds is not None else None
-        if seeds is not None and common and a is not None and b is not None:
-            # the cases' other seeds are other realisations (``study.report.common_seeds``)
-            a, b = (case_by_size([s for k, s in zip(seeds[c], cases[c], strict=True)
-                                  if k in common]) for c in (num, den))
+        common = None
+        if seeds is not None:
+            common = budget.common_replicas(seeds[num], seeds[den])
+            if common and a is not None and b is not None:
+                # the other seeds are other realisations (``study.report.common_seeds``)
+                a, b = (case_by_size([s for k, s in zip(seeds[c], cases[c], strict=True)
+                                      if k in common]) for c in (num, den))
         if a is None or b is None or [(x["r_low"], x["r_high"]) for x in a["bins"]] != \
                 [(x["r_low"], x["r_high"]) for x in b["bins"]]:
             continue

@@ -170,7 +170,7 @@ def kept_occultation(run, wake_significant: bool | None, old: Mapping | None) ->
             and old.get("azimuths") == len(observe.DEFAULT_AZIMUTHS)
             and old.get("precision") == observe.DEFAULT_PRECISION):
         period = run.scenario.orbital_period
-        orbits = [float(run.snapshot(i)["t"]) / period
+        orbits = [float(run.snapshot_times[i]) / period
                   for i in observe.window_snapshots(run)[0]]
         if orbits == old.get("snapshot_orbits"):
             return dict(old)

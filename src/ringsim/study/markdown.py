@@ -298,8 +298,9 @@ def cost_section(report: Mapping, summaries: Mapping[str, dict]) -> list[str]:
             for name, runs in groups]
     for name, v in report["variants"].items():
         for case, runs in v["runs"].items():
-            groups.append((f"{case} [{name}]", runs))
-            rows.append([groups[-1][0], str(len(runs)), _variant_cpu_hours(
+            label = f"{case} [{name}]"
+            groups.append((label, runs))
+            rows.append([label, str(len(runs)), _variant_cpu_hours(
                 runs, {r["run"] for r in report["cases"][case]["runs"]}, case, summaries)])
     distinct = sorted({r["run"] for _, runs in groups for r in runs})
     part = [rid for rid in distinct if _cpu_part_s(summaries[rid]) is not None]

@@ -188,13 +188,14 @@ def ratio_entry(runs: Runs, pair: tuple[str, str], quantity: str,
     all their seeds); ``in_equilibrium`` of the runs it is of."""
     num, den = pair
     seeds = common_seeds(runs, num, den)
-    value = _case_ratio(runs, num, den, quantity, None, seeds or None)
+    over = seeds or None        # [] (no seed in common): all the cases' seeds
+    value = _case_ratio(runs, num, den, quantity, None, over)
     scatter = seed_scatter(runs, num, den, quantity)
     parts = {v: _variant_part(runs, num, den, quantity, v, variant_seeds, scatter)
              for v in variants}
     relative = {v: part["relative"] for v, part in parts.items()}
     syst, _ = budget.systematic({"relative": {quantity: relative}}, quantity, value["mean"])
-    members = runs.of(num, None, seeds or None) + runs.of(den, None, seeds or None)
+    members = runs.of(num, None, over) + runs.of(den, None, over)
     return {"numerator": num, "denominator": den, "quantity": quantity,
             "mean": value["mean"], "stat": value["stderr"], "syst": syst,
             "total": math.hypot(value["stderr"], syst), "units": value["units"],
