@@ -13,7 +13,7 @@ import yaml
 from ringsim.config.schema import ScenarioError, Section
 from ringsim.config.study_references import KEPT_QUANTITIES, read_keep, read_references
 from ringsim.study.command import run_study
-from ringsim.study.kept import case_kept, kept_summary
+from ringsim.study.kept import case_kept, kept_summary, lacks_kept
 from ringsim.study.references import reference_entry
 
 
@@ -27,7 +27,8 @@ def equilibrium(ratio: float, bound: float = 0.0) -> dict:
     budget = {key: value(1.0, 0.1) for key in KEPT_QUANTITIES["energy_budget"]}
     budget["ratio"] = value(ratio, 0.01, "dimensionless")
     aggregation = {"rows": 20, "overlap_rows": 1, "max_overlapping_pairs": 2,
-                   "multi_encounter_share": 0.01, "bound_fraction_max": bound,
+                   "multi_encounter_share": 0.01, "bound_fraction_mean": 0.5 * bound,
+                   "bound_fraction_max": bound,
                    "bound_fraction_last": bound, "contact_fraction_last": 0.5 * bound,
                    "aggregating": bound >= 0.1, "snapshots": [{}],
                    "units": {"rows": "count", "bound_fraction_max": "fraction of the mass"}}
@@ -45,6 +46,23 @@ def test_a_summary_keeps_only_what_is_named():
                                          "units": "fraction of the mass"}
     assert agg["aggregating"] is True and "snapshots" not in agg
     assert kept_summary({"energy_budget": None}, ("energy_budget",)) == {"energy_budget": None}
+
+
+def test_a_summary_lacking_a_key_of_a_kept_entry_is_remade():
+    """A summary kept by an older ringsim, whose aggregation lacks a key of today's (the
+    verdict's window mean), is remade; a null energy budget (a run without the dissipation)
+    lacks nothing."""
+    kept = kept_summary(equilibrium(1.0, bound=0.3), ("energy_budget", "aggregation"))
+    assert not lacks_kept(kept, ("energy_budget", "aggregation"))
+    older = {**kept, "aggregation": {key: entry for key, entry in kept["aggregation"].items()
+                                     if key != "bound_fraction_mean"}}
+    assert lacks_kept(older, ("aggregation",))
+    assert not lacks_kept(older, ("energy_budget",))
+    assert not lacks_kept({"energy_budget": None}, ("energy_budget",))
+    assert lacks_kept({}, ("energy_budget",))
+    case = case_kept([kept, older], ("aggregation",))["aggregation"]
+    assert "bound_fraction_mean" not in case
+    assert case["bound_fraction_max"]["mean"] == pytest.approx(0.3)
 
 
 def test_a_case_holds_seed_means_only_of_entries_every_run_has():

@@ -253,7 +253,7 @@ def test_aggregation_study_sets_each_case_s_hill_parameter():
         assert r_h == pytest.approx(float(spec.case.removeprefix("rh")), rel=1e-6)
     refs = {r.case: r for r in study.references}
     assert refs["rh0.9"].high == 0.1 and refs["rh1.3"].low == 0.1
-    assert {r.quantity for r in refs.values()} == {"aggregation.bound_fraction_max"}
+    assert {r.quantity for r in refs.values()} == {"aggregation.bound_fraction_mean"}
 
 
 @pytest.mark.slow
@@ -262,7 +262,7 @@ def test_aggregation_quick_form_aggregates_only_above_r_h_1(tmp_path):
     r_h = 0.9, aggregates at 1.3, and the bound share rising with r_h from 1.0 on."""
     report = _quick_afresh(AGGREGATION, tmp_path)
     assert all(e["agrees"] for e in report["references"])
-    bound = [report["cases"][f"rh{x}"]["kept"]["aggregation"]["bound_fraction_max"]["mean"]
+    bound = [report["cases"][f"rh{x}"]["kept"]["aggregation"]["bound_fraction_mean"]["mean"]
              for x in ("1.0", "1.1", "1.2", "1.3")]
     assert bound == sorted(bound) and bound[-1] > 0.3
 

@@ -283,6 +283,9 @@ _DECLARED = (
     Quantity("aggregation.max_overlapping_pairs", "count", "most such pairs in one row"),
     Quantity("aggregation.multi_encounter_share", "fraction of collisions", "multi-encounters "
              "per collision in the window"),
+    Quantity("aggregation.bound_fraction_mean", "fraction of the mass", "share of the mass in "
+             "bound Hill-sphere groups, the mean over the window's snapshots (the verdict's)",
+             weighting="mass"),
     Quantity("aggregation.bound_fraction_max", "fraction of the mass", "largest share of the "
              "mass in bound Hill-sphere groups in a snapshot of the window", weighting="mass"),
     Quantity("aggregation.bound_fraction_last", "fraction of the mass", "share of the mass in "

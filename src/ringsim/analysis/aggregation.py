@@ -32,8 +32,12 @@ each snapshot in the equilibrium window and the verdict ``aggregating``.
   collisions that were multi-encounters (``multi_encounters``), both signs of particles
   pressed together.
 
-A run is ``aggregating`` when a snapshot of the window holds at least
-`AGGREGATING_FRACTION` of its mass in Hill groups.  Runs without self-gravity have no
+A run is ``aggregating`` when its window's snapshots hold on average at least
+`AGGREGATING_FRACTION` of their mass in Hill groups (``bound_fraction_mean``).  The mean,
+not the largest share of one snapshot: in a broad size distribution a few boulders hold
+half the mass, and a boulder holding a few small particles for one snapshot would
+otherwise call a granular ring aggregating, the more surely the more snapshots its window
+has.  Runs without self-gravity have no
 Hill groups and are never aggregating.  ``withhold_collision_statistics`` then replaces
 the collision statistics of the equilibrium with NaN and keeps the fluid averages apart.
 """
@@ -50,19 +54,21 @@ from ringsim.analysis.gravitating import window_snapshot_indices
 from ringsim.physics.constants import G_SI
 from ringsim.physics.selfgravity import shear_offset
 
-#: A snapshot with at least this share of its mass in bound Hill groups makes the run
-#: aggregating [dimensionless]: above the few per cent of transient bound pairs and
-#: triples of a ring that does not aggregate (docs/validation.md, "Where the rings start
-#: to aggregate").
+#: A window whose snapshots hold on average at least this share of their mass in bound
+#: Hill groups makes the run aggregating [dimensionless]: above the few per cent of
+#: transient bound pairs and triples of a ring that does not aggregate (docs/validation.md,
+#: "Where the rings start to aggregate").
 AGGREGATING_FRACTION = 0.1
 #: The equilibrium's collision statistics, withheld for an aggregating run.
 COLLISION_KEYS = ("collision_frequency", "collisional_viscosity", "mean_epsilon")
 #: The keys of an aggregation whose units ``quantities`` declares.
 AGGREGATION_UNITS = ("rows", "overlap_rows", "max_overlapping_pairs", "multi_encounter_share",
-                     "bound_fraction_max", "bound_fraction_last", "contact_fraction_last")
+                     "bound_fraction_mean", "bound_fraction_max", "bound_fraction_last",
+                     "contact_fraction_last")
 #: Printed by ``analyze`` and ``compare`` for an aggregating run.
 AGGREGATING_WARNING = ("WARNING: {name} aggregates ({share:.0f} % of the mass in bound "
-                       "Hill-sphere groups in a snapshot of the window): its collision "
+                       "Hill-sphere groups, the mean over the window's snapshots): its "
+                       "collision "
                        "frequency, collisional viscosity and mean epsilon are withheld, they "
                        "are not those of a granular fluid (the fluid averages are in the "
                        "JSON's aggregation.as_fluid)")
@@ -213,8 +219,8 @@ def run_aggregation(run, start: int | None = None, from_orbit: float | None = No
     -------
     dict: `overlap_events` of the window; ``aggregating`` (bool); for a gravitating run
     ``snapshots`` (`snapshot_aggregation` of each window snapshot, with its ``orbit``),
-    ``bound_fraction_max`` and ``bound_fraction_last``, ``contact_fraction_last`` [mass
-    shares]; ``units``.
+    ``bound_fraction_mean`` (the verdict's), ``bound_fraction_max`` and
+    ``bound_fraction_last``, ``contact_fraction_last`` [mass shares]; ``units``.
     """
     ts = run.timeseries
     orbits = np.asarray(ts["orbits"], dtype=float)
@@ -238,10 +244,11 @@ def run_aggregation(run, start: int | None = None, from_orbit: float | None = No
         snaps.append({"orbit": float(snap["t"]) / period,
                       **snapshot_aggregation(snap, Lx, Ly, Omega)})
     shares = [s["bound_fraction"] for s in snaps]
-    out.update(snapshots=snaps, bound_fraction_max=max(shares),
+    mean = float(np.mean(shares))
+    out.update(snapshots=snaps, bound_fraction_mean=mean, bound_fraction_max=max(shares),
                bound_fraction_last=shares[-1],
                contact_fraction_last=snaps[-1]["contact_fraction"],
-               aggregating=bool(max(shares) >= AGGREGATING_FRACTION))
+               aggregating=bool(mean >= AGGREGATING_FRACTION))
     return out
 
 
@@ -268,6 +275,10 @@ def aggregation_lines(eq: dict) -> list[str]:
     lines = []
     if "bound_fraction_last" in agg:
         last = agg["snapshots"][-1]
+        lines.append(f"  {'aggregation (window snapshots)':<42} "
+                     f"{100 * agg['bound_fraction_mean']:.1f} % of the mass in bound Hill "
+                     f"groups on average over {len(agg['snapshots'])}, at most "
+                     f"{100 * agg['bound_fraction_max']:.1f} % in one")
         lines.append(f"  {'aggregation (last snapshot)':<42} "
                      f"{100 * agg['bound_fraction_last']:.1f} % of the mass in bound Hill "
                      f"groups (largest {last['largest_bound_group']} particles), "
@@ -280,7 +291,7 @@ def aggregation_lines(eq: dict) -> list[str]:
                  + (f"{100 * share:.1f} % of collisions" if math.isfinite(share) else "n/a"))
     if agg["aggregating"]:
         lines.insert(0, AGGREGATING_WARNING.format(name=eq["name"],
-                                                   share=100 * agg["bound_fraction_max"]))
+                                                   share=100 * agg["bound_fraction_mean"]))
         if eq.get("wake_significant"):
             lines.append(f"  {'':<42} the dominant density mode above is that of the "
                          "aggregates (clumps), not of wakes")

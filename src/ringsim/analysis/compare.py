@@ -192,7 +192,7 @@ def comparison(equilibria: Sequence[dict], systematics: dict | None = None) -> d
     warnings = [NOT_IN_EQUILIBRIUM.format(name=eq["name"], reason=eq["reason"])
                 for eq in equilibria if not eq["in_equilibrium"]]
     warnings += [aggregation.AGGREGATING_WARNING.format(
-        name=eq["name"], share=100 * eq["aggregation"]["bound_fraction_max"])
+        name=eq["name"], share=100 * eq["aggregation"]["bound_fraction_mean"])
         for eq in equilibria if eq.get("aggregating")]
     return {"runs": groups, "ratios": ratios, "warnings": warnings,
             "all_in_equilibrium": not warnings,

@@ -52,8 +52,9 @@ SPIN_REFERENCES = tuple(f"spin.{key}" for key in SPIN_QUANTITIES)
 KEPT_QUANTITIES = {
     "energy_budget": ("heating", "normal_dissipation", "tangential_dissipation", "ratio",
                       "tangential_share"),
-    "aggregation": ("bound_fraction_max", "bound_fraction_last", "contact_fraction_last",
-                    "multi_encounter_share", "overlap_rows", "rows", "max_overlapping_pairs"),
+    "aggregation": ("bound_fraction_mean", "bound_fraction_max", "bound_fraction_last",
+                    "contact_fraction_last", "multi_encounter_share", "overlap_rows", "rows",
+                    "max_overlapping_pairs"),
     "thermal_balance": ("growth_rate", "sigma_xy_over_xx", "sigma_yy_over_xx",
                         "sigma_zz_over_xx"),
 }

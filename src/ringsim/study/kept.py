@@ -7,11 +7,11 @@ per case.
   tangential [W/m^2], their ratio (1 in a steady state) and the tangential share, each a
   window mean with its standard error (``analysis.spins.energy_budget``); null for a run
   file without the dissipation (REBOUND's resolver, ``integration.resolver``).
-* ``aggregation``: the largest and the last share of the mass in bound Hill-sphere groups
-  over the window's snapshots, the last share in contact groups, the multi-encounters per
-  collision and the overlap guard's rows (``analysis.aggregation.run_aggregation``), each
-  as ``{mean, stderr: 0, units}`` (one run's number: the seeds give the scatter), and the
-  verdict ``aggregating``.
+* ``aggregation``: the mean (the verdict's), the largest and the last share of the mass in
+  bound Hill-sphere groups over the window's snapshots, the last share in contact groups,
+  the multi-encounters per collision and the overlap guard's rows
+  (``analysis.aggregation.run_aggregation``), each as ``{mean, stderr: 0, units}`` (one
+  run's number: the seeds give the scatter), and the verdict ``aggregating``.
 * ``thermal_balance``: the growth rate of ln c^2 [1/orbit] and the stress ratios
   sigma_xy / sigma_xx, sigma_yy / sigma_xx, sigma_zz / sigma_xx over the rows after the
   start's relaxation, with batch-means errors (``analysis.thermal``): whether a ring
@@ -61,14 +61,17 @@ def kept_summary(eq: Mapping, names: Iterable[str], run=None) -> dict:
 
 
 def lacks_kept(summary: Mapping, names: Iterable[str]) -> bool:
-    """Whether a summary lacks an entry its study keeps (it is then remade from its run
-    file, when that is there)."""
-    return any(name not in summary for name in names)
+    """Whether a summary lacks an entry its study keeps, or a key of one (it is then remade
+    from its run file, when that is there)."""
+    return any(name not in summary
+               or (summary[name] and not set(KEPT_QUANTITIES[name]) <= set(summary[name]))
+               for name in names)
 
 
 def case_kept(summaries: Sequence[Mapping], names: Iterable[str]) -> dict:
     """The seed means of each kept entry that every run of a case has (a name whose entry
-    some run lacks or holds null is left out)."""
+    some run lacks or holds null is left out, and so is a key some run's entry lacks: a
+    summary kept by an older ringsim whose run file is gone)."""
     out: dict = {}
     for name in names:
         entries: list[Mapping] = [s[name] for s in summaries if s.get(name)]
@@ -76,7 +79,7 @@ def case_kept(summaries: Sequence[Mapping], names: Iterable[str]) -> dict:
             continue
         out[name] = {key: budget.replica_mean([budget.replica_value(e[key])
                                                for e in entries])
-                     for key in KEPT_QUANTITIES[name]}
+                     for key in KEPT_QUANTITIES[name] if all(key in e for e in entries)}
         if name == "aggregation":
             out[name]["aggregating_runs"] = sum(bool(e.get("aggregating")) for e in entries)
     return out
