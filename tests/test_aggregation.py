@@ -180,6 +180,8 @@ def test_analyze_and_compare_flag_an_aggregating_run(tmp_path, gravitating_scena
     assert math.isnan(eq["collision_frequency"]["mean"])
     assert eq["aggregation"]["as_fluid"]["collision_frequency"]["mean"] > 0.0
     assert "clumping aggregates" in printed and "withheld: the ring aggregates" in printed
+    mean = 100 * eq["aggregation"]["bound_fraction_mean"]
+    assert mean >= 10.0 and f"{mean:.1f} % of the mass in bound Hill groups on average" in printed
     shutil.copy(path, tmp_path / "d.h5")
     assert main(["compare", str(path), str(tmp_path / "d.h5"), "--json",
                  str(tmp_path / "cmp.json")]) == 0

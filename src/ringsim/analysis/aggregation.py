@@ -277,7 +277,7 @@ def aggregation_lines(eq: dict) -> list[str]:
         last = agg["snapshots"][-1]
         lines.append(f"  {'aggregation (window snapshots)':<42} "
                      f"{100 * agg['bound_fraction_mean']:.1f} % of the mass in bound Hill "
-                     f"groups on average over {len(agg['snapshots'])}, at most "
+                     f"groups on average over {len(agg['snapshots'])} snapshots, at most "
                      f"{100 * agg['bound_fraction_max']:.1f} % in one")
         lines.append(f"  {'aggregation (last snapshot)':<42} "
                      f"{100 * agg['bound_fraction_last']:.1f} % of the mass in bound Hill "
