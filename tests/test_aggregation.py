@@ -133,7 +133,9 @@ def test_a_sheet_with_a_bound_clump_is_flagged_as_aggregating(r_h, flagged):
         assert math.isnan(eq[key]["mean"]) is flagged
     if flagged:
         assert result["as_fluid"]["collision_frequency"]["mean"] == 1.0
-        assert "WARNING: clump aggregates" in "\n".join(agg.aggregation_lines(eq))
+        printed = "\n".join(agg.aggregation_lines(eq))
+        assert "WARNING: clump aggregates (23 % of the mass in bound" in printed
+        assert "23.1 % of the mass in bound Hill groups on average over 1 snapshot," in printed
 
 
 @pytest.mark.parametrize("bound_snapshots, flagged", [(1, False), (2, True), (4, True)])
@@ -151,6 +153,13 @@ def test_the_verdict_is_the_window_mean_of_the_bound_share(bound_snapshots, flag
     assert result["bound_fraction_mean"] == pytest.approx(bound_snapshots / 4 * 18 / 78,
                                                           rel=1e-12)
     assert result["aggregating"] is flagged
+    eq = {"name": "clump",
+          **{key: {"mean": 1.0, "stderr": 0.1, "units": "u"} for key in agg.COLLISION_KEYS}}
+    agg.withhold_collision_statistics(eq, result)
+    printed = "\n".join(agg.aggregation_lines(eq))
+    mean = 100 * result["bound_fraction_mean"]
+    assert (f"WARNING: clump aggregates ({mean:.0f} % of the mass" in printed) is flagged
+    assert f"{mean:.1f} % of the mass in bound Hill groups on average over 4 snapshots" in printed
 
 
 def test_a_run_without_self_gravity_is_never_aggregating():

@@ -266,6 +266,10 @@ def withhold_collision_statistics(eq: dict, agg: dict) -> None:
         eq[key] = {"mean": math.nan, "stderr": math.nan, "units": eq[key]["units"]}
 
 
+def _snapshots(n: int) -> str:
+    return "1 snapshot" if n == 1 else f"{n} snapshots"
+
+
 def aggregation_lines(eq: dict) -> list[str]:
     """Lines of the plain-text equilibrium table: the aggregation numbers, and the warning
     for an aggregating run."""
@@ -277,7 +281,7 @@ def aggregation_lines(eq: dict) -> list[str]:
         last = agg["snapshots"][-1]
         lines.append(f"  {'aggregation (window snapshots)':<42} "
                      f"{100 * agg['bound_fraction_mean']:.1f} % of the mass in bound Hill "
-                     f"groups on average over {len(agg['snapshots'])} snapshots, at most "
+                     f"groups on average over {_snapshots(len(agg['snapshots']))}, at most "
                      f"{100 * agg['bound_fraction_max']:.1f} % in one")
         lines.append(f"  {'aggregation (last snapshot)':<42} "
                      f"{100 * agg['bound_fraction_last']:.1f} % of the mass in bound Hill "
