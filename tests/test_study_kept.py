@@ -23,14 +23,15 @@ def value(mean: float, stderr: float, units: str = "W/m^2") -> dict:
 
 def equilibrium(ratio: float, bound: float = 0.0) -> dict:
     """An equilibrium with an energy budget of heating/dissipation ``ratio`` and an
-    aggregation with ``bound`` of the mass in Hill groups at most."""
+    aggregation with ``bound`` of the mass in Hill groups at most, half that on average
+    (the verdict's mean)."""
     budget = {key: value(1.0, 0.1) for key in KEPT_QUANTITIES["energy_budget"]}
     budget["ratio"] = value(ratio, 0.01, "dimensionless")
     aggregation = {"rows": 20, "overlap_rows": 1, "max_overlapping_pairs": 2,
                    "multi_encounter_share": 0.01, "bound_fraction_mean": 0.5 * bound,
                    "bound_fraction_max": bound,
                    "bound_fraction_last": bound, "contact_fraction_last": 0.5 * bound,
-                   "aggregating": bound >= 0.1, "snapshots": [{}],
+                   "aggregating": 0.5 * bound >= 0.1, "snapshots": [{}],
                    "units": {"rows": "count", "bound_fraction_max": "fraction of the mass"}}
     return {"energy_budget": budget, "aggregation": aggregation}
 

@@ -68,10 +68,9 @@ AGGREGATION_UNITS = ("rows", "overlap_rows", "max_overlapping_pairs", "multi_enc
 #: Printed by ``analyze`` and ``compare`` for an aggregating run.
 AGGREGATING_WARNING = ("WARNING: {name} aggregates ({share:.0f} % of the mass in bound "
                        "Hill-sphere groups, the mean over the window's snapshots): its "
-                       "collision "
-                       "frequency, collisional viscosity and mean epsilon are withheld, they "
-                       "are not those of a granular fluid (the fluid averages are in the "
-                       "JSON's aggregation.as_fluid)")
+                       "collision frequency, collisional viscosity and mean epsilon are "
+                       "withheld, they are not those of a granular fluid (the fluid averages "
+                       "are in the JSON's aggregation.as_fluid)")
 
 
 def hill_radius(mass_sum, Omega: float, G: float = G_SI):
