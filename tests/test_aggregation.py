@@ -119,12 +119,14 @@ def test_a_sheet_with_a_bound_clump_is_flagged_as_aggregating(r_h, flagged):
     AGGREGATING_FRACTION = 10 %) is aggregating, and its collision statistics are
     withheld (NaN, the fluid averages kept apart); at r_h = 0.6 it is not.  The overlap
     events are counted from the window's rows: 2 of 3 rows, at most 5 pairs, 10 of 40
-    collisions multi-encounters."""
+    collisions multi-encounters.  The one snapshot (orbit 0) lies before the window (from
+    orbit 0.1), and the result and the printed line say so."""
     Omega = omega_for(r_h)
     result = agg.run_aggregation(fake_run(sheet(Omega), Omega), start=1)
     assert result["aggregating"] is flagged
     assert (result["rows"], result["overlap_rows"], result["max_overlapping_pairs"]) == (3, 2, 5)
     assert result["multi_encounter_share"] == pytest.approx(0.25, rel=1e-12)
+    assert result["snapshots_in_window"] is False
     eq = {"name": "clump",
           **{key: {"mean": 1.0, "stderr": 0.1, "units": "u"} for key in agg.COLLISION_KEYS}}
     agg.withhold_collision_statistics(eq, result)
@@ -136,6 +138,8 @@ def test_a_sheet_with_a_bound_clump_is_flagged_as_aggregating(r_h, flagged):
         printed = "\n".join(agg.aggregation_lines(eq))
         assert "WARNING: clump aggregates (23 % of the mass in bound" in printed
         assert "23.1 % of the mass in bound Hill groups on average over 1 snapshot," in printed
+        assert "aggregation (last snapshot, before window)" in printed
+        assert "window snapshots" not in printed
 
 
 @pytest.mark.parametrize("bound_snapshots, flagged", [(1, False), (2, True), (4, True)])
@@ -160,6 +164,8 @@ def test_the_verdict_is_the_window_mean_of_the_bound_share(bound_snapshots, flag
     mean = 100 * result["bound_fraction_mean"]
     assert (f"WARNING: clump aggregates ({mean:.0f} % of the mass" in printed) is flagged
     assert f"{mean:.1f} % of the mass in bound Hill groups on average over 4 snapshots" in printed
+    assert result["snapshots_in_window"] is True
+    assert "aggregation (window snapshots)" in printed
 
 
 def test_a_run_without_self_gravity_is_never_aggregating():

@@ -50,7 +50,7 @@ import numpy as np
 
 from ringsim import quantities
 from ringsim.analysis import clumps
-from ringsim.analysis.gravitating import window_snapshot_indices
+from ringsim.analysis.window import snapshots_from
 from ringsim.physics.constants import G_SI
 from ringsim.physics.selfgravity import shear_offset
 
@@ -217,7 +217,8 @@ def run_aggregation(run, start: int | None = None, from_orbit: float | None = No
     Returns
     -------
     dict: `overlap_events` of the window; ``aggregating`` (bool); for a gravitating run
-    ``snapshots`` (`snapshot_aggregation` of each window snapshot, with its ``orbit``),
+    ``snapshots`` (`snapshot_aggregation` of each window snapshot, with its ``orbit``;
+    the last snapshot when none is in the window, ``snapshots_in_window`` False),
     ``bound_fraction_mean`` (the verdict's), ``bound_fraction_max`` and
     ``bound_fraction_last``, ``contact_fraction_last`` [mass shares]; ``units``.
     """
@@ -236,7 +237,7 @@ def run_aggregation(run, start: int | None = None, from_orbit: float | None = No
     Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
     Omega = run.scenario.orbital_frequency
     period = run.scenario.orbital_period
-    indices = window_snapshot_indices(run, from_orbit) or [run.n_snapshots - 1]
+    indices, in_window = snapshots_from(run, (from_orbit - 1e-9) * period)
     snaps = []
     for index in indices:
         snap = run.snapshot(index)
@@ -247,7 +248,7 @@ def run_aggregation(run, start: int | None = None, from_orbit: float | None = No
     out.update(snapshots=snaps, bound_fraction_mean=mean, bound_fraction_max=max(shares),
                bound_fraction_last=shares[-1],
                contact_fraction_last=snaps[-1]["contact_fraction"],
-               aggregating=bool(mean >= AGGREGATING_FRACTION))
+               snapshots_in_window=in_window, aggregating=bool(mean >= AGGREGATING_FRACTION))
     return out
 
 
@@ -278,7 +279,9 @@ def aggregation_lines(eq: dict) -> list[str]:
     lines = []
     if "bound_fraction_last" in agg:
         last = agg["snapshots"][-1]
-        lines.append(f"  {'aggregation (window snapshots)':<42} "
+        label = ("aggregation (window snapshots)" if agg.get("snapshots_in_window", True)
+                 else "aggregation (last snapshot, before window)")
+        lines.append(f"  {label:<42} "
                      f"{100 * agg['bound_fraction_mean']:.1f} % of the mass in bound Hill "
                      f"groups on average over {_snapshots(len(agg['snapshots']))}, at most "
                      f"{100 * agg['bound_fraction_max']:.1f} % in one")

@@ -50,6 +50,7 @@ import numpy as np
 
 from ringsim.analysis import timeseries, wakes
 from ringsim.analysis.snapshot import dispersion_tensor
+from ringsim.analysis.window import snapshots_from
 from ringsim.physics import gravity as patch
 from ringsim.physics.restitution import epsilon_for_pair
 from ringsim.physics.selfgravity import shear_offset
@@ -102,13 +103,6 @@ def run_constants(run) -> dict:
                                           planet.a))
     return {"r_h": r_h, "Sigma": Sigma,
             "lambda_cr": float(patch.toomre_wavelength(Sigma, sc.orbital_frequency))}
-
-
-def window_snapshot_indices(run, from_orbit: float) -> list[int]:
-    """Indices of the snapshots at or after ``from_orbit`` [orbits]."""
-    period = run.scenario.orbital_period
-    return [i for i in range(run.n_snapshots)
-            if run.snapshot_times[i] / period >= from_orbit - 1e-9]
 
 
 def snapshot_wakes(snap: dict, Lx: float, Ly: float, Omega: float) -> dict:
@@ -292,7 +286,7 @@ def gravity_equilibrium(run, start: int, viscosities: dict | None = None) -> dic
     Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
     orbits = ts["orbits"]
     from_orbit = float(orbits[start]) if start < orbits.size else float(orbits[-1])
-    indices = window_snapshot_indices(run, from_orbit) or [run.n_snapshots - 1]
+    indices, _ = snapshots_from(run, (from_orbit - 1e-9) * run.scenario.orbital_period)
     snaps = [run.snapshot(i) for i in indices]
     per = [snapshot_wakes(snap, Lx, Ly, Omega) for snap in snaps]
     out: dict[str, object] = {"r_h": _value(const["r_h"], 0.0, unit("r_h")),
