@@ -81,6 +81,33 @@ def test_scoped_study_report_holds_the_seeds_and_cases_it_ran(scoped):
     assert "(seeds [1] only)" in text and "changes the runs of `k01`, `k02` only" in text
 
 
+def test_a_range_variant_is_given_beside_the_ratio_not_added_to_its_error(scoped):
+    """The variant ``budget: range`` changes no run: the same summaries give the ratio with
+    the variant as before, now beside the ratio (``range_parts``, the table and the figure's
+    crosses), and the ratio without systematic variants has no systematic error."""
+    text = SCOPED.replace("cases: [k01, k02]}", "cases: [k01, k02], budget: range}")
+    assert text != SCOPED
+    (scoped / "ranged.yaml").write_text(text)
+    run_study(scoped / "ranged.yaml", quick=True, report_only=True, echo=None,
+              command="ringsim study x --quick --report-only")
+    before = json.loads((scoped / "study.quick.report" / "report.json").read_text())
+    after = json.loads((scoped / "ranged.quick.report" / "report.json").read_text())
+    pick = {(e["numerator"], e["quantity"]): e for e in after["ratios"]}
+    for old in before["ratios"]:
+        new = pick[(old["numerator"], old["quantity"])]
+        assert new["mean"] == old["mean"] and new["stat"] == old["stat"]
+        assert old["syst"] is not None and new["syst"] is None and new["syst_parts"] == {}
+        assert new["range_parts"] == old["syst_parts"]
+    assert "budget is range" in after["systematics"]
+    assert "budget is range" not in before["systematics"]
+    c = pick[("k01", "velocity_dispersion")]
+    shown = f"{c['range_parts']['ref_600g']['ratio']:.4g} with ref_600g (range)"
+    md = (scoped / "ranged.quick.report" / "report.md").read_text()
+    assert shown in md and "| ref_600g (range) |" in md
+    assert "with ref_600g (range)" not in (scoped / "study.quick.report" / "report.md"
+                                          ).read_text()
+
+
 BAD = [
     ("  k02: {restitution.kappa: 0.2, seeds: [3]}\n", "cases.k02.seeds", "3 is not allowed"),
     ("  k02: {restitution.kappa: 0.2, seeds: []}\n", "cases.k02.seeds", "got []"),
@@ -89,6 +116,8 @@ BAD = [
     ("  ref_600g: {restitution.reference_mass: 0.6, cases: [k9]}\n", "variants.ref_600g.cases",
      "'k9' is not a case of the ratios"),
     ("  ref_600g: {cases: [k01]}\n", "variants.ref_600g", "is empty"),
+    ("  ref_600g: {restitution.reference_mass: 0.6, budget: model}\n",
+     "variants.ref_600g.budget", "got 'model'"),
 ]
 
 

@@ -32,13 +32,12 @@ from ringsim.config.schema import (
 )
 from ringsim.config.study_references import Reference, read_keep, read_references
 from ringsim.config.study_scope import (
-    VARIANT_KEYS,
     case_scope,
     check_form_seeds,
     form_seeds,
     read_length,
     read_seeds,
-    read_variant_cases,
+    read_variant_keys,
 )
 from ringsim.config.study_start import (
     START_FILE,
@@ -84,6 +83,8 @@ class Mode:
     variant_cases : dict of variant name -> tuple of case names
         The cases whose runs a variant changes, for the variants that name them
         (``config.study_scope``); a variant not in it changes every case of the ratios.
+    variant_ranges : tuple of str
+        The variants whose ``budget`` is ``range`` (``config.study_scope``).
     """
 
     quick: bool
@@ -93,6 +94,7 @@ class Mode:
     overrides: dict
     variants: tuple[tuple[str, dict], ...]
     variant_cases: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    variant_ranges: tuple[str, ...] = ()
 
     def changes(self, variant: str | None, case: str) -> dict:
         """The overrides of ``variant`` on the runs of ``case`` ({} where it keeps the
@@ -149,8 +151,7 @@ class Study:
         The study's prose: a Markdown file spliced into its report (its path, beside the
         study file).
     quick_report : str or None
-        Prose of the quick form only (``quick.report``), added after ``report`` in the
-        quick form's report.
+        Prose of the quick form only (``quick.report``), after ``report`` in its report.
     references : tuple of Reference
         The values the cases are checked against (``config.study_references``).
     starts : dict of case name -> Start
@@ -358,34 +359,35 @@ def _quantities(top: Section, known: Sequence[str] | None) -> tuple[str, ...] | 
 
 
 def _variants(sec: Section, base: Scenario, before: dict, ratio_cases: Sequence[str]
-              ) -> tuple[tuple[tuple[str, dict], ...], dict[str, tuple[str, ...]]]:
-    """The variants' overrides, and the cases of the variants that name the cases whose
-    runs they change."""
-    variants = sec.section("variants", allowed="variant name -> dotted overrides, and "
-                           "optionally cases: the cases whose runs the variant changes")
-    out, scopes = [], {}
+              ) -> tuple[tuple[tuple[str, dict], ...], dict[str, tuple[str, ...]],
+                         tuple[str, ...]]:
+    """The variants' overrides, the cases of the variants that name the cases whose runs
+    they change, and the variants whose ``budget`` is ``range``."""
+    variants = sec.section("variants", allowed="variant name -> dotted overrides, cases "
+                           "(optional: the cases whose runs it changes) and budget")
+    out, scopes, ranges = [], {}, []
     for key in variants.mapping:
         name = _name(variants, str(key), key, "variant")
-        value = variants.mapping[key]
-        if isinstance(value, Mapping) and "cases" in value:
-            scopes[name] = read_variant_cases(variants, name, value["cases"], ratio_cases)
-            value = {k: v for k, v in value.items() if k not in VARIANT_KEYS}
+        value, scope, part = read_variant_keys(variants, name, variants.mapping[key],
+                                               ratio_cases)
+        scopes.update({name: scope} if scope else {})
+        ranges += [name] if part == "range" else []
         here = Section(variants.file, variants.prefix, {name: value})
         changes = _check_overrides(here, name, base, before)
         if not changes:
             raise variants.error(name, "is empty", "the overrides that change the method")
         out.append((name, changes))
-    return tuple(out), scopes
+    return tuple(out), scopes, tuple(ranges)
 
 
 def _full_mode(top: Section, base: Scenario, seeds: tuple[int, ...], length: dict,
                ratio_cases: Sequence[str]) -> Mode:
-    variants, scopes = _variants(top, base, length, ratio_cases)
+    variants, scopes, ranges = _variants(top, base, length, ratio_cases)
     if top.has("variant_seeds") and not variants:
         raise top.error("variant_seeds", "given without variants", "remove it, or add variants")
     variant_seeds = (read_seeds(top, "variant_seeds", within=seeds) if top.has("variant_seeds")
                      else seeds[:1])
-    return Mode(False, seeds, variant_seeds, length, {}, variants, scopes)
+    return Mode(False, seeds, variant_seeds, length, {}, variants, scopes, ranges)
 
 
 def _quick_mode(top: Section, base: Scenario, full: Mode, ratio_cases: Sequence[str]
@@ -406,8 +408,9 @@ def _quick_mode(top: Section, base: Scenario, full: Mode, ratio_cases: Sequence[
     overrides = _check_overrides(Section(top.file, "", {"quick": scenario_keys}), "quick",
                                  base, length)
     seeds = read_seeds(quick, "seeds") if quick.has("seeds") else full.seeds
-    variants, scopes = (_variants(quick, base, {**length, **overrides}, ratio_cases)
-                        if quick.has("variants") else (full.variants, full.variant_cases))
+    variants, scopes, ranges = (
+        _variants(quick, base, {**length, **overrides}, ratio_cases) if quick.has("variants")
+        else (full.variants, full.variant_cases, full.variant_ranges))
     if quick.has("variant_seeds"):
         if not variants:
             raise quick.error("variant_seeds", "given without variants", "remove it")
@@ -415,14 +418,13 @@ def _quick_mode(top: Section, base: Scenario, full: Mode, ratio_cases: Sequence[
     else:
         variant_seeds = (full.variant_seeds if set(full.variant_seeds) <= set(seeds)
                          else seeds[:1])
-    return Mode(True, seeds, variant_seeds, length, overrides, variants, scopes)
+    return Mode(True, seeds, variant_seeds, length, overrides, variants, scopes, ranges)
 
 
 def _report(top: Section, folder: Path) -> str | None:
     if not top.has("report"):
         return None
-    name = top.string("report", what="a Markdown file, relative to the study file")
-    path = folder / name
+    path = folder / top.string("report", what="a Markdown file, relative to the study file")
     if not path.is_file():
         raise top.error("report", f"no file {show(str(path))}",
                         "a Markdown file beside the study file: the study's prose")

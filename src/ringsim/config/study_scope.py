@@ -22,7 +22,12 @@ from ringsim.config.scenario import MAX_SEED
 from ringsim.config.schema import ScenarioError, Section, show
 
 #: Keys of a variant besides its dotted scenario overrides.
-VARIANT_KEYS = ("cases",)
+VARIANT_KEYS = ("cases", "budget")
+#: A variant's part of the error budget (the variant key ``budget``): ``systematic`` (its
+#: shift of a ratio adds to the ratio's systematic error) or ``range`` (it sets a model
+#: parameter to the other end of the range its value is known within: the ratio there is
+#: given beside the ratio, not added to its error).
+VARIANT_BUDGETS = ("systematic", "range")
 #: Keys of a ``length`` section.
 LENGTH_KEYS = ("orbits", "until_equilibrium", "max_orbits")
 
@@ -68,6 +73,23 @@ def read_seeds(sec: Section, key: str, within: Sequence[int] | None = None) -> t
     if len(set(value)) != len(value):
         raise sec.error(key, f"{value} repeats a seed", allowed)
     return tuple(value)
+
+
+def read_variant_keys(variants: Section, name: str, value: object,
+                      ratio_cases: Sequence[str]
+                      ) -> tuple[object, tuple[str, ...] | None, str]:
+    """A variant's overrides without its `VARIANT_KEYS`, its ``cases`` (None: every case
+    of the ratios) and its ``budget`` (`VARIANT_BUDGETS`, ``systematic`` by default)."""
+    if not isinstance(value, Mapping):
+        return value, None, "systematic"
+    cases = (read_variant_cases(variants, name, value["cases"], ratio_cases)
+             if "cases" in value else None)
+    part = value.get("budget", "systematic")
+    if part not in VARIANT_BUDGETS:
+        raise variants.error(f"{name}.budget", f"got {show(part)}",
+                             " or ".join(VARIANT_BUDGETS) + ": whether the variant's shift "
+                             "adds to the systematic error or gives a model parameter's range")
+    return {k: v for k, v in value.items() if k not in VARIANT_KEYS}, cases, str(part)
 
 
 def read_variant_cases(variants: Section, name: str, value: object,

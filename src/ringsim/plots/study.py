@@ -4,7 +4,9 @@ Each ratio of the study (numerator case / denominator case) is one series: its v
 every quantity of the report, a thick error bar for the statistical error and a thin one
 for the total (statistical and systematic in quadrature, where measured).  Where its cases
 have two or more seeds in common, an open marker beside it gives the seed-paired ratio
-with its statistical error.  The ratios are
+with its statistical error.  A variant whose budget is ``range`` (a model parameter at the
+other end of the range its value is known within) is a cross joined to the ratio by a
+dotted line: the ratio there, not an error.  The ratios are
 pure numbers; the dashed line marks 1 (no change).  The legend sits above the axes, off
 the data.
 """
@@ -38,6 +40,22 @@ def _paired_series(ax, entries: list[Mapping], x, style: Mapping, label: str) ->
     return list(mean - err) + list(mean + err)
 
 
+def _range_series(ax, entries: list[Mapping], x, style: Mapping, label: str) -> list[float]:
+    """The ratios with each ``range`` variant (crosses, dotted to the ratio); the values
+    they reach."""
+    reach: list[float] = []
+    for variant in dict.fromkeys(v for e in entries for v in e.get("range_parts", {})):
+        moved = np.array([_finite(e.get("range_parts", {}).get(variant, {}).get("ratio"))
+                          for e in entries])
+        mean = np.array([_finite(e["mean"]) for e in entries])
+        ax.vlines(x, np.fmin(mean, moved), np.fmax(mean, moved), colors=style["color"],
+                  linestyles=":", linewidth=1.0)
+        ax.plot(x, moved, "x", color=style["color"], markersize=7,
+                label=f"{label} with {variant} (range)")
+        reach += list(moved)
+    return reach
+
+
 def ratio_figure(report: Mapping):
     """The figure of a study's ``report.json`` content; None without ratios."""
     entries = report["ratios"]
@@ -66,6 +84,8 @@ def ratio_figure(report: Mapping):
         shown += list(mean - reach) + list(mean + reach)
         shown += _paired_series(ax, [by[(num, den, q)] for q in quantities], x + width / 3,
                                 style, f"{num} / {den}, seed-paired")
+        shown += _range_series(ax, [by[(num, den, q)] for q in quantities], x - width / 3,
+                               style, f"{num} / {den}")
     ax.axhline(1.0, color="0.4", linestyle="--", linewidth=0.8, label="1 (no change)")
     positive = [v for v in shown if math.isfinite(v) and v > 0]
     set_readable_axis(ax, "y", positive if len(positive) == len(shown) else shown)
@@ -80,6 +100,8 @@ def ratio_figure(report: Mapping):
     title = (f"study {report['study']} ({form}): thick bars statistical, "
              "thin bars total error" + ("\nopen markers: the seed-paired ratio" if paired
                                         else ""))
+    if any(e.get("range_parts") for e in entries):
+        title += "\ncrosses: the ratio at the other end of a model parameter's range"
     for ncols in range(min(len(pairs) + 1, 4), 0, -1):   # the most columns that fit
         legend = fig.legend(loc="outside upper center", ncols=ncols, frameon=False,
                             title=title)

@@ -102,7 +102,9 @@ def _ratio_text(entry: Mapping) -> str:
     syst_text = (f" ± {_num(syst, 2)} (syst)" if syst is not None and math.isfinite(syst)
                  else " (syst. not measured)")
     stat = budget.shown_error(entry["mean"], entry["stat"])
-    return f"**{entry['mean']:.4g}** ± {_num(stat, 2)} (stat){syst_text}"
+    ranges = "".join(f"; {_num(part['ratio'])} with {variant} (range)"
+                     for variant, part in entry.get("range_parts", {}).items())
+    return f"**{entry['mean']:.4g}** ± {_num(stat, 2)} (stat){syst_text}{ranges}"
 
 
 def _paired_lines(report: Mapping) -> list[str]:
@@ -156,7 +158,10 @@ def ratios_section(report: Mapping, figure: str | None) -> list[str]:
     shifts = [[f"{e['numerator']} / {e['denominator']}", _label(e["quantity"]), variant,
                _num(part["ratio"]), _num(part["ratio_without"]), _num(part["shift"], 2),
                _num(part["noise"], 2), _num(part.get("seed_noise"), 2)]
-              for e in report["ratios"] for variant, part in e["syst_parts"].items()]
+              for e in report["ratios"]
+              for variant, part in [*e["syst_parts"].items(),
+                                    *((f"{v} (range)", p)
+                                      for v, p in e.get("range_parts", {}).items())]]
     if shifts:
         lines += ["### The variants' shifts", "",
                   f"Seeds {report['variant_seeds']}, with and without each variant. The "
@@ -165,7 +170,10 @@ def ratios_section(report: Mapping, figure: str | None) -> list[str]:
                   "(n/a with fewer than two seeds). A variant run with the same seed is "
                   "another realisation, so a shift below it is not told apart from chance "
                   "even where it exceeds its statistical error; the budget counts it "
-                  "(an upper estimate).", ""]
+                  "(an upper estimate)."
+                  + (" A variant marked (range) is not in the budget: its rows give the "
+                     "ratio at the other end of the range a model parameter is known within."
+                     if any(e.get("range_parts") for e in report["ratios"]) else ""), ""]
         lines += _table(["ratio", "quantity", "variant", "with the variant",
                          "without", "shift", "its stat. error", "seed noise"], shifts)
         lines += [""]

@@ -60,6 +60,11 @@ SYSTEMATICS = ("each variant reruns the cases of the ratios with the variant see
                "variant, relative to that ratio, or the shift's own statistical error if "
                "larger (a smaller shift is not resolved); the parts add in quadrature; "
                "null: no variant measured it")
+#: What the report says of the variants whose ``budget`` is ``range``, when it has some.
+RANGES = ("; a variant whose budget is range (docs/studies.md) is not among the parts: it "
+          "sets a model parameter to the other end of the range its value is known within, "
+          "and the ratio there is given beside the ratio ('with ... (range)'), its shift in "
+          "the variants' shifts")
 
 
 def seed_mean(summaries: Sequence[Mapping], quantity: str) -> dict:
@@ -181,9 +186,11 @@ def common_seeds(runs: Runs, num: str, den: str) -> list[int] | None:
 
 
 def ratio_entry(runs: Runs, pair: tuple[str, str], quantity: str,
-                variants: Sequence[str], variant_seeds: Sequence[int]) -> dict:
-    """One ratio of one quantity, with its statistical and systematic errors; the ratio of
-    the cases' seed means over their `common_seeds` where they ran different seeds
+                variants: Sequence[str], variant_seeds: Sequence[int],
+                ranges: Sequence[str] = ()) -> dict:
+    """One ratio of one quantity, with its statistical and systematic errors (``syst_parts``:
+    the shifts of the variants but ``ranges``, whose shifts are ``range_parts``); the ratio
+    of the cases' seed means over their `common_seeds` where they ran different seeds
     (``seeds``: null where they ran the same, [] where they share none and the ratio is of
     all their seeds); ``in_equilibrium`` of the runs it is of."""
     num, den = pair
@@ -193,13 +200,15 @@ def ratio_entry(runs: Runs, pair: tuple[str, str], quantity: str,
     scatter = seed_scatter(runs, num, den, quantity)
     parts = {v: _variant_part(runs, num, den, quantity, v, variant_seeds, scatter)
              for v in variants}
-    relative = {v: part["relative"] for v, part in parts.items()}
+    syst_parts = {v: part for v, part in parts.items() if v not in ranges}
+    relative = {v: part["relative"] for v, part in syst_parts.items()}
     syst, _ = budget.systematic({"relative": {quantity: relative}}, quantity, value["mean"])
     members = runs.of(num, None, over) + runs.of(den, None, over)
     return {"numerator": num, "denominator": den, "quantity": quantity,
             "mean": value["mean"], "stat": value["stderr"], "syst": syst,
             "total": math.hypot(value["stderr"], syst), "units": value["units"],
-            "quantity_units": QUANTITIES[quantity][1], "syst_parts": parts,
+            "quantity_units": QUANTITIES[quantity][1], "syst_parts": syst_parts,
+            **({"range_parts": {v: parts[v] for v in ranges}} if ranges else {}),
             "seed_scatter": scatter, "paired": paired_ratio(runs, num, den, quantity),
             "seeds": seeds, "in_equilibrium": all(s["in_equilibrium"] for s in members)}
 
@@ -240,7 +249,8 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
         "seeds": list(mode.seeds),
         "variant_seeds": list(mode.variant_seeds) if variants else [],
         "length": dict(mode.length), "quick_overrides": dict(mode.overrides),
-        "averaging": AVERAGING, "systematics": SYSTEMATICS, "quantities": quantities,
+        "averaging": AVERAGING, "quantities": quantities,
+        "systematics": SYSTEMATICS + (RANGES if mode.variant_ranges else ""),
         "cases": {case: case_entry(overrides, runs, case, study.keep)
                   for case, overrides in study.cases},
         "variants": {name: {"overrides": dict(changes),
@@ -249,7 +259,8 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
                             "runs": {case: runs.entries(case, name)
                                      for case in study.ratio_cases()}}
                      for name, changes in mode.variants},
-        "ratios": [ratio_entry(runs, pair, q, variants, mode.variant_seeds)
+        "ratios": [ratio_entry(runs, pair, q, variants, mode.variant_seeds,
+                               mode.variant_ranges)
                    for pair in study.ratios for q in quantities],
         "warnings": _warnings(study, mode, runs),
         **_by_size(study, runs),
