@@ -17,6 +17,7 @@ from ringsim.study.by_size import (
     by_size_report,
     case_by_size,
 )
+from ringsim.study.variant_sizes import variant_by_size, variant_by_size_lines
 
 
 def _summaries(folder):
@@ -214,3 +215,40 @@ def test_each_bins_share_of_the_mass_is_its_count_times_its_mean_mass():
     assert small["mass_share"]["mean"] + large["mass_share"]["mean"] == pytest.approx(1.0)
     text = "\n".join(by_size_lines(by_size_report({"a": [one, other]}, [])))
     assert "| a | 90 (7.62 ± 0.64 %) | 11 (92.4 ± 0.64 %) |" in text
+
+
+def _weighted(summary: dict, by_mass: float, large: float) -> dict:
+    """``summary`` with H by mass and the large layer's H set (errors 0.1 %)."""
+    sizes = summary["by_size"]
+    sizes["thickness"] = {**sizes["thickness"], "mass": {"mean": by_mass, "stderr": 1e-3 * by_mass,
+                                                         "units": "m"}}
+    sizes["layers"]["large"]["thickness"] = {"mean": large, "stderr": 1e-3 * large, "units": "m"}
+    return summary
+
+
+def test_a_variant_by_size_gives_each_weighting_and_bin_with_and_without_it():
+    """A variant that halves the numerator's small bin (the particles that hold the number)
+    and leaves its large bin, H by mass and the large layer: the ratio with it halves by
+    number and in the small bin only; a ratio whose cases have other bins is left out."""
+    k0 = [_weighted(_bins_of(2.0, 1.0), 3.0, 1.5)]
+    k01 = [_weighted(_bins_of(2.4, 0.9), 3.6, 1.2)]
+    k01_moved = [_weighted(_bins_of(1.2, 0.9), 3.6, 1.2)]
+    (entry,) = variant_by_size({"ref": {"k01": k01_moved, "k0": k0}}, {"k01": k01, "k0": k0},
+                               [["k01", "k0"]], [1])
+    assert (entry["variant"], entry["numerator"], entry["seeds"]) == ("ref", "k01", [1])
+    ratio = {key: [b["velocity_dispersion"]["mean"] for b in entry[key]["bins"]]
+             for key in ("with", "without")}
+    assert ratio["without"] == pytest.approx([1.2, 0.9], rel=1e-14)
+    assert ratio["with"] == pytest.approx([0.6, 0.9], rel=1e-14)
+    for key in ("with", "without"):
+        assert entry[key]["thickness"]["mass"]["mean"] == pytest.approx(1.2, rel=1e-14)
+        assert entry[key]["layers"]["large"]["mean"] == pytest.approx(0.8, rel=1e-14)
+    text = "\n".join(variant_by_size_lines([entry]))
+    assert "k01 / k0 with and without ref (seeds [1]):" in text
+    assert "| c of 0.025–0.1 m | 1.2 ± 0.0017 | 0.6 ± 0.00085 |" in text
+    assert "| H by mass | 1.2 ± 0.0017 | 1.2 ± 0.0017 |" in text
+    other = _bins_of(2.0, 1.0)
+    other["by_size"]["bins"][1]["r_high"] = 2.0
+    assert variant_by_size({"ref": {"k01": k01_moved, "k0": [other]}},
+                           {"k01": k01, "k0": k0}, [["k01", "k0"]], [1]) == []
+    assert variant_by_size_lines([]) == []

@@ -83,7 +83,7 @@ def _seed_mean(values: Sequence[Mapping | None]) -> dict | None:
     return budget.replica_mean(kept) if kept else None
 
 
-def _ratio(a: Mapping | None, b: Mapping | None) -> dict | None:
+def ratio_with_stat(a: Mapping | None, b: Mapping | None) -> dict | None:
     """a / b (``analysis.compare.ratio``) with its error as ``stat``; None without both."""
     if a is None or b is None or not b["mean"]:
         return None
@@ -174,7 +174,8 @@ def _pair_ratio(a: Mapping | None, b: Mapping | None) -> list | None:
 
 def _paired_bins(num: Mapping[int, Mapping], den: Mapping[int, Mapping]) -> list[dict]:
     """Per size bin, the seed-paired ratio of c and of H: each common seed's bin ratio
-    (``_ratio``) combined over the seeds as a case's seeds are (``budget.replica_mean``)."""
+    (`ratio_with_stat`) combined over the seeds as a case's seeds are
+    (``budget.replica_mean``)."""
     common = [s for s in sorted(set(num) & set(den))
               if num[s].get("by_size") and den[s].get("by_size")]
     n_bins = len(num[common[0]]["by_size"]["bins"]) if common else 0
@@ -182,7 +183,7 @@ def _paired_bins(num: Mapping[int, Mapping], den: Mapping[int, Mapping]) -> list
     for k in range(n_bins):
         entry = {}
         for q in ("velocity_dispersion", "thickness"):
-            found = [_ratio(_kept(num[s]["by_size"]["bins"][k][q]),
+            found = [ratio_with_stat(_kept(num[s]["by_size"]["bins"][k][q]),
                             _kept(den[s]["by_size"]["bins"][k][q])) for s in common]
             values = [{"mean": r["mean"], "stderr": r["stat"], "units": r["units"]}
                       for r in found if r is not None and math.isfinite(r["mean"])]
@@ -222,7 +223,7 @@ def by_size_report(cases: Mapping[str, Sequence[Mapping]],
                 [(x["r_low"], x["r_high"]) for x in b["bins"]]:
             continue
         bins = [{"r_low": x["r_low"], "r_high": x["r_high"],
-                 **{q: _ratio(x[q], y[q]) for q in ("velocity_dispersion", "thickness")}}
+                 **{q: ratio_with_stat(x[q], y[q]) for q in ("velocity_dispersion", "thickness")}}
                 for x, y in zip(a["bins"], b["bins"], strict=True)]
         if seeds is not None:
             paired = _paired_bins(dict(zip(seeds[num], cases[num], strict=True)),
@@ -243,7 +244,7 @@ def by_size_report(cases: Mapping[str, Sequence[Mapping]],
                                  "0.15-0.37; Hedman et al. 2007 (AJ 133, 2624): H ~ 6 m"}}
 
 
-def _pm(value: Mapping | None, scale: float = 1.0, digits: int = 3) -> str:
+def plus_minus(value: Mapping | None, scale: float = 1.0, digits: int = 3) -> str:
     if value is None or not math.isfinite(value["mean"]):
         return "–"
     error = budget.shown_error(value["mean"], value.get("stderr", value.get("stat", math.nan)))
@@ -273,9 +274,9 @@ def by_size_lines(section: Mapping) -> list[str]:
     for case, e in cases.items():
         t, layers = e["thickness"], e["layers"]
         full = e["full_thickness_optical_depth"]["mean"]
-        lines.append(f"| {case} | {_pm(t['number'])} | {_pm(t['mass'])} | "
-                     f"{_pm(t['optical_depth'])} | {_pm(layers['small'])} | "
-                     f"{_pm(layers['large'])} | {full:.3g} | "
+        lines.append(f"| {case} | {plus_minus(t['number'])} | {plus_minus(t['mass'])} | "
+                     f"{plus_minus(t['optical_depth'])} | {plus_minus(layers['small'])} | "
+                     f"{plus_minus(layers['large'])} | {full:.3g} | "
                      f"{'yes' if e['as_thin_as_saturn'] else 'no'} |")
     lines += ["", "Impacts of the equilibrium window outside what the restitution law was "
               "measured over (fractions of impacts; reduced masses below the measured range "
@@ -349,10 +350,10 @@ def _bin_ratio_lines(ratio: Mapping) -> list[str]:
                 "combined as a case's seeds are" if paired else "") + "):",
              "", head, "|---|---|---|" + ("---|---|" if paired else "")]
     for b in ratio["bins"]:
-        row = (f"| {b['r_low']:.3g}–{b['r_high']:.3g} | {_pm(b['velocity_dispersion'])} | "
-               f"{_pm(b['thickness'])} |")
+        row = (f"| {b['r_low']:.3g}–{b['r_high']:.3g} | {plus_minus(b['velocity_dispersion'])} | "
+               f"{plus_minus(b['thickness'])} |")
         if paired:
-            row += "".join(f" {_pm(b['paired'][q])} |"
+            row += "".join(f" {plus_minus(b['paired'][q])} |"
                            for q in ("velocity_dispersion", "thickness"))
         lines.append(row)
     return lines

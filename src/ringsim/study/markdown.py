@@ -12,6 +12,7 @@ from ringsim.study import cassini
 from ringsim.study.by_size import by_size_lines
 from ringsim.study.kept import kept_section
 from ringsim.study.references import references_section
+from ringsim.study.variant_sizes import variant_by_size_lines
 
 
 def _num(x: float | None, digits: int = 4) -> str:
@@ -351,6 +352,7 @@ def report_markdown(report: Mapping, summaries: Mapping[str, dict], prose: str,
                                 report.get("references_rule", ""))
     lines += kept_section(report)
     lines += ratios_section(report, figure) + by_size_lines(report.get("by_size", {}))
+    lines += variant_by_size_lines(report.get("by_size", {}).get("variants", []))
     lines += cassini_section(report)
     lines += runs_section(report) + cost_section(report, summaries)
     if report["warnings"]:

@@ -26,6 +26,7 @@ from ringsim.study.cassini import against_cassini
 from ringsim.study.kept import case_kept
 from ringsim.study.references import reference_entries, rule
 from ringsim.study.spin import case_spin
+from ringsim.study.variant_sizes import variant_by_size
 
 #: What a particle weighting of ``ringsim.quantities`` counts equally.
 _WEIGHTINGS = {"number": "number: every particle counts once",
@@ -263,7 +264,7 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
                                mode.variant_ranges)
                    for pair in study.ratios for q in quantities],
         "warnings": _warnings(study, mode, runs),
-        **_by_size(study, runs),
+        **_by_size(study, mode, runs),
         **({"against_cassini": cassini} if cassini is not None else {}),
     }
     for case, start in study.starts.items():
@@ -279,9 +280,15 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
     return report
 
 
-def _by_size(study, runs: Runs) -> dict:
-    """``{"by_size": ...}`` when a case has runs of more than one radius, else {}."""
+def _by_size(study, mode, runs: Runs) -> dict:
+    """``{"by_size": ...}`` when a case has runs of more than one radius, else {}; with
+    variants, its ``variants`` (`variant_by_size`)."""
     section = by_size_report({case: runs.of(case) for case, _ in study.cases}, study.ratios,
                              {case: [seed for seed, _ in runs.by_key[(case, None)]]
                               for case, _ in study.cases})
+    seeds, cases = mode.variant_seeds, study.ratio_cases()
+    variants = variant_by_size({v: {c: runs.of(c, v, seeds) for c in cases}
+                                for v, _ in mode.variants},
+                               {c: runs.of(c, None, seeds) for c in cases}, study.ratios, seeds)
+    section.update({"variants": variants} if variants else {})
     return {"by_size": section} if section["cases"] else {}
