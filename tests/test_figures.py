@@ -278,8 +278,8 @@ def batch_figures(tmp_path_factory, runs):
 
     report = json.loads((d / "study" / "report.json").read_text())
     # a variant whose budget is range: its crosses and dotted lines (the ratio set by hand)
-    ranged = {**report, "ratios": [{**e, "range_parts": {"ref_600g": {"ratio": 0.9 * e["mean"]}}}
-                                   for e in report["ratios"]]}
+    ranged = {**report, "ratios": [{**e, "range_parts": {"ref_600g": {
+        "ratio": 0.9 * e["mean"], "ratio_without": e["mean"]}}} for e in report["ratios"]]}
     return {"sweep.png": sweep_figure(read_summary(d / "sweep" / "summary.h5"), "sweep"),
             "ratios.png": ratio_figure(report),
             "ratios.png (a range variant)": ratio_figure(ranged)}
@@ -318,6 +318,22 @@ def _all_figures(runs, batch_figures):
     data = read_data(ROOT / "docs" / "data" / "hatzes_like.csv")
     figures["fit.png"] = fit_figure(data, [fit_model(data, m) for m in ("dilley", "bridges")])
     yield from figures.items()
+
+
+def test_a_range_variant_is_drawn_as_crosses_at_the_ratio_moved_by_its_shift(batch_figures):
+    """The range variant of the tiny study (its ratio 0.9 of the ratio without it over the
+    variant seeds) is a cross at 0.9 times each ratio, labelled as a range; the figure
+    without one has no cross."""
+    def crosses(fig):
+        return [line for line in fig.axes[0].get_lines() if line.get_marker() == "x"]
+    fig = batch_figures["ratios.png (a range variant)"]
+    (line,) = crosses(fig)
+    assert line.get_label() == "k01 / k0 with ref_600g (range)"
+    (ratio,) = [c for c in fig.axes[0].containers if c.get_label() == "k01 / k0"]
+    means = np.asarray(ratio.lines[0].get_ydata(), dtype=float)
+    assert np.all(np.isfinite(means)) and means.size >= 1
+    assert np.asarray(line.get_ydata()) == pytest.approx(0.9 * means, rel=1e-12)
+    assert crosses(batch_figures["ratios.png"]) == []
 
 
 def test_every_figure_passes_the_checks(runs, batch_figures):

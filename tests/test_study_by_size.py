@@ -252,3 +252,14 @@ def test_a_variant_by_size_gives_each_weighting_and_bin_with_and_without_it():
     assert variant_by_size({"ref": {"k01": k01_moved, "k0": [other]}},
                            {"k01": k01, "k0": k0}, [["k01", "k0"]], [1]) == []
     assert variant_by_size_lines([]) == []
+
+
+def test_a_variant_that_changes_neither_case_of_a_ratio_has_no_table():
+    """A variant whose ``cases`` are outside a ratio leaves both its runs as they were: no
+    table of identical columns."""
+    k0, k01 = [_bins_of(2.0, 1.0)], [_bins_of(2.4, 0.9)]
+    runs = {"k01": k01, "k0": k0, "k02": [_bins_of(3.0, 1.0)]}
+    ratios = [["k01", "k0"], ["k02", "k0"]]
+    entries = variant_by_size({"ref": runs}, runs, ratios, [1], {"ref": ["k02"]})
+    assert [(e["numerator"], e["denominator"]) for e in entries] == [("k02", "k0")]
+    assert len(variant_by_size({"ref": runs}, runs, ratios, [1])) == 2

@@ -55,6 +55,10 @@ def test_case_seeds_and_variant_cases_plan_only_the_runs_that_differ(tmp_path):
     assert run_id(next(s for s in specs if s.label == "k0 [ref_600g] seed 1").scenario) \
         == by_label["k0 seed 1"]
 
+#: SCOPED with its reference-mass variant a model parameter's range.
+RANGED = SCOPED.replace("cases: [k01, k02]}", "cases: [k01, k02], budget: range}")
+assert RANGED != SCOPED
+
 
 @pytest.fixture(scope="module")
 def scoped(tmp_path_factory):
@@ -82,12 +86,11 @@ def test_scoped_study_report_holds_the_seeds_and_cases_it_ran(scoped):
 
 
 def test_a_range_variant_is_given_beside_the_ratio_not_added_to_its_error(scoped):
-    """The variant ``budget: range`` changes no run: the same summaries give the ratio with
-    the variant as before, now beside the ratio (``range_parts``, the table and the figure's
-    crosses), and the ratio without systematic variants has no systematic error."""
-    text = SCOPED.replace("cases: [k01, k02]}", "cases: [k01, k02], budget: range}")
-    assert text != SCOPED
-    (scoped / "ranged.yaml").write_text(text)
+    """``budget: range`` changes no run: from the same summaries the ratio with the variant
+    is the one ``budget: systematic`` gives, shown beside the ratio (``range_parts``, the
+    table) instead of in its systematic error, which without other variants is null.  A
+    partial report without the variant's runs leaves the range out."""
+    (scoped / "ranged.yaml").write_text(RANGED)
     run_study(scoped / "ranged.yaml", quick=True, report_only=True, echo=None,
               command="ringsim study x --quick --report-only")
     before = json.loads((scoped / "study.quick.report" / "report.json").read_text())
@@ -100,12 +103,23 @@ def test_a_range_variant_is_given_beside_the_ratio_not_added_to_its_error(scoped
         assert new["range_parts"] == old["syst_parts"]
     assert "budget is range" in after["systematics"]
     assert "budget is range" not in before["systematics"]
-    c = pick[("k01", "velocity_dispersion")]
-    shown = f"{c['range_parts']['ref_600g']['ratio']:.4g} with ref_600g (range)"
+    c = pick[("k01", "velocity_dispersion")]["range_parts"]["ref_600g"]
+    shown = f"{c['ratio_without']:.4g} → {c['ratio']:.4g} with ref_600g (range; seeds [1])"
     md = (scoped / "ranged.quick.report" / "report.md").read_text()
     assert shown in md and "| ref_600g (range) |" in md
-    assert "with ref_600g (range)" not in (scoped / "study.quick.report" / "report.md"
-                                          ).read_text()
+    assert "with ref_600g (range" not in (scoped / "study.quick.report" / "report.md"
+                                         ).read_text()
+    moved = after["variants"]["ref_600g"]["runs"]["k01"][0]["run"]
+    (scoped / "summaries" / f"{moved}.json").rename(scoped / f"{moved}.json")
+    try:
+        run_study(scoped / "ranged.yaml", quick=True, report_only=True, partial=True,
+                  echo=None, command="ringsim study x --quick --report-only --partial")
+    finally:
+        (scoped / f"{moved}.json").rename(scoped / "summaries" / f"{moved}.json")
+    part = json.loads((scoped / "ranged.quick.partial.report" / "report.json").read_text())
+    assert "variants ref_600g" in part["partial"] and part["ratios"]
+    assert all("range_parts" not in e for e in part["ratios"])
+    assert "budget is range" not in part["systematics"]
 
 
 BAD = [

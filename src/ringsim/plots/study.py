@@ -6,7 +6,8 @@ for the total (statistical and systematic in quadrature, where measured).  Where
 have two or more seeds in common, an open marker beside it gives the seed-paired ratio
 with its statistical error.  A variant whose budget is ``range`` (a model parameter at the
 other end of the range its value is known within) is a cross joined to the ratio by a
-dotted line: the ratio there, not an error.  The ratios are
+dotted line: the ratio moved by the variant's relative shift over the variant seeds, the
+other end of the range, not an error.  The ratios are
 pure numbers; the dashed line marks 1 (no change).  The legend sits above the axes, off
 the data.
 """
@@ -41,13 +42,15 @@ def _paired_series(ax, entries: list[Mapping], x, style: Mapping, label: str) ->
 
 
 def _range_series(ax, entries: list[Mapping], x, style: Mapping, label: str) -> list[float]:
-    """The ratios with each ``range`` variant (crosses, dotted to the ratio); the values
-    they reach."""
+    """The ratios moved by each ``range`` variant's relative shift (crosses, dotted to the
+    ratio); the values they reach."""
     reach: list[float] = []
+    mean = np.array([_finite(e["mean"]) for e in entries])
     for variant in dict.fromkeys(v for e in entries for v in e.get("range_parts", {})):
-        moved = np.array([_finite(e.get("range_parts", {}).get(variant, {}).get("ratio"))
-                          for e in entries])
-        mean = np.array([_finite(e["mean"]) for e in entries])
+        parts = [e.get("range_parts", {}).get(variant, {}) for e in entries]
+        moved = mean * np.array([_finite(p.get("ratio")) / _finite(p.get("ratio_without"))
+                                 if _finite(p.get("ratio_without")) else math.nan
+                                 for p in parts])
         ax.vlines(x, np.fmin(mean, moved), np.fmax(mean, moved), colors=style["color"],
                   linestyles=":", linewidth=1.0)
         ax.plot(x, moved, "x", color=style["color"], markersize=7,
@@ -101,7 +104,7 @@ def ratio_figure(report: Mapping):
              "thin bars total error" + ("\nopen markers: the seed-paired ratio" if paired
                                         else ""))
     if any(e.get("range_parts") for e in entries):
-        title += "\ncrosses: the ratio at the other end of a model parameter's range"
+        title += "\ncrosses: the other end of a model parameter's range"
     for ncols in range(min(len(pairs) + 1, 4), 0, -1):   # the most columns that fit
         legend = fig.legend(loc="outside upper center", ncols=ncols, frameon=False,
                             title=title)

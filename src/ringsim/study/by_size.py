@@ -184,7 +184,7 @@ def _paired_bins(num: Mapping[int, Mapping], den: Mapping[int, Mapping]) -> list
         entry = {}
         for q in ("velocity_dispersion", "thickness"):
             found = [ratio_with_stat(_kept(num[s]["by_size"]["bins"][k][q]),
-                            _kept(den[s]["by_size"]["bins"][k][q])) for s in common]
+                                     _kept(den[s]["by_size"]["bins"][k][q])) for s in common]
             values = [{"mean": r["mean"], "stderr": r["stat"], "units": r["units"]}
                       for r in found if r is not None and math.isfinite(r["mean"])]
             entry[q] = (budget.replica_mean(values) if values else
@@ -245,6 +245,8 @@ def by_size_report(cases: Mapping[str, Sequence[Mapping]],
 
 
 def plus_minus(value: Mapping | None, scale: float = 1.0, digits: int = 3) -> str:
+    """``mean ± error`` of a ``{mean, stderr}`` (or ``stat``) entry times ``scale``, the
+    mean to ``digits`` significant digits; "–" without a finite mean."""
     if value is None or not math.isfinite(value["mean"]):
         return "–"
     error = budget.shown_error(value["mean"], value.get("stderr", value.get("stat", math.nan)))

@@ -76,7 +76,10 @@ def setup_section(report: Mapping) -> list[str]:
                  if "length" in entry else "")
               for case, entry in report["cases"].items()]
     lines += [f"- variant `{name}` (seeds {report['variant_seeds']}): "
-              f"{_changes(v['overrides'])}" + _scope(v) for name, v in report["variants"].items()]
+              f"{_changes(v['overrides'])}" + _scope(v)
+              + ("; a model parameter's range (`budget: range`), not in the systematic error"
+                 if v.get("budget") == "range" else "")
+              for name, v in report["variants"].items()]
     return lines + [""]
 
 
@@ -96,14 +99,15 @@ def equilibria_section(report: Mapping) -> list[str]:
             + _table(["quantity", "weighting", *cases], rows) + [""])
 
 
-def _ratio_text(entry: Mapping) -> str:
+def _ratio_text(entry: Mapping, variant_seeds: Sequence[int] = ()) -> str:
     if entry["mean"] is None or not math.isfinite(entry["mean"]):
         return "n/a"
     syst = budget.shown_error(entry["mean"], entry["syst"])
     syst_text = (f" ± {_num(syst, 2)} (syst)" if syst is not None and math.isfinite(syst)
                  else " (syst. not measured)")
     stat = budget.shown_error(entry["mean"], entry["stat"])
-    ranges = "".join(f"; {_num(part['ratio'])} with {variant} (range)"
+    ranges = "".join(f"; {_num(part['ratio_without'])} → {_num(part['ratio'])} with "
+                     f"{variant} (range; seeds {list(variant_seeds)})"
                      for variant, part in entry.get("range_parts", {}).items())
     return f"**{entry['mean']:.4g}** ± {_num(stat, 2)} (stat){syst_text}{ranges}"
 
@@ -137,7 +141,8 @@ def ratios_section(report: Mapping, figure: str | None) -> list[str]:
         return []
     pairs = list(dict.fromkeys((e["numerator"], e["denominator"]) for e in report["ratios"]))
     by = {(e["numerator"], e["denominator"], e["quantity"]): e for e in report["ratios"]}
-    rows = [[_label(q)] + [_ratio_text(by[(n, d, q)]) for n, d in pairs]
+    rows = [[_label(q)] + [_ratio_text(by[(n, d, q)], report["variant_seeds"])
+                           for n, d in pairs]
             for q in report["quantities"]]
     lines = ["## Ratios", "", f"Systematic part: {report['systematics']}.", ""]
     lines += _table(["quantity", *(f"{n} / {d}" for n, d in pairs)], rows) + [""]

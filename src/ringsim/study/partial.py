@@ -48,7 +48,8 @@ def reduced(study, quick: bool, specs: Sequence, ids: Sequence[str],
         if key[1] == v and key[0] in in_ratios))
     cut_mode = dataclasses.replace(mode, variants=variants, variant_cases={
         v: tuple(c for c in mode.variant_cases[v] if c in in_ratios)
-        for v, _ in variants if v in mode.variant_cases})
+        for v, _ in variants if v in mode.variant_cases},
+        variant_ranges=tuple(v for v in mode.variant_ranges if v in dict(variants)))
     cut = dataclasses.replace(
         study, cases=cases, ratios=ratios,
         references=tuple(r for r in study.references

@@ -64,8 +64,8 @@ SYSTEMATICS = ("each variant reruns the cases of the ratios with the variant see
 #: What the report says of the variants whose ``budget`` is ``range``, when it has some.
 RANGES = ("; a variant whose budget is range (docs/studies.md) is not among the parts: it "
           "sets a model parameter to the other end of the range its value is known within, "
-          "and the ratio there is given beside the ratio ('with ... (range)'), its shift in "
-          "the variants' shifts")
+          "and the ratio without and with it over the variant seeds is given beside the "
+          "ratio ('a → b with ... (range)'), its shift in the variants' shifts")
 
 
 def seed_mean(summaries: Sequence[Mapping], quantity: str) -> dict:
@@ -257,6 +257,7 @@ def build_report(study, quick: bool, specs: Sequence, ids: Sequence[str],
         "variants": {name: {"overrides": dict(changes),
                             **({"cases": list(mode.variant_cases[name])}
                                if name in mode.variant_cases else {}),
+                            **({"budget": "range"} if name in mode.variant_ranges else {}),
                             "runs": {case: runs.entries(case, name)
                                      for case in study.ratio_cases()}}
                      for name, changes in mode.variants},
@@ -289,6 +290,7 @@ def _by_size(study, mode, runs: Runs) -> dict:
     seeds, cases = mode.variant_seeds, study.ratio_cases()
     variants = variant_by_size({v: {c: runs.of(c, v, seeds) for c in cases}
                                 for v, _ in mode.variants},
-                               {c: runs.of(c, None, seeds) for c in cases}, study.ratios, seeds)
+                               {c: runs.of(c, None, seeds) for c in cases}, study.ratios, seeds,
+                               mode.variant_cases)
     section.update({"variants": variants} if variants else {})
     return {"by_size": section} if section["cases"] else {}

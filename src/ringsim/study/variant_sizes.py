@@ -42,9 +42,11 @@ def _edges(entry: Mapping) -> list[tuple[float, float]]:
 
 def variant_by_size(variants: Mapping[str, Mapping[str, Sequence[Mapping]]],
                     without: Mapping[str, Sequence[Mapping]],
-                    ratios: Sequence[Sequence[str]], seeds: Sequence[int]) -> list[dict]:
+                    ratios: Sequence[Sequence[str]], seeds: Sequence[int],
+                    changed: Mapping[str, Sequence[str]] | None = None) -> list[dict]:
     """Per variant and ratio, the by-size ratios with the variant (``with``) and without it
-    (``without``), both over the variant ``seeds``.
+    (``without``), both over the variant ``seeds``; only where the four seed means have the
+    same size bins, and the variant changes a case of the ratio.
 
     Parameters
     ----------
@@ -52,10 +54,14 @@ def variant_by_size(variants: Mapping[str, Mapping[str, Sequence[Mapping]]],
     without : case -> the summaries of its runs with the variant seeds, without a variant
     ratios : (numerator, denominator) case names
     seeds : the variant seeds
+    changed : variant name -> the cases whose runs it changes (the variant key ``cases``;
+        a variant not in it changes every case)
     """
     out = []
     for variant, cases in variants.items():
         for num, den in ratios:
+            if changed and variant in changed and not {num, den} & set(changed[variant]):
+                continue
             found = [(case_by_size(runs[num]), case_by_size(runs[den]))
                      for runs in (cases, without)]
             entries = [e for pair in found for e in pair if e is not None]
