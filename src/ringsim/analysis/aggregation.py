@@ -50,7 +50,7 @@ import numpy as np
 
 from ringsim import quantities
 from ringsim.analysis import clumps
-from ringsim.analysis.window import snapshots_from
+from ringsim.analysis.window import window_snapshot_indices
 from ringsim.physics.constants import G_SI
 from ringsim.physics.selfgravity import shear_offset
 
@@ -203,16 +203,14 @@ def overlap_events(ts: dict, start: int) -> dict:
             else math.nan}
 
 
-def run_aggregation(run, start: int | None = None, from_orbit: float | None = None) -> dict:
+def run_aggregation(run, start: int = 0) -> dict:
     """Aggregation of a run over its equilibrium window (module docstring).
 
     Parameters
     ----------
     run : ringsim Run
     start : int
-        First time-series row of the window (0 if neither it nor ``from_orbit`` is given).
-    from_orbit : float [orbits]
-        Start of the window in orbits (instead of ``start``).
+        First time-series row of the window.
 
     Returns
     -------
@@ -223,12 +221,6 @@ def run_aggregation(run, start: int | None = None, from_orbit: float | None = No
     ``bound_fraction_last``, ``contact_fraction_last`` [mass shares]; ``units``.
     """
     ts = run.timeseries
-    orbits = np.asarray(ts["orbits"], dtype=float)
-    if from_orbit is None:
-        start = start or 0
-        from_orbit = float(orbits[min(start, orbits.size - 1)])
-    else:
-        start = int(np.searchsorted(orbits, from_orbit - 1e-9))
     out: dict = overlap_events(ts, start)
     out["aggregating"] = False
     out["units"] = {key: quantities.unit(f"aggregation.{key}") for key in AGGREGATION_UNITS}
@@ -237,7 +229,7 @@ def run_aggregation(run, start: int | None = None, from_orbit: float | None = No
     Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
     Omega = run.scenario.orbital_frequency
     period = run.scenario.orbital_period
-    indices, in_window = snapshots_from(run, (from_orbit - 1e-9) * period)
+    indices, in_window = window_snapshot_indices(run, start)
     snaps = []
     for index in indices:
         snap = run.snapshot(index)

@@ -50,7 +50,7 @@ import numpy as np
 
 from ringsim.analysis import timeseries, wakes
 from ringsim.analysis.snapshot import dispersion_tensor
-from ringsim.analysis.window import snapshots_from
+from ringsim.analysis.window import window_snapshot_indices
 from ringsim.physics import gravity as patch
 from ringsim.physics.restitution import epsilon_for_pair
 from ringsim.physics.selfgravity import shear_offset
@@ -284,9 +284,7 @@ def gravity_equilibrium(run, start: int, viscosities: dict | None = None) -> dic
     const = run_constants(run)
     Omega = run.scenario.orbital_frequency
     Lx, Ly = float(run.attrs["Lx"]), float(run.attrs["Ly"])
-    orbits = ts["orbits"]
-    from_orbit = float(orbits[start]) if start < orbits.size else float(orbits[-1])
-    indices, _ = snapshots_from(run, (from_orbit - 1e-9) * run.scenario.orbital_period)
+    indices, _ = window_snapshot_indices(run, start)
     snaps = [run.snapshot(i) for i in indices]
     per = [snapshot_wakes(snap, Lx, Ly, Omega) for snap in snaps]
     out: dict[str, object] = {"r_h": _value(const["r_h"], 0.0, unit("r_h")),

@@ -83,6 +83,11 @@ def _seed_mean(values: Sequence[Mapping | None]) -> dict | None:
     return budget.replica_mean(kept) if kept else None
 
 
+def bin_edges(entry: Mapping) -> list[tuple[float, float]]:
+    """The (r_low, r_high) [m] of each size bin of a ``by_size`` entry."""
+    return [(b["r_low"], b["r_high"]) for b in entry["bins"]]
+
+
 def ratio_with_stat(a: Mapping | None, b: Mapping | None) -> dict | None:
     """a / b (``analysis.compare.ratio``) with its error as ``stat``; None without both."""
     if a is None or b is None or not b["mean"]:
@@ -98,7 +103,7 @@ def case_by_size(summaries: Sequence[Mapping]) -> dict | None:
     entries: list[Mapping] = [e for e in found if e is not None]
     if not entries or len(entries) < len(found):
         return None
-    edges = [[(b["r_low"], b["r_high"]) for b in e["bins"]] for e in entries]
+    edges = [bin_edges(e) for e in entries]
     if any(e != edges[0] for e in edges):
         return None
     shares = [_mass_shares(e["bins"]) for e in entries]
@@ -219,8 +224,7 @@ def by_size_report(cases: Mapping[str, Sequence[Mapping]],
                 # the other seeds are other realisations (``study.report.common_seeds``)
                 a, b = (case_by_size([s for k, s in zip(seeds[c], cases[c], strict=True)
                                       if k in common]) for c in (num, den))
-        if a is None or b is None or [(x["r_low"], x["r_high"]) for x in a["bins"]] != \
-                [(x["r_low"], x["r_high"]) for x in b["bins"]]:
+        if a is None or b is None or bin_edges(a) != bin_edges(b):
             continue
         bins = [{"r_low": x["r_low"], "r_high": x["r_high"],
                  **{q: ratio_with_stat(x[q], y[q]) for q in ("velocity_dispersion", "thickness")}}

@@ -287,10 +287,12 @@ def _by_size(study, mode, runs: Runs) -> dict:
     section = by_size_report({case: runs.of(case) for case, _ in study.cases}, study.ratios,
                              {case: [seed for seed, _ in runs.by_key[(case, None)]]
                               for case, _ in study.cases})
+    if not section["cases"]:
+        return {}
     seeds, cases = mode.variant_seeds, study.ratio_cases()
     variants = variant_by_size({v: {c: runs.of(c, v, seeds) for c in cases}
                                 for v, _ in mode.variants},
                                {c: runs.of(c, None, seeds) for c in cases}, study.ratios, seeds,
                                mode.variant_cases)
     section.update({"variants": variants} if variants else {})
-    return {"by_size": section} if section["cases"] else {}
+    return {"by_size": section}

@@ -16,7 +16,13 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
-from ringsim.study.by_size import WEIGHTINGS, case_by_size, plus_minus, ratio_with_stat
+from ringsim.study.by_size import (
+    WEIGHTINGS,
+    bin_edges,
+    case_by_size,
+    plus_minus,
+    ratio_with_stat,
+)
 
 #: The layers of the by-size summaries (the lowest and the highest third of the radii in
 #: log r).
@@ -34,10 +40,6 @@ def _size_ratios(a: Mapping, b: Mapping) -> dict:
                                                             y["velocity_dispersion"])}
                     for x, y in zip(a["bins"], b["bins"], strict=True)]
     return rows
-
-
-def _edges(entry: Mapping) -> list[tuple[float, float]]:
-    return [(b["r_low"], b["r_high"]) for b in entry["bins"]]
 
 
 def variant_by_size(variants: Mapping[str, Mapping[str, Sequence[Mapping]]],
@@ -65,7 +67,7 @@ def variant_by_size(variants: Mapping[str, Mapping[str, Sequence[Mapping]]],
             found = [(case_by_size(runs[num]), case_by_size(runs[den]))
                      for runs in (cases, without)]
             entries = [e for pair in found for e in pair if e is not None]
-            if len(entries) < 4 or any(_edges(e) != _edges(entries[0]) for e in entries):
+            if len(entries) < 4 or any(bin_edges(e) != bin_edges(entries[0]) for e in entries):
                 continue
             out.append({"variant": variant, "numerator": num, "denominator": den,
                         "seeds": list(seeds), "with": _size_ratios(*entries[:2]),
