@@ -4,8 +4,8 @@ to the velocity dispersion of each size bin.
 A variant's shift of a ratio (``study.report``) is of the equilibrium quantities, by number
 for c and H.  In a ring whose sizes span decades the smallest particles hold the number, so
 a variant can move that ratio while leaving what the ratio says of the particles that hold
-the mass nearly as it was (studies/kappa-saturn: a reference mass of 600 g moves κ = 0.1's
-ratio of c by number from 1.20 to 1.05, its ratio of H by mass from 1.24 to 1.18).  Per
+the mass nearly as it was (a reference mass of Dilley's law acts so: studies/kappa-saturn,
+"By size, with each variant").  Per
 variant and ratio of cases with the same size bins, `variant_by_size` gives the ratio of the
 thickness under each weighting, of the small and the large layer's thickness and of each
 bin's c, over the variant seeds with the variant and without it (``study.by_size``'s seed
